@@ -1,0 +1,1 @@
+"""Benchmarks that measure the framework against DESIGN.md §8."""

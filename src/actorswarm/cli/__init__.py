@@ -1,0 +1,1 @@
+"""The ``actorswarm`` command line (see :mod:`actorswarm.cli.app`)."""

@@ -1,0 +1,161 @@
+"""Protocol timings and limits of the collective core.
+
+Every number the protocol uses lives here, with the defaults of DESIGN.md §3, and is validated
+when the config is built: a bad value raises :class:`ConfigError` naming the field, the value
+and the rule, so a typo in a config file never turns into a swarm that silently misbehaves.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+DetectorKind = Literal["timeout", "phi"]
+
+
+class ConfigError(ValueError):
+    """A configuration value is out of range or inconsistent. The message names the field."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class CoreConfig:
+    """Timings (seconds) and limits of one platform's collective core.
+
+    Membership (DESIGN.md §3.1): a heartbeat every ``heartbeat_interval``; a peer joins after
+    ``join_heartbeats`` heartbeats within ``t_join``; it leaves after ``t_leave`` without one
+    (``detector="timeout"``) or when the phi accrual suspicion passes ``phi_threshold``
+    (``detector="phi"``).
+
+    Election (§3.2): a platform that has been up for ``boot_wait`` and sees no live master
+    claims the role when it has the lowest ID in its view. ``takeover_on_join`` restores the
+    paper's behaviour: a lower ID that joins always takes the role over. A new master's
+    handshake ends when every member reported, or after ``handshake_timeout``.
+
+    Reliable delivery (§3.3): the head of a queue is retransmitted after
+    ``retry_base + k * retry_step`` seconds (k = retries so far), capped at ``retry_cap``;
+    a message not acknowledged within ``delivery_deadline`` fails visibly.
+    """
+
+    heartbeat_interval: float = 0.1
+    join_heartbeats: int = 3
+    t_join: float = 1.0
+    t_leave: float = 0.5
+    detector: DetectorKind = "timeout"
+    phi_threshold: float = 8.0
+    phi_window: int = 100
+    phi_min_std: float = 0.02
+    takeover_on_join: bool = False
+    boot_wait: float | None = None
+    handshake_timeout: float = 2.0
+    retry_base: float = 0.04
+    retry_step: float = 0.04
+    retry_cap: float = 0.4
+    delivery_deadline: float = 10.0
+    window: int = 32
+    max_packet_bytes: int = 60_000
+    release_chunk: int = 256
+
+    def __post_init__(self) -> None:
+        self._check_types()
+        positive = (
+            "heartbeat_interval",
+            "t_join",
+            "t_leave",
+            "phi_threshold",
+            "phi_min_std",
+            "retry_base",
+            "retry_cap",
+            "delivery_deadline",
+            "handshake_timeout",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not isinstance(value, int | float) or isinstance(value, bool):
+                raise ConfigError(f"{name}: expected a number, got {value!r}")
+            if not math.isfinite(value) or value <= 0:
+                raise ConfigError(f"{name}: must be a positive finite number, got {value!r}")
+        if self.retry_step < 0 or not math.isfinite(self.retry_step):
+            raise ConfigError(f"retry_step: must be >= 0, got {self.retry_step!r}")
+        if self.retry_cap < self.retry_base:
+            raise ConfigError(
+                f"retry_cap ({self.retry_cap}) must be >= retry_base ({self.retry_base})"
+            )
+        for name, low in (
+            ("join_heartbeats", 1),
+            ("phi_window", 2),
+            ("window", 1),
+            ("max_packet_bytes", 512),
+            ("release_chunk", 1),
+        ):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < low:
+                raise ConfigError(f"{name}: must be an integer >= {low}, got {value!r}")
+        if self.detector not in ("timeout", "phi"):
+            raise ConfigError(f"detector: must be 'timeout' or 'phi', got {self.detector!r}")
+        if self.t_leave <= self.heartbeat_interval:
+            raise ConfigError(
+                f"t_leave ({self.t_leave}) must exceed heartbeat_interval "
+                f"({self.heartbeat_interval}), or every peer would leave between two heartbeats"
+            )
+        needed = (self.join_heartbeats - 1) * self.heartbeat_interval
+        if self.t_join < needed:
+            raise ConfigError(
+                f"t_join ({self.t_join}) is shorter than {self.join_heartbeats} heartbeats "
+                f"take to arrive ({needed:.3g} s): no peer could ever join"
+            )
+        if self.boot_wait is not None and (not math.isfinite(self.boot_wait) or self.boot_wait < 0):
+            raise ConfigError(f"boot_wait: must be >= 0, got {self.boot_wait!r}")
+
+    def _check_types(self) -> None:
+        """Refuse values of the wrong type by field name (``"no"`` is not a boolean)."""
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            kind = str(f.type)
+            if kind == "bool":
+                ok = isinstance(value, bool)
+            elif kind == "int":
+                ok = isinstance(value, int) and not isinstance(value, bool)
+            elif kind == "DetectorKind":
+                ok = isinstance(value, str)
+            else:  # float, optionally None
+                ok = (value is None and "None" in kind) or (
+                    isinstance(value, int | float) and not isinstance(value, bool)
+                )
+            if not ok:
+                raise ConfigError(f"{f.name}: expected {kind}, got {value!r}")
+
+    @property
+    def startup_wait(self) -> float:
+        """How long a fresh platform listens before it may claim mastership.
+
+        Long enough for the peers' heartbeats to make them join (``join_heartbeats``
+        intervals plus one of slack), so a rebooted low-ID platform learns of a healthy master
+        before it would claim the role.
+        """
+        if self.boot_wait is not None:
+            return self.boot_wait
+        return (self.join_heartbeats + 1) * self.heartbeat_interval
+
+    def retry_delay(self, retries: int) -> float:
+        """Delay before the next retransmission after ``retries`` earlier ones (linear, capped)."""
+        return min(self.retry_base + retries * self.retry_step, self.retry_cap)
+
+    def replace(self, **changes: Any) -> CoreConfig:
+        """A copy with ``changes`` applied (and validated)."""
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_mapping(cls, values: dict[str, Any]) -> CoreConfig:
+        """Build from a config-file table, refusing unknown keys by name."""
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ConfigError(
+                f"unknown core setting(s): {', '.join(unknown)}; known: {', '.join(sorted(known))}"
+            )
+        try:
+            return cls(**values)
+        except TypeError as exc:  # wrong type that dataclasses itself refuses
+            raise ConfigError(str(exc)) from exc

@@ -1,0 +1,309 @@
+"""Reliable, ordered, exactly-once delivery over a lossy, duplicating, reordering radio.
+
+Theory of operation
+-------------------
+Each (destination, channel) has an :class:`OutStream`: a queue of messages numbered 1, 2, …
+The first ``window`` of them are in flight; each is retransmitted until the destination
+acknowledges it, the delay growing linearly (``retry_base + k * retry_step``, capped at
+``retry_cap``) so a congested radio is not flooded. A message that is still unacknowledged at
+its deadline is dropped and reported (:class:`DeliveryFailure`) — never silently lost.
+
+Every data packet carries ``floor``, the lowest sequence its sender still holds. A receiver
+never waits for anything below the floor, which makes abandoned messages, a receiver that
+rebooted, and a sender that dropped a queue all harmless to the order of what follows.
+
+Receivers keep an :class:`InStream` per (sender, channel) for the sender's current
+incarnation: messages below the next expected sequence are duplicates (acknowledged again,
+not delivered), messages above it wait in a bounded buffer until the gap is filled, and the
+acknowledgement is cumulative. A new sender incarnation resets the stream; an older one is
+ignored.
+
+Master-bound messages travel on a stream of their own (channel
+:data:`~actorswarm.core.wire.TO_MASTER`) whose destination is "the master": they wait while
+there is none and follow every change of master (:meth:`Reliable.retarget`) keeping their
+sequence numbers. A master that already delivered one recognises the re-sent copy as a
+duplicate, so re-targeting never makes a message reach an application twice.
+
+Channel :data:`~actorswarm.core.wire.URGENT` (ground-station traffic) is always transmitted
+before :data:`~actorswarm.core.wire.NORMAL`.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections import deque
+from dataclasses import dataclass, field
+
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.wire import NORMAL, TO_MASTER, URGENT, Ack, Data, Payload
+
+#: Key of the master-bound stream in the stream table (no platform has ID -1).
+_MASTER_KEY = (-1, TO_MASTER)
+
+
+@dataclass(slots=True)
+class _Item:
+    seq: int
+    payload: Payload
+    deadline: float
+    epoch: int  # the sender's epoch when queued: a decision is never re-dated
+    retries: int = 0
+    due: float = 0.0
+    sent: bool = False
+
+
+@dataclass(slots=True)
+class OutStream:
+    """Messages from this platform to one destination on one channel.
+
+    ``dst`` is None for the master-bound stream while there is no (remote) master.
+    """
+
+    dst: int | None
+    channel: int
+    next_seq: int = 1
+    items: deque[_Item] = field(default_factory=deque)
+
+    @property
+    def floor(self) -> int:
+        return self.items[0].seq if self.items else self.next_seq
+
+
+@dataclass(slots=True)
+class InStream:
+    """What this platform has delivered from one sender incarnation on one channel."""
+
+    incarnation: int
+    expected: int = 0  # 0: nothing received yet; initialised from the first floor
+    buffer: dict[int, Payload] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class DeliveryFailure:
+    """A message that missed its deadline (``dst`` None: it never found a master)."""
+
+    dst: int | None
+    payload: Payload
+
+
+class Reliable:
+    """All reliable streams of one platform. Sans-IO: packets to send go to ``outbox``."""
+
+    def __init__(self, config: CoreConfig) -> None:
+        self._config = config
+        self._out: dict[tuple[int, int], OutStream] = {}
+        self._in: dict[tuple[int, int], InStream] = {}
+        # (due, stream key dst, stream key channel, seq); stale entries are skipped
+        self._timers: list[tuple[float, int, int, int]] = []
+        self._master_stream = OutStream(None, TO_MASTER)
+        self._out[_MASTER_KEY] = self._master_stream
+        #: (destination, body) pairs to transmit; the owner drains it.
+        self.outbox: list[tuple[int, Data | Ack]] = []
+        self.failures: list[DeliveryFailure] = []
+
+    # --- sending ---------------------------------------------------------------------
+
+    def send(
+        self,
+        dst: int,
+        payload: Payload,
+        now: float,
+        epoch: int,
+        *,
+        channel: int = NORMAL,
+    ) -> None:
+        """Queue ``payload`` for ``dst``; transmit at once if the window has room."""
+        stream = self._out.get((dst, channel))
+        if stream is None:
+            stream = self._out[(dst, channel)] = OutStream(dst, channel)
+        item = _Item(
+            seq=stream.next_seq,
+            payload=payload,
+            deadline=now + self._config.delivery_deadline,
+            epoch=epoch,
+        )
+        stream.next_seq += 1
+        stream.items.append(item)
+        if len(stream.items) <= self._config.window:
+            self._transmit(stream, item, now)
+
+    def send_to_master(self, payload: Payload, now: float, epoch: int) -> None:
+        """Queue a master-bound message; it waits while there is no master (see retarget)."""
+        stream = self._master_stream
+        item = _Item(
+            seq=stream.next_seq,
+            payload=payload,
+            deadline=now + self._config.delivery_deadline,
+            epoch=epoch,
+        )
+        stream.next_seq += 1
+        stream.items.append(item)
+        if len(stream.items) <= self._config.window:
+            self._transmit(stream, item, now)
+
+    def _key(self, stream: OutStream) -> tuple[int, int]:
+        if stream is self._master_stream or stream.dst is None:
+            return _MASTER_KEY
+        return (stream.dst, stream.channel)
+
+    @property
+    def master(self) -> int | None:
+        """Where master-bound messages go now (None: they wait)."""
+        return self._master_stream.dst
+
+    def _transmit(self, stream: OutStream, item: _Item, now: float) -> None:
+        key = self._key(stream)
+        if stream.dst is None:
+            # Nowhere to send it yet: only its deadline can fire.
+            item.sent = False
+            heapq.heappush(self._timers, (item.deadline, key[0], key[1], item.seq))
+            return
+        self.outbox.append(
+            (
+                stream.dst,
+                Data(
+                    dst=stream.dst,
+                    channel=stream.channel,
+                    seq=item.seq,
+                    floor=stream.floor,
+                    epoch=item.epoch,
+                    payload=item.payload,
+                ),
+            )
+        )
+        if item.sent:
+            item.retries += 1  # this transmission is a retry: the next wait grows
+        item.due = now + self._config.retry_delay(item.retries)
+        item.sent = True
+        heapq.heappush(self._timers, (min(item.due, item.deadline), key[0], key[1], item.seq))
+
+    def retarget(self, master: int | None, now: float) -> None:
+        """The master changed: master-bound messages go to ``master`` from now on, in order.
+
+        ``master=None`` means "no remote master" (none known, or this platform is the master):
+        the messages wait, and a master takes them with :meth:`take_unrouted`.
+        """
+        stream = self._master_stream
+        if stream.dst == master:
+            return
+        stream.dst = master
+        for item in stream.items:
+            item.retries = 0
+            item.sent = False
+        self._refill(stream, now)
+
+    def take_unrouted(self) -> list[Payload]:
+        """Hand over every waiting master-bound message (this platform is the master now)."""
+        stream = self._master_stream
+        payloads = [item.payload for item in stream.items]
+        stream.items.clear()
+        return payloads
+
+    def drop_destination(self, dst: int, now: float) -> None:
+        """``dst`` left the swarm: drop its queues; master-bound messages wait for a master."""
+        for channel in (URGENT, NORMAL):
+            stream = self._out.get((dst, channel))
+            if stream is not None and stream.items:
+                # Keep the numbering so a returning peer never confuses old and new.
+                self._out[(dst, channel)] = OutStream(dst, channel, next_seq=stream.next_seq)
+        if self._master_stream.dst == dst:
+            self.retarget(None, now)
+
+    def forget_sender(self, sender: int) -> None:
+        """``sender`` rebooted: its next messages start a fresh stream."""
+        for channel in (URGENT, NORMAL, TO_MASTER):
+            self._in.pop((sender, channel), None)
+
+    # --- receiving -------------------------------------------------------------------
+
+    def on_ack(self, sender: int, ack: Ack, now: float) -> None:
+        """Remove everything ``sender`` acknowledged cumulatively; fill the window."""
+        if ack.channel == TO_MASTER:
+            stream: OutStream | None = self._master_stream
+            if self._master_stream.dst != sender:
+                return
+        else:
+            stream = self._out.get((sender, ack.channel))
+        if stream is None:
+            return
+        items = stream.items
+        changed = False
+        while items and items[0].seq <= ack.seq:
+            items.popleft()
+            changed = True
+        if changed:
+            self._refill(stream, now)
+
+    def _refill(self, stream: OutStream, now: float) -> None:
+        for i, item in enumerate(stream.items):
+            if i >= self._config.window:
+                break
+            if not item.sent:
+                self._transmit(stream, item, now)
+
+    def on_data(
+        self, sender: int, incarnation: int, data: Data
+    ) -> tuple[list[Payload], Ack | None]:
+        """Accept one data packet; return what is now deliverable, in order, and the ack."""
+        key = (sender, data.channel)
+        stream = self._in.get(key)
+        if stream is None or incarnation > stream.incarnation:
+            stream = self._in[key] = InStream(incarnation)
+        elif incarnation < stream.incarnation:
+            return [], None
+        if data.floor > data.seq:
+            return [], None  # malformed: a sender never holds less than what it sends
+        if stream.expected == 0:
+            stream.expected = data.floor
+        elif data.floor > stream.expected:
+            # The sender abandoned everything below its floor: skip the gap.
+            stream.expected = data.floor
+            for seq in [s for s in stream.buffer if s < data.floor]:
+                del stream.buffer[seq]
+        delivered: list[Payload] = []
+        if data.seq == stream.expected:
+            delivered.append(data.payload)
+            stream.expected += 1
+        elif data.seq > stream.expected and data.seq - stream.expected < 4 * self._config.window:
+            stream.buffer[data.seq] = data.payload
+        # Whatever waited for the gap just filled (or skipped) is deliverable now.
+        while stream.expected in stream.buffer:
+            delivered.append(stream.buffer.pop(stream.expected))
+            stream.expected += 1
+        ack = Ack(
+            dst=sender, dst_incarnation=incarnation, channel=data.channel, seq=stream.expected - 1
+        )
+        return delivered, ack
+
+    # --- time ------------------------------------------------------------------------
+
+    def tick(self, now: float) -> None:
+        """Retransmit what is due; fail what passed its deadline."""
+        timers = self._timers
+        while timers and timers[0][0] <= now:
+            _, dst, channel, seq = heapq.heappop(timers)
+            stream = self._out.get((dst, channel))
+            if stream is None or not stream.items or seq < stream.items[0].seq:
+                continue
+            index = seq - stream.items[0].seq
+            if index >= len(stream.items) or stream.items[index].seq != seq:
+                # A message in the middle failed earlier, so numbering has a gap: search.
+                found = next((i for i, it in enumerate(stream.items) if it.seq == seq), None)
+                if found is None:
+                    continue
+                index = found
+            item = stream.items[index]
+            if now >= item.deadline:
+                del stream.items[index]
+                self.failures.append(DeliveryFailure(stream.dst, item.payload))
+                self._refill(stream, now)
+            elif item.sent and item.due <= now:
+                self._transmit(stream, item, now)
+
+    def next_deadline(self) -> float | None:
+        """Earliest time :meth:`tick` has something to do."""
+        return self._timers[0][0] if self._timers else None
+
+    def pending(self, dst: int) -> int:
+        """How many messages to ``dst`` are not yet acknowledged (both channels)."""
+        return sum(len(s.items) for (d, _), s in self._out.items() if d == dst)

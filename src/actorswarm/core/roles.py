@@ -1,0 +1,165 @@
+"""Arbitration of roles with quotas (DESIGN.md §3.4): "exactly one leader", "one Track actor".
+
+Theory of operation
+-------------------
+A member claims a role with a quota and a bid. The master grants it while fewer than
+``quota`` platforms hold it; otherwise it denies the claim and keeps it queued. When a holder
+releases the role or leaves the swarm, the master grants it to the best queued claimant (lowest
+bid, then lowest ID): the "leader lost" case resolves itself.
+
+A new master rebuilds grants from the members' reports. If more platforms hold a role than
+its quota allows — two partitions each granted it, then healed ("multiple leaders") — the
+master keeps the best bids and revokes the rest. Until the handshake is over the master only
+records claims, so it never grants a slot a silent member still holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from actorswarm.core.events import RoleDenied, RoleGranted, RoleRevoked
+from actorswarm.core.wire import RoleClaim, RoleDeny, RoleGrant, RoleRevoke
+
+Reply = RoleGrant | RoleDeny | RoleRevoke
+
+
+@dataclass(slots=True)
+class _Role:
+    quota: int
+    holders: dict[int, float] = field(default_factory=dict)  # platform -> bid
+    waiting: dict[int, float] = field(default_factory=dict)
+    denied: set[int] = field(default_factory=set)  # told "denied" once per claim
+
+
+class RoleMaster:
+    """The master's role table. Replies to send are appended to ``replies``."""
+
+    def __init__(self) -> None:
+        self.roles: dict[str, _Role] = {}
+        self.ready = False
+        self.replies: list[tuple[int, Reply]] = []
+
+    def _role(self, claim: RoleClaim) -> _Role:
+        role = self.roles.get(claim.role)
+        if role is None:
+            role = self.roles[claim.role] = _Role(claim.quota)
+        else:
+            role.quota = min(role.quota, claim.quota)
+        return role
+
+    def claim(self, platform: int, claim: RoleClaim) -> None:
+        role = self._role(claim)
+        if platform in role.holders:
+            self.replies.append((platform, RoleGrant(role=claim.role)))
+            return
+        role.waiting[platform] = claim.bid
+        role.denied.discard(platform)
+        if self.ready:
+            self._settle(claim.role)
+
+    def release(self, platform: int, name: str) -> None:
+        role = self.roles.get(name)
+        if role is None:
+            return
+        role.holders.pop(platform, None)
+        role.waiting.pop(platform, None)
+        if self.ready:
+            self._settle(name)
+
+    def report(self, platform: int, held: list[RoleClaim], claims: list[RoleClaim]) -> None:
+        """A member's handshake report replaces what the master knew of it."""
+        touched = set()
+        for name, role in self.roles.items():
+            if role.holders.pop(platform, None) is not None:
+                touched.add(name)  # a slot it no longer holds may go to someone waiting
+            role.waiting.pop(platform, None)
+        for claim in held:
+            self._role(claim).holders[platform] = claim.bid
+        for claim in claims:
+            self._role(claim).waiting[platform] = claim.bid
+        if self.ready:
+            for name in sorted(touched | {c.role for c in (*held, *claims)}):
+                self._settle(name)
+
+    def member_left(self, platform: int) -> None:
+        touched = []
+        for name, role in self.roles.items():
+            if role.holders.pop(platform, None) is not None:
+                touched.append(name)
+            role.waiting.pop(platform, None)
+        if self.ready:
+            for name in touched:
+                self._settle(name)
+
+    def become_ready(self) -> None:
+        self.ready = True
+        for name in list(self.roles):
+            self._settle(name)
+
+    def _settle(self, name: str) -> None:
+        """Bring holders within quota (revoking the worst) and fill free slots (best first)."""
+        role = self.roles[name]
+        if len(role.holders) > role.quota:
+            ranked = sorted(role.holders.items(), key=lambda kv: (kv[1], kv[0]))
+            for platform, _ in ranked[role.quota :]:
+                del role.holders[platform]
+                self.replies.append((platform, RoleRevoke(role=name)))
+        if role.waiting:
+            ranked = sorted(role.waiting.items(), key=lambda kv: (kv[1], kv[0]))
+            for platform, bid in ranked:
+                if len(role.holders) < role.quota:
+                    del role.waiting[platform]
+                    role.denied.discard(platform)
+                    role.holders[platform] = bid
+                    self.replies.append((platform, RoleGrant(role=name)))
+                elif platform not in role.denied:
+                    role.denied.add(platform)
+                    self.replies.append(
+                        (platform, RoleDeny(role=name, holders=sorted(role.holders)))
+                    )
+
+    def holders(self, name: str) -> tuple[int, ...]:
+        role = self.roles.get(name)
+        return tuple(sorted(role.holders)) if role else ()
+
+
+class RoleMember:
+    """What one platform holds and claims."""
+
+    def __init__(self) -> None:
+        self.held: dict[str, RoleClaim] = {}
+        self.claims: dict[str, RoleClaim] = {}
+        self._denied: set[str] = set()
+
+    def claim(self, role: str, quota: int, bid: float) -> RoleClaim:
+        if quota < 1:
+            raise ValueError(f"role {role!r}: quota must be >= 1, got {quota}")
+        claim = RoleClaim(role=role, quota=quota, bid=bid)
+        if role not in self.held:
+            self.claims[role] = claim
+            self._denied.discard(role)  # a new claim is reported again if denied
+        return claim
+
+    def release(self, role: str) -> bool:
+        self._denied.discard(role)
+        had = self.held.pop(role, None) is not None
+        return self.claims.pop(role, None) is not None or had
+
+    def on_reply(self, reply: Reply) -> RoleGranted | RoleDenied | RoleRevoked | None:
+        if isinstance(reply, RoleGrant):
+            claim = self.claims.pop(reply.role, None)
+            if claim is None:
+                return None  # granted something no longer wanted; a release is on its way
+            if reply.role in self.held:
+                return None
+            self.held[reply.role] = claim
+            self._denied.discard(reply.role)
+            return RoleGranted(role=reply.role)
+        if isinstance(reply, RoleDeny):
+            if reply.role not in self.claims or reply.role in self._denied:
+                return None  # report a denial once per claim, not on every re-statement
+            self._denied.add(reply.role)
+            return RoleDenied(role=reply.role, holders=tuple(reply.holders))
+        if self.held.pop(reply.role, None) is None:
+            return None
+        return RoleRevoked(role=reply.role)

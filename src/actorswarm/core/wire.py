@@ -1,0 +1,393 @@
+"""Wire format: every packet the collective core sends or accepts, and its one codec.
+
+Theory of operation
+-------------------
+A packet is an :class:`Envelope` (msgpack array): a versioned header — protocol version,
+swarm ID, sender platform, sender incarnation, per-sender packet sequence, body type — then
+the body, then an authentication tag (empty until a security layer fills it), followed by a
+4-byte CRC-32 of all that: a packet damaged on the air is refused (reason ``checksum``)
+instead of being taken at its word (a flipped incarnation would silence a peer for good).
+The body is kept as raw msgpack in the envelope and decoded with the decoder of its type,
+so a packet of a newer protocol version or an unknown type is refused before its body is
+even looked at.
+
+:func:`decode` is the only way untrusted bytes enter the core. It returns a valid
+:class:`Packet` or raises :class:`WireError` — never anything else — whose ``reason`` says
+which check failed (``oversized``, ``checksum``, ``malformed``, ``version``, ``swarm``,
+``type``). All
+numeric fields carry range constraints, so a decoded packet never holds a negative sequence
+or a platform ID outside 0..65535.
+
+Platform ID 0 is reserved for the ground station.
+"""
+
+from __future__ import annotations
+
+import zlib
+from typing import Annotated, Any, Final
+
+import msgspec
+from msgspec import Meta, Struct
+
+PROTOCOL_VERSION: Final = 1
+GROUND_STATION: Final = 0
+MAX_PLATFORM: Final = 65535
+
+PlatformId = Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]
+Counter = Annotated[int, Meta(ge=0, le=2**63 - 1)]
+Key = Annotated[int, Meta(ge=0, le=2**31 - 1)]
+Channel = Annotated[int, Meta(ge=0, le=2)]
+Name = Annotated[str, Meta(max_length=256)]
+Finite = Annotated[float, Meta(ge=-1e300, le=1e300)]
+
+#: Reliable channels: ground-station traffic has a channel of its own that is sent and
+#: processed before swarm traffic (DESIGN.md §3.3, priorities); master-bound traffic has one
+#: whose sequence numbers survive a change of master, so a message re-targeted to a master
+#: that already had it is recognised as a duplicate.
+URGENT: Final = 0
+NORMAL: Final = 1
+TO_MASTER: Final = 2
+
+
+class WireError(ValueError):
+    """Bytes that are not a valid packet for this swarm. ``reason`` is a short machine tag."""
+
+    def __init__(self, reason: str, detail: str) -> None:
+        super().__init__(f"{reason}: {detail}")
+        self.reason = reason
+        self.detail = detail
+
+
+class _Msg(Struct, frozen=True, array_like=True, forbid_unknown_fields=True):
+    """Base of every message: immutable, positional on the wire."""
+
+
+# --- application payloads carried by reliable Data packets ---------------------------------
+
+
+class BarrierRequest(_Msg, frozen=True, tag=1):
+    """A participant asks to pass barrier ``key`` in its ``generation``.
+
+    ``need`` maps each part of the barrier group to the number of participants it needs
+    (a plain barrier has one part, 0); ``part`` is the one this request counts for. A need
+    of :data:`NEED_ALL` means "every platform the master's policy counts" (all live members
+    by default). ``bid`` orders candidates (lower wins); ``data`` is gathered by the master.
+    ``timeout`` (seconds from the group's first request) and ``age`` (how long the request
+    has been pending when sent, so a new master can keep the original start) are optional.
+    ``epoch`` is the epoch the member followed when it asked: a firing decided in an older
+    epoch cannot have counted this request (a rebooted platform never "completes" a firing
+    that happened before it asked).
+    """
+
+    key: Key
+    generation: Counter
+    need: dict[int, Annotated[int, Meta(ge=-1, le=MAX_PLATFORM)]]
+    part: Key = 0
+    bid: Finite = 0.0
+    data: Any = None
+    timeout: Annotated[float, Meta(gt=0, le=1e9)] | None = None
+    age: Annotated[float, Meta(ge=0, le=1e9)] = 0.0
+    epoch: Counter = 0
+
+
+class BarrierStale(_Msg, frozen=True, tag=2):
+    """Master to member: your request for ``generation`` is void; ``current`` is open now."""
+
+    key: Key
+    generation: Counter
+    current: Counter
+
+
+class ReleaseRecord(_Msg, frozen=True):
+    """What a member remembers of the last release it passed (reported to a new master)."""
+
+    key: Key
+    generation: Counter
+    part: Key
+    index: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]
+    size: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]
+    outcome: Annotated[int, Meta(ge=0, le=2)]
+    origin: Counter = 0
+    #: The whole firing (platform -> (part, index)) when this member saw every entry of it.
+    assignment: dict[PlatformId, tuple[Key, Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]]] = {}
+
+
+class RoleClaim(_Msg, frozen=True, tag=4):
+    """Member asks the master for ``role``; at most ``quota`` platforms may hold it."""
+
+    role: Name
+    quota: Annotated[int, Meta(ge=1, le=MAX_PLATFORM)]
+    bid: Finite = 0.0
+
+
+class RoleRelease(_Msg, frozen=True, tag=5):
+    """Member gives ``role`` up (or withdraws its claim)."""
+
+    role: Name
+
+
+class RoleGrant(_Msg, frozen=True, tag=6):
+    role: Name
+
+
+class RoleDeny(_Msg, frozen=True, tag=7):
+    """The quota is full; the claim stays queued and is granted when a holder goes."""
+
+    role: Name
+    holders: list[PlatformId]
+
+
+class RoleRevoke(_Msg, frozen=True, tag=8):
+    """The master takes ``role`` back (quota exceeded after a partition healed)."""
+
+    role: Name
+
+
+class Sync(_Msg, frozen=True, tag=9):
+    """Master handshake: follow epoch ``epoch`` and report your state."""
+
+    epoch: Counter
+
+
+class Report(_Msg, frozen=True, tag=10):
+    """Member's answer to :class:`Sync`: everything a new master needs to rebuild its state.
+
+    ``epoch`` is the epoch it answers; a master ignores a report for another epoch.
+    """
+
+    epoch: Counter
+    generations: dict[int, Counter]
+    pending: list[BarrierRequest]
+    released: list[ReleaseRecord]
+    held: list[RoleClaim]
+    claims: list[RoleClaim]
+
+
+class AppMessage(_Msg, frozen=True, tag=11):
+    """Opaque payload for the layers above the core (task engine, ground station)."""
+
+    topic: Name
+    body: bytes
+
+
+Payload = (
+    BarrierRequest
+    | BarrierStale
+    | RoleClaim
+    | RoleRelease
+    | RoleGrant
+    | RoleDeny
+    | RoleRevoke
+    | Sync
+    | Report
+    | AppMessage
+)
+
+# --- packet bodies ------------------------------------------------------------------------
+
+
+class Heartbeat(_Msg, frozen=True, tag=1):
+    """Broadcast every heartbeat interval: who I am, whether I am master, whom I follow."""
+
+    is_master: bool
+    epoch: Counter
+    master: PlatformId
+
+
+class Data(_Msg, frozen=True, tag=2):
+    """One reliable message on the stream (sender, sender incarnation, ``dst``, ``channel``).
+
+    ``floor`` is the lowest sequence the sender still holds: anything below it was delivered
+    or abandoned, so a receiver never waits for it. ``epoch`` is the sender's master epoch.
+    """
+
+    dst: PlatformId
+    channel: Channel
+    seq: Annotated[int, Meta(ge=1, le=2**63 - 1)]
+    floor: Annotated[int, Meta(ge=1, le=2**63 - 1)]
+    epoch: Counter
+    payload: Payload
+
+
+class Ack(_Msg, frozen=True, tag=3):
+    """Cumulative acknowledgement: every message up to ``seq`` of that stream was delivered."""
+
+    dst: PlatformId
+    dst_incarnation: Counter
+    channel: Channel
+    seq: Counter
+
+
+class ReleaseEntry(_Msg, frozen=True):
+    """One candidate's share of a release: ``index`` 1..size within its part (0: not chosen)."""
+
+    platform: PlatformId
+    part: Key
+    index: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]
+    data: Any = None
+
+
+class Release(_Msg, frozen=True, tag=4):
+    """Master releases barrier ``key``/``generation``: one broadcast for every participant.
+
+    Retransmissions carry only the entries of candidates that have not acknowledged.
+    ``outcome`` is :data:`COMPLETE` or :data:`TIMEOUT`; ``sizes`` maps part to the number
+    chosen; ``gathered`` is the data every chosen participant attached to its request.
+    ``origin`` is the epoch of the master that decided the firing (a later master that
+    completes it keeps it), so two partitions' firings of one generation stay apart.
+    ``total`` is the number of entries of the whole firing: a member that finds them all in
+    one packet knows the complete assignment and reports it to any later master.
+    """
+
+    epoch: Counter
+    key: Key
+    generation: Counter
+    outcome: Annotated[int, Meta(ge=0, le=2)]
+    sizes: dict[int, Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]]
+    entries: list[ReleaseEntry]
+    gathered: list[tuple[PlatformId, Any]] = []
+    origin: Counter = 0
+    total: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)] = 0
+
+
+class ReleaseAck(_Msg, frozen=True, tag=5):
+    dst: PlatformId
+    epoch: Counter
+    key: Key
+    generation: Counter
+
+
+Body = Heartbeat | Data | Ack | Release | ReleaseAck
+
+COMPLETE: Final = 1
+TIMEOUT: Final = 2
+NEED_ALL: Final = -1
+
+
+class Envelope(_Msg, frozen=True):
+    """The header and the still-encoded body; what the auth tag covers is ``header+body``."""
+
+    version: Annotated[int, Meta(ge=0, le=255)]
+    swarm: Annotated[str, Meta(max_length=64)]
+    sender: PlatformId
+    incarnation: Counter
+    seq: Counter
+    type: Annotated[int, Meta(ge=0, le=255)]
+    body: msgspec.Raw
+    auth: Annotated[bytes, Meta(max_length=128)] = b""
+
+
+class Packet(Struct, frozen=True):
+    """A decoded, validated packet: header fields plus a typed body."""
+
+    swarm: str
+    sender: int
+    incarnation: int
+    seq: int
+    body: Body
+    auth: bytes = b""
+
+    @property
+    def type_name(self) -> str:
+        return type(self.body).__name__
+
+
+_BODY_TYPES: dict[int, type[Body]] = {
+    1: Heartbeat,
+    2: Data,
+    3: Ack,
+    4: Release,
+    5: ReleaseAck,
+}
+_TYPE_OF: dict[type[Any], int] = {cls: tag for tag, cls in _BODY_TYPES.items()}
+_ENVELOPE = msgspec.msgpack.Decoder(Envelope)
+_BODY_DECODERS = {tag: msgspec.msgpack.Decoder(cls) for tag, cls in _BODY_TYPES.items()}
+_ENCODER = msgspec.msgpack.Encoder()
+DEFAULT_MAX_BYTES: Final = 60_000
+
+
+def encode(
+    *,
+    swarm: str,
+    sender: int,
+    incarnation: int,
+    seq: int,
+    body: Body,
+    auth: bytes = b"",
+) -> bytes:
+    """Encode one packet (bodies are untagged inside: the header's ``type`` names them)."""
+    raw = msgspec.Raw(_ENCODER.encode(body))
+    env = Envelope(
+        version=PROTOCOL_VERSION,
+        swarm=swarm,
+        sender=sender,
+        incarnation=incarnation,
+        seq=seq,
+        type=_TYPE_OF[type(body)],
+        body=raw,
+        auth=auth,
+    )
+    frame = _ENCODER.encode(env)
+    return frame + zlib.crc32(frame).to_bytes(4, "big")
+
+
+def decode(data: bytes, *, swarm: str | None = None, max_bytes: int = DEFAULT_MAX_BYTES) -> Packet:
+    """Decode untrusted bytes into a :class:`Packet`, or raise :class:`WireError`.
+
+    When ``swarm`` is given, packets of another swarm are refused (reason ``swarm``).
+    """
+    if len(data) > max_bytes:
+        raise WireError("oversized", f"{len(data)} bytes > limit {max_bytes}")
+    env = _unframe(data)
+    if env.version != PROTOCOL_VERSION:
+        raise WireError("version", f"protocol version {env.version}, expected {PROTOCOL_VERSION}")
+    if swarm is not None and env.swarm != swarm:
+        raise WireError("swarm", f"packet of swarm {env.swarm!r}, this is {swarm!r}")
+    decoder = _BODY_DECODERS.get(env.type)
+    if decoder is None:
+        raise WireError("type", f"unknown packet type {env.type}")
+    try:
+        body = decoder.decode(env.body)
+    except (msgspec.DecodeError, RecursionError, ValueError, TypeError) as exc:
+        raise WireError("malformed", f"bad {_BODY_TYPES[env.type].__name__} body: {exc}") from None
+    return Packet(
+        swarm=env.swarm,
+        sender=env.sender,
+        incarnation=env.incarnation,
+        seq=env.seq,
+        body=body,
+        auth=env.auth,
+    )
+
+
+def _unframe(data: bytes) -> Envelope:
+    """Check the frame's CRC-32 and decode its envelope (WireError on any failure)."""
+    if len(data) < 5:
+        raise WireError("malformed", f"{len(data)} bytes is too short for a packet")
+    frame, check = data[:-4], data[-4:]
+    if zlib.crc32(frame).to_bytes(4, "big") != check:
+        raise WireError("checksum", "frame check failed: the packet was damaged in transit")
+    try:
+        return _ENVELOPE.decode(frame)
+    except (msgspec.DecodeError, RecursionError, ValueError, TypeError) as exc:
+        raise WireError("malformed", f"bad header: {exc}") from None
+
+
+def signed_part(data: bytes) -> bytes:
+    """The bytes an authentication tag covers: the packet re-encoded with an empty tag.
+
+    A security layer computes its tag over this and stores it in ``auth``; raises
+    :class:`WireError` on bytes that are not an envelope.
+    """
+    env = _unframe(data)
+    return _ENCODER.encode(
+        Envelope(
+            version=env.version,
+            swarm=env.swarm,
+            sender=env.sender,
+            incarnation=env.incarnation,
+            seq=env.seq,
+            type=env.type,
+            body=env.body,
+        )
+    )

@@ -1,0 +1,317 @@
+"""A simulated swarm: real core :class:`~actorswarm.core.node.Node` objects on a simulated radio.
+
+Theory of operation
+-------------------
+:class:`SimSwarm` is a host like the daemon, with virtual time instead of the wall clock and
+:class:`~actorswarm.sim.radio.SimRadio` instead of Zenoh. For each platform it delivers
+packets, calls ``tick`` at the node's own ``next_deadline``, transmits what the node wants
+sent, and hands the node's events to the invariant checker and to any listeners (workloads,
+the task engine later). Faults are injected through the radio (loss, bursts, latency,
+duplication, reordering, bandwidth, partitions) and through :meth:`SimSwarm.crash` and
+:meth:`SimSwarm.restart` (a new incarnation with fresh state).
+
+Everything random derives from ``seed``: the radio's faults and each node's heartbeat phase
+(``random.Random`` seeded with a string, which Python hashes deterministically). The same seed
+and the same calls replay the same run, event for event.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from actorswarm.core import wire
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.events import (
+    BecameMaster,
+    CoreEvent,
+    HandshakeComplete,
+    MemberJoined,
+    MemberLeft,
+)
+from actorswarm.core.node import Node
+from actorswarm.core.wire import Packet, WireError
+from actorswarm.sim.invariants import InvariantChecker
+from actorswarm.sim.radio import LinkModel, SimRadio, Transmission
+from actorswarm.sim.scheduler import Scheduler, Timer
+
+Listener = Callable[[float, Node, CoreEvent], None]
+
+
+@dataclass(frozen=True, slots=True)
+class LogEntry:
+    """One event of the run: at ``t``, ``platform`` (in ``incarnation``) reported ``event``."""
+
+    t: float
+    platform: int
+    incarnation: int
+    event: CoreEvent | str
+
+
+@dataclass(slots=True)
+class MasterRecord:
+    t: float
+    platform: int
+    epoch: int
+    handshake_done: float | None = None
+
+
+@dataclass(slots=True)
+class _Host:
+    node: Node
+    timer: Timer | None = None
+    timer_at: float = float("inf")
+    alive: bool = True
+
+
+@dataclass(slots=True)
+class SwarmStats:
+    """Counters of the host itself (for benchmarks and sanity checks)."""
+
+    deliveries: int = 0
+    ticks: int = 0
+    spins: int = 0
+    events: int = 0
+    extra: dict[str, int] = field(default_factory=dict)
+
+
+class SimSwarm:
+    """A swarm of ``platforms`` (a count, meaning IDs 1..n, or explicit IDs) in virtual time.
+
+    ``log_membership`` keeps join/leave events in :attr:`log` (off for very large swarms,
+    where they number N²). ``settle`` is the invariant checker's tolerance window; by default
+    long enough for a leave, a join and a few heartbeats.
+    """
+
+    def __init__(
+        self,
+        platforms: int | Iterable[int],
+        *,
+        seed: int = 0,
+        config: CoreConfig | None = None,
+        link: LinkModel | None = None,
+        swarm: str = "sim",
+        log_membership: bool = True,
+        settle: float | None = None,
+        sample_every: float | None = None,
+    ) -> None:
+        ids = list(range(1, platforms + 1)) if isinstance(platforms, int) else sorted(platforms)
+        if not ids:
+            raise ValueError("a swarm needs at least one platform")
+        if len(set(ids)) != len(ids):
+            raise ValueError("platform IDs must be unique")
+        self.seed = seed
+        self.config = config or CoreConfig()
+        self.swarm = swarm
+        self.scheduler = Scheduler()
+        max_bytes = self.config.max_packet_bytes
+
+        def decoder(data: bytes) -> Packet:
+            return wire.decode(data, max_bytes=max_bytes)
+
+        self.radio: SimRadio[Packet] = SimRadio(
+            self.scheduler, random.Random(f"{seed}:radio"), link or LinkModel(), decoder=decoder
+        )
+        self.hosts: dict[int, _Host] = {}
+        self.incarnations: dict[int, int] = {}
+        self.log: list[LogEntry] = []
+        self.masters: list[MasterRecord] = []
+        self.listeners: list[Listener] = []
+        self.stats = SwarmStats()
+        self._log_membership = log_membership
+        cfg = self.config
+        self.settle = (
+            settle
+            if settle is not None
+            else cfg.t_leave + cfg.t_join + 5 * cfg.heartbeat_interval + cfg.handshake_timeout
+        )
+        self.checker = InvariantChecker(
+            self.settle, incarnation_of=lambda p: self.incarnations.get(p, -1)
+        )
+        for p in ids:
+            self._boot(p, 0)
+        self._sample_every = sample_every or cfg.heartbeat_interval
+        self.scheduler.at(0.0, self._sample)
+
+    # --- time -----------------------------------------------------------------------------
+
+    @property
+    def now(self) -> float:
+        return self.scheduler.now
+
+    def run_until(self, t: float) -> None:
+        """Run every event up to virtual time ``t``."""
+        self.scheduler.run_until(t)
+
+    def at(self, t: float, fn: Callable[..., object], *args: Any) -> Timer:
+        """Call ``fn(*args)`` at virtual time ``t`` (for scripted faults and workloads)."""
+        return self.scheduler.at(t, fn, *args)
+
+    # --- platforms ---------------------------------------------------------------------------
+
+    @property
+    def nodes(self) -> dict[int, Node]:
+        """Live platforms' nodes by ID."""
+        return {p: h.node for p, h in self.hosts.items() if h.alive}
+
+    def node(self, platform: int) -> Node:
+        host = self.hosts.get(platform)
+        if host is None or not host.alive:
+            raise KeyError(f"platform {platform} is not running")
+        return host.node
+
+    def _boot(self, platform: int, incarnation: int) -> None:
+        node = Node(
+            platform,
+            swarm=self.swarm,
+            incarnation=incarnation,
+            config=self.config,
+            now=self.now,
+            rng=random.Random(f"{self.seed}:{platform}:{incarnation}"),
+        )
+        self.incarnations[platform] = incarnation
+        self.hosts[platform] = _Host(node)
+        self.radio.attach(platform, lambda tx, now: self._deliver(platform, tx, now))
+        self._schedule(platform, self.now)
+
+    def crash(self, platform: int) -> None:
+        """Stop ``platform`` at once: it sends, hears and remembers nothing more."""
+        host = self.hosts.get(platform)
+        if host is None or not host.alive:
+            return
+        host.alive = False
+        if host.timer is not None:
+            host.timer.cancel()
+        self.radio.detach(platform)
+        self.log.append(LogEntry(self.now, platform, host.node.incarnation, "crash"))
+
+    def restart(self, platform: int) -> None:
+        """Boot ``platform`` again in a new incarnation with fresh state."""
+        host = self.hosts.get(platform)
+        if host is not None and host.alive:
+            self.crash(platform)
+        incarnation = self.incarnations.get(platform, -1) + 1
+        self._boot(platform, incarnation)
+        self.log.append(LogEntry(self.now, platform, incarnation, "restart"))
+
+    def add(self, platform: int) -> None:
+        """A new platform powers up and joins."""
+        if platform in self.hosts and self.hosts[platform].alive:
+            raise ValueError(f"platform {platform} is already running")
+        self.restart(platform)
+
+    def partition(self, groups: Iterable[Iterable[int]]) -> None:
+        groups = [list(g) for g in groups]
+        self.radio.partition(groups)
+        self.log.append(LogEntry(self.now, 0, 0, f"partition {groups}"))
+
+    def heal(self) -> None:
+        self.radio.heal()
+        self.log.append(LogEntry(self.now, 0, 0, "heal"))
+
+    def components(self) -> list[frozenset[int]]:
+        """Connected components of the live platforms."""
+        return self.radio.components(self.nodes)
+
+    # --- driving nodes ---------------------------------------------------------------------
+
+    def call(self, platform: int, fn: Callable[[Node], object]) -> object:
+        """Run ``fn(node)`` on a live platform now (an application call) and service it."""
+        result = fn(self.node(platform))
+        self._service(platform)
+        return result
+
+    def _deliver(self, platform: int, tx: Transmission[Packet], now: float) -> None:
+        host = self.hosts[platform]
+        if not host.alive:
+            return
+        self.stats.deliveries += 1
+        if tx.corrupted:
+            host.node.receive(tx.data, now)
+        else:
+            try:
+                packet = tx.packet()
+            except WireError:
+                host.node.receive(tx.data, now)  # counts the drop the same way
+            else:
+                host.node.receive_packet(packet, now)
+        self._service(platform)
+
+    def _tick(self, platform: int) -> None:
+        host = self.hosts[platform]
+        if not host.alive:
+            return
+        host.timer = None
+        host.timer_at = float("inf")
+        self.stats.ticks += 1
+        host.node.tick(self.now)
+        self._service(platform, after_tick=True)
+
+    def _schedule(self, platform: int, t: float) -> None:
+        host = self.hosts[platform]
+        if t >= host.timer_at:
+            return
+        if host.timer is not None:
+            host.timer.cancel()
+        host.timer_at = t
+        host.timer = self.scheduler.at(t, self._tick, platform)
+
+    def _service(self, platform: int, *, after_tick: bool = False) -> None:
+        host = self.hosts[platform]
+        node = host.node
+        now = self.now
+        for out in node.drain_outgoing():
+            self.radio.send(platform, out.dst, out.data, out.kind)
+        events = node.drain_events()
+        if events:
+            self._handle_events(node, events, now)
+        deadline = node.next_deadline()
+        if deadline is not None and host.alive:
+            if deadline <= now:
+                if after_tick:
+                    # A node that still has work right after a tick would spin forever.
+                    self.stats.spins += 1
+                    deadline = now + 1e-6
+                else:
+                    deadline = now
+            self._schedule(platform, deadline)
+
+    def _handle_events(self, node: Node, events: list[CoreEvent], now: float) -> None:
+        self.stats.events += len(events)
+        for event in events:
+            if isinstance(event, MemberJoined | MemberLeft):
+                if self._log_membership:
+                    self.log.append(LogEntry(now, node.platform, node.incarnation, event))
+            else:
+                self.log.append(LogEntry(now, node.platform, node.incarnation, event))
+            if isinstance(event, BecameMaster):
+                self.masters.append(MasterRecord(now, node.platform, event.epoch))
+            elif isinstance(event, HandshakeComplete):
+                for rec in reversed(self.masters):
+                    if rec.platform == node.platform and rec.epoch == event.epoch:
+                        rec.handshake_done = now
+                        break
+            self.checker.on_event(now, node, event)
+            for listener in self.listeners:
+                listener(now, node, event)
+
+    def _sample(self) -> None:
+        self.checker.sample(self.now, self.nodes, self.radio.components)
+        self.scheduler.after(self._sample_every, self._sample)
+
+    # --- results ---------------------------------------------------------------------------
+
+    def master_of(self, platform: int) -> int | None:
+        return self.node(platform).master
+
+    def current_masters(self) -> list[int]:
+        return sorted(p for p, n in self.nodes.items() if n.is_master)
+
+    def finish(self) -> list[str]:
+        """End-of-run invariant checks; every violation of the run, as readable lines."""
+        return self.checker.finish(self.now, self.nodes, self.radio.components)
+
+    def traffic(self) -> dict[int, dict[str, Any]]:
+        return self.radio.traffic.snapshot()

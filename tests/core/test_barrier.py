@@ -1,0 +1,605 @@
+"""Barriers: the master's firing decisions and releases, and a member's side of them."""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import pytest
+
+from actorswarm.core.barrier import BarrierMaster, BarrierMember
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.events import BarrierFired, BarrierReleased, BarrierStaleNotice
+from actorswarm.core.wire import (
+    COMPLETE,
+    NEED_ALL,
+    TIMEOUT,
+    BarrierRequest,
+    BarrierStale,
+    Release,
+    ReleaseEntry,
+    ReleaseRecord,
+)
+
+KEY = 7
+EPOCH = 3
+
+
+def _req(
+    need: int | dict[int, int] = 2,
+    *,
+    generation: int = 0,
+    part: int = 0,
+    bid: float = 0.0,
+    data: Any = None,
+    timeout: float | None = None,
+    age: float = 0.0,
+    key: int = KEY,
+) -> BarrierRequest:
+    return BarrierRequest(
+        key=key,
+        generation=generation,
+        need={part: need} if isinstance(need, int) else need,
+        part=part,
+        bid=bid,
+        data=data,
+        timeout=timeout,
+        age=age,
+    )
+
+
+class Harness:
+    """A BarrierMaster plus helpers to drain what it decided."""
+
+    def __init__(self, *, live: int = 10, ready: bool = True, **config: Any) -> None:
+        self.live = live
+        self.master = BarrierMaster(CoreConfig(**config), resolve_all=lambda k, p: self.live)
+        if ready:
+            self.master.become_ready(0.0, EPOCH)
+
+    def broadcasts(self) -> list[Release]:
+        out = list(self.master.broadcasts)
+        self.master.broadcasts.clear()
+        return out
+
+    def entries(self) -> dict[int, tuple[int, int]]:
+        """platform -> (part, index) over every broadcast so far (drained)."""
+        return {e.platform: (e.part, e.index) for rel in self.broadcasts() for e in rel.entries}
+
+    def notices(self) -> list[tuple[int, BarrierStale]]:
+        out = list(self.master.notices)
+        self.master.notices.clear()
+        return out
+
+    def events(self) -> list[BarrierFired]:
+        out = list(self.master.events)
+        self.master.events.clear()
+        return out
+
+
+# --- master: when to fire, whom to choose -------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("need", "requests", "fires_after"),
+    [
+        ({0: 2}, [(1, 0), (2, 0)], 2),
+        ({0: 3}, [(1, 0), (2, 0), (3, 0)], 3),
+        ({0: 1, 1: 2}, [(1, 0), (2, 1), (3, 0), (4, 1)], 4),  # part 1 completes last
+        ({0: 2, 1: 1}, [(1, 1), (2, 0), (3, 0)], 3),
+        ({0: 2}, [(1, 0)], None),
+        ({0: 1, 1: 1}, [(1, 0), (2, 0), (3, 0)], None),  # part 1 never asked for
+    ],
+)
+def test_fires_when_every_part_has_its_count(
+    need: dict[int, int], requests: list[tuple[int, int]], fires_after: int | None
+) -> None:
+    h = Harness()
+    fired_at = None
+    for n, (platform, part) in enumerate(requests, start=1):
+        h.master.request(platform, _req(need, part=part), 0.0, EPOCH)
+        if h.broadcasts():
+            fired_at = n
+            break
+    assert fired_at == fires_after, f"need {need}: fired after {fired_at} requests"
+
+
+def test_release_carries_every_candidate_with_indices_per_part() -> None:
+    h = Harness()
+    need = {0: 2, 1: 1}
+    h.master.request(4, _req(need, part=0), 0.0, EPOCH)
+    h.master.request(5, _req(need, part=1), 0.0, EPOCH)
+    h.master.request(2, _req(need, part=0), 0.0, EPOCH)
+    (rel,) = h.broadcasts()
+    assert (rel.key, rel.generation, rel.epoch, rel.outcome) == (KEY, 0, EPOCH, COMPLETE)
+    assert rel.sizes == {0: 2, 1: 1}
+    assert {e.platform: (e.part, e.index) for e in rel.entries} == {
+        2: (0, 1),
+        4: (0, 2),
+        5: (1, 1),
+    }
+    (event,) = h.events()
+    assert event == BarrierFired(
+        key=KEY,
+        generation=0,
+        epoch=EPOCH,
+        outcome="complete",
+        chosen={2: (0, 1), 4: (0, 2), 5: (1, 1)},
+        not_chosen=(),
+        completion=False,
+    )
+
+
+def test_chooses_best_bids_lower_bid_then_lower_id() -> None:
+    """Part 0 collects more candidates than needed while part 1 is still empty."""
+    h = Harness()
+    need = {0: 2, 1: 1}
+    for platform, bid in [(5, 1.0), (3, 2.0), (6, 1.0), (2, 2.0), (9, 0.5)]:
+        h.master.request(platform, _req(need, part=0, bid=bid), 0.0, EPOCH)
+    assert h.broadcasts() == []
+    h.master.request(8, _req(need, part=1, bid=99.0), 0.0, EPOCH)
+    entries = h.entries()
+    assert entries == {
+        9: (0, 1),  # bid 0.5
+        5: (0, 2),  # bid 1.0, lower ID than 6
+        6: (0, 0),
+        2: (0, 0),
+        3: (0, 0),
+        8: (1, 1),
+    }, entries
+    (event,) = h.events()
+    assert event.not_chosen == (2, 3, 6), "non-chosen candidates are released with index 0"
+
+
+def test_requests_collected_during_handshake_choose_best_bids() -> None:
+    h = Harness(ready=False)
+    for platform, bid in [(5, 1.0), (3, 2.0), (4, 1.0), (2, 2.0)]:
+        h.master.request(platform, _req(2, bid=bid), 0.0, EPOCH)
+    assert h.broadcasts() == [], "nothing fires during the handshake"
+    h.master.become_ready(0.1, EPOCH)
+    entries = h.entries()
+    assert entries == {4: (0, 1), 5: (0, 2), 2: (0, 0), 3: (0, 0)}, (
+        f"all four wait together: the best bids (4, 5) pass, the others get index 0: {entries}"
+    )
+    assert h.notices() == []
+
+
+def test_gather_and_scatter() -> None:
+    h = Harness()
+    h.master.scatter = lambda key, gen, chosen: {p: f"slot-{i}" for p, _, i, _ in chosen}
+    h.master.request(1, _req(2, data="a"), 0.0, EPOCH)
+    h.master.request(2, _req(2, data=None), 0.0, EPOCH)
+    (rel,) = h.broadcasts()
+    assert {e.platform: e.data for e in rel.entries} == {1: "slot-1", 2: "slot-2"}
+    assert rel.gathered == [(1, "a")], "only data actually attached is gathered"
+
+
+# --- master: generations -----------------------------------------------------------------
+
+
+def _fire_once(h: Harness, platforms: tuple[int, ...] = (1, 2)) -> None:
+    for p in platforms:
+        h.master.request(p, _req(len(platforms)), 0.0, EPOCH)
+    assert h.broadcasts(), "setup: the barrier fires"
+    h.events()
+
+
+def test_stale_generation_gets_notice() -> None:
+    h = Harness()
+    _fire_once(h)
+    h.master.request(3, _req(2, generation=0), 0.1, EPOCH)
+    assert h.notices() == [(3, BarrierStale(key=KEY, generation=0, current=1))]
+    assert h.broadcasts() == [], "a stale request is neither released nor counted"
+    h.master.request(3, _req(2, generation=1), 0.2, EPOCH)
+    h.master.request(1, _req(2, generation=1), 0.2, EPOCH)
+    (rel,) = h.broadcasts()
+    assert rel.generation == 1, "the stale request did not count toward generation 1"
+    assert {e.platform for e in rel.entries} == {1, 3}
+
+
+def test_stale_notice_names_the_open_generation() -> None:
+    h = Harness()
+    _fire_once(h)
+    for p in (1, 2):
+        h.master.request(p, _req(2, generation=1), 0.1, EPOCH)
+    h.broadcasts()
+    h.master.request(3, _req(2, generation=0), 0.2, EPOCH)
+    assert h.notices() == [(3, BarrierStale(key=KEY, generation=0, current=2))]
+
+
+def test_candidate_repeating_fired_request_gets_its_entry_again() -> None:
+    h = Harness()
+    _fire_once(h, (1, 2))
+    h.master.request(2, _req(2, generation=0), 0.5, EPOCH)  # it missed the release
+    assert h.notices() == []
+    rels = h.broadcasts()
+    assert [e.platform for rel in rels for e in rel.entries] == [2]
+    assert all(rel.generation == 0 for rel in rels)
+
+
+def test_newer_generation_moves_master_on() -> None:
+    h = Harness()
+    h.master.request(1, _req(2, generation=0), 0.0, EPOCH)
+    h.master.request(2, _req(2, generation=3), 0.1, EPOCH)
+    assert h.notices() == [(1, BarrierStale(key=KEY, generation=0, current=3))]
+    assert h.broadcasts() == [], "the generation-0 request no longer counts"
+    h.master.request(1, _req(2, generation=3), 0.2, EPOCH)
+    (rel,) = h.broadcasts()
+    assert rel.generation == 3
+    h.master.request(4, _req(2, generation=2), 0.3, EPOCH)
+    assert h.notices() == [(4, BarrierStale(key=KEY, generation=2, current=4))]
+
+
+def test_keys_are_independent() -> None:
+    h = Harness()
+    h.master.request(1, _req(2, key=1), 0.0, EPOCH)
+    h.master.request(2, _req(2, key=2), 0.0, EPOCH)
+    assert h.broadcasts() == []
+    h.master.request(2, _req(2, key=1), 0.0, EPOCH)
+    (rel,) = h.broadcasts()
+    assert rel.key == 1
+
+
+# --- master: timeout, retransmission, NEED_ALL --------------------------------------------
+
+
+def test_timeout_releases_everyone_waiting() -> None:
+    h = Harness()
+    h.master.request(3, _req(5, timeout=1.0, bid=2.0), 0.0, EPOCH)
+    h.master.request(2, _req(5, timeout=1.0, bid=1.0), 0.5, EPOCH)
+    assert h.master.next_deadline() == pytest.approx(1.0), "timeout counts from the first"
+    h.master.tick(0.99, EPOCH)
+    assert h.broadcasts() == []
+    h.master.tick(1.0, EPOCH)
+    (rel,) = h.broadcasts()
+    assert rel.outcome == TIMEOUT
+    assert {e.platform: e.index for e in rel.entries} == {2: 1, 3: 2}, "numbered in bid order"
+    assert rel.sizes == {0: 2}
+    (event,) = h.events()
+    assert event.outcome == "timeout"
+    assert event.not_chosen == ()
+
+
+def test_timeout_counts_request_age() -> None:
+    h = Harness()
+    h.master.request(1, _req(5, timeout=1.0, age=0.75), 2.0, EPOCH)
+    assert h.master.next_deadline() == pytest.approx(2.25)
+    h.master.tick(2.25, EPOCH)
+    assert [rel.outcome for rel in h.broadcasts()] == [TIMEOUT]
+
+
+def test_timeout_then_next_generation_opens() -> None:
+    h = Harness()
+    h.master.request(1, _req(5, timeout=1.0), 0.0, EPOCH)
+    h.master.tick(1.0, EPOCH)
+    h.broadcasts()
+    h.master.request(2, _req(5, generation=0), 1.1, EPOCH)
+    assert h.notices() == [(2, BarrierStale(key=KEY, generation=0, current=1))]
+
+
+def test_retransmission_only_to_unacked_entries() -> None:
+    h = Harness()
+    for p in (1, 2, 3):
+        h.master.request(p, _req(3), 0.0, EPOCH)
+    (first,) = h.broadcasts()
+    assert [e.platform for e in first.entries] == [1, 2, 3]
+    h.master.on_ack(1, KEY, 0)
+    due = h.master.next_deadline()
+    assert due is not None and due == pytest.approx(0.04), "first retransmission after retry_base"
+    h.master.tick(due, EPOCH)
+    (again,) = h.broadcasts()
+    assert [e.platform for e in again.entries] == [2, 3], "acked entries are left out"
+    assert again.generation == 0 and again.sizes == first.sizes
+    h.master.on_ack(2, KEY, 0)
+    h.master.on_ack(3, KEY, 0)
+    assert h.master.next_deadline() is None, "nothing left in flight"
+    h.master.tick(5.0, EPOCH)
+    assert h.broadcasts() == []
+
+
+def test_release_retransmission_backoff() -> None:
+    h = Harness(delivery_deadline=2.0)
+    h.master.request(1, _req(1), 0.0, EPOCH)
+    h.broadcasts()
+    times = [0.0]
+    while (t := h.master.next_deadline()) is not None and t < 2.0:
+        h.master.tick(t, EPOCH)
+        if h.broadcasts():
+            times.append(t)
+    gaps = [b - a for a, b in itertools.pairwise(times)]
+    config = CoreConfig()
+    assert gaps[:4] == pytest.approx([config.retry_delay(k) for k in range(4)]), gaps
+
+
+def test_release_fails_visibly_at_deadline() -> None:
+    h = Harness(delivery_deadline=1.0)
+    for p in (1, 2):
+        h.master.request(p, _req(2), 0.0, EPOCH)
+    h.master.on_ack(1, KEY, 0)
+    while (t := h.master.next_deadline()) is not None and t <= 1.0:
+        h.master.tick(t, EPOCH)
+    assert h.master.failed == [(KEY, 0, {2})]
+    assert h.master.next_deadline() is None
+
+
+@pytest.mark.parametrize(
+    ("chunk", "platforms", "sizes"),
+    [(2, 5, [2, 2, 1]), (3, 3, [3]), (1, 3, [1, 1, 1]), (256, 40, [40])],
+)
+def test_chunking_respects_release_chunk(chunk: int, platforms: int, sizes: list[int]) -> None:
+    h = Harness(release_chunk=chunk)
+    for p in range(1, platforms + 1):
+        h.master.request(p, _req(platforms), 0.0, EPOCH)
+    rels = h.broadcasts()
+    assert [len(rel.entries) for rel in rels] == sizes
+    assert sorted(e.platform for rel in rels for e in rel.entries) == list(range(1, platforms + 1))
+    assert all(rel.sizes == {0: platforms} for rel in rels), "every chunk carries the sizes"
+
+
+def test_retransmission_is_chunked_too() -> None:
+    h = Harness(release_chunk=2)
+    for p in range(1, 6):
+        h.master.request(p, _req(5), 0.0, EPOCH)
+    h.broadcasts()
+    for p in (1, 2, 4):
+        h.master.on_ack(p, KEY, 0)
+    h.master.tick(0.04, EPOCH)
+    assert [[e.platform for e in rel.entries] for rel in h.broadcasts()] == [[3, 5]]
+
+
+def test_need_all_resolves_via_resolver() -> None:
+    h = Harness(live=3)
+    h.master.request(1, _req(NEED_ALL), 0.0, EPOCH)
+    h.master.request(2, _req(NEED_ALL), 0.0, EPOCH)
+    assert h.broadcasts() == [], "3 live platforms: 2 requests are not enough"
+    h.master.request(3, _req(NEED_ALL), 0.0, EPOCH)
+    (rel,) = h.broadcasts()
+    assert rel.sizes == {0: 3}
+
+
+def test_leaving_member_completes_need_all() -> None:
+    h = Harness(live=3)
+    h.master.request(1, _req(NEED_ALL), 0.0, EPOCH)
+    h.master.request(2, _req(NEED_ALL), 0.0, EPOCH)
+    h.live = 2
+    h.master.member_left(3, 0.5, EPOCH)
+    (rel,) = h.broadcasts()
+    assert {e.platform: e.index for e in rel.entries} == {1: 1, 2: 2}
+
+
+def test_leaving_candidate_no_longer_counts() -> None:
+    h = Harness()
+    h.master.request(1, _req(2), 0.0, EPOCH)
+    h.master.member_left(1, 0.1, EPOCH)
+    h.master.request(2, _req(2), 0.2, EPOCH)
+    assert h.broadcasts() == [], "the request of a platform that left is gone"
+
+
+def test_leaving_member_stops_retransmission() -> None:
+    h = Harness()
+    h.master.request(1, _req(2), 0.0, EPOCH)
+    h.master.request(2, _req(2), 0.0, EPOCH)
+    h.broadcasts()
+    h.master.on_ack(1, KEY, 0)
+    h.master.member_left(2, 0.01, EPOCH)
+    assert h.master.next_deadline() is None
+
+
+# --- master: completion after failover ------------------------------------------------------
+
+
+def _record(index: int, size: int = 3, generation: int = 4) -> ReleaseRecord:
+    return ReleaseRecord(
+        key=KEY, generation=generation, part=0, index=index, size=size, outcome=COMPLETE
+    )
+
+
+def _report(
+    h: Harness,
+    platform: int,
+    known: int,
+    record: ReleaseRecord | None,
+    pending: BarrierRequest | None,
+) -> None:
+    """What a node does with one member's handshake report, in the same order."""
+    h.master.known_generation(KEY, known, 0.0, EPOCH)
+    if record is not None:
+        h.master.record_released(platform, record)
+    if pending is not None:
+        h.master.request(platform, pending, 0.0, EPOCH)
+
+
+@pytest.mark.parametrize(
+    "order",
+    [(1, 2, 3, 4), (3, 4, 1, 2), (3, 1, 4, 2), (4, 2, 3, 1)],
+    ids=lambda o: "reports-" + "".join(map(str, o)),
+)
+def test_completion_after_failover(order: tuple[int, ...]) -> None:
+    """The old master released 1 (index 1) and 2 (index 3) of generation 4, then crashed;
+    3 and 4 still wait for generation 4. The new master must release them in generation 4
+    with the index nobody reported, never with a stale notice."""
+    h = Harness(ready=False)
+    reports = {
+        1: (5, _record(1), None),
+        2: (5, _record(3), None),
+        3: (4, _record(2, generation=3), _req(3, generation=4, bid=3.0)),
+        4: (4, None, _req(3, generation=4, bid=4.0)),
+    }
+    for platform in order:
+        _report(h, platform, *reports[platform])
+    assert h.broadcasts() == [], "nothing is released during the handshake"
+    h.master.become_ready(1.0, EPOCH)
+    assert h.notices() == [], "waiting candidates of a fired generation are not stale"
+    rels = h.broadcasts()
+    assert rels and all(rel.generation == 4 for rel in rels), "same generation as the others"
+    assert {e.platform: e.index for rel in rels for e in rel.entries} == {3: 2, 4: 0}, (
+        "3 (better bid) gets the free index 2; 4 finds no slot and passes as not chosen"
+    )
+    events = h.events()
+    assert events and all(e.completion and e.generation == 4 for e in events), events
+    assert {p for e in events for p in (*e.chosen, *e.not_chosen)} == {3, 4}
+    h.master.request(1, _req(2, generation=5), 1.1, EPOCH)
+    h.master.request(3, _req(2, generation=5), 1.1, EPOCH)
+    assert [rel.generation for rel in h.broadcasts()] == [5], "then generation 5 is open"
+    assert h.notices() == []
+
+
+def test_completion_of_timeout_firing_grows_it() -> None:
+    h = Harness(ready=False)
+    rec = ReleaseRecord(key=KEY, generation=0, part=0, index=1, size=1, outcome=TIMEOUT)
+    h.master.record_released(1, rec)
+    h.master.request(2, _req(5, generation=0), 0.0, EPOCH)
+    h.master.become_ready(0.5, EPOCH)
+    rels = h.broadcasts()
+    assert [(rel.outcome, rel.generation) for rel in rels] == [(TIMEOUT, 0)]
+    assert {e.platform: e.index for rel in rels for e in rel.entries} == {2: 2}, (
+        "everyone waiting passes a timeout"
+    )
+
+
+def test_handshake_report_of_stale_request_still_gets_notice() -> None:
+    h = Harness(ready=False)
+    _report(h, 1, 6, None, None)  # 1 knows generation 6 is open
+    _report(h, 2, 5, None, _req(2, generation=5))
+    h.master.become_ready(0.5, EPOCH)
+    assert h.notices() == [(2, BarrierStale(key=KEY, generation=5, current=6))]
+    assert h.broadcasts() == []
+
+
+# --- member ------------------------------------------------------------------------------
+
+
+def _release(
+    entries: list[tuple[int, int]], *, generation: int = 0, outcome: int = COMPLETE, **kw: Any
+) -> Release:
+    return Release(
+        epoch=EPOCH,
+        key=KEY,
+        generation=generation,
+        outcome=outcome,
+        sizes={0: sum(1 for _, i in entries if i > 0)},
+        entries=[ReleaseEntry(platform=p, part=0, index=i) for p, i in entries],
+        **kw,
+    )
+
+
+def test_member_request_uses_known_generation_and_default_bid() -> None:
+    member = BarrierMember(5)
+    req = member.request(KEY, {0: 3}, 1.0, data={"x": 1}, timeout=2.0)
+    assert req == BarrierRequest(
+        key=KEY, generation=0, need={0: 3}, part=0, bid=5.0, data={"x": 1}, timeout=2.0
+    )
+    member.known[KEY + 1] = 4
+    assert member.request(KEY + 1, {0: 1}, 1.0, bid=0.5).generation == 4
+    (restated, _) = member.restated(1.75)
+    assert restated.age == pytest.approx(0.75), "a restated request carries its age"
+
+
+@pytest.mark.parametrize(
+    ("need", "part", "match"),
+    [({0: 2}, 1, "part"), ({0: 0}, 0, "needs"), ({0: -5}, 0, "needs")],
+)
+def test_member_request_validation(need: dict[int, int], part: int, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        BarrierMember(1).request(KEY, need, 0.0, part=part)
+
+
+def test_member_one_request_per_key() -> None:
+    member = BarrierMember(1)
+    member.request(KEY, {0: 2}, 0.0)
+    with pytest.raises(ValueError, match="already waits"):
+        member.request(KEY, {0: 2}, 0.1)
+    member.request(KEY + 1, {0: 2}, 0.1)  # another key is fine
+
+
+def test_member_passes_each_generation_once_and_acks_duplicates() -> None:
+    member = BarrierMember(2)
+    member.request(KEY, {0: 2}, 0.0)
+    rel = _release([(1, 1), (2, 2)], gathered=[(1, "a")])
+    event, ack = member.on_release(rel)
+    assert ack is True
+    assert event == BarrierReleased(
+        key=KEY,
+        generation=0,
+        outcome="complete",
+        chosen=True,
+        part=0,
+        index=2,
+        size=2,
+        data=None,
+        gathered=((1, "a"),),
+    )
+    assert member.pending == {}
+    assert member.known[KEY] == 1
+    (record,) = member.records()
+    assert (record.key, record.generation, record.index, record.size) == (KEY, 0, 2, 2), (
+        "the pass is remembered for a later handshake report"
+    )
+    again, ack_again = member.on_release(rel)
+    assert (again, ack_again) == (None, True), "a retransmission is acked, not passed again"
+
+
+def test_member_not_chosen() -> None:
+    member = BarrierMember(3)
+    member.request(KEY, {0: 1}, 0.0)
+    event, ack = member.on_release(_release([(1, 1), (3, 0)]))
+    assert ack and event is not None
+    assert (event.chosen, event.index) == (False, 0)
+
+
+def test_member_timeout_outcome() -> None:
+    member = BarrierMember(3)
+    member.request(KEY, {0: 4}, 0.0, timeout=1.0)
+    event, _ = member.on_release(_release([(3, 1)], outcome=TIMEOUT))
+    assert event is not None and event.outcome == "timeout"
+
+
+def test_member_learns_generation_from_release_it_is_not_part_of() -> None:
+    member = BarrierMember(9)
+    event, ack = member.on_release(_release([(1, 1), (2, 2)], generation=3))
+    assert (event, ack) == (None, False), "not a candidate: nothing to pass, nothing to ack"
+    assert member.known[KEY] == 4
+    assert member.request(KEY, {0: 2}, 0.0).generation == 4
+
+
+def test_member_with_pending_request_ignores_chunk_without_its_entry() -> None:
+    member = BarrierMember(9)
+    member.request(KEY, {0: 2}, 0.0)
+    assert member.on_release(_release([(1, 1)], generation=0)) == (None, False)
+    assert KEY in member.pending, "its own entry may come in another chunk"
+    event, ack = member.on_release(_release([(9, 2)], generation=0))
+    assert ack and event is not None and event.index == 2
+
+
+def test_member_acks_release_for_request_it_no_longer_holds() -> None:
+    member = BarrierMember(2)
+    member.request(KEY, {0: 2}, 0.0)
+    member.cancel(KEY)
+    assert member.on_release(_release([(1, 1), (2, 2)])) == (None, True)
+
+
+def test_member_on_stale_drops_pending_request() -> None:
+    member = BarrierMember(2)
+    member.request(KEY, {0: 2}, 0.0)
+    notice = member.on_stale(BarrierStale(key=KEY, generation=0, current=3))
+    assert notice == BarrierStaleNotice(key=KEY, generation=0, current=3)
+    assert member.pending == {}
+    assert member.known[KEY] == 3
+    assert member.request(KEY, {0: 2}, 0.1).generation == 3, "the next request asks for 3"
+
+
+def test_member_on_stale_for_other_generation_keeps_request() -> None:
+    member = BarrierMember(2)
+    member.known[KEY] = 3
+    member.request(KEY, {0: 2}, 0.0)
+    assert member.on_stale(BarrierStale(key=KEY, generation=1, current=2)) is None
+    assert member.pending[KEY][0].generation == 3
+    assert member.known[KEY] == 3, "known generations never go back"
+
+
+def test_member_cancel() -> None:
+    member = BarrierMember(2)
+    assert member.cancel(KEY) is False
+    member.request(KEY, {0: 2}, 0.0)
+    assert member.cancel(KEY) is True
+    assert member.restated(1.0) == []

@@ -1,0 +1,309 @@
+"""Node glue on a tiny deterministic network: election, hostile bytes, barriers and roles.
+
+The network here is a list-based event loop written for these tests (no simulator): every
+outgoing packet reaches its destination(s) after a fixed latency, and each node is ticked at
+its own ``next_deadline``.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+import zlib
+from collections.abc import Callable
+from typing import Any
+
+import msgspec
+import pytest
+
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.events import (
+    BarrierFired,
+    BarrierReleased,
+    BecameMaster,
+    CoreEvent,
+    HandshakeComplete,
+    RoleDenied,
+    RoleGranted,
+    SteppedDown,
+)
+from actorswarm.core.node import Node
+from actorswarm.core.wire import PROTOCOL_VERSION, Envelope, Heartbeat, decode, encode
+
+SWARM = "test-swarm"
+INCARNATION = 1
+LATENCY = 0.002
+MAX_STEPS = 200_000
+
+
+class Net:
+    """Nodes joined by a perfect radio with a fixed latency."""
+
+    def __init__(self, ids: list[int], *, config: CoreConfig | None = None) -> None:
+        self.config = config or CoreConfig()
+        self.nodes = {
+            i: Node(i, swarm=SWARM, incarnation=INCARNATION, config=self.config, now=0.0)
+            for i in ids
+        }
+        self.now = 0.0
+        self._queue: list[tuple[float, int, int, bytes]] = []
+        self._order = itertools.count()
+        self.events: dict[int, list[tuple[float, CoreEvent]]] = {i: [] for i in ids}
+
+    def _collect(self, nid: int) -> None:
+        node = self.nodes[nid]
+        for out in node.drain_outgoing():
+            targets = [d for d in self.nodes if d != nid] if out.dst is None else [out.dst]
+            for dst in targets:
+                if dst in self.nodes:
+                    at = self.now + LATENCY
+                    heapq.heappush(self._queue, (at, next(self._order), dst, out.data))
+        self.events[nid].extend((self.now, e) for e in node.drain_events())
+
+    def _next_tick(self) -> float:
+        times = [n.next_deadline() for n in self.nodes.values()]
+        return min((t for t in times if t is not None), default=math.inf)
+
+    def run_until(self, end: float) -> None:
+        for _ in range(MAX_STEPS):
+            t_packet = self._queue[0][0] if self._queue else math.inf
+            t_tick = self._next_tick()
+            t = min(t_packet, t_tick)
+            if t > end:
+                self.now = end
+                return
+            self.now = max(self.now, t)
+            if t_packet <= t_tick:
+                _, _, dst, data = heapq.heappop(self._queue)
+                self.nodes[dst].receive(data, self.now)
+                self._collect(dst)
+            else:
+                for nid, node in sorted(self.nodes.items()):
+                    deadline = node.next_deadline()
+                    if deadline is not None and deadline <= self.now:
+                        node.tick(self.now)
+                        self._collect(nid)
+        raise AssertionError(f"the network did not reach t={end} in {MAX_STEPS} steps")
+
+    def act(self, nid: int, call: Callable[[Node], Any]) -> Any:
+        """Call the application interface of node ``nid`` now and route what it produced."""
+        result = call(self.nodes[nid])
+        self._collect(nid)
+        return result
+
+    def of_type(self, nid: int, kind: type) -> list[Any]:
+        return [e for _, e in self.events[nid] if isinstance(e, kind)]
+
+
+def _elected(ids: tuple[int, ...] = (1, 2, 3)) -> Net:
+    net = Net(list(ids))
+    net.run_until(1.5)
+    for nid, node in net.nodes.items():
+        assert (node.master, node.epoch) == (1, 1), f"setup: node {nid} follows 1 in epoch 1"
+    return net
+
+
+def test_three_nodes_elect_node_one_in_epoch_one() -> None:
+    net = Net([1, 2, 3])
+    net.run_until(2.0)
+    startup = net.config.startup_wait
+    for nid, node in net.nodes.items():
+        assert node.view == (1, 2, 3), f"node {nid} view {node.view}"
+        assert node.master == 1, f"node {nid} follows {node.master}"
+        assert node.epoch == 1, f"node {nid} in epoch {node.epoch}"
+        assert node.is_master is (nid == 1)
+        assert node.errors == [], node.errors
+        assert net.of_type(nid, SteppedDown) == []
+    claims = [(t, e) for t, e in net.events[1] if isinstance(e, BecameMaster)]
+    assert [e for _, e in claims] == [BecameMaster(epoch=1)], "one claim, epoch 1"
+    assert claims[0][0] >= startup, f"claimed at {claims[0][0]}, before startup_wait {startup}"
+    assert net.of_type(2, BecameMaster) == [] and net.of_type(3, BecameMaster) == []
+    assert net.of_type(1, HandshakeComplete) == [HandshakeComplete(epoch=1, members=2)]
+    assert net.nodes[1].handshake_complete
+
+
+def _state(node: Node) -> tuple[Any, ...]:
+    return (
+        node.epoch,
+        node.master,
+        node.is_master,
+        node.view,
+        node.handshake_complete,
+        dict(node.barriers.known),
+        sorted(node.barriers.pending),
+        sorted(node.roles.held),
+        {p: (m.incarnation, m.deadline, m.last_heard) for p, m in node.members.peers.items()},
+        node.members.next_deadline(),
+    )
+
+
+def frame(raw: bytes) -> bytes:
+    """``raw`` followed by its CRC-32, big-endian: what ``encode`` puts on the air."""
+    return raw + zlib.crc32(raw).to_bytes(4, "big")
+
+
+def _envelope(**changes: Any) -> bytes:
+    """An unframed envelope; :func:`frame` it to get past the receiver's frame check."""
+    fields: dict[str, Any] = {
+        "version": PROTOCOL_VERSION,
+        "swarm": SWARM,
+        "sender": 2,
+        "incarnation": INCARNATION,
+        "seq": 10_000,
+        "type": 1,
+        "body": msgspec.Raw(msgspec.msgpack.encode(Heartbeat(is_master=True, epoch=99, master=2))),
+    }
+    fields.update(changes)
+    return msgspec.msgpack.encode(Envelope(**fields))
+
+
+_VALID = frame(_envelope())
+_FLIPPED = bytes([_VALID[0], _VALID[1] ^ 0x01, *_VALID[2:]])  # version 1 -> 0, CRC unchanged
+HOSTILE: list[tuple[str, bytes, str]] = [
+    # damaged or random bytes: refused by the length or the frame check
+    ("empty", b"", "malformed"),
+    ("too-short", b"\x01\x02\x03\x04", "malformed"),
+    ("garbage", b"\xff\x00garbage\x13", "checksum"),
+    ("truncated", _VALID[:-3], "checksum"),
+    ("bit-flipped", _FLIPPED, "checksum"),
+    ("unframed", _envelope(), "checksum"),
+    ("oversized", b"\x90" * (CoreConfig().max_packet_bytes + 1), "oversized"),
+    # a correct CRC over hostile contents: refused by the checks behind the frame check
+    ("framed-garbage", frame(b"\xff\x00garbage\x13"), "malformed"),
+    ("framed-truncated", frame(_VALID[:-7]), "malformed"),
+    ("wrong-swarm", frame(_envelope(swarm="other-swarm")), "swarm"),
+    ("wrong-version", frame(_envelope(version=2)), "version"),
+    ("unknown-type", frame(_envelope(type=42)), "type"),
+    ("sender-70000", frame(_envelope(sender=70000)), "malformed"),
+    ("negative-seq", frame(_envelope(seq=-1)), "malformed"),
+]
+
+
+def test_hostile_table_starts_from_a_valid_packet() -> None:
+    """The hostile envelopes are variations of a packet that every node would accept."""
+    packet = decode(_VALID, swarm=SWARM)
+    assert (packet.sender, packet.seq) == (2, 10_000)
+    body = Heartbeat(is_master=True, epoch=99, master=2)
+    sent = encode(swarm=SWARM, sender=2, incarnation=INCARNATION, seq=10_000, body=body)
+    assert sent == _VALID, "frame() mirrors encode()"
+
+
+@pytest.mark.parametrize(
+    ("data", "reason"), [(d, r) for _, d, r in HOSTILE], ids=[n for n, _, _ in HOSTILE]
+)
+def test_hostile_bytes_change_nothing_and_are_counted(data: bytes, reason: str) -> None:
+    net = _elected()
+    for nid, node in net.nodes.items():
+        before = _state(node)
+        counters = dict(node.counters)
+        for _ in range(3):
+            node.receive(data, net.now)
+        assert _state(node) == before, f"node {nid}: {reason} bytes changed its state"
+        assert node.drain_outgoing() == [], "nothing is sent in answer"
+        assert node.drain_events() == [], "nothing is reported upward"
+        assert node.counters[f"drop:{reason}"] == counters.get(f"drop:{reason}", 0) + 3, (
+            f"node {nid} counters {dict(node.counters)}"
+        )
+        assert node.errors == []
+    net.run_until(2.5)
+    assert all((n.master, n.epoch) == (1, 1) for n in net.nodes.values()), "still organized"
+
+
+def test_packet_from_old_incarnation_is_dropped() -> None:
+    net = _elected()
+    node = net.nodes[3]
+    before = _state(node)
+    stale = encode(
+        swarm=SWARM,
+        sender=2,
+        incarnation=INCARNATION - 1,
+        seq=1,
+        body=Heartbeat(is_master=True, epoch=50, master=2),
+    )
+    node.receive(stale, net.now)
+    assert node.counters["drop:old_incarnation"] == 1, dict(node.counters)
+    assert _state(node) == before, "a leftover of an earlier incarnation changes nothing"
+    assert node.drain_events() == []
+
+
+def test_own_packets_are_dropped() -> None:
+    net = _elected()
+    node = net.nodes[2]
+    before = _state(node)
+    echo = encode(
+        swarm=SWARM,
+        sender=2,
+        incarnation=INCARNATION,
+        seq=1,
+        body=Heartbeat(is_master=True, epoch=50, master=2),
+    )
+    node.receive(echo, net.now)
+    assert node.counters["drop:own"] == 1
+    assert _state(node) == before
+
+
+@pytest.mark.parametrize("asked_at", [0.05, 1.5], ids=["before-election", "after-election"])
+def test_barrier_releases_all_three_with_indices(asked_at: float) -> None:
+    net = Net([1, 2, 3])
+    net.run_until(asked_at)
+    generations = {
+        nid: net.act(nid, lambda n: n.request_barrier(1, 3, net.now)) for nid in net.nodes
+    }
+    assert set(generations.values()) == {0}
+    net.run_until(asked_at + 2.0)
+    indices = []
+    for nid in net.nodes:
+        released = net.of_type(nid, BarrierReleased)
+        assert len(released) == 1, f"node {nid} released {len(released)} times: {released}"
+        (event,) = released
+        assert (event.key, event.generation, event.outcome) == (1, 0, "complete")
+        assert event.chosen and event.size == 3
+        assert event.index == nid, "default bid is the platform ID: index follows the ID"
+        indices.append(event.index)
+    assert sorted(indices) == [1, 2, 3]
+    fired = net.of_type(1, BarrierFired)
+    assert [(f.generation, f.chosen) for f in fired] == [(0, {1: (0, 1), 2: (0, 2), 3: (0, 3)})]
+    assert all(node.barriers.pending == {} for node in net.nodes.values())
+
+
+def test_role_quota_one_grants_one_denies_other_then_regrants() -> None:
+    net = _elected()
+    net.act(2, lambda n: n.claim_role("leader", 1, net.now))
+    net.run_until(1.6)
+    net.act(3, lambda n: n.claim_role("leader", 1, net.now))
+    net.run_until(2.0)
+    assert net.of_type(2, RoleGranted) == [RoleGranted(role="leader")]
+    assert net.of_type(3, RoleDenied) == [RoleDenied(role="leader", holders=(2,))]
+    assert net.of_type(3, RoleGranted) == []
+    assert net.nodes[1].role_holders("leader") == (2,)
+    net.act(2, lambda n: n.release_role("leader", net.now))
+    net.run_until(2.5)
+    assert net.of_type(3, RoleGranted) == [RoleGranted(role="leader")], "3 gets the free slot"
+    assert net.nodes[1].role_holders("leader") == (3,)
+    assert "leader" in net.nodes[3].roles.held
+    assert "leader" not in net.nodes[2].roles.held
+
+
+def _heartbeat(seq: int) -> bytes:
+    return encode(
+        swarm=SWARM,
+        sender=2,
+        incarnation=0,
+        seq=seq,
+        body=Heartbeat(is_master=False, epoch=0, master=0),
+    )
+
+
+def test_three_distinct_heartbeats_join() -> None:
+    node = Node(1, swarm=SWARM)
+    for seq, t in ((1, 0.0), (2, 0.1), (3, 0.2)):
+        node.receive(_heartbeat(seq), t)
+    assert node.view == (1, 2)
+
+
+def test_duplicated_heartbeat_does_not_count_twice_for_join() -> None:
+    node = Node(1, swarm=SWARM)
+    for t in (0.0, 0.001, 0.002):
+        node.receive(_heartbeat(1), t)
+    assert node.view == (1,), "one heartbeat, received three times, is still one heartbeat"
