@@ -14,6 +14,14 @@ SENDER, RECEIVER = 1, 2
 EPOCH = 1
 
 
+def _on_data(
+    r: Reliable, sender: int, incarnation: int, data: Data
+) -> tuple[list[Payload], Ack | None]:
+    """``Reliable.on_data`` without the per-message epochs (tested on their own below)."""
+    delivered, ack = r.on_data(sender, incarnation, data)
+    return [payload for _, payload in delivered], ack
+
+
 def _msg(n: int) -> AppMessage:
     return AppMessage(topic="t", body=bytes([n]))
 
@@ -71,7 +79,7 @@ def test_in_order_delivery_with_buffering_and_dedup(
     got: list[list[int]] = []
     got_acks: list[int] = []
     for seq in arrivals:
-        payloads, ack = r.on_data(SENDER, 0, _data(seq))
+        payloads, ack = _on_data(r, SENDER, 0, _data(seq))
         got.append([p.body[0] for p in payloads if isinstance(p, AppMessage)])
         assert ack is not None, "every accepted Data packet is acknowledged (again)"
         assert (ack.dst, ack.dst_incarnation, ack.channel) == (SENDER, 0, NORMAL)
@@ -82,31 +90,31 @@ def test_in_order_delivery_with_buffering_and_dedup(
 
 def test_channels_are_independent_streams() -> None:
     r = Reliable(CoreConfig())
-    assert r.on_data(SENDER, 0, _data(2, channel=URGENT))[0] == []
-    delivered, ack = r.on_data(SENDER, 0, _data(1, channel=NORMAL))
+    assert _on_data(r, SENDER, 0, _data(2, channel=URGENT))[0] == []
+    delivered, ack = _on_data(r, SENDER, 0, _data(1, channel=NORMAL))
     assert delivered == [_msg(1)], "a hole on URGENT does not hold NORMAL back"
     assert ack is not None and ack.channel == NORMAL
 
 
 def test_first_packet_starts_stream_at_its_floor() -> None:
     r = Reliable(CoreConfig())
-    delivered, ack = r.on_data(SENDER, 0, _data(5, floor=5))
+    delivered, ack = _on_data(r, SENDER, 0, _data(5, floor=5))
     assert delivered == [_msg(5)], "a receiver that joins late does not wait for seq 1..4"
     assert ack is not None and ack.seq == 5
 
 
 def test_floor_skips_abandoned_gap() -> None:
     r = Reliable(CoreConfig())
-    r.on_data(SENDER, 0, _data(1))
-    assert r.on_data(SENDER, 0, _data(4, floor=2))[0] == [], "seq 2 and 3 still awaited"
-    delivered, _ = r.on_data(SENDER, 0, _data(3, floor=3))
+    _on_data(r, SENDER, 0, _data(1))
+    assert _on_data(r, SENDER, 0, _data(4, floor=2))[0] == [], "seq 2 and 3 still awaited"
+    delivered, _ = _on_data(r, SENDER, 0, _data(3, floor=3))
     assert delivered == [_msg(3), _msg(4)], "floor 3: seq 2 was abandoned, 3 and 4 follow"
 
 
 def test_hole_below_floor_delivers_buffered_messages_at_once() -> None:
     r = Reliable(CoreConfig())
-    assert r.on_data(SENDER, 0, _data(2, floor=1))[0] == [], "seq 1 missing: 2 is buffered"
-    delivered, ack = r.on_data(SENDER, 0, _data(3, floor=2))  # the sender abandoned seq 1
+    assert _on_data(r, SENDER, 0, _data(2, floor=1))[0] == [], "seq 1 missing: 2 is buffered"
+    delivered, ack = _on_data(r, SENDER, 0, _data(3, floor=2))  # the sender abandoned seq 1
     assert delivered == [_msg(2), _msg(3)], f"delivered {delivered}"
     assert ack is not None and ack.seq == 3
 
@@ -114,31 +122,31 @@ def test_hole_below_floor_delivers_buffered_messages_at_once() -> None:
 def test_new_sender_incarnation_resets_stream_older_ignored() -> None:
     r = Reliable(CoreConfig())
     for seq in (1, 2, 3):
-        r.on_data(SENDER, 4, _data(seq))
-    delivered, ack = r.on_data(SENDER, 5, _data(1, n=101))
+        _on_data(r, SENDER, 4, _data(seq))
+    delivered, ack = _on_data(r, SENDER, 5, _data(1, n=101))
     assert delivered == [_msg(101)], "a rebooted sender numbers from 1 again"
     assert ack is not None and (ack.seq, ack.dst_incarnation) == (1, 5)
-    delivered, ack = r.on_data(SENDER, 4, _data(4))
+    delivered, ack = _on_data(r, SENDER, 4, _data(4))
     assert (delivered, ack) == ([], None), "the old incarnation is neither delivered nor acked"
-    delivered, _ = r.on_data(SENDER, 5, _data(2, n=102))
+    delivered, _ = _on_data(r, SENDER, 5, _data(2, n=102))
     assert delivered == [_msg(102)]
 
 
 def test_forget_sender_starts_fresh_stream() -> None:
     r = Reliable(CoreConfig())
-    r.on_data(SENDER, 0, _data(1))
+    _on_data(r, SENDER, 0, _data(1))
     r.forget_sender(SENDER)
-    delivered, _ = r.on_data(SENDER, 0, _data(1, n=42))
+    delivered, _ = _on_data(r, SENDER, 0, _data(1, n=42))
     assert delivered == [_msg(42)]
 
 
 def test_far_ahead_packets_are_not_buffered() -> None:
     r = Reliable(CoreConfig(window=2))  # buffer bound 4 * window = 8 ahead
-    r.on_data(SENDER, 0, _data(10))  # 9 ahead of expected 1: dropped
-    r.on_data(SENDER, 0, _data(8))  # 7 ahead: buffered
+    _on_data(r, SENDER, 0, _data(10))  # 9 ahead of expected 1: dropped
+    _on_data(r, SENDER, 0, _data(8))  # 7 ahead: buffered
     delivered: list[Payload] = []
     for seq in range(1, 8):
-        delivered += r.on_data(SENDER, 0, _data(seq))[0]
+        delivered += _on_data(r, SENDER, 0, _data(seq))[0]
     assert delivered == [_msg(n) for n in range(1, 9)], "seq 10 was dropped, 8 was kept"
 
 
@@ -242,7 +250,7 @@ def test_deadline_expiry_reports_failure_and_raises_floor() -> None:
     sender.send(RECEIVER, _msg(1), 0.0, EPOCH)  # lost on the radio, every time
     sender.send(RECEIVER, _msg(2), 0.5, EPOCH)
     first = [d for _, d in _sent(sender) if d.seq == 2]
-    assert receiver.on_data(SENDER, 0, first[0])[0] == [], "seq 2 waits for seq 1"
+    assert _on_data(receiver, SENDER, 0, first[0])[0] == [], "seq 2 waits for seq 1"
     _run(sender, 0.99)
     assert sender.failures == []
     sender.tick(1.0)
@@ -254,7 +262,7 @@ def test_deadline_expiry_reports_failure_and_raises_floor() -> None:
     sender.tick(next_at)
     retransmitted = [d for _, d in _sent(sender) if d.seq == 2]
     assert retransmitted and retransmitted[0].floor == 2, "the floor moved past the failure"
-    delivered, ack = receiver.on_data(SENDER, 0, retransmitted[0])
+    delivered, ack = _on_data(receiver, SENDER, 0, retransmitted[0])
     assert delivered == [_msg(2)], "the receiver skips the abandoned seq 1"
     assert ack is not None and ack.seq == 2
     sender.send(RECEIVER, _msg(3), 1.2, EPOCH)
@@ -316,13 +324,13 @@ def test_retarget_never_delivers_twice_to_same_master() -> None:
     member.retarget(5, 0.0)
     member.send_to_master(_msg(1), 0.0, EPOCH)
     (first,) = _sent(member)
-    assert master.on_data(SENDER, 0, first[1])[0] == [_msg(1)]  # its ack is lost
+    assert _on_data(master, SENDER, 0, first[1])[0] == [_msg(1)]  # its ack is lost
     member.retarget(None, 0.1)
     member.retarget(5, 0.2)
     member.retarget(5, 0.3)
     resent = _sent(member)
     assert len(resent) == 1, f"sent once on the way back to the master: {resent}"
-    delivered, ack = master.on_data(SENDER, 0, resent[0][1])
+    delivered, ack = _on_data(master, SENDER, 0, resent[0][1])
     assert delivered == [], "the master recognises the re-sent copy"
     assert ack is not None and ack.seq == 1
 
@@ -385,3 +393,12 @@ def test_retarget_keeps_original_deadline() -> None:
     r.retarget(5, 1.5)
     _run(r, 2.0)
     assert r.failures == [DeliveryFailure(5, _msg(1))], "moving does not extend the deadline"
+
+
+def test_buffered_messages_keep_the_epoch_they_were_sent_in() -> None:
+    r = Reliable(CoreConfig())
+    early = Data(dst=RECEIVER, channel=NORMAL, seq=2, floor=1, epoch=7, payload=_msg(2))
+    late = Data(dst=RECEIVER, channel=NORMAL, seq=1, floor=1, epoch=8, payload=_msg(1))
+    assert r.on_data(SENDER, 0, early)[0] == []
+    delivered, _ = r.on_data(SENDER, 0, late)
+    assert delivered == [(8, _msg(1)), (7, _msg(2))], "each message keeps its own epoch"

@@ -50,8 +50,11 @@ from actorswarm.core.wire import (
 )
 
 OUTCOME_NAMES = {COMPLETE: "complete", TIMEOUT: "timeout"}
-#: How many past generations a master remembers per key, and members report.
-RECENT_RELEASES = 8
+#: How many past generations a master remembers per key, and members report: a partition
+#: whose other side fired more generations than this cannot be reconciled exactly.
+RECENT_RELEASES = 32
+#: Of those, how many carry their whole assignment in a report (bounds the report's size).
+RECENT_ASSIGNMENTS = 4
 
 #: Resolves a need of NEED_ALL for (key, part) to a count (default: live platforms).
 AllResolver = Callable[[int, int], int]
@@ -726,8 +729,16 @@ class BarrierMember:
                 self.pending[key] = (msgspec.structs.replace(req, epoch=epoch), since)
 
     def records(self) -> list[ReleaseRecord]:
-        """Every recent release this platform passed, for a handshake report."""
-        return [rec for recs in self.recent.values() for rec in recs]
+        """Every recent release this platform passed, for a handshake report (only the newest
+        few per key with their whole assignment, to keep the report small)."""
+        out = []
+        for recs in self.recent.values():
+            keep_from = len(recs) - RECENT_ASSIGNMENTS
+            for i, rec in enumerate(recs):
+                if i < keep_from and rec.assignment:
+                    rec = msgspec.structs.replace(rec, assignment={})
+                out.append(rec)
+        return out
 
     def on_stale(self, notice: BarrierStale) -> BarrierStaleNotice | None:
         pending = self.pending.get(notice.key)

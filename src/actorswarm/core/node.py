@@ -392,8 +392,8 @@ class Node:
         delivered, ack = self.reliable.on_data(sender, incarnation, data)
         if ack is not None:
             self._emit(sender, ack, URGENT if data.channel == URGENT else NORMAL)
-        for payload in delivered:
-            self._on_payload(sender, data.epoch, payload, now)
+        for epoch, payload in delivered:
+            self._on_payload(sender, epoch, payload, now)
 
     def _on_payload(self, sender: int, epoch: int, payload: Payload, now: float) -> None:
         """One message delivered in order, exactly once, from ``sender``'s stream."""

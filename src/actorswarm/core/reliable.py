@@ -75,7 +75,7 @@ class InStream:
 
     incarnation: int
     expected: int = 0  # 0: nothing received yet; initialised from the first floor
-    buffer: dict[int, Payload] = field(default_factory=dict)
+    buffer: dict[int, tuple[int, Payload]] = field(default_factory=dict)  # seq -> (epoch, ...)
 
 
 @dataclass(frozen=True, slots=True)
@@ -243,8 +243,9 @@ class Reliable:
 
     def on_data(
         self, sender: int, incarnation: int, data: Data
-    ) -> tuple[list[Payload], Ack | None]:
-        """Accept one data packet; return what is now deliverable, in order, and the ack."""
+    ) -> tuple[list[tuple[int, Payload]], Ack | None]:
+        """Accept one data packet; return what is now deliverable, in order, as (epoch the
+        sender stamped it with, payload), and the acknowledgement to send."""
         key = (sender, data.channel)
         stream = self._in.get(key)
         if stream is None or incarnation > stream.incarnation:
@@ -260,12 +261,12 @@ class Reliable:
             stream.expected = data.floor
             for seq in [s for s in stream.buffer if s < data.floor]:
                 del stream.buffer[seq]
-        delivered: list[Payload] = []
+        delivered: list[tuple[int, Payload]] = []
         if data.seq == stream.expected:
-            delivered.append(data.payload)
+            delivered.append((data.epoch, data.payload))
             stream.expected += 1
         elif data.seq > stream.expected and data.seq - stream.expected < 4 * self._config.window:
-            stream.buffer[data.seq] = data.payload
+            stream.buffer[data.seq] = (data.epoch, data.payload)
         # Whatever waited for the gap just filled (or skipped) is deliverable now.
         while stream.expected in stream.buffer:
             delivered.append(stream.buffer.pop(stream.expected))

@@ -53,6 +53,11 @@ class InvariantChecker:
 
     settle: float
     incarnation_of: Callable[[int], int]
+    #: When a platform's current incarnation booted (a master may still count a request of
+    #: the previous incarnation until it notices the reboot).
+    booted_at: Callable[[int], float] = lambda p: 0.0
+    #: How long a master may not know of a reboot (a leave, then a join).
+    reboot_blindness: float = 0.0
     violations: list[str] = field(default_factory=list)
     _epochs: dict[tuple[int, int], int] = field(default_factory=dict)
     _firings: dict[tuple[int, int], list[_Firing]] = field(default_factory=dict)
@@ -197,6 +202,8 @@ class InvariantChecker:
                     node = nodes.get(p)
                     if node is None or node.incarnation != f.incarnations.get(p, node.incarnation):
                         continue
+                    if self.booted_at(p) > f.at - self.reboot_blindness:
+                        continue  # the firing may have counted its previous incarnation
                     if p in reach and p not in passed_platforms:
                         self._violate(
                             t,

@@ -127,8 +127,12 @@ class SimSwarm:
             if settle is not None
             else cfg.t_leave + cfg.t_join + 5 * cfg.heartbeat_interval + cfg.handshake_timeout
         )
+        self.booted: dict[int, float] = {}
         self.checker = InvariantChecker(
-            self.settle, incarnation_of=lambda p: self.incarnations.get(p, -1)
+            self.settle,
+            incarnation_of=lambda p: self.incarnations.get(p, -1),
+            booted_at=lambda p: self.booted.get(p, 0.0),
+            reboot_blindness=cfg.t_leave + cfg.t_join,
         )
         for p in ids:
             self._boot(p, 0)
@@ -172,6 +176,8 @@ class SimSwarm:
             rng=random.Random(f"{self.seed}:{platform}:{incarnation}"),
         )
         self.incarnations[platform] = incarnation
+        if incarnation > 0:
+            self.booted[platform] = self.now
         self.hosts[platform] = _Host(node)
         self.radio.attach(platform, lambda tx, now: self._deliver(platform, tx, now))
         self._schedule(platform, self.now)
