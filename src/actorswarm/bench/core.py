@@ -65,17 +65,21 @@ class SizeResult:
 
 def _stable_swarm(size: int, seed: int, link: LinkModel, config: CoreConfig) -> SimSwarm:
     swarm = SimSwarm(size, seed=seed, config=config, link=link, log_membership=False)
-    # Boot: startup wait, joins (M heartbeats), claim and handshake, with slack.
-    settle = config.startup_wait + config.t_join + 0.3
-    swarm.run_until(settle)
-    deadline = settle + 5.0
+    # Boot: the startup wait, then joins (M heartbeats), the claim and the handshake; poll
+    # until one master has everyone in its view and its handshake is done.
+    swarm.run_until(config.startup_wait)
+    deadline = config.startup_wait + 10.0
     while swarm.now < deadline:
+        swarm.run_until(swarm.now + 0.05)
         masters = swarm.current_masters()
         if len(masters) == 1:
             master = swarm.node(masters[0])
             if master.handshake_complete and len(master.members) == size - 1:
                 break
-        swarm.run_until(swarm.now + 0.1)
+    else:
+        raise RuntimeError(f"a swarm of {size} (seed {seed}) did not settle in 10 s")
+    # A few heartbeats more, so every member has everyone in its view as well.
+    swarm.run_until(swarm.now + 2 * config.heartbeat_interval)
     return swarm
 
 

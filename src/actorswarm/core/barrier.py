@@ -493,8 +493,14 @@ class BarrierMaster:
         now: float,
         epoch: int,
     ) -> None:
-        known = {p for f in firings for p in f.assigned}
-        items = sorted(((p, r) for p, r in waiting if p not in known), key=_order)
+        items = []
+        for platform, req in sorted(waiting, key=_order):
+            holder = next((f for f in firings if platform in f.assigned), None)
+            if holder is not None:
+                # The firing already gave it an entry (someone reported the assignment).
+                self._resend(key, holder, platform, now, epoch)
+            else:
+                items.append((platform, req))
         pending = sorted((f for f in firings if not f.complete_knowledge), key=lambda f: -f.origin)
         assigned: dict[int, dict[int, tuple[int, int]]] = {}
         current = max(self._instance(key).generation, generation + 1)

@@ -79,23 +79,24 @@ class Membership:
         overtaken by a newer heartbeat) is not counted again. Returns the peer's entry when
         it is (now) in the view, else None.
         """
+        member = self.peers.get(peer)
+        if member is not None and incarnation == member.incarnation:
+            # The common case, kept short: a known member's next heartbeat.
+            if seq is not None:
+                if seq <= member.last_seq:
+                    return member
+                member.last_seq = seq
+            deadline = member.detector.observe(now)
+            member.deadline = deadline
+            member.last_heard = now
+            heapq.heappush(self._deadlines, (deadline, peer, incarnation))
+            return member
         latest = self._latest_incarnation.get(peer, -1)
         if incarnation < latest:
             return None
         if incarnation > latest:
             self._latest_incarnation[peer] = incarnation
-        member = self.peers.get(peer)
         if member is not None:
-            if incarnation == member.incarnation:
-                if seq is not None:
-                    if seq <= member.last_seq:
-                        return member
-                    member.last_seq = seq
-                deadline = member.detector.observe(now)
-                member.deadline = deadline
-                member.last_heard = now
-                heapq.heappush(self._deadlines, (deadline, peer, incarnation))
-                return member
             # A higher incarnation: the peer rebooted and lost its state.
             del self.peers[peer]
             out.append(

@@ -17,6 +17,7 @@ and the same calls replay the same run, event for event.
 
 from __future__ import annotations
 
+import functools
 import random
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -179,7 +180,7 @@ class SimSwarm:
         if incarnation > 0:
             self.booted[platform] = self.now
         self.hosts[platform] = _Host(node)
-        self.radio.attach(platform, lambda tx, now: self._deliver(platform, tx, now))
+        self.radio.attach(platform, functools.partial(self._deliver, platform))
         self._schedule(platform, self.now)
 
     def crash(self, platform: int) -> None:
@@ -234,16 +235,18 @@ class SimSwarm:
         if not host.alive:
             return
         self.stats.deliveries += 1
+        node = host.node
         if tx.corrupted:
-            host.node.receive(tx.data, now)
+            node.receive(tx.data, now)
         else:
             try:
                 packet = tx.packet()
             except WireError:
-                host.node.receive(tx.data, now)  # counts the drop the same way
+                node.receive(tx.data, now)  # counts the drop the same way
             else:
-                host.node.receive_packet(packet, now)
-        self._service(platform)
+                node.receive_packet(packet, now)
+        if node.has_output:
+            self._service(platform)
 
     def _tick(self, platform: int) -> None:
         host = self.hosts[platform]
