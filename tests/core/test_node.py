@@ -307,3 +307,25 @@ def test_duplicated_heartbeat_does_not_count_twice_for_join() -> None:
     for t in (0.0, 0.001, 0.002):
         node.receive(_heartbeat(1), t)
     assert node.view == (1,), "one heartbeat, received three times, is still one heartbeat"
+
+
+def test_batch_processes_ground_station_traffic_first() -> None:
+    from actorswarm.core.wire import AppMessage, Data, encode
+
+    node = Node(2, swarm="s", now=0.0)
+
+    def app(sender: int, topic: str) -> bytes:
+        body = Data(
+            dst=2,
+            channel=0 if sender == 0 else 1,
+            seq=1,
+            floor=1,
+            epoch=0,
+            payload=AppMessage(topic=topic, body=b""),
+        )
+        return encode(swarm="s", sender=sender, incarnation=0, seq=1, body=body)
+
+    node.receive_batch([app(5, "swarm"), b"junk", app(0, "operator")], 0.1)
+    topics = [e.topic for e in node.drain_events() if hasattr(e, "topic")]
+    assert topics == ["operator", "swarm"]
+    assert node.counters["drop:checksum"] + node.counters["drop:malformed"] == 1

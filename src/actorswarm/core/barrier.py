@@ -741,9 +741,8 @@ class BarrierMember:
         for recs in self.recent.values():
             keep_from = len(recs) - RECENT_ASSIGNMENTS
             for i, rec in enumerate(recs):
-                if i < keep_from and rec.assignment:
-                    rec = msgspec.structs.replace(rec, assignment={})
-                out.append(rec)
+                strip = i < keep_from and rec.assignment
+                out.append(msgspec.structs.replace(rec, assignment={}) if strip else rec)
         return out
 
     def on_stale(self, notice: BarrierStale) -> BarrierStaleNotice | None:

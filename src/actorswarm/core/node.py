@@ -221,6 +221,21 @@ class Node:
             return
         self.receive_packet(packet, now)
 
+    def receive_batch(self, batch: list[bytes], now: float) -> None:
+        """Accept several packets that arrived together: ground-station traffic (sender 0,
+        the operator's commands) is processed before swarm traffic (DESIGN.md §3.3)."""
+        packets: list[Packet] = []
+        for data in batch:
+            try:
+                packets.append(
+                    wire.decode(data, swarm=self.swarm, max_bytes=self.config.max_packet_bytes)
+                )
+            except WireError as exc:
+                self.counters[f"drop:{exc.reason}"] += 1
+        packets.sort(key=lambda p: p.sender != wire.GROUND_STATION)  # stable: order kept
+        for packet in packets:
+            self.receive_packet(packet, now)
+
     def receive_packet(self, packet: Packet, now: float) -> None:
         """Accept a decoded packet. Never raises; a packet that fails a check is counted."""
         if packet.swarm != self.swarm:
@@ -364,8 +379,7 @@ class Node:
         if changes:
             self._changes = []
             self._membership_changed(changes, now)
-        if hb.epoch > self._max_epoch:
-            self._max_epoch = hb.epoch
+        self._max_epoch = max(self._max_epoch, hb.epoch)
         if sender == self.master:
             self._master_heard = now
         if not (hb.is_master or self.is_master or sender == self._epoch_master):
@@ -385,15 +399,9 @@ class Node:
             if hb.is_master and hb.epoch > self.epoch and better:
                 self._best_claim = (hb.epoch, sender, now)
             return
-        if action is OnHeartbeat.FOLLOW:
-            self._follow(sender, hb.epoch, now)
-        elif action is OnHeartbeat.STEP_DOWN:
-            self._step_down(sender, now)
-            if hb.epoch > self.epoch:
-                self._follow(sender, hb.epoch, now)
-        elif action is OnHeartbeat.RECLAIM:
-            self._claim(now)
-        else:  # DEMOTED: my master gave up; follow whom it follows, if anyone
+        if self._apply(action, sender, hb.epoch, now):
+            return
+        if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any
             self._lose_master(now)
             if hb.master not in (0, self.platform, sender):
                 self._epoch_master = hb.master
@@ -442,16 +450,23 @@ class Node:
             sender_is_master=True,
             sender_epoch=sync.epoch,
         )
+        if not self._apply(action, sender, sync.epoch, now):
+            self.counters["drop:stale_epoch"] += 1
+
+    def _apply(self, action: OnHeartbeat, sender: int, epoch: int, now: float) -> bool:
+        """Carry out an election decision about ``sender``'s claim of ``epoch``; False when
+        the decision is left to the caller (IGNORE, DEMOTED)."""
         if action is OnHeartbeat.FOLLOW:
-            self._follow(sender, sync.epoch, now)
+            self._follow(sender, epoch, now)
         elif action is OnHeartbeat.STEP_DOWN:
             self._step_down(sender, now)
-            if sync.epoch > self.epoch:
-                self._follow(sender, sync.epoch, now)
+            if epoch > self.epoch:
+                self._follow(sender, epoch, now)
         elif action is OnHeartbeat.RECLAIM:
             self._claim(now)
         else:
-            self.counters["drop:stale_epoch"] += 1
+            return False
+        return True
 
     def _on_release(self, sender: int, rel: Release, now: float) -> None:
         if sender != self.master or rel.epoch != self.epoch or self.is_master:

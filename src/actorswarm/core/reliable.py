@@ -116,20 +116,13 @@ class Reliable:
         stream = self._out.get((dst, channel))
         if stream is None:
             stream = self._out[(dst, channel)] = OutStream(dst, channel)
-        item = _Item(
-            seq=stream.next_seq,
-            payload=payload,
-            deadline=now + self._config.delivery_deadline,
-            epoch=epoch,
-        )
-        stream.next_seq += 1
-        stream.items.append(item)
-        if len(stream.items) <= self._config.window:
-            self._transmit(stream, item, now)
+        self._enqueue(stream, payload, now, epoch)
 
     def send_to_master(self, payload: Payload, now: float, epoch: int) -> None:
         """Queue a master-bound message; it waits while there is no master (see retarget)."""
-        stream = self._master_stream
+        self._enqueue(self._master_stream, payload, now, epoch)
+
+    def _enqueue(self, stream: OutStream, payload: Payload, now: float, epoch: int) -> None:
         item = _Item(
             seq=stream.next_seq,
             payload=payload,

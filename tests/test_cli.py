@@ -1,0 +1,56 @@
+"""The command line: the demo (the main job), the campaign replay and the benchmark."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from actorswarm.cli.app import app
+
+runner = CliRunner()
+
+
+def test_demo_runs_and_every_invariant_holds(tmp_path: Path) -> None:
+    out = tmp_path / "demo.json"
+    result = runner.invoke(app, ["swarm", "demo", "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "every invariant held" in result.output
+    report = json.loads(out.read_text())
+    assert report["violations"] == [] and report["problems"] == []
+    masters = [m["platform"] for m in report["masters"]]
+    assert masters[0] == 1, "the lowest ID is elected first"
+    assert len(set(masters)) >= 2, "the master crash elects another"
+    assert report["barrier_passes"] > 100
+
+
+def test_campaign_replays_one_seed() -> None:
+    result = runner.invoke(app, ["swarm", "campaign", "--seed", "3"])
+    assert result.exit_code == 0, result.output
+    assert "seed 3:" in result.output and "1 passed, 0 failed" in result.output
+
+
+def test_bench_core_writes_a_table(tmp_path: Path) -> None:
+    out = tmp_path / "core.md"
+    result = runner.invoke(
+        app, ["bench", "core", "--sizes", "5", "--repeats", "1", "--out", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    table = out.read_text()
+    assert "| 5 | 1 |" in table and "barrier" in table
+
+
+def test_bad_sizes_get_a_clear_error() -> None:
+    result = runner.invoke(app, ["bench", "core", "--sizes", "5,x"])
+    assert result.exit_code == 2
+    assert "--sizes" in result.output
+
+
+def test_python_dash_m_works() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "actorswarm", "version"], capture_output=True, text=True, check=False
+    )
+    assert proc.returncode == 0 and proc.stdout.startswith("actorswarm ")
