@@ -1,0 +1,41 @@
+"""The curated public surface: everything in ``__all__`` exists and is importable."""
+
+from __future__ import annotations
+
+import importlib
+
+import pytest
+
+
+@pytest.mark.parametrize("module", ["actorswarm", "actorswarm.core", "actorswarm.sim"])
+def test_all_names_exist(module: str) -> None:
+    mod = importlib.import_module(module)
+    missing = [name for name in mod.__all__ if not hasattr(mod, name)]
+    assert not missing, f"{module}.__all__ names missing attributes: {missing}"
+    assert sorted(mod.__all__) == sorted(set(mod.__all__)), "duplicates in __all__"
+
+
+def test_core_imports_no_io_modules() -> None:
+    """The sans-IO core must not import clocks, sockets, threads or asyncio."""
+    import ast
+    from pathlib import Path
+
+    core = Path(importlib.import_module("actorswarm.core").__file__ or "").parent
+    forbidden = {"time", "socket", "threading", "asyncio", "select", "selectors", "datetime"}
+    for path in core.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            names: list[str] = []
+            if isinstance(node, ast.Import):
+                names = [a.name.split(".")[0] for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module.split(".")[0]]
+            bad = forbidden.intersection(names)
+            assert not bad, f"{path.name} imports {bad}: the core takes time as an input"
+            global_random = (
+                isinstance(node, ast.Attribute)
+                and isinstance(node.value, ast.Name)
+                and node.value.id == "random"
+                and node.attr != "Random"
+            )
+            assert not global_random, f"{path.name} draws global randomness: seed an rng instead"
