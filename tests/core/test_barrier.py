@@ -285,7 +285,7 @@ def test_retransmission_only_to_unacked_entries() -> None:
     assert [e.platform for e in first.entries] == [1, 2, 3]
     h.master.on_ack(1, KEY, 0)
     due = h.master.next_deadline()
-    assert due is not None and due == pytest.approx(0.04), "first retransmission after retry_base"
+    assert due is not None and due == pytest.approx(CoreConfig().retry_base), "after retry_base"
     h.master.tick(due, EPOCH)
     (again,) = h.broadcasts()
     assert [e.platform for e in again.entries] == [2, 3], "acked entries are left out"

@@ -117,7 +117,7 @@ def test_takeover_on_join_must_be_bool() -> None:
     ],
 )
 def test_retry_delay_linear_then_capped(retries: int, expected: float) -> None:
-    delay = CoreConfig().retry_delay(retries)
+    delay = CoreConfig(retry_base=0.04, retry_step=0.04, retry_cap=0.4).retry_delay(retries)
     assert delay == pytest.approx(expected), f"retry_delay({retries}) = {delay}, want {expected}"
 
 
@@ -151,3 +151,10 @@ def test_config_is_frozen() -> None:
     config = CoreConfig()
     with pytest.raises(AttributeError):
         config.t_leave = 1.0  # type: ignore[misc]
+
+
+def test_retry_delay_starts_from_a_measured_base() -> None:
+    config = CoreConfig(retry_base=0.04, retry_step=0.02, retry_cap=0.1)
+    assert config.retry_delay(0, base=0.025) == pytest.approx(0.025)
+    assert config.retry_delay(2, base=0.025) == pytest.approx(0.065)
+    assert config.retry_delay(9, base=0.025) == pytest.approx(0.1)

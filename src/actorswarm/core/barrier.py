@@ -143,6 +143,8 @@ class BarrierMaster:
     ) -> None:
         self._config = config
         self._resolve_all = resolve_all
+        #: First retransmission delay of a release (the node plugs in its measured RTT).
+        self.first_retry: Callable[[], float] = lambda: config.retry_base
         self.scatter = scatter
         self.open: dict[int, _Instance] = {}
         # Known firings per key and generation (a generation may have two: partitions that
@@ -451,7 +453,7 @@ class BarrierMaster:
             self.inflight[ident] = rel
         rel.epoch = epoch
         rel.unacked |= targets
-        rel.due = now + self._config.retry_delay(0)
+        rel.due = now + self._config.retry_delay(0, self.first_retry())
         self.broadcasts.extend(rel.packets(targets, self._config.release_chunk))
 
     def _resend(self, key: int, fired: _Fired, platform: int, now: float, epoch: int) -> None:
@@ -580,7 +582,7 @@ class BarrierMaster:
                 del self.inflight[(rel.key, rel.generation, rel.origin)]
             elif now >= rel.due and rel.unacked:
                 rel.retries += 1
-                rel.due = now + self._config.retry_delay(rel.retries)
+                rel.due = now + self._config.retry_delay(rel.retries, self.first_retry())
                 rel.epoch = epoch
                 self.broadcasts.extend(rel.packets(rel.unacked, self._config.release_chunk))
 

@@ -33,9 +33,14 @@ class CoreConfig:
     paper's behaviour: a lower ID that joins always takes the role over. A new master's
     handshake ends when every member reported, or after ``handshake_timeout``.
 
-    Reliable delivery (§3.3): the head of a queue is retransmitted after
-    ``retry_base + k * retry_step`` seconds (k = retries so far), capped at ``retry_cap``;
-    a message not acknowledged within ``delivery_deadline`` fails visibly.
+    Reliable delivery (§3.3): a message is retransmitted after ``base + k * retry_step``
+    seconds (k = retries so far), capped at ``retry_cap``; a message not acknowledged within
+    ``delivery_deadline`` fails visibly. ``base`` is ``retry_base`` — or, with
+    ``adaptive_retry``, the timeout measured from the round trips to that destination
+    (smoothed RTT + 4 × its variation, at least ``retry_min``), ``retry_base`` until the
+    first measurement. The defaults suit round trips well under 30 ms (the benchmark's
+    radio); on a slower radio raise ``retry_base`` or turn ``adaptive_retry`` on (measured
+    in docs/benchmarks/core.md: with few round trips to learn from, it is slower there).
     """
 
     heartbeat_interval: float = 0.1
@@ -49,9 +54,11 @@ class CoreConfig:
     takeover_on_join: bool = False
     boot_wait: float | None = None
     handshake_timeout: float = 2.0
-    retry_base: float = 0.04
-    retry_step: float = 0.04
-    retry_cap: float = 0.4
+    retry_base: float = 0.03
+    retry_step: float = 0.01
+    retry_cap: float = 0.2
+    retry_min: float = 0.01
+    adaptive_retry: bool = False
     delivery_deadline: float = 10.0
     window: int = 32
     max_packet_bytes: int = 60_000
@@ -67,6 +74,7 @@ class CoreConfig:
             "phi_min_std",
             "retry_base",
             "retry_cap",
+            "retry_min",
             "delivery_deadline",
             "handshake_timeout",
         )
@@ -78,6 +86,10 @@ class CoreConfig:
                 raise ConfigError(f"{name}: must be a positive finite number, got {value!r}")
         if self.retry_step < 0 or not math.isfinite(self.retry_step):
             raise ConfigError(f"retry_step: must be >= 0, got {self.retry_step!r}")
+        if self.retry_min > self.retry_cap:
+            raise ConfigError(
+                f"retry_min ({self.retry_min}) must be <= retry_cap ({self.retry_cap})"
+            )
         if self.retry_cap < self.retry_base:
             raise ConfigError(
                 f"retry_cap ({self.retry_cap}) must be >= retry_base ({self.retry_base})"
@@ -138,9 +150,11 @@ class CoreConfig:
             return self.boot_wait
         return (self.join_heartbeats + 1) * self.heartbeat_interval
 
-    def retry_delay(self, retries: int) -> float:
-        """Delay before the next retransmission after ``retries`` earlier ones (linear, capped)."""
-        return min(self.retry_base + retries * self.retry_step, self.retry_cap)
+    def retry_delay(self, retries: int, base: float | None = None) -> float:
+        """Delay before the next retransmission after ``retries`` earlier ones (linear, capped);
+        ``base`` is the first delay (default ``retry_base``)."""
+        first = self.retry_base if base is None else base
+        return min(first + retries * self.retry_step, self.retry_cap)
 
     def replace(self, **changes: Any) -> CoreConfig:
         """A copy with ``changes`` applied (and validated)."""

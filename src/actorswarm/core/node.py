@@ -157,7 +157,9 @@ class Node:
 
     def _new_barrier_master(self) -> BarrierMaster:
         # Late-bound, so the engine may replace ``resolve_all`` after construction.
-        return BarrierMaster(self.config, resolve_all=lambda k, p: self.resolve_all(k, p))  # noqa: PLW0108
+        master = BarrierMaster(self.config, resolve_all=lambda k, p: self.resolve_all(k, p))  # noqa: PLW0108
+        master.first_retry = lambda: self.reliable.timeout(None)
+        return master
 
     # --- host interface -------------------------------------------------------------------
 

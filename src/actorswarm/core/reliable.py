@@ -35,6 +35,7 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.rtt import RttEstimator
 from actorswarm.core.wire import NORMAL, TO_MASTER, URGENT, Ack, Data, Payload
 
 #: Key of the master-bound stream in the stream table (no platform has ID -1).
@@ -48,6 +49,7 @@ class _Item:
     deadline: float
     epoch: int  # the sender's epoch when queued: a decision is never re-dated
     retries: int = 0
+    sent_at: float = 0.0  # first transmission, for round-trip samples
     due: float = 0.0
     sent: bool = False
 
@@ -96,6 +98,9 @@ class Reliable:
         # (due, stream key dst, stream key channel, seq); stale entries are skipped
         self._timers: list[tuple[float, int, int, int]] = []
         self._master_stream = OutStream(None, TO_MASTER)
+        self._rtt: dict[int, RttEstimator] = {}
+        #: Round trips to anyone: the estimate for broadcasts (barrier releases).
+        self.overall = self._new_estimator()
         self._out[_MASTER_KEY] = self._master_stream
         #: (destination, body) pairs to transmit; the owner drains it.
         self.outbox: list[tuple[int, Data | Ack]] = []
@@ -134,6 +139,26 @@ class Reliable:
         if len(stream.items) <= self._config.window:
             self._transmit(stream, item, now)
 
+    def _new_estimator(self) -> RttEstimator:
+        c = self._config
+        return RttEstimator(initial=c.retry_base, floor=c.retry_min, cap=c.retry_cap)
+
+    def _estimator(self, dst: int) -> RttEstimator:
+        est = self._rtt.get(dst)
+        if est is None:
+            est = self._rtt[dst] = self._new_estimator()
+        return est
+
+    def timeout(self, dst: int | None) -> float:
+        """First retransmission delay towards ``dst`` (None: anyone), from measured round
+        trips when ``adaptive_retry`` is on."""
+        if not self._config.adaptive_retry:
+            return self._config.retry_base
+        est = self._rtt.get(dst) if dst is not None else None
+        if est is None or est.srtt is None:
+            est = self.overall
+        return est.timeout
+
     def _key(self, stream: OutStream) -> tuple[int, int]:
         if stream is self._master_stream or stream.dst is None:
             return _MASTER_KEY
@@ -166,7 +191,9 @@ class Reliable:
         )
         if item.sent:
             item.retries += 1  # this transmission is a retry: the next wait grows
-        item.due = now + self._config.retry_delay(item.retries)
+        else:
+            item.sent_at = now
+        item.due = now + self._config.retry_delay(item.retries, self.timeout(stream.dst))
         item.sent = True
         heapq.heappush(self._timers, (min(item.due, item.deadline), key[0], key[1], item.seq))
 
@@ -221,9 +248,16 @@ class Reliable:
             return
         items = stream.items
         changed = False
+        sampled: _Item | None = None
         while items and items[0].seq <= ack.seq:
-            items.popleft()
+            item = items.popleft()
+            if item.sent and item.retries == 0:
+                sampled = item  # Karn: only a message sent once gives a clean sample
             changed = True
+        if sampled is not None and self._config.adaptive_retry:
+            rtt = now - sampled.sent_at
+            self._estimator(sender).sample(rtt)
+            self.overall.sample(rtt)
         if changed:
             self._refill(stream, now)
 
