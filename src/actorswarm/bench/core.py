@@ -239,8 +239,13 @@ def markdown(results: list[SizeResult], *, latency: float, loss: float, config: 
         f"Radio: one-way latency {latency * 1000:.0f} ms, no jitter; lossy runs drop "
         f"{loss:.0%} of packets independently. "
         f"Heartbeat {config.heartbeat_interval * 1000:.0f} ms, "
-        f"T_leave {config.t_leave * 1000:.0f} ms, retransmission {config.retry_base * 1000:.0f} ms "
-        f"+ k·{config.retry_step * 1000:.0f} ms (cap {config.retry_cap * 1000:.0f} ms).",
+        f"T_leave {config.t_leave * 1000:.0f} ms, retransmission "
+        + (
+            "after a measured RTT timeout"
+            if config.adaptive_retry
+            else f"{config.retry_base * 1000:.0f} ms"
+        )
+        + f" + k·{config.retry_step * 1000:.0f} ms (cap {config.retry_cap * 1000:.0f} ms).",
         "",
         f"Targets (DESIGN.md §8): barrier ≤ 3 × latency + 5 ms = {target_barrier * 1000:.0f} ms; "
         f"failover ≤ T_leave + 100 ms = {target_failover * 1000:.0f} ms, flat in N; "

@@ -94,6 +94,9 @@ def bench_core(
     big_repeats: Annotated[int, typer.Option(min=1, help="Repetitions above 100.")] = 1,
     latency: Annotated[float, typer.Option(min=0.1, help="One-way latency, ms.")] = 10.0,
     loss: Annotated[float, typer.Option(min=0.0, max=0.5, help="Loss of the lossy runs.")] = 0.05,
+    adaptive_retry: Annotated[
+        bool, typer.Option(help="First retransmission delay from measured round trips.")
+    ] = False,
     out: Annotated[Path | None, typer.Option(help="Write the Markdown table here.")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write raw results.")] = None,
 ) -> None:
@@ -109,7 +112,7 @@ def bench_core(
     if not size_list or any(n < 2 or n > 5000 for n in size_list):
         err.print(f"--sizes: every size must be 2..5000, got {sizes!r}")
         raise typer.Exit(2)
-    config = CoreConfig()
+    config = CoreConfig(adaptive_retry=adaptive_retry)
     results = []
     with console.status("benchmarking") as status:
         for n in size_list:
