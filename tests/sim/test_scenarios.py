@@ -17,6 +17,7 @@ from actorswarm.core.events import (
     AppReceived,
     BarrierFired,
     BarrierReleased,
+    DeliveryFailed,
     HandshakeComplete,
     MemberJoined,
     MemberLeft,
@@ -336,3 +337,34 @@ def test_garbage_packets_change_nothing() -> None:
     assert drops > 50
     assert len(swarm.current_masters()) == 1
     assert_clean(swarm)
+
+
+def test_undeliverable_messages_fail_visibly() -> None:
+    config = CoreConfig(delivery_deadline=1.0)
+    swarm = SimSwarm(4, seed=14, config=config)
+    swarm.run_until(1.0)
+    swarm.partition([[4]])
+    swarm.call(2, lambda n: n.send_app(4, "hello", b"x", swarm.now))
+    swarm.call(3, lambda n: n.send_app(4, "hello", b"y", swarm.now))
+    swarm.run_until(3.0)
+    failed = [e for e in events_of(swarm, DeliveryFailed) if e.event.kind == "AppMessage"]
+    assert {e.platform for e in failed} == {2, 3}, failed
+    # Platform 4 left the view of the others well before the deadline: the queue is dropped
+    # and the message reported, not silently forgotten.
+    assert all("left" in e.event.reason for e in failed)
+    assert all(e.t < 1.0 + config.t_leave + 0.2 for e in failed)
+    assert_clean(swarm)
+
+
+def test_deadline_failure_when_the_destination_stays_in_view() -> None:
+    # The radio goes silent for everyone; with a deadline shorter than T_leave, the message
+    # fails on its deadline while its destination is still in the view.
+    config = CoreConfig(delivery_deadline=0.3)
+    swarm = SimSwarm(3, seed=15, config=config)
+    swarm.run_until(1.0)
+    swarm.radio.model = LinkModel(latency=0.01, loss=1.0)
+    swarm.call(2, lambda n: n.send_app(3, "hello", b"x", swarm.now))
+    swarm.run_until(1.5)
+    failed = [e for e in events_of(swarm, DeliveryFailed) if e.platform == 2]
+    assert failed and "not acknowledged" in failed[0].event.reason
+    assert failed[0].t == pytest.approx(1.3, abs=0.01)

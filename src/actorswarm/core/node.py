@@ -277,15 +277,7 @@ class Node:
             self._bmaster.tick(now, self.epoch)
             self._flush_master(now)
         self.reliable.tick(now)
-        for failure in self.reliable.failures:
-            self._events.append(
-                DeliveryFailed(
-                    dst=failure.dst,
-                    kind=type(failure.payload).__name__,
-                    reason=f"not acknowledged within {self.config.delivery_deadline} s",
-                )
-            )
-        self.reliable.failures.clear()
+        self._report_failures()
         if now >= self._next_heartbeat:
             self._send_heartbeat()
             interval = self.config.heartbeat_interval
@@ -513,6 +505,7 @@ class Node:
                 self._bmaster.ready = False
                 self._rmaster.ready = False
         self._update_lowest_peer(changes)
+        self._report_failures()
         if self.is_master:
             if self._handshake_deadline is not None and not self._handshake_waiting:
                 self._finish_handshake(now)
@@ -532,6 +525,19 @@ class Node:
         if lowest == -1:
             lowest = min(self.members.peers)
         self._lowest_peer = lowest
+
+    def _report_failures(self) -> None:
+        """Every message the reliable layer gave up on becomes a DeliveryFailed event."""
+        for failure in self.reliable.failures:
+            reason = (
+                "the destination left the swarm"
+                if failure.reason == "left"
+                else f"not acknowledged within {self.config.delivery_deadline} s"
+            )
+            self._events.append(
+                DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
+            )
+        self.reliable.failures.clear()
 
     def _maybe_claim(self, now: float) -> None:
         if should_claim(

@@ -82,10 +82,12 @@ class InStream:
 
 @dataclass(frozen=True, slots=True)
 class DeliveryFailure:
-    """A message that missed its deadline (``dst`` None: it never found a master)."""
+    """A message given up: it missed its deadline (``dst`` None: it never found a master),
+    or its destination left the swarm."""
 
     dst: int | None
     payload: Payload
+    reason: str = "deadline"
 
 
 class Reliable:
@@ -224,6 +226,9 @@ class Reliable:
         for channel in (URGENT, NORMAL):
             stream = self._out.get((dst, channel))
             if stream is not None and stream.items:
+                self.failures.extend(
+                    DeliveryFailure(dst, item.payload, "left") for item in stream.items
+                )
                 # Keep the numbering so a returning peer never confuses old and new.
                 self._out[(dst, channel)] = OutStream(dst, channel, next_seq=stream.next_seq)
         if self._master_stream.dst == dst:
