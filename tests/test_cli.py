@@ -54,3 +54,19 @@ def test_python_dash_m_works() -> None:
         [sys.executable, "-m", "actorswarm", "version"], capture_output=True, text=True, check=False
     )
     assert proc.returncode == 0 and proc.stdout.startswith("actorswarm ")
+
+
+def test_bench_plot_redraws_a_saved_run(tmp_path: Path) -> None:
+    raw = tmp_path / "core.json"
+    result = runner.invoke(
+        app, ["bench", "core", "--sizes", "4,6", "--repeats", "1", "--json", str(raw)]
+    )
+    assert result.exit_code == 0, result.output
+    png = tmp_path / "core.png"
+    result = runner.invoke(app, ["bench", "plot", str(raw), "--out", str(png)])
+    assert result.exit_code == 0, result.output
+    assert png.read_bytes().startswith(b"\x89PNG"), "a PNG picture"
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    result = runner.invoke(app, ["bench", "plot", str(bad), "--out", str(png)])
+    assert result.exit_code == 2 and "not a bench core result file" in result.output

@@ -288,3 +288,21 @@ def markdown(results: list[SizeResult], *, latency: float, loss: float, config: 
 
 def to_json(results: list[SizeResult]) -> list[dict[str, Any]]:
     return [asdict(r) for r in results]
+
+
+def from_json(rows: list[dict[str, Any]]) -> list[SizeResult]:
+    """Results back from :func:`to_json` (to redraw a saved run)."""
+    out = []
+    for row in rows:
+        out.append(
+            SizeResult(
+                size=row["size"],
+                repeats=row["repeats"],
+                barrier=[BarrierRun(**b) for b in row["barrier"]],
+                barrier_lossy=[BarrierRun(**b) for b in row["barrier_lossy"]],
+                failover=[FailoverRun(**f) for f in row["failover"]],
+                wall_s=row["wall_s"],
+                violations=list(row["violations"]),
+            )
+        )
+    return out

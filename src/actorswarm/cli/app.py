@@ -2,13 +2,15 @@
 
 Commands so far: ``swarm demo`` (a simulated swarm losing its master mid-barrier and being
 partitioned, with every invariant checked), ``swarm campaign`` (the seeded fault campaign, or
-one replayed seed) and ``bench core`` (the collective-core benchmark of DESIGN.md §8).
+one replayed seed) and ``bench core`` (the collective-core benchmark of DESIGN.md §8);
+``task check`` and ``task graph`` for task scripts (DESIGN.md §4, §7).
 """
 
 from __future__ import annotations
 
 import json
 import sys
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -16,6 +18,7 @@ import typer
 from rich.console import Console
 
 from actorswarm import __version__
+from actorswarm.dsl import DEFAULT_MAX_BYTES, TaskScript, check_file, to_dot, to_mermaid
 
 app = typer.Typer(
     help="actorswarm: program robot swarms as Actors.",
@@ -24,11 +27,15 @@ app = typer.Typer(
 )
 swarm_app = typer.Typer(help="Simulated swarms of the collective core.", no_args_is_help=True)
 bench_app = typer.Typer(help="Benchmarks (DESIGN.md §8).", no_args_is_help=True)
+task_app = typer.Typer(
+    help="Task scripts (DESIGN.md §4): check them, draw their Actor state machine.",
+    no_args_is_help=True,
+)
 app.add_typer(swarm_app, name="swarm")
 app.add_typer(bench_app, name="bench")
+app.add_typer(task_app, name="task")
 
 console = Console()
-err = Console(stderr=True)
 
 
 @app.command()
@@ -99,6 +106,7 @@ def bench_core(
     ] = False,
     out: Annotated[Path | None, typer.Option(help="Write the Markdown table here.")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write raw results.")] = None,
+    plot: Annotated[Path | None, typer.Option(help="Draw the results as a PNG here.")] = None,
 ) -> None:
     """Barrier latency, traffic and failover time in virtual time, per swarm size."""
     from actorswarm.bench.core import bench_size, markdown, to_json
@@ -107,10 +115,10 @@ def bench_core(
     try:
         size_list = [int(s) for s in sizes.split(",") if s.strip()]
     except ValueError:
-        err.print(f"--sizes: expected comma-separated integers, got {sizes!r}")
+        typer.echo(f"--sizes: expected comma-separated integers, got {sizes!r}", err=True)
         raise typer.Exit(2) from None
     if not size_list or any(n < 2 or n > 5000 for n in size_list):
-        err.print(f"--sizes: every size must be 2..5000, got {sizes!r}")
+        typer.echo(f"--sizes: every size must be 2..5000, got {sizes!r}", err=True)
         raise typer.Exit(2)
     config = CoreConfig(adaptive_retry=adaptive_retry)
     results = []
@@ -137,6 +145,99 @@ def bench_core(
         console.print(f"written to {out}")
     if json_out is not None:
         json_out.write_text(json.dumps(to_json(results), indent=2))
+    if plot is not None:
+        from actorswarm.bench.plot import plot_core
+
+        plot_core(results, plot, latency=latency / 1000.0, loss=loss, t_leave=config.t_leave)
+        console.print(f"picture written to {plot}")
+
+
+@bench_app.command("plot")
+def bench_plot(
+    results: Annotated[Path, typer.Argument(help="JSON written by bench core --json.")],
+    out: Annotated[Path, typer.Option(help="The PNG to write.")],
+    latency: Annotated[float, typer.Option(min=0.1, help="One-way latency of the run, ms.")] = 10.0,
+    loss: Annotated[float, typer.Option(min=0.0, max=0.5, help="Loss of its lossy runs.")] = 0.05,
+) -> None:
+    """Redraw a saved ``bench core`` run without running it again."""
+    from actorswarm.bench.core import from_json
+    from actorswarm.bench.plot import plot_core
+    from actorswarm.core.config import CoreConfig
+
+    try:
+        rows = json.loads(results.read_text())
+        if not isinstance(rows, list) or not rows:
+            raise ValueError("expected a non-empty list of sizes")
+        data = from_json(rows)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        typer.echo(f"{results}: not a bench core result file ({exc})", err=True)
+        raise typer.Exit(2) from None
+    plot_core(data, out, latency=latency / 1000.0, loss=loss, t_leave=CoreConfig().t_leave)
+    console.print(f"picture written to {out}")
+
+
+class GraphFormat(StrEnum):
+    """Diagram languages of ``task graph``."""
+
+    mermaid = "mermaid"
+    dot = "dot"
+
+
+def _check_script(path: Path, max_bytes: int) -> tuple[int, TaskScript | None]:
+    """Check one script, printing its diagnostics on stderr: (exit status, model or None).
+    Status 2 when the file cannot be read, 1 when the script has errors."""
+    try:
+        result = check_file(path, max_bytes=max_bytes)
+    except OSError as exc:
+        typer.echo(f"{path}: cannot read the file: {exc.strerror or exc}", err=True)
+        return 2, None
+    for diagnostic in result.diagnostics:
+        typer.echo(str(diagnostic), err=True)
+    return (0 if result.ok else 1), result.script
+
+
+@task_app.command("check")
+def task_check(
+    files: Annotated[list[Path], typer.Argument(help="Task scripts to check.")],
+    max_bytes: Annotated[
+        int, typer.Option(min=1, help="Refuse scripts larger than this many bytes.")
+    ] = DEFAULT_MAX_BYTES,
+) -> None:
+    """Check task scripts before deploying them.
+
+    Prints "FILE: ok" on stdout for each valid script; every problem goes to stderr as
+    FILE:LINE:COL: message (warnings too, without failing). Exit status: 0 when every script
+    is valid, 1 when any has an error, 2 when a file cannot be read.
+    """
+    status = 0
+    for path in files:
+        code, _ = _check_script(path, max_bytes)
+        if code == 0:
+            typer.echo(f"{path}: ok")
+        status = max(status, code)
+    raise typer.Exit(status)
+
+
+@task_app.command("graph")
+def task_graph(
+    file: Annotated[Path, typer.Argument(help="The task script to draw.")],
+    fmt: Annotated[
+        GraphFormat, typer.Option("--format", help="Mermaid stateDiagram-v2 or Graphviz dot.")
+    ] = GraphFormat.mermaid,
+    max_bytes: Annotated[
+        int, typer.Option(min=1, help="Refuse scripts larger than this many bytes.")
+    ] = DEFAULT_MAX_BYTES,
+) -> None:
+    """Print the Actor state machine of a task script as a diagram.
+
+    Edges are labelled with the event, the share of sysNum, and the barrier key; timeout
+    edges are marked (dashed in dot). A script with errors prints its diagnostics on stderr
+    and exits 1 (2 when the file cannot be read).
+    """
+    code, script = _check_script(file, max_bytes)
+    if script is None:
+        raise typer.Exit(code or 1)
+    typer.echo(to_mermaid(script) if fmt is GraphFormat.mermaid else to_dot(script), nl=False)
 
 
 def main() -> None:
