@@ -176,6 +176,74 @@ def bench_plot(
     console.print(f"picture written to {out}")
 
 
+@app.command("sim")
+def sim(
+    file: Annotated[Path, typer.Argument(help="The task script to run.")],
+    seed: Annotated[int, typer.Option(help="Seed of the radio and the platforms.")] = 0,
+    loss: Annotated[float, typer.Option(min=0.0, max=0.95, help="Packet loss probability.")] = 0.0,
+    latency: Annotated[float, typer.Option(min=0.0, help="One-way latency, ms.")] = 10.0,
+    jitter: Annotated[float, typer.Option(min=0.0, help="Extra random latency, ms.")] = 0.0,
+    duration: Annotated[float, typer.Option(min=0.1, help="Virtual seconds to run.")] = 30.0,
+    event: Annotated[
+        list[str] | None, typer.Option(help="NAME@T[:IDS]: a ground-station event.")
+    ] = None,
+    kill: Annotated[list[str] | None, typer.Option(help="ID@T: crash platforms.")] = None,
+    restart: Annotated[list[str] | None, typer.Option(help="ID@T: reboot platforms.")] = None,
+    partition: Annotated[
+        list[str] | None, typer.Option(help="IDS[@T]: cut these platforms off.")
+    ] = None,
+    heal: Annotated[list[str] | None, typer.Option(help="@T: end every partition.")] = None,
+    world: Annotated[Path | None, typer.Option(help="World description (TOML).")] = None,
+    no_world: Annotated[
+        bool, typer.Option("--no-world", help="Protocol and plugins only, no vehicles.")
+    ] = False,
+    json_out: Annotated[
+        str | None, typer.Option("--json", help="Write the JSON report here ('-': stdout).")
+    ] = None,
+) -> None:
+    """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7)."""
+    from actorswarm.core.config import CoreConfig
+    from actorswarm.engine.runtime import UnsupportedPlugin
+    from actorswarm.sim.radio import LinkModel
+    from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
+
+    if not no_world or world is not None:
+        typer.echo(
+            "the simulated world (vehicles, --world) is not available yet; run with --no-world",
+            err=True,
+        )
+        raise typer.Exit(2)
+    code, script = _check_script(file, DEFAULT_MAX_BYTES)
+    if script is None:
+        raise typer.Exit(code or 1)
+    try:
+        events = [parse_event(e) for e in event or []]
+        faults = [parse_fault("kill", k) for k in kill or []]
+        faults += [parse_fault("restart", r) for r in restart or []]
+        faults += [parse_fault("partition", p) for p in partition or []]
+        faults += [parse_fault("heal", h) for h in heal or []]
+    except ValueError as exc:
+        typer.echo(str(exc), err=True)
+        raise typer.Exit(2) from None
+    link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
+    try:
+        run = TaskSim(script, seed=seed, link=link, config=CoreConfig())
+        report = run.run(duration, events=events, faults=faults)
+    except UnsupportedPlugin as exc:
+        typer.echo(f"{file}: {exc}", err=True)
+        raise typer.Exit(2) from None
+    text = json.dumps(report, indent=2)
+    if json_out == "-":
+        typer.echo(text)
+    else:
+        if json_out is not None:
+            Path(json_out).write_text(text + "\n")
+        for line in summary(report):
+            typer.echo(line)
+    if report["violations"]:
+        raise typer.Exit(1)
+
+
 class GraphFormat(StrEnum):
     """Diagram languages of ``task graph``."""
 

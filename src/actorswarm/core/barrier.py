@@ -83,6 +83,7 @@ class _Fired:
     sizes: dict[int, int]
     assigned: dict[int, tuple[int, int]]  # platform -> (part, index); index 0 = not chosen
     complete_knowledge: bool  # False when rebuilt from member reports after a failover
+    occasions: frozenset[str] = frozenset()  # what the firing's requests were made for
     entries: dict[int, ReleaseEntry] = field(default_factory=dict)
     gathered: list[tuple[int, Any]] = field(default_factory=list)
 
@@ -193,13 +194,13 @@ class BarrierMaster:
             return
         inst = self._instance(req.key)
         if req.generation < inst.generation:
-            self._refuse(platform, req, inst.generation, now)
+            self._refuse(platform, req, inst.generation, now, epoch)
             return
         if req.generation > inst.generation:
             # The member saw a firing this master does not know of (a predecessor's):
             # move on; whoever waited on the old generation is refused.
             for other, old in inst.requests.items():
-                self._refuse(other, old, req.generation, now)
+                self._refuse(other, old, req.generation, now, epoch)
             inst = self.open[req.key] = _Instance(req.generation)
         inst.requests[platform] = req
         start = now - req.age
@@ -221,7 +222,7 @@ class BarrierMaster:
             # Every firing of that generation is fully known, or was decided before this
             # request was even made: the request is simply late.
             current = max(self._instance(req.key).generation, firings[0].generation + 1)
-            self._refuse(platform, req, current, now)
+            self._refuse(platform, req, current, now, epoch)
             return
         # Rebuilt after a failover: park it until the handshake ends, then complete.
         self._completion_waiting.setdefault(req.key, {})[platform] = req
@@ -233,9 +234,25 @@ class BarrierMaster:
         reported): reports that are still on their way may reveal firings it does not know."""
         self._changed_at = now
 
-    def _refuse(self, platform: int, req: BarrierRequest, current: int, now: float) -> None:
-        """Tell ``platform`` its request is stale — unless the swarm changed so recently that
-        a report still on its way may show the request belongs to a firing to complete."""
+    def _refuse(
+        self, platform: int, req: BarrierRequest, current: int, now: float, epoch: int
+    ) -> None:
+        """Tell ``platform`` its request is stale — unless it was made for the occasion a
+        firing already served (it is released as not chosen by that firing), or the swarm
+        changed so recently that a report still on its way may show the request belongs to
+        a firing to complete."""
+        if req.occasion:
+            for firings in self.fired.get(req.key, {}).values():
+                for fired in firings:
+                    if req.occasion in fired.occasions:
+                        # A late candidate of the same occasion: that firing did not need it.
+                        fired.assigned.setdefault(platform, (req.part, 0))
+                        part, index = fired.assigned[platform]
+                        fired.entries[platform] = ReleaseEntry(
+                            platform=platform, part=part, index=index
+                        )
+                        self._launch(req.key, fired, {platform}, now, epoch)
+                        return
         if now < self._changed_at + self._config.t_join:
             self._doubtful[(platform, req.key)] = req
             return
@@ -305,7 +322,7 @@ class BarrierMaster:
         if generation <= inst.generation:
             return
         for other, old in inst.requests.items():
-            self._refuse(other, old, generation, now)
+            self._refuse(other, old, generation, now, epoch)
         self.open[key] = _Instance(generation)
 
     def member_left(self, platform: int, now: float, epoch: int) -> None:
@@ -415,6 +432,7 @@ class BarrierMaster:
             sizes=sizes,
             assigned=assigned,
             complete_knowledge=True,
+            occasions=frozenset(r.occasion for r in inst.requests.values() if r.occasion),
             entries=entries,
             gathered=gathered,
         )
@@ -517,7 +535,7 @@ class BarrierMaster:
                     break
             else:
                 if not eligible:
-                    self._refuse(platform, req, current, now)
+                    self._refuse(platform, req, current, now, epoch)
                     continue
                 eligible[0].assigned[platform] = (req.part, 0)
                 assigned.setdefault(id(eligible[0]), {})[platform] = (req.part, 0)
@@ -635,6 +653,7 @@ class BarrierMember:
         data: Any = None,
         timeout: float | None = None,
         epoch: int = 0,
+        occasion: str = "",
     ) -> BarrierRequest:
         """Record a request for the open generation of ``key`` and return it (to send).
 
@@ -658,6 +677,7 @@ class BarrierMember:
             data=data,
             timeout=timeout,
             epoch=epoch,
+            occasion=occasion,
         )
         self.pending[key] = (req, now)
         return req
@@ -677,6 +697,7 @@ class BarrierMember:
                     timeout=req.timeout,
                     age=max(0.0, now - since),
                     epoch=req.epoch,
+                    occasion=req.occasion,
                 )
             )
         return out
@@ -693,9 +714,10 @@ class BarrierMember:
             return None, False
         if (rel.key, rel.generation) in self._passed:
             return None, True  # a retransmission: acknowledge again, deliver nothing
-        if pending is None or pending[0].generation != rel.generation:
+        if pending is None or pending[0].generation > rel.generation:
             # A release for a request this platform no longer holds (e.g. it was told the
-            # request was stale): acknowledge so the master stops, deliver nothing.
+            # request was stale): acknowledge so the master stops, deliver nothing. (A later
+            # generation that names this platform is the master placing a late request.)
             return None, True
         del self.pending[rel.key]
         self._passed.add((rel.key, rel.generation))

@@ -138,6 +138,9 @@ class AppReceived:
     sender: int
     topic: str
     body: bytes
+    #: (sender incarnation, channel, sequence): identifies one message of one stream, so a
+    #: duplicate is detectable; None for a message a platform sent itself.
+    stream: tuple[int, int, int] | None = None
 
 
 CoreEvent = (

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from actorswarm.core import wire
-from actorswarm.core.barrier import BarrierMaster, BarrierMember
+from actorswarm.core.barrier import BarrierMaster, BarrierMember, Scatter
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.election import OnHeartbeat, on_heartbeat, should_claim
 from actorswarm.core.events import (
@@ -144,6 +144,9 @@ class Node:
         #: Hook for the task engine: resolves a barrier need of NEED_ALL (default: every
         #: live platform in the master's view).
         self.resolve_all = self._all_live
+        #: Hook for the task engine: per-participant data a release scatters (default: none,
+        #: each participant learns only its index). Used whenever this platform is master.
+        self.scatter: Scatter | None = None
 
     # --- read-only views ------------------------------------------------------------------
 
@@ -158,6 +161,7 @@ class Node:
     def _new_barrier_master(self) -> BarrierMaster:
         # Late-bound, so the engine may replace ``resolve_all`` after construction.
         master = BarrierMaster(self.config, resolve_all=lambda k, p: self.resolve_all(k, p))  # noqa: PLW0108
+        master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
         master.first_retry = lambda: self.reliable.timeout(None)
         return master
 
@@ -297,6 +301,7 @@ class Node:
         bid: float | None = None,
         data: Any = None,
         timeout: float | None = None,
+        occasion: str = "",
     ) -> int:
         """Ask to pass barrier ``key``; returns the generation asked for.
 
@@ -306,7 +311,15 @@ class Node:
         """
         needs = {part: need} if isinstance(need, int) else dict(need)
         req = self.barriers.request(
-            key, needs, now, part=part, bid=bid, data=data, timeout=timeout, epoch=self.epoch
+            key,
+            needs,
+            now,
+            part=part,
+            bid=bid,
+            data=data,
+            timeout=timeout,
+            epoch=self.epoch,
+            occasion=occasion,
         )
         self._to_master(req, now)
         return req.generation
@@ -407,13 +420,23 @@ class Node:
         delivered, ack = self.reliable.on_data(sender, incarnation, data)
         if ack is not None:
             self._emit(sender, ack, URGENT if data.channel == URGENT else NORMAL)
-        for epoch, payload in delivered:
-            self._on_payload(sender, epoch, payload, now)
+        first = ack.seq - len(delivered) + 1 if ack is not None else 0
+        for i, (epoch, payload) in enumerate(delivered):
+            self._on_payload(sender, epoch, payload, now, (incarnation, data.channel, first + i))
 
-    def _on_payload(self, sender: int, epoch: int, payload: Payload, now: float) -> None:
+    def _on_payload(
+        self,
+        sender: int,
+        epoch: int,
+        payload: Payload,
+        now: float,
+        stream: tuple[int, int, int] | None = None,
+    ) -> None:
         """One message delivered in order, exactly once, from ``sender``'s stream."""
         if isinstance(payload, AppMessage):
-            self._events.append(AppReceived(sender=sender, topic=payload.topic, body=payload.body))
+            self._events.append(
+                AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
+            )
         elif isinstance(payload, Sync):
             self._on_sync(sender, payload, now)
         elif isinstance(payload, _MASTER_BOUND):

@@ -88,6 +88,9 @@ class BarrierRequest(_Msg, frozen=True, tag=1):
     timeout: Annotated[float, Meta(gt=0, le=1e9)] | None = None
     age: Annotated[float, Meta(ge=0, le=1e9)] = 0.0
     epoch: Counter = 0
+    #: What the request was made for (e.g. one event occurrence). A late request for an
+    #: occasion a firing already served is released as not chosen rather than left stale.
+    occasion: Annotated[str, Meta(max_length=64)] = ""
 
 
 class BarrierStale(_Msg, frozen=True, tag=2):

@@ -64,7 +64,7 @@ class InvariantChecker:
     _passed: dict[tuple[int, int], dict[tuple[int, int], tuple[int, int]]] = field(
         default_factory=dict
     )
-    _apps: set[tuple[int, int, int, str, bytes]] = field(default_factory=set)
+    _apps: set[tuple[int, ...]] = field(default_factory=set)
     _multi_master_since: dict[frozenset[int], float] = field(default_factory=dict)
     _quota_since: dict[tuple[frozenset[int], str], float] = field(default_factory=dict)
     _reported: set[str] = field(default_factory=set)
@@ -116,8 +116,8 @@ class InvariantChecker:
                         f"{event.generation} as #{event.index} of part {event.part}, "
                         "which no firing assigned",
                     )
-        elif isinstance(event, AppReceived):
-            key = (*who, event.sender, event.topic, event.body)
+        elif isinstance(event, AppReceived) and event.stream is not None:
+            key = (*who, event.sender, *event.stream)
             if key in self._apps:
                 self._violate(
                     t,

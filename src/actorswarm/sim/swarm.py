@@ -271,11 +271,16 @@ class SimSwarm:
         host = self.hosts[platform]
         node = host.node
         now = self.now
-        for out in node.drain_outgoing():
-            self.radio.send(platform, out.dst, out.data, out.kind)
-        events = node.drain_events()
-        if events:
-            self._handle_events(node, events, now)
+        # Listeners (a task engine) may act on the node while handling its events: loop
+        # until it has nothing more to send or report.
+        for _ in range(1000):
+            for out in node.drain_outgoing():
+                self.radio.send(platform, out.dst, out.data, out.kind)
+            events = node.drain_events()
+            if events:
+                self._handle_events(node, events, now)
+            if not node.has_output or not host.alive:
+                break
         deadline = node.next_deadline()
         if deadline is not None and host.alive:
             if deadline <= now:

@@ -1,0 +1,368 @@
+"""The task engine: one platform's Actor state machine, run on the collective core.
+
+Theory of operation
+-------------------
+The engine is sans-IO like the core it drives: a host hands it the core's events
+(:meth:`TaskEngine.on_core_event`), ground-station events (:meth:`TaskEngine.inject`) and
+time (:meth:`TaskEngine.tick`), and it acts through the core :class:`~actorswarm.core.Node`
+and an :class:`~actorswarm.engine.runtime.ActorHost`.
+
+* **Events.** An event reaches a platform locally (a plugin emitted it with scope ``local``,
+  or the ground station sent it) or through the master (scope ``swarm``: the emitter sends it
+  to the master, which relays it to every member). A platform whose running actor has a
+  transition for the event becomes a *candidate*: it asks to pass the core barrier of the
+  transition's group, in the transition's part, with its bid and data. Otherwise the event
+  is ignored and logged.
+* **Firing.** The master fires a group once every part has its ``sysNum`` candidates
+  (``all``: every holder of the part's actor in the master's view, from the actor table the
+  members keep it informed of); the release gives each chosen candidate its index, from which
+  :meth:`Plan.successor` picks its branch — the master also scatters the successor and the
+  transition's params. Candidates not chosen stay where they are.
+* **Timeouts.** The master releases the waiting candidates of an overdue group with outcome
+  ``timeout``; they go to ``timeoutBranch`` (or stay, when there is none). A candidate that
+  hears no release by ``timeout`` plus a grace period falls back to ``timeoutBranch`` on its
+  own (it cannot reach any master).
+* **Lost actors.** When a member leaves the master's view, the master relays the swarm event
+  ``X_lost`` (data: the platform ID) for every actor ``X`` it was running.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import msgspec
+
+from actorswarm.core.events import (
+    AppReceived,
+    BarrierReleased,
+    BarrierStaleNotice,
+    BecameMaster,
+    CoreEvent,
+    MasterChanged,
+    MemberJoined,
+    MemberLeft,
+)
+from actorswarm.core.node import Node
+from actorswarm.core.wire import BarrierRequest
+from actorswarm.dsl.model import Transition
+from actorswarm.engine.plan import Plan
+from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
+
+Cause = Literal["barrier", "timeout", "forced", "start"]
+
+#: App-message topics between engines.
+TOPIC_ACTORS = "engine.actors"  # member -> master: the actors I run now
+TOPIC_SWARM_EVENT = "engine.swarm-event"  # member -> master: relay this event to all
+TOPIC_EVENT = "engine.event"  # master -> member: an event for you
+TOPIC_MASTER_ACTORS = "engine.master-actors"  # master -> members: the actors I run
+
+
+class _EventMsg(msgspec.Struct, frozen=True):
+    event: str
+    origin: int
+    data: Any = None
+    occasion: str = ""
+
+
+_ENCODE = msgspec.msgpack.Encoder()
+_DECODE_EVENT = msgspec.msgpack.Decoder(_EventMsg)
+_DECODE_ACTORS = msgspec.msgpack.Decoder(list[str])
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TransitionRecord:
+    """One actor switch of one platform."""
+
+    t: float
+    platform: int
+    src: str
+    dst: str
+    event: str
+    cause: Cause
+
+
+@dataclass(slots=True)
+class _Candidacy:
+    actor: str
+    transition: Transition
+    fallback_at: float | None
+    occasion: str
+
+
+class TaskEngine:
+    """The Actor state machine of platform ``node.platform`` for one task script."""
+
+    def __init__(self, node: Node, plan: Plan, runtime: ActorHost, *, grace: float | None = None):
+        self.node = node
+        self.plan = plan
+        self.runtime = runtime
+        cfg = node.config
+        self.grace = grace if grace is not None else cfg.t_leave + cfg.t_join
+        self.transitions: list[TransitionRecord] = []
+        self.ignored: list[tuple[float, str, str]] = []
+        self._pending: dict[int, _Candidacy] = {}
+        # Master side: who runs which actor (from the members' reports).
+        self._table: dict[int, tuple[str, ...]] = {}
+        # Member side: what the master runs, so that whoever succeeds a dead master can
+        # announce its actors lost.
+        self._master_actors: tuple[int, tuple[str, ...]] | None = None
+        self._occasions = 0
+        node.resolve_all = self._holders
+        node.scatter = self._scatter
+
+    # --- host interface ---------------------------------------------------------------
+
+    def start(self, now: float) -> None:
+        """Start this platform's initial actors (the task's ``start``)."""
+        for actor in self.plan.initial_actors(self.node.platform):
+            if actor not in self.runtime.running():
+                self.runtime.start(actor, now, ActorContext())
+                self.transitions.append(
+                    TransitionRecord(
+                        t=now,
+                        platform=self.node.platform,
+                        src="",
+                        dst=actor,
+                        event="",
+                        cause="start",
+                    )
+                )
+        self._announce(now)
+
+    def tick(self, now: float) -> None:
+        for emitted in self.runtime.step(now):
+            self._emitted(emitted, now)
+        for key, cand in list(self._pending.items()):
+            if cand.fallback_at is not None and now >= cand.fallback_at:
+                # No release in time: no master could be reached. Decide alone.
+                del self._pending[key]
+                self.node.barriers.cancel(key)
+                target = cand.transition.timeout_branch
+                if target is not None and cand.actor in self.runtime.running():
+                    self._switch(cand.actor, target, now, cand.transition.event, "timeout")
+
+    def next_deadline(self) -> float | None:
+        times = [c.fallback_at for c in self._pending.values() if c.fallback_at is not None]
+        runtime = self.runtime.next_deadline()
+        if runtime is not None:
+            times.append(runtime)
+        return min(times) if times else None
+
+    def inject(
+        self,
+        event: str,
+        now: float,
+        *,
+        data: Any = None,
+        bid: float | None = None,
+        occasion: str = "",
+    ) -> None:
+        """An event from the ground station reached this platform; ``occasion`` names this
+        sending of it (the same on every platform it reached)."""
+        self._on_event(event, now, bid=bid, data=data, occasion=occasion)
+
+    def _new_occasion(self) -> str:
+        """A name for one occurrence of an event raised here, unique in the swarm."""
+        self._occasions += 1
+        return f"{self.node.platform}.{self.node.incarnation}:{self._occasions}"
+
+    def on_core_event(self, event: CoreEvent, now: float) -> None:
+        if isinstance(event, BarrierReleased):
+            self._released(event, now)
+        elif isinstance(event, BarrierStaleNotice):
+            self._stale(event, now)
+        elif isinstance(event, AppReceived):
+            self._app(event, now)
+        elif isinstance(event, MasterChanged):
+            if event.master is not None and event.master != self.node.platform:
+                self._announce(now)  # the new master must know what I run
+        elif isinstance(event, BecameMaster):
+            self._table = {self.node.platform: self.runtime.running()}
+            previous = self._master_actors
+            if (
+                previous is not None
+                and previous[0] != self.node.platform
+                and previous[0] not in self.node.members
+            ):
+                # My predecessor is gone with its actors: nobody else can say so.
+                self._master_actors = None
+                for actor in previous[1]:
+                    self._relay(f"{actor}_lost", previous[0], origin=0, now=now)
+            self._announce(now)
+        elif isinstance(event, MemberJoined) and self.node.is_master:
+            # A newcomer must know what the master runs, in case it succeeds it.
+            body = _ENCODE.encode(list(self.runtime.running()))
+            self.node.send_app(event.platform, TOPIC_MASTER_ACTORS, body, now)
+        elif isinstance(event, MemberLeft) and self.node.is_master:
+            lost = self._table.pop(event.platform, ())
+            for actor in lost:
+                self._relay(f"{actor}_lost", event.platform, origin=0, now=now)
+
+    # --- events and candidacy -----------------------------------------------------------
+
+    def _emitted(self, emitted: Emitted, now: float) -> None:
+        occasion = self._new_occasion()
+        if emitted.scope == "swarm":
+            msg = _EventMsg(emitted.event, self.node.platform, emitted.data, occasion)
+            self.node.send_app(None, TOPIC_SWARM_EVENT, _ENCODE.encode(msg), now)
+        self._on_event(emitted.event, now, bid=emitted.bid, data=emitted.data, occasion=occasion)
+
+    def _on_event(
+        self, event: str, now: float, *, bid: float | None, data: Any, occasion: str
+    ) -> None:
+        handled = False
+        for actor in self.runtime.running():
+            found = self.plan.by_event.get((actor, event))
+            if found is None:
+                continue
+            handled = True
+            key, part = found
+            if key in self._pending:
+                continue  # already a candidate of this group
+            self._request(actor, key, part, now, bid=bid, data=data, occasion=occasion)
+        if not handled:
+            running = ", ".join(self.runtime.running()) or "no actor"
+            self.ignored.append((now, event, f"no transition for it from {running}"))
+
+    def _request(
+        self,
+        actor: str,
+        key: int,
+        part: int,
+        now: float,
+        *,
+        bid: float | None,
+        data: Any,
+        occasion: str,
+    ) -> None:
+        group = self.plan.groups[key]
+        transition = group.parts[part]
+        timeout = group.timeout
+        self._pending[key] = _Candidacy(
+            actor, transition, None if timeout is None else now + timeout + self.grace, occasion
+        )
+        self.node.request_barrier(
+            key,
+            group.need(),
+            now,
+            part=part,
+            bid=bid,
+            data=data,
+            timeout=timeout,
+            occasion=occasion,
+        )
+
+    def _released(self, event: BarrierReleased, now: float) -> None:
+        cand = self._pending.pop(event.key, None)
+        if cand is None or cand.actor not in self.runtime.running():
+            return
+        transition = cand.transition
+        if event.outcome == "timeout":
+            if transition.timeout_branch is not None:
+                self._switch(
+                    cand.actor, transition.timeout_branch, now, transition.event, "timeout"
+                )
+            return
+        if not event.chosen:
+            return
+        target = self.plan.successor(transition, event.index)
+        self._switch(
+            cand.actor,
+            target,
+            now,
+            transition.event,
+            "barrier",
+            ActorContext(params=transition.param_map, index=event.index, data=event.data),
+        )
+
+    def _stale(self, event: BarrierStaleNotice, now: float) -> None:
+        """The request named a generation that had fired before it was made (this platform
+        missed a release it was not part of): ask again for the open one."""
+        cand = self._pending.pop(event.key, None)
+        if cand is None or cand.actor not in self.runtime.running():
+            return
+        found = self.plan.by_event.get((cand.actor, cand.transition.event))
+        if found is not None:
+            self._request(
+                cand.actor, found[0], found[1], now, bid=None, data=None, occasion=cand.occasion
+            )
+
+    def _switch(
+        self,
+        src: str,
+        dst: str,
+        now: float,
+        event: str,
+        cause: Cause,
+        context: ActorContext | None = None,
+    ) -> None:
+        self.runtime.switch(src, dst, now, context or ActorContext())
+        self.transitions.append(
+            TransitionRecord(
+                t=now, platform=self.node.platform, src=src, dst=dst, event=event, cause=cause
+            )
+        )
+        # A candidacy of the actor that just left is void.
+        for key in [k for k, c in self._pending.items() if c.actor == src]:
+            del self._pending[key]
+            self.node.barriers.cancel(key)
+        self._announce(now)
+
+    # --- master side ----------------------------------------------------------------------
+
+    def _announce(self, now: float) -> None:
+        running = self.runtime.running()
+        if self.node.is_master:
+            self._table[self.node.platform] = running
+            body = _ENCODE.encode(list(running))
+            for peer in sorted(self.node.members.peers):
+                self.node.send_app(peer, TOPIC_MASTER_ACTORS, body, now)
+        else:
+            self.node.send_app(None, TOPIC_ACTORS, _ENCODE.encode(list(running)), now)
+
+    def _app(self, msg: AppReceived, now: float) -> None:
+        try:
+            if msg.topic == TOPIC_ACTORS:
+                self._table[msg.sender] = tuple(_DECODE_ACTORS.decode(msg.body))
+            elif msg.topic == TOPIC_MASTER_ACTORS:
+                self._master_actors = (msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
+            elif msg.topic == TOPIC_SWARM_EVENT and self.node.is_master:
+                ev = _DECODE_EVENT.decode(msg.body)
+                self._relay(ev.event, ev.data, origin=ev.origin, now=now, occasion=ev.occasion)
+            elif msg.topic == TOPIC_EVENT:
+                ev = _DECODE_EVENT.decode(msg.body)
+                self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
+        except msgspec.DecodeError:
+            self.ignored.append((now, msg.topic, f"undecodable message from {msg.sender}"))
+
+    def _relay(self, event: str, data: Any, *, origin: int, now: float, occasion: str = "") -> None:
+        """Master: send ``event`` to every member but its origin, and handle it here."""
+        occasion = occasion or self._new_occasion()
+        body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
+        for peer in sorted(self.node.members.peers):
+            if peer != origin:
+                self.node.send_app(peer, TOPIC_EVENT, body, now)
+        if origin != self.node.platform:
+            self._on_event(event, now, bid=None, data=data, occasion=occasion)
+
+    def _holders(self, key: int, part: int) -> int:
+        """``sysNum="all"``: live platforms running the part's actor, in the master's view."""
+        transition = self.plan.transition(key, part)
+        if transition is None:
+            return 0
+        live = set(self.node.members.peers) | {self.node.platform}
+        return sum(
+            1 for p, actors in self._table.items() if p in live and transition.actor in actors
+        )
+
+    def _scatter(
+        self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
+    ) -> dict[int, Any]:
+        """Each chosen participant's successor and the transition's params."""
+        out: dict[int, Any] = {}
+        for platform, part, index, _ in chosen:
+            transition = self.plan.transition(key, part)
+            if transition is not None:
+                out[platform] = {"to": self.plan.successor(transition, index)}
+        return out

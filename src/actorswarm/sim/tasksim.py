@@ -1,0 +1,291 @@
+"""``actorswarm sim``: a task script run by task engines on a simulated swarm (no world yet).
+
+Every platform the script starts gets a core :class:`~actorswarm.core.Node` (inside
+:class:`~actorswarm.sim.swarm.SimSwarm`), a :class:`~actorswarm.engine.TaskEngine` and the
+stand-in actor runtime; the task starts at time 0. Ground-station events, crashes, restarts,
+partitions and heals happen at the virtual times given. The report has the keys of
+DESIGN.md §7: ``completed``, ``sim_time_s``, ``final_actors``, ``transitions`` (with their
+``cause``), ``masters``, ``traffic`` and ``violations``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.events import CoreEvent
+from actorswarm.core.node import Node
+from actorswarm.dsl.model import TaskScript
+from actorswarm.engine.engine import TaskEngine
+from actorswarm.engine.plan import Plan
+from actorswarm.engine.runtime import StandInRuntime, stand_in_plugins
+from actorswarm.sim.radio import LinkModel
+from actorswarm.sim.scheduler import Timer
+from actorswarm.sim.swarm import SimSwarm
+
+
+@dataclass(frozen=True, slots=True)
+class GroundEvent:
+    """``--event NAME@T[:IDS]``: the ground station sends ``name`` at ``t`` (to ``ids``,
+    or to every platform)."""
+
+    name: str
+    t: float
+    ids: frozenset[int] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Fault:
+    """``--kill ID@T``, ``--restart ID@T``, ``--partition IDS@T``, ``--heal @T``."""
+
+    kind: str
+    t: float
+    ids: frozenset[int] = frozenset()
+
+
+@dataclass(slots=True)
+class _Host:
+    engine: TaskEngine
+    timer: Timer | None = None
+    timer_at: float = float("inf")
+
+
+@dataclass(slots=True)
+class TaskSim:
+    """One simulated run of ``script``."""
+
+    script: TaskScript
+    seed: int = 0
+    link: LinkModel = field(default_factory=LinkModel)
+    config: CoreConfig = field(default_factory=CoreConfig)
+    swarm: SimSwarm = field(init=False)
+    plan: Plan = field(init=False)
+    hosts: dict[int, _Host] = field(default_factory=dict, init=False)
+    records: list[dict[str, Any]] = field(default_factory=list, init=False)
+    ignored: list[dict[str, Any]] = field(default_factory=list, init=False)
+    _sent: int = field(default=0, init=False)
+
+    def __post_init__(self) -> None:
+        self.plan = Plan.build(self.script)
+        platforms = sorted(self.script.platform_ids())
+        if not platforms:
+            raise ValueError("the script starts no platform")
+        self.swarm = SimSwarm(platforms, seed=self.seed, config=self.config, link=self.link)
+        self.swarm.listeners.append(self._on_core_event)
+        for p in platforms:
+            self._boot(p)
+
+    def _boot(self, platform: int) -> None:
+        runtime = StandInRuntime(platform, stand_in_plugins(self.script))
+        engine = TaskEngine(self.swarm.node(platform), self.plan, runtime)
+        self.hosts[platform] = _Host(engine)
+        self.swarm.call(platform, lambda n: engine.start(self.swarm.now))
+        self._arm(platform)
+
+    def _retire(self, platform: int) -> None:
+        host = self.hosts.pop(platform, None)
+        if host is None:
+            return
+        if host.timer is not None:
+            host.timer.cancel()
+        self._collect(host.engine)
+
+    def _collect(self, engine: TaskEngine) -> None:
+        for rec in engine.transitions:
+            self.records.append(
+                {
+                    "t": round(rec.t, 6),
+                    "platform": rec.platform,
+                    "from": rec.src,
+                    "to": rec.dst,
+                    "event": rec.event,
+                    "cause": rec.cause,
+                }
+            )
+        engine.transitions.clear()
+        for t, event, why in engine.ignored:
+            self.ignored.append(
+                {"t": round(t, 6), "platform": engine.node.platform, "event": event, "why": why}
+            )
+        engine.ignored.clear()
+
+    # --- driving --------------------------------------------------------------------------
+
+    def _on_core_event(self, t: float, node: Node, event: CoreEvent) -> None:
+        host = self.hosts.get(node.platform)
+        if host is None or host.engine.node is not node:
+            return
+        host.engine.on_core_event(event, t)
+        self._arm(node.platform)
+
+    def _arm(self, platform: int) -> None:
+        host = self.hosts.get(platform)
+        if host is None:
+            return
+        deadline = host.engine.next_deadline()
+        if deadline is None or deadline >= host.timer_at:
+            return
+        if host.timer is not None:
+            host.timer.cancel()
+        host.timer_at = max(deadline, self.swarm.now)
+        host.timer = self.swarm.at(host.timer_at, self._tick, platform)
+
+    def _tick(self, platform: int) -> None:
+        host = self.hosts.get(platform)
+        if host is None:
+            return
+        host.timer = None
+        host.timer_at = float("inf")
+        self.swarm.call(platform, lambda n: host.engine.tick(self.swarm.now))
+        self._arm(platform)
+
+    def ground_event(self, event: GroundEvent) -> None:
+        """The ground station's event reaches every (or every listed) live platform."""
+        self._sent += 1
+        occasion = f"gs:{self._sent}"
+        for p in sorted(self.hosts):
+            if event.ids is None or p in event.ids:
+                self._inject(p, event.name, occasion)
+
+    def _inject(self, platform: int, event: str, occasion: str) -> None:
+        engine = self.hosts[platform].engine
+        self.swarm.call(platform, lambda n: engine.inject(event, self.swarm.now, occasion=occasion))
+        self._arm(platform)
+
+    def fault(self, fault: Fault) -> None:
+        if fault.kind == "kill":
+            for p in sorted(fault.ids):
+                self.swarm.crash(p)
+                self._retire(p)
+        elif fault.kind == "restart":
+            for p in sorted(fault.ids):
+                self._retire(p)
+                self.swarm.restart(p)
+                self._boot(p)
+        elif fault.kind == "partition":
+            self.swarm.partition([sorted(fault.ids)])
+        elif fault.kind == "heal":
+            self.swarm.heal()
+        else:
+            raise ValueError(f"unknown fault {fault.kind!r}")
+
+    def run(
+        self,
+        duration: float,
+        *,
+        events: Iterable[GroundEvent] = (),
+        faults: Iterable[Fault] = (),
+    ) -> dict[str, Any]:
+        """Run for ``duration`` seconds of virtual time; return the JSON-ready report."""
+        for ev in events:
+            self.swarm.at(ev.t, self.ground_event, ev)
+        for f in faults:
+            self.swarm.at(f.t, self.fault, f)
+        self.swarm.run_until(duration)
+        return self.report()
+
+    def report(self) -> dict[str, Any]:
+        for host in self.hosts.values():
+            self._collect(host.engine)
+        final = {
+            str(p): list(host.engine.runtime.running()) for p, host in sorted(self.hosts.items())
+        }
+        terminal = {a.name for a in self.script.actors} - {
+            t.actor for ts in self.script.transitions.values() for t in ts
+        }
+        completed = bool(final) and all(
+            actors and all(a in terminal for a in actors) for actors in final.values()
+        )
+        traffic = {
+            str(p): {k: v for k, v in row.items() if k != "by_kind"}
+            for p, row in self.swarm.traffic().items()
+        }
+        return {
+            "completed": completed,
+            "sim_time_s": round(self.swarm.now, 6),
+            "final_actors": final,
+            "transitions": sorted(self.records, key=lambda r: (r["t"], r["platform"])),
+            "masters": [
+                {"t": round(m.t, 6), "platform": m.platform, "epoch": m.epoch}
+                for m in self.swarm.masters
+            ],
+            "traffic": traffic,
+            "ignored_events": self.ignored,
+            "violations": self.swarm.finish(),
+            "seed": self.seed,
+        }
+
+
+def _time(text: str, flag: str) -> float:
+    try:
+        t = float(text)
+    except ValueError:
+        raise ValueError(f"{flag}: {text!r} is not a time in seconds") from None
+    if not 0 <= t < 1e9:
+        raise ValueError(f"{flag}: the time must be >= 0 seconds, got {text!r}")
+    return t
+
+
+def _ids(text: str, flag: str) -> frozenset[int]:
+    from actorswarm.dsl.syntax import platform_ids
+
+    try:
+        return platform_ids(text)
+    except ValueError as exc:
+        raise ValueError(f"{flag}: {exc}") from None
+
+
+def parse_event(text: str) -> GroundEvent:
+    """``NAME@T[:IDS]`` (``--event``)."""
+    name, sep, rest = text.partition("@")
+    if not sep or not name.strip():
+        raise ValueError(f"--event: expected NAME@T[:IDS] such as go_home_event@30, got {text!r}")
+    when, colon, ids = rest.partition(":")
+    return GroundEvent(
+        name.strip(), _time(when, "--event"), _ids(ids, "--event") if colon else None
+    )
+
+
+def parse_fault(kind: str, text: str) -> Fault:
+    """``--kill ID@T``, ``--restart ID@T``, ``--partition IDS[@T]``, ``--heal @T``."""
+    flag = f"--{kind}"
+    ids, sep, when = text.partition("@")
+    if kind == "heal":
+        if ids.strip():
+            raise ValueError(f"--heal: expected @T such as @12, got {text!r}")
+        return Fault("heal", _time(when, flag))
+    if kind == "partition":
+        return Fault("partition", _time(when, flag) if sep else 0.0, _ids(ids, flag))
+    if not sep:
+        raise ValueError(f"{flag}: expected ID@T such as 1@8, got {text!r}")
+    return Fault(kind, _time(when, flag), _ids(ids, flag))
+
+
+def summary(report: dict[str, Any]) -> list[str]:
+    """A few human-readable lines about a run's report."""
+    lines = [
+        f"simulated {report['sim_time_s']:.1f} s; completed: {report['completed']}",
+    ]
+    switches = [t for t in report["transitions"] if t["cause"] != "start"]
+    by_step: dict[tuple[float, str, str, str], list[int]] = {}
+    for t in switches:
+        step = (round(t["t"], 1), t["from"], t["to"], t["cause"])
+        by_step.setdefault(step, []).append(t["platform"])
+    for (when, src, dst, cause), who in sorted(by_step.items()):
+        lines.append(f"  {when:7.1f} s  {len(who):3d} × {src} → {dst} ({cause}): {sorted(who)}")
+    masters = ", ".join(f"{m['platform']}@{m['t']:.2f}s" for m in report["masters"])
+    lines.append(f"masters: {masters or 'none'}")
+    final: dict[str, list[str]] = {}
+    for p, actors in report["final_actors"].items():
+        final.setdefault(",".join(actors) or "-", []).append(p)
+    lines.append("final: " + "; ".join(f"{a} on {len(ps)}" for a, ps in sorted(final.items())))
+    if report["ignored_events"]:
+        lines.append(f"ignored events: {len(report['ignored_events'])}")
+    lines.append(
+        "invariants: all held"
+        if not report["violations"]
+        else "VIOLATIONS:\n  " + "\n  ".join(report["violations"])
+    )
+    return lines
