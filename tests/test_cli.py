@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from actorswarm.cli.app import app
@@ -70,3 +71,64 @@ def test_bench_plot_redraws_a_saved_run(tmp_path: Path) -> None:
     bad.write_text("{}")
     result = runner.invoke(app, ["bench", "plot", str(bad), "--out", str(png)])
     assert result.exit_code == 2 and "not a bench core result file" in result.output
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_sim_json_to_stdout_has_the_report_keys() -> None:
+    result = runner.invoke(
+        app,
+        [
+            "sim",
+            str(EXAMPLES / "branch_merge.xml"),
+            "--no-world",
+            "--event",
+            "AtoBC_branch_event@5",
+            "--event",
+            "finish_event@10",
+            "--duration",
+            "12",
+            "--json",
+            "-",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    for key in ("completed", "sim_time_s", "final_actors", "transitions", "masters", "traffic"):
+        assert key in report
+    assert report["violations"] == []
+    moves = [(t["from"], t["to"]) for t in report["transitions"] if t["cause"] == "barrier"]
+    assert moves.count(("A", "B")) == 2 and moves.count(("A", "C")) == 8
+    assert moves.count(("B", "A")) + moves.count(("C", "A")) == 10
+
+
+def test_sim_prints_a_summary_and_writes_json(tmp_path: Path) -> None:
+    out = tmp_path / "r.json"
+    result = runner.invoke(
+        app, ["sim", str(EXAMPLES / "ready_barrier.xml"), "--no-world", "--json", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    assert "Standby → Ingress" in result.output and "invariants: all held" in result.output
+    assert json.loads(out.read_text())["completed"] is True
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--event", "nope"], "--event: expected NAME@T"),
+        (["--event", "go@-1"], "--event: the time must be >= 0"),
+        (["--kill", "3"], "--kill: expected ID@T"),
+        (["--partition", "5-1@2"], "--partition:"),
+        (["--heal", "3@4"], "--heal: expected @T"),
+    ],
+)
+def test_sim_refuses_bad_flags_clearly(args: list[str], message: str) -> None:
+    result = runner.invoke(app, ["sim", str(EXAMPLES / "ready_barrier.xml"), "--no-world", *args])
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+
+
+def test_sim_needs_no_world_until_the_world_exists() -> None:
+    result = runner.invoke(app, ["sim", str(EXAMPLES / "ready_barrier.xml")])
+    assert result.exit_code == 2 and "--no-world" in result.output

@@ -352,9 +352,9 @@ class TaskEngine:
         if transition is None:
             return 0
         live = set(self.node.members.peers) | {self.node.platform}
-        return sum(
-            1 for p, actors in self._table.items() if p in live and transition.actor in actors
-        )
+        # A live member that has not told this master what it runs yet (it does on following
+        # it) may be a holder: count it, so that the group waits rather than fires short.
+        return sum(1 for p in live if p not in self._table or transition.actor in self._table[p])
 
     def _scatter(
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
