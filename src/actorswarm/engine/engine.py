@@ -24,10 +24,15 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
   own (it cannot reach any master).
 * **Lost actors.** When a member leaves the master's view, the master relays the swarm event
   ``X_lost`` (data: the platform ID) for every actor ``X`` it was running.
+* **Ground-station commands** (:mod:`actorswarm.engine.commands`, from platform 0 only):
+  deploy in chunks (answered with the script's SHA-256), start (the first script, or a new
+  version while running), inject an event, forced transition, forced start / stop, pause /
+  activate, backup and status. Each is answered with its outcome.
 """
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -44,8 +49,10 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.node import Node
-from actorswarm.core.wire import BarrierRequest
+from actorswarm.core.wire import GROUND_STATION, BarrierRequest
+from actorswarm.dsl.checker import check
 from actorswarm.dsl.model import Transition
+from actorswarm.engine import commands as cmds
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
 
@@ -108,6 +115,12 @@ class TaskEngine:
         # announce its actors lost.
         self._master_actors: tuple[int, tuple[str, ...]] | None = None
         self._occasions = 0
+        # Ground-station deployment: chunks being reassembled, scripts confirmed, the one run.
+        self._chunks: dict[str, dict[int, bytes]] = {}
+        self._deployed: dict[str, Plan] = {}
+        self.script_sha = ""
+        #: Snapshots taken by the ``backup`` command (local storage in a real daemon).
+        self.backups: list[bytes] = []
         node.resolve_all = self._holders
         node.scatter = self._scatter
 
@@ -323,6 +336,10 @@ class TaskEngine:
 
     def _app(self, msg: AppReceived, now: float) -> None:
         try:
+            if msg.topic == cmds.TOPIC_COMMAND:
+                if msg.sender == GROUND_STATION:
+                    self._command(cmds.decode_command(msg.body), now)
+                return
             if msg.topic == TOPIC_ACTORS:
                 self._table[msg.sender] = tuple(_DECODE_ACTORS.decode(msg.body))
             elif msg.topic == TOPIC_MASTER_ACTORS:
@@ -333,7 +350,7 @@ class TaskEngine:
             elif msg.topic == TOPIC_EVENT:
                 ev = _DECODE_EVENT.decode(msg.body)
                 self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
-        except msgspec.DecodeError:
+        except (msgspec.DecodeError, cmds.CommandError):
             self.ignored.append((now, msg.topic, f"undecodable message from {msg.sender}"))
 
     def _relay(self, event: str, data: Any, *, origin: int, now: float, occasion: str = "") -> None:
@@ -366,3 +383,151 @@ class TaskEngine:
             if transition is not None:
                 out[platform] = {"to": self.plan.successor(transition, index)}
         return out
+
+    # --- ground-station commands ---------------------------------------------------------
+
+    def _reply(self, reply: cmds.Reply, now: float) -> None:
+        self.node.send_app(GROUND_STATION, cmds.TOPIC_REPLY, cmds.encode(reply), now, urgent=True)
+
+    def _result(self, command: str, ok: bool, message: str, now: float) -> None:
+        self._reply(cmds.Result(command=command, ok=ok, message=message), now)
+
+    def _command(self, command: cmds.Command, now: float) -> None:
+        """Carry out one operator command and report its outcome."""
+        name = type(command).__name__
+        try:
+            message = self._execute(command, now)
+        except (ValueError, KeyError) as exc:
+            self._result(name, False, str(exc), now)
+            return
+        if message is not None:
+            self._result(name, True, message, now)
+
+    def _execute(self, command: cmds.Command, now: float) -> str | None:
+        if isinstance(command, cmds.DeployChunk):
+            return self._deploy_chunk(command, now)
+        if isinstance(command, cmds.Start):
+            return self._start_script(command.sha256, now)
+        if isinstance(command, cmds.Inject):
+            running = set(self.runtime.running())
+            if command.actors and not running & set(command.actors):
+                return f"not running {', '.join(command.actors)}: event {command.event} skipped"
+            self.inject(command.event, now, data=command.data, occasion=command.occasion)
+            return f"event {command.event} delivered"
+        if isinstance(command, cmds.Force):
+            return self._force(command, now)
+        if isinstance(command, cmds.ForceStart):
+            self._known_actor(command.actor)
+            self.runtime.start(command.actor, now, ActorContext())
+            self._record("", command.actor, now, "", "forced")
+            return f"started {command.actor}"
+        if isinstance(command, cmds.ForceStop):
+            self.runtime.stop(command.actor, now)
+            self._record(command.actor, "", now, "", "forced")
+            return f"stopped {command.actor}"
+        if isinstance(command, cmds.Pause):
+            self.runtime.pause(command.actor, now)
+            self._announce(now)
+            return f"paused {command.actor}"
+        if isinstance(command, cmds.Activate):
+            self.runtime.activate(command.actor, now)
+            self._announce(now)
+            return f"activated {command.actor}"
+        if isinstance(command, cmds.Backup):
+            snapshot = cmds.encode(
+                cmds.StatusReply(
+                    actors=self.runtime.loaded(),
+                    master=self.node.is_master,
+                    epoch=self.node.epoch,
+                    incarnation=self.node.incarnation,
+                    script=self.script_sha,
+                )
+            )
+            self.backups.append(snapshot)
+            self._reply(cmds.BackupReply(generation=len(self.backups), size=len(snapshot)), now)
+            return None
+        # Status
+        self._reply(
+            cmds.StatusReply(
+                actors=self.runtime.loaded(),
+                master=self.node.is_master,
+                epoch=self.node.epoch,
+                incarnation=self.node.incarnation,
+                script=self.script_sha,
+            ),
+            now,
+        )
+        return None
+
+    def _deploy_chunk(self, chunk: cmds.DeployChunk, now: float) -> str | None:
+        if chunk.sha256 in self._deployed:
+            self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
+            return None
+        parts = self._chunks.setdefault(chunk.sha256, {})
+        parts[chunk.index] = chunk.data
+        if len(parts) < chunk.total:
+            return None
+        del self._chunks[chunk.sha256]
+        text = b"".join(parts[i] for i in range(chunk.total))
+        if hashlib.sha256(text).hexdigest() != chunk.sha256:
+            raise ValueError("the script does not hash to the SHA-256 it was sent with")
+        result = check(text.decode("utf-8", errors="replace"), path=f"deploy:{chunk.sha256[:12]}")
+        if result.script is None or not result.ok:
+            first = next((str(d) for d in result.diagnostics), "the script is invalid")
+            raise ValueError(f"script refused: {first}")
+        self._deployed[chunk.sha256] = Plan.build(result.script)
+        self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
+        return None
+
+    def _start_script(self, sha: str, now: float) -> str:
+        plan = self._deployed.get(sha)
+        if plan is None:
+            raise ValueError(f"script {sha[:12]} was not deployed to platform {self.node.platform}")
+        if self.script_sha == sha:
+            return f"script {sha[:12]} already running"
+        fresh = not self.script_sha
+        self.script_sha = sha
+        self.runtime.use_script(plan.script)
+        if fresh and not self.runtime.running():
+            self.plan = plan
+            self.start(now)
+            return f"started script {sha[:12]}"
+        # A new version while running: candidacies of the old one are void; actors the new
+        # script does not know stop; a platform left with nothing starts its initial actors.
+        for key in list(self._pending):
+            self.node.barriers.cancel(key)
+        self._pending.clear()
+        self.plan = plan
+        known = {a.name for a in plan.script.actors}
+        for actor in list(self.runtime.loaded()):
+            if actor not in known:
+                self.runtime.stop(actor, now)
+                self._record(actor, "", now, "", "forced")
+        if not self.runtime.loaded():
+            self.start(now)
+        self._announce(now)
+        return f"switched to script {sha[:12]}"
+
+    def _known_actor(self, actor: str) -> None:
+        if actor not in {a.name for a in self.plan.script.actors}:
+            raise ValueError(f"the running script has no actor {actor!r}")
+
+    def _force(self, command: cmds.Force, now: float) -> str:
+        self._known_actor(command.to)
+        moved = [a for a in self.runtime.running() if command.src is None or a == command.src]
+        if not moved:
+            return f"nothing to move: not running {command.src}"
+        for actor in moved:
+            if actor != command.to:
+                self._switch(
+                    actor, command.to, now, "", "forced", ActorContext(params=dict(command.params))
+                )
+        return f"{', '.join(moved)} -> {command.to}"
+
+    def _record(self, src: str, dst: str, now: float, event: str, cause: Cause) -> None:
+        self.transitions.append(
+            TransitionRecord(
+                t=now, platform=self.node.platform, src=src, dst=dst, event=event, cause=cause
+            )
+        )
+        self._announce(now)

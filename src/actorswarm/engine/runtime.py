@@ -43,6 +43,10 @@ class ActorContext:
 class ActorHost(Protocol):
     """What the task engine needs from an actor runtime."""
 
+    def use_script(self, script: Any) -> None:
+        """The actors (and their plugins) of the task script from now on."""
+        ...
+
     def start(self, actor: str, now: float, context: ActorContext) -> None: ...
 
     def stop(self, actor: str, now: float) -> None: ...
@@ -50,6 +54,12 @@ class ActorHost(Protocol):
     def switch(self, old: str, new: str, now: float, context: ActorContext) -> None: ...
 
     def running(self) -> tuple[str, ...]: ...
+
+    def pause(self, actor: str, now: float) -> None: ...
+
+    def activate(self, actor: str, now: float) -> None: ...
+
+    def loaded(self) -> dict[str, str]: ...
 
     def step(self, now: float) -> list[Emitted]: ...
 
@@ -80,7 +90,11 @@ class StandInRuntime:
         self.platform = platform
         self._plugins = plugins
         self._running: list[str] = []
+        self._sleeping: list[str] = []
         self._timers: list[_EmitAfter] = []
+
+    def use_script(self, script: Any) -> None:
+        self._plugins = stand_in_plugins(script)
 
     def _load(self, actor: str, now: float) -> None:
         for name, params in self._plugins.get(actor, []):
@@ -109,29 +123,55 @@ class StandInRuntime:
         self._running.append(actor)
 
     def stop(self, actor: str, now: float) -> None:
-        if actor not in self._running:
-            raise ValueError(f"actor {actor!r} is not running on platform {self.platform}")
-        self._running.remove(actor)
+        if actor in self._sleeping:
+            self._sleeping.remove(actor)
+        elif actor in self._running:
+            self._running.remove(actor)
+        else:
+            raise ValueError(f"actor {actor!r} is not loaded on platform {self.platform}")
         self._unload(actor)
 
     def switch(self, old: str, new: str, now: float, context: ActorContext) -> None:
         self.stop(old, now)
-        if new not in self._running:
+        if new in self._sleeping:
+            self.activate(new, now)
+        elif new not in self._running:
             self.start(new, now, context)
+
+    def pause(self, actor: str, now: float) -> None:
+        if actor not in self._running:
+            raise ValueError(f"actor {actor!r} is not running on platform {self.platform}")
+        self._running.remove(actor)
+        self._sleeping.append(actor)
+
+    def activate(self, actor: str, now: float) -> None:
+        if actor not in self._sleeping:
+            raise ValueError(f"actor {actor!r} is not sleeping on platform {self.platform}")
+        self._sleeping.remove(actor)
+        self._running.append(actor)
 
     def running(self) -> tuple[str, ...]:
         return tuple(self._running)
 
+    def loaded(self) -> dict[str, str]:
+        """Every loaded actor and its state: ``running`` or ``sleeping``."""
+        return {
+            **dict.fromkeys(self._running, "running"),
+            **dict.fromkeys(self._sleeping, "sleeping"),
+        }
+
     def step(self, now: float) -> list[Emitted]:
         out = []
         for timer in self._timers:
+            if timer.actor in self._sleeping:
+                continue  # a sleeping actor's plugins are suspended
             if not timer.done and now >= timer.at:
                 timer.done = True
                 out.append(Emitted(event=timer.event, scope=timer.scope, actor=timer.actor))
         return out
 
     def next_deadline(self) -> float | None:
-        pending = [t.at for t in self._timers if not t.done]
+        pending = [t.at for t in self._timers if not t.done and t.actor not in self._sleeping]
         return min(pending) if pending else None
 
 

@@ -10,18 +10,20 @@ DESIGN.md §7: ``completed``, ``sim_time_s``, ``final_actors``, ``transitions`` 
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import CoreEvent
 from actorswarm.core.node import Node
+from actorswarm.core.wire import Packet, WireError
 from actorswarm.dsl.model import TaskScript
 from actorswarm.engine.engine import TaskEngine
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import StandInRuntime, stand_in_plugins
-from actorswarm.sim.radio import LinkModel
+from actorswarm.ground.station import GroundStation
+from actorswarm.sim.radio import LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
 
@@ -60,6 +62,12 @@ class TaskSim:
     seed: int = 0
     link: LinkModel = field(default_factory=LinkModel)
     config: CoreConfig = field(default_factory=CoreConfig)
+    #: Start the task at time 0 (the script counts as deployed); False: the ground station
+    #: (:attr:`ground`) deploys and starts it.
+    auto_start: bool = True
+    ground: GroundStation | None = field(default=None, init=False)
+    _gs_timer: Timer | None = field(default=None, init=False)
+    _gs_at: float = field(default=float("inf"), init=False)
     swarm: SimSwarm = field(init=False)
     plan: Plan = field(init=False)
     hosts: dict[int, _Host] = field(default_factory=dict, init=False)
@@ -74,6 +82,8 @@ class TaskSim:
             raise ValueError("the script starts no platform")
         self.swarm = SimSwarm(platforms, seed=self.seed, config=self.config, link=self.link)
         self.swarm.listeners.append(self._on_core_event)
+        self.ground = GroundStation(swarm=self.swarm.swarm, config=self.config)
+        self.swarm.radio.attach(0, self._gs_deliver)
         for p in platforms:
             self._boot(p)
 
@@ -81,7 +91,8 @@ class TaskSim:
         runtime = StandInRuntime(platform, stand_in_plugins(self.script))
         engine = TaskEngine(self.swarm.node(platform), self.plan, runtime)
         self.hosts[platform] = _Host(engine)
-        self.swarm.call(platform, lambda n: engine.start(self.swarm.now))
+        if self.auto_start:
+            self.swarm.call(platform, lambda n: engine.start(self.swarm.now))
         self._arm(platform)
 
     def _retire(self, platform: int) -> None:
@@ -140,6 +151,46 @@ class TaskSim:
         host.timer_at = float("inf")
         self.swarm.call(platform, lambda n: host.engine.tick(self.swarm.now))
         self._arm(platform)
+
+    # --- the ground station (platform 0) ----------------------------------------------------
+
+    def operate(self, action: Callable[[GroundStation, float], object]) -> object:
+        """Run ``action(ground_station, now)`` now (deploy, start, a command) and send."""
+        assert self.ground is not None
+        result = action(self.ground, self.swarm.now)
+        self._gs_service()
+        return result
+
+    def _gs_deliver(self, tx: Transmission[Packet], now: float) -> None:
+        assert self.ground is not None
+        if tx.corrupted:
+            self.ground.receive(tx.data, now)
+        else:
+            try:
+                self.ground.receive_packet(tx.packet(), now)
+            except WireError:
+                self.ground.receive(tx.data, now)
+        if self.ground.has_output:
+            self._gs_service()
+
+    def _gs_service(self) -> None:
+        assert self.ground is not None
+        for out in self.ground.drain_outgoing():
+            if out.dst is not None:
+                self.swarm.radio.send(0, out.dst, out.data, out.kind)
+        deadline = self.ground.next_deadline()
+        if deadline is not None and deadline < self._gs_at:
+            if self._gs_timer is not None:
+                self._gs_timer.cancel()
+            self._gs_at = max(deadline, self.swarm.now)
+            self._gs_timer = self.swarm.at(self._gs_at, self._gs_tick)
+
+    def _gs_tick(self) -> None:
+        assert self.ground is not None
+        self._gs_timer = None
+        self._gs_at = float("inf")
+        self.ground.tick(self.swarm.now)
+        self._gs_service()
 
     def ground_event(self, event: GroundEvent) -> None:
         """The ground station's event reaches every (or every listed) live platform."""

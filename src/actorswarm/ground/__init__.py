@@ -1,0 +1,5 @@
+"""The ground station: the operator's side of the swarm (DESIGN.md §4.2)."""
+
+from actorswarm.ground.station import GroundStation, NotConfirmed
+
+__all__ = ["GroundStation", "NotConfirmed"]

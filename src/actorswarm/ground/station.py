@@ -1,0 +1,190 @@
+"""The ground station's protocol endpoint, sans-IO like the core.
+
+Theory of operation
+-------------------
+The ground station is platform 0. It is not a member of the swarm (it sends no heartbeats
+and is never elected); it learns who is out there from the platforms' heartbeats, and talks
+to each platform over the core's reliable streams on the *urgent* channel, so its commands
+are retransmitted until acknowledged and processed before swarm traffic. A host drives it
+exactly like a :class:`~actorswarm.core.Node`: ``receive``/``receive_packet``, ``tick`` at
+``next_deadline``, ``drain_outgoing``.
+
+``deploy`` sends a script in chunks to the expected platforms and records which ones confirm
+its SHA-256; ``start`` is refused (:class:`NotConfirmed`, naming the missing platforms) until
+all of them have, unless forced. Every reply is kept in :attr:`GroundStation.replies`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from actorswarm.core import wire
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.node import Outgoing
+from actorswarm.core.reliable import Reliable
+from actorswarm.core.wire import URGENT, Ack, AppMessage, Data, Heartbeat, Packet, WireError
+from actorswarm.engine import commands as cmds
+
+
+class NotConfirmed(RuntimeError):
+    """``start`` before every expected platform confirmed the script."""
+
+    def __init__(self, sha256: str, missing: list[int]) -> None:
+        super().__init__(
+            f"script {sha256[:12]} not confirmed by platforms {missing}; "
+            "wait for them, or force the start"
+        )
+        self.missing = missing
+
+
+@dataclass(frozen=True, slots=True)
+class ReplyRecord:
+    t: float
+    platform: int
+    reply: cmds.Reply
+
+
+class GroundStation:
+    """The operator's endpoint for swarm ``swarm``."""
+
+    def __init__(
+        self,
+        *,
+        swarm: str,
+        now: float = 0.0,
+        incarnation: int = 0,
+        config: CoreConfig | None = None,
+    ):
+        self.swarm = swarm
+        self.incarnation = incarnation
+        self.config = config or CoreConfig()
+        self.reliable = Reliable(self.config)
+        self._seq = 0
+        self._outgoing: list[Outgoing] = []
+        self._occasions = 0
+        #: When each platform was last heard, and its (incarnation, master?, epoch).
+        self.heard: dict[int, float] = {}
+        self.state: dict[int, tuple[int, bool, int]] = {}
+        self.confirmed: dict[str, set[int]] = {}
+        self.expected: dict[str, set[int]] = {}
+        self.replies: list[ReplyRecord] = []
+        self.counters: dict[str, int] = {}
+        self.deployed_sha = ""
+
+    # --- operator interface ------------------------------------------------------------
+
+    def send(self, command: cmds.Command, platforms: Iterable[int], now: float) -> None:
+        body = cmds.encode(command)
+        for p in sorted(set(platforms)):
+            self.reliable.send(
+                p, AppMessage(topic=cmds.TOPIC_COMMAND, body=body), now, 0, channel=URGENT
+            )
+
+    def deploy(self, script: bytes, platforms: Iterable[int], now: float) -> str:
+        """Send ``script`` to ``platforms``; returns its SHA-256 (confirmations follow)."""
+        sha = hashlib.sha256(script).hexdigest()
+        targets = set(platforms)
+        self.expected[sha] = targets
+        self.confirmed.setdefault(sha, set())
+        for chunk in cmds.chunks(script, sha):
+            self.send(chunk, targets, now)
+        self.deployed_sha = sha
+        return sha
+
+    def missing(self, sha: str) -> list[int]:
+        return sorted(self.expected.get(sha, set()) - self.confirmed.get(sha, set()))
+
+    def start(self, now: float, *, force: bool = False) -> None:
+        sha = self.deployed_sha
+        if not sha:
+            raise RuntimeError("nothing deployed: deploy a script first")
+        missing = self.missing(sha)
+        if missing and not force:
+            raise NotConfirmed(sha, missing)
+        self.send(cmds.Start(sha256=sha), self.expected[sha], now)
+
+    def event(
+        self,
+        name: str,
+        now: float,
+        *,
+        platforms: Iterable[int] | None = None,
+        actors: Iterable[str] = (),
+    ) -> None:
+        """Inject an event into the swarm (every platform heard, or only ``platforms``)."""
+        self._occasions += 1
+        targets = set(self.heard) if platforms is None else set(platforms)
+        command = cmds.Inject(
+            event=name, actors=sorted(actors), occasion=f"gs{self.incarnation}:{self._occasions}"
+        )
+        self.send(command, targets, now)
+
+    # --- host interface -----------------------------------------------------------------
+
+    def receive(self, data: bytes, now: float) -> None:
+        try:
+            packet = wire.decode(data, swarm=self.swarm, max_bytes=self.config.max_packet_bytes)
+        except WireError as exc:
+            self.counters[f"drop:{exc.reason}"] = self.counters.get(f"drop:{exc.reason}", 0) + 1
+            return
+        self.receive_packet(packet, now)
+
+    def receive_packet(self, packet: Packet, now: float) -> None:
+        body = packet.body
+        sender = packet.sender
+        if sender == wire.GROUND_STATION or packet.swarm != self.swarm:
+            return
+        if isinstance(body, Heartbeat):
+            self.heard[sender] = now
+            self.state[sender] = (packet.incarnation, body.is_master, body.epoch)
+        elif isinstance(body, Ack):
+            if body.dst == wire.GROUND_STATION and body.dst_incarnation == self.incarnation:
+                self.reliable.on_ack(sender, body, now)
+        elif isinstance(body, Data) and body.dst == wire.GROUND_STATION:
+            delivered, ack = self.reliable.on_data(sender, packet.incarnation, body)
+            if ack is not None:
+                self._emit(sender, ack)
+            for _, payload in delivered:
+                if isinstance(payload, AppMessage) and payload.topic == cmds.TOPIC_REPLY:
+                    self._on_reply(sender, payload.body, now)
+
+    def _on_reply(self, sender: int, body: bytes, now: float) -> None:
+        try:
+            reply = cmds.decode_reply(body)
+        except cmds.CommandError:
+            self.counters["drop:reply"] = self.counters.get("drop:reply", 0) + 1
+            return
+        if isinstance(reply, cmds.DeployAck):
+            self.confirmed.setdefault(reply.sha256, set()).add(sender)
+        self.replies.append(ReplyRecord(now, sender, reply))
+
+    def tick(self, now: float) -> None:
+        self.reliable.tick(now)
+        self.reliable.failures.clear()
+
+    def next_deadline(self) -> float | None:
+        return self.reliable.next_deadline()
+
+    def drain_outgoing(self) -> list[Outgoing]:
+        for dst, body in self.reliable.outbox:
+            self._emit(dst, body)
+        self.reliable.outbox = []
+        out, self._outgoing = self._outgoing, []
+        return out
+
+    @property
+    def has_output(self) -> bool:
+        return bool(self._outgoing or self.reliable.outbox)
+
+    def _emit(self, dst: int, body: wire.Body) -> None:
+        self._seq += 1
+        data = wire.encode(
+            swarm=self.swarm,
+            sender=wire.GROUND_STATION,
+            incarnation=self.incarnation,
+            seq=self._seq,
+            body=body,
+        )
+        self._outgoing.append(Outgoing(dst, data, type(body).__name__, URGENT))
