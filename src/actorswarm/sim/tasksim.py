@@ -320,12 +320,26 @@ def summary(report: dict[str, Any]) -> list[str]:
         f"simulated {report['sim_time_s']:.1f} s; completed: {report['completed']}",
     ]
     switches = [t for t in report["transitions"] if t["cause"] != "start"]
-    by_step: dict[tuple[float, str, str, str], list[int]] = {}
+    # One line per step: the same move for the same event within a second (one release may
+    # reach some platforms a retransmission later than others).
+    steps: list[tuple[float, float, str, str, str, str, list[int]]] = []
     for t in switches:
-        step = (round(t["t"], 1), t["from"], t["to"], t["cause"])
-        by_step.setdefault(step, []).append(t["platform"])
-    for (when, src, dst, cause), who in sorted(by_step.items()):
-        lines.append(f"  {when:7.1f} s  {len(who):3d} × {src} → {dst} ({cause}): {sorted(who)}")
+        for i, (first, _, event, src, dst, cause, who) in enumerate(steps):
+            same = (event, src, dst, cause) == (t["event"], t["from"], t["to"], t["cause"])
+            if same and t["t"] - first <= 1.0:
+                steps[i] = (first, t["t"], event, src, dst, cause, [*who, t["platform"]])
+                break
+        else:
+            steps.append(
+                (t["t"], t["t"], t["event"], t["from"], t["to"], t["cause"], [t["platform"]])
+            )
+    for first, last, event, src, dst, cause, who in steps:
+        spread = f" (+{(last - first) * 1000:.0f} ms)" if last > first else ""
+        on = f" on {event}" if event else ""
+        lines.append(
+            f"  {first:7.2f} s{spread}  {len(who):3d} × {src or '-'} → {dst or '-'}"
+            f" ({cause}{on}): {sorted(who)}"
+        )
     masters = ", ".join(f"{m['platform']}@{m['t']:.2f}s" for m in report["masters"])
     lines.append(f"masters: {masters or 'none'}")
     final: dict[str, list[str]] = {}
