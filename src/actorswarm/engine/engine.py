@@ -434,30 +434,21 @@ class TaskEngine:
             self._announce(now)
             return f"activated {command.actor}"
         if isinstance(command, cmds.Backup):
-            snapshot = cmds.encode(
-                cmds.StatusReply(
-                    actors=self.runtime.loaded(),
-                    master=self.node.is_master,
-                    epoch=self.node.epoch,
-                    incarnation=self.node.incarnation,
-                    script=self.script_sha,
-                )
-            )
+            snapshot = cmds.encode(self._status())
             self.backups.append(snapshot)
             self._reply(cmds.BackupReply(generation=len(self.backups), size=len(snapshot)), now)
             return None
-        # Status
-        self._reply(
-            cmds.StatusReply(
-                actors=self.runtime.loaded(),
-                master=self.node.is_master,
-                epoch=self.node.epoch,
-                incarnation=self.node.incarnation,
-                script=self.script_sha,
-            ),
-            now,
-        )
+        self._reply(self._status(), now)  # Status
         return None
+
+    def _status(self) -> cmds.StatusReply:
+        return cmds.StatusReply(
+            actors=self.runtime.loaded(),
+            master=self.node.is_master,
+            epoch=self.node.epoch,
+            incarnation=self.node.incarnation,
+            script=self.script_sha,
+        )
 
     def _deploy_chunk(self, chunk: cmds.DeployChunk, now: float) -> str | None:
         if chunk.sha256 in self._deployed:
