@@ -91,6 +91,8 @@ class StandInRuntime:
         self._plugins = plugins
         self._running: list[str] = []
         self._sleeping: list[str] = []
+        #: What each actor was last started with (params, index, scattered data).
+        self.contexts: dict[str, ActorContext] = {}
         self._timers: list[_EmitAfter] = []
 
     def use_script(self, script: Any) -> None:
@@ -121,6 +123,7 @@ class StandInRuntime:
             raise ValueError(f"actor {actor!r} is already running on platform {self.platform}")
         self._load(actor, now)
         self._running.append(actor)
+        self.contexts[actor] = context
 
     def stop(self, actor: str, now: float) -> None:
         if actor in self._sleeping:
