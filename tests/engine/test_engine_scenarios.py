@@ -286,9 +286,10 @@ def test_the_shared_ready_barrier_example_as_its_comment_says() -> None:
 def test_successor_gets_the_params_its_index_and_the_scattered_data() -> None:
     sim = TaskSim(load(EXAMPLES / "branch_merge.xml"), seed=14)
     sim.run(7, events=[GroundEvent("AtoBC_branch_event", 5.0)])
-    contexts = {p: h.engine.runtime.contexts for p, h in sim.hosts.items()}
-    b = contexts[1]["B"]
+    acbs = {p: h.engine.runtime.acbs() for p, h in sim.hosts.items()}
+    b = acbs[1]["B"].context
     assert b.params == {"TargetPoint": "200 200 20"}
     assert b.index == 1 and b.data == {"to": "B"}
-    c = contexts[10]["C"]
+    c = acbs[10]["C"].context
     assert c.index == 10 and c.data == {"to": "C"}, "indices run over the group in bid order"
+    assert acbs[1]["A"].status.value == "sleeping", "switch pauses the actor it leaves"

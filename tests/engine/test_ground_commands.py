@@ -121,7 +121,7 @@ def test_forced_transition_start_stop_pause_activate() -> None:
         for p, r in results(sim, cmds.Result)
         if isinstance(r, cmds.Result) and not r.ok
     ]
-    assert failures and failures[0][0] == 6 and "not running" in failures[0][1]
+    assert failures and failures[0][0] == 6 and "not loaded" in failures[0][1]
     sim.operate(lambda g, now: g.send(cmds.Activate(actor="A"), [3], now))
     sim.swarm.run_until(4.5)
     assert running(sim)[3] == ("A",)

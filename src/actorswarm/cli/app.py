@@ -203,7 +203,8 @@ def sim(
 ) -> None:
     """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7)."""
     from actorswarm.core.config import CoreConfig
-    from actorswarm.engine.runtime import UnsupportedPlugin
+    from actorswarm.runtime.actor_runtime import UnsupportedPlugin
+    from actorswarm.runtime.registry import RegistryError
     from actorswarm.sim.radio import LinkModel
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
 
@@ -229,7 +230,7 @@ def sim(
     try:
         run = TaskSim(script, seed=seed, link=link, config=CoreConfig())
         report = run.run(duration, events=events, faults=faults)
-    except UnsupportedPlugin as exc:
+    except (UnsupportedPlugin, RegistryError) as exc:
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
     text = json.dumps(report, indent=2)

@@ -123,6 +123,7 @@ class TaskEngine:
         self.backups: list[bytes] = []
         node.resolve_all = self._holders
         node.scatter = self._scatter
+        runtime.use_script(plan.script)
 
     # --- host interface ---------------------------------------------------------------
 
@@ -130,7 +131,11 @@ class TaskEngine:
         """Start this platform's initial actors (the task's ``start``)."""
         for actor in self.plan.initial_actors(self.node.platform):
             if actor not in self.runtime.running():
-                self.runtime.start(actor, now, ActorContext())
+                try:
+                    self.runtime.start(actor, now, ActorContext())
+                except ValueError as exc:
+                    self.ignored.append((now, "", f"start of {actor} refused: {exc}"))
+                    continue
                 self.transitions.append(
                     TransitionRecord(
                         t=now,
@@ -310,7 +315,12 @@ class TaskEngine:
         cause: Cause,
         context: ActorContext | None = None,
     ) -> None:
-        self.runtime.switch(src, dst, now, context or ActorContext())
+        try:
+            self.runtime.switch(src, dst, now, context or ActorContext())
+        except ValueError as exc:  # refused by the runtime (hardware busy, bad params, ...)
+            self.ignored.append((now, event, f"switch {src} -> {dst} refused: {exc}"))
+            self._announce(now)
+            return
         self.transitions.append(
             TransitionRecord(
                 t=now, platform=self.node.platform, src=src, dst=dst, event=event, cause=cause
@@ -434,7 +444,7 @@ class TaskEngine:
             self._announce(now)
             return f"activated {command.actor}"
         if isinstance(command, cmds.Backup):
-            snapshot = cmds.encode(self._status())
+            snapshot = self.runtime.snapshot()
             self.backups.append(snapshot)
             self._reply(cmds.BackupReply(generation=len(self.backups), size=len(snapshot)), now)
             return None

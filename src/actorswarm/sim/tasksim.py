@@ -21,8 +21,8 @@ from actorswarm.core.wire import Packet, WireError
 from actorswarm.dsl.model import TaskScript
 from actorswarm.engine.engine import TaskEngine
 from actorswarm.engine.plan import Plan
-from actorswarm.engine.runtime import StandInRuntime, stand_in_plugins
 from actorswarm.ground.station import GroundStation
+from actorswarm.runtime.actor_runtime import ActorRuntime
 from actorswarm.sim.radio import LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
@@ -74,6 +74,7 @@ class TaskSim:
     records: list[dict[str, Any]] = field(default_factory=list, init=False)
     ignored: list[dict[str, Any]] = field(default_factory=list, init=False)
     _sent: int = field(default=0, init=False)
+    plugin_failures: list[dict[str, Any]] = field(default_factory=list, init=False)
 
     def __post_init__(self) -> None:
         self.plan = Plan.build(self.script)
@@ -88,7 +89,7 @@ class TaskSim:
             self._boot(p)
 
     def _boot(self, platform: int) -> None:
-        runtime = StandInRuntime(platform, stand_in_plugins(self.script))
+        runtime = ActorRuntime(platform, seed=self.seed)
         engine = TaskEngine(self.swarm.node(platform), self.plan, runtime)
         self.hosts[platform] = _Host(engine)
         if self.auto_start:
@@ -121,6 +122,18 @@ class TaskSim:
                 {"t": round(t, 6), "platform": engine.node.platform, "event": event, "why": why}
             )
         engine.ignored.clear()
+        failures = getattr(engine.runtime, "failures", [])
+        for f in failures:
+            self.plugin_failures.append(
+                {
+                    "t": round(f.t, 6),
+                    "platform": engine.node.platform,
+                    "actor": f.actor,
+                    "plugin": f.plugin,
+                    "error": f.message,
+                }
+            )
+        failures.clear()
 
     # --- driving --------------------------------------------------------------------------
 
@@ -264,6 +277,7 @@ class TaskSim:
             ],
             "traffic": traffic,
             "ignored_events": self.ignored,
+            "plugin_failures": self.plugin_failures,
             "violations": self.swarm.finish(),
             "seed": self.seed,
         }

@@ -1,0 +1,385 @@
+"""The actor runtime: actors as plugin groups on the OODA buses, one platform's worth.
+
+Theory of operation
+-------------------
+:class:`ActorRuntime` is what the task engine drives through its narrow
+:class:`~actorswarm.engine.runtime.ActorHost` interface. For every actor of the task script
+it knows the plugin group (plugins found by name in the registry, their script params
+validated), the exclusive hardware the group needs (the union of its plugins' declared
+resources) and its priority.
+
+* **Operations** go through the one transition table of :mod:`.operations`, so an illegal
+  one raises :class:`~actorswarm.runtime.operations.IllegalOperation` and changes nothing.
+  ``start`` builds fresh plugin instances and drives their ``start`` hooks in OODA order;
+  ``pause`` suspends them (state kept) and gives the actor's hardware back; ``activate``
+  takes the hardware again and resumes them; ``stop`` unloads them. ``switch`` pauses the
+  current actor and re-activates the next if it is sleeping — or starts it.
+* **Hardware** is arbitrated by :class:`~actorswarm.runtime.resources.ResourceArbiter`: an
+  actor of higher priority pauses the holders it needs; they resume by themselves when the
+  hardware is free again. An equal or lower priority is refused with the holder named.
+* **Steps.** A running actor is stepped at ``rate`` Hz, and also whenever one of its plugins
+  asked to be woken (its ``next_deadline``), calling observe → orient → decide → act with one
+  shared blackboard; what the plugins emit is returned to the engine. A plugin that raises is
+  isolated: its actor goes to ``error`` (its hardware is released), the error is kept with the
+  plugin's name, and the platform and the other actors go on.
+* **Snapshots.** :meth:`ActorRuntime.snapshot` captures every loaded actor's ACB and plugin
+  states; :meth:`ActorRuntime.restore` brings them back (sleeping, then activated), so a
+  restarted platform can resume from its latest backup.
+
+The runtime reads time only from the ``now`` it is given; it measures how long each plugin
+step takes with a performance counter, for the ACB statistics only.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import msgspec
+
+from actorswarm.dsl.model import BUSES, TaskScript
+from actorswarm.engine.runtime import ActorContext, Emitted
+from actorswarm.runtime.acb import ACB, ActorStatus, Relations, TaskContext
+from actorswarm.runtime.context import Collective, NullCollective, PluginContext, Vehicle
+from actorswarm.runtime.operations import Operation, apply
+from actorswarm.runtime.plugin import Plugin
+from actorswarm.runtime.registry import resolve
+from actorswarm.runtime.resources import ResourceArbiter
+
+
+class UnsupportedPlugin(ValueError):
+    """A plugin this platform cannot run (e.g. it needs a vehicle and there is none)."""
+
+
+@dataclass(frozen=True, slots=True)
+class _PluginDef:
+    bus: str
+    name: str
+    cls: type[Plugin]
+    params: dict[str, str]
+
+
+@dataclass(frozen=True, slots=True)
+class _ActorDef:
+    name: str
+    actor_id: int
+    priority: int
+    plugins: tuple[_PluginDef, ...]
+    resources: frozenset[str]
+
+
+@dataclass(slots=True)
+class _Loaded:
+    acb: ACB
+    plugins: list[tuple[_PluginDef, Plugin, dict[str, Any]]]  # definition, instance, params
+    blackboard: dict[str, Any] = field(default_factory=dict)
+    next_step: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class PluginFailure:
+    """A plugin raised: its actor went to ``error``."""
+
+    t: float
+    actor: str
+    plugin: str
+    message: str
+
+
+class ActorRuntime:
+    """The actors of platform ``platform`` (see the module docstring)."""
+
+    def __init__(
+        self,
+        platform: int,
+        *,
+        vehicle: Vehicle | None = None,
+        collective: Collective | None = None,
+        rate: float = 10.0,
+        seed: int = 0,
+    ) -> None:
+        if rate <= 0:
+            raise ValueError(f"rate must be > 0 Hz, got {rate}")
+        self.platform = platform
+        self.vehicle = vehicle
+        self.collective: Collective = collective or NullCollective()
+        self.period = 1.0 / rate
+        self._rng = random.Random(f"runtime:{seed}:{platform}")
+        self._defs: dict[str, _ActorDef] = {}
+        self._loaded: dict[str, _Loaded] = {}
+        self._arbiter = ResourceArbiter()
+        self.failures: list[PluginFailure] = []
+
+    # --- the script ----------------------------------------------------------------------
+
+    def use_script(self, script: TaskScript) -> None:
+        """Learn the actors of ``script``: their plugins (resolved now, so a missing plugin
+        fails here, not in flight), params, priorities and hardware."""
+        defs: dict[str, _ActorDef] = {}
+        for actor in script.actors:
+            plugins = []
+            for bus, spec in actor.plugins():
+                cls = resolve(spec.name)
+                if cls.needs_vehicle and self.vehicle is None:
+                    raise UnsupportedPlugin(
+                        f"actor {actor.name!r}: plugin {spec.name!r} needs a vehicle and "
+                        f"platform {self.platform} has none (the simulator runs without a "
+                        "world: only plugins that need no vehicle)"
+                    )
+                cls.validate_params(spec.param_map)  # refuse bad params before any start
+                plugins.append(_PluginDef(bus, spec.name, cls, spec.param_map))
+            resources = frozenset().union(*(p.cls.resources for p in plugins))
+            defs[actor.name] = _ActorDef(
+                actor.name, actor.id, actor.priority, tuple(plugins), resources
+            )
+        self._defs = defs
+
+    # --- ActorHost ------------------------------------------------------------------------
+
+    def running(self) -> tuple[str, ...]:
+        return tuple(n for n, a in self._loaded.items() if a.acb.status is ActorStatus.RUNNING)
+
+    def loaded(self) -> dict[str, str]:
+        return {n: a.acb.status.value for n, a in self._loaded.items()}
+
+    def acbs(self) -> dict[str, ACB]:
+        """Every loaded actor's control block (what the status command reports)."""
+        return {n: a.acb for n, a in self._loaded.items()}
+
+    def start(self, actor: str, now: float, context: ActorContext) -> None:
+        loaded = self._loaded.get(actor)
+        if loaded is not None and loaded.acb.status is ActorStatus.SLEEPING:
+            self.activate(actor, now)
+            return
+        if loaded is not None and loaded.acb.status is ActorStatus.RUNNING:
+            apply(loaded.acb, Operation.START, now)  # raises IllegalOperation, changes nothing
+        definition = self._defs.get(actor)
+        if definition is None:
+            raise ValueError(f"the task script has no actor {actor!r}")
+        acb = loaded.acb if loaded is not None else self._new_acb(definition)
+        grant = self._arbiter.acquire(actor, definition.priority, definition.resources)
+        for victim in grant.preempted:
+            self._suspend(victim, now)
+        instances = []
+        for pdef in definition.plugins:
+            params = pdef.cls.bind_params(pdef.params, context.params)
+            instances.append((pdef, pdef.cls(), params))
+        self._loaded[actor] = entry = _Loaded(acb=acb, plugins=instances)
+        acb.context = TaskContext(
+            params=dict(context.params), index=context.index, data=context.data
+        )
+        acb.relations = Relations(index=context.index)
+        acb.hardware = definition.resources
+        apply(acb, Operation.START, now)
+        entry.next_step = now
+        for pdef, plugin, params in instances:
+            if not self._call(entry, pdef, plugin, "_drive_start", now, params):
+                return
+
+    def stop(self, actor: str, now: float) -> None:
+        entry = self._require(actor)
+        apply(entry.acb, Operation.STOP, now)
+        for pdef, plugin, params in entry.plugins:
+            if plugin.lifecycle in ("running", "sleeping"):
+                self._call(entry, pdef, plugin, "_drive_stop", now, params, fail=False)
+        del self._loaded[actor]
+        self._release(actor, now)
+
+    def pause(self, actor: str, now: float) -> None:
+        entry = self._require(actor)
+        apply(entry.acb, Operation.PAUSE, now)
+        for pdef, plugin, params in entry.plugins:
+            self._call(entry, pdef, plugin, "_drive_pause", now, params)
+        self._release(actor, now)
+
+    def activate(self, actor: str, now: float) -> None:
+        entry = self._require(actor)
+        definition = self._defs[actor]
+        if entry.acb.status is not ActorStatus.SLEEPING:
+            apply(entry.acb, Operation.ACTIVATE, now)  # raises the clear error
+        grant = self._arbiter.acquire(actor, definition.priority, definition.resources)
+        for victim in grant.preempted:
+            self._suspend(victim, now)
+        apply(entry.acb, Operation.ACTIVATE, now)
+        entry.next_step = now
+        for pdef, plugin, params in entry.plugins:
+            if not self._call(entry, pdef, plugin, "_drive_activate", now, params):
+                return
+
+    def switch(self, old: str, new: str, now: float, context: ActorContext) -> None:
+        """Pause ``old`` (state kept, hardware freed) and start or re-activate ``new``."""
+        entry = self._loaded.get(old)
+        if entry is not None and entry.acb.status is ActorStatus.RUNNING:
+            self.pause(old, now)
+            entry.acb.stats.switch_count += 1
+        self.start(new, now, context)
+        self._loaded[new].acb.stats.switch_count += 1
+
+    def step(self, now: float) -> list[Emitted]:
+        """Step every running actor that is due; return what the plugins emitted."""
+        out: list[Emitted] = []
+        for name, entry in list(self._loaded.items()):
+            if entry.acb.status is not ActorStatus.RUNNING or now < self._due(entry):
+                continue
+            emitted: list[Emitted] = []
+            timings: dict[str, float] = {}
+            ok = True
+            for pdef, plugin, params in self._ooda(entry):
+                began = time.perf_counter()
+                ok = self._call(entry, pdef, plugin, "_drive_step", now, params, out=emitted)
+                timings[pdef.name] = time.perf_counter() - began
+                if not ok:
+                    break
+            if ok:
+                entry.acb.record_step(timings)
+                entry.next_step = now + self.period
+            out.extend(e if e.actor else dataclasses.replace(e, actor=name) for e in emitted)
+        return out
+
+    @staticmethod
+    def _ooda(entry: _Loaded) -> list[tuple[_PluginDef, Plugin, dict[str, Any]]]:
+        """The actor's plugins in step order: observe, orient, decide, act (each bus in the
+        order the script lists its plugins)."""
+        order: dict[str, int] = {bus: i for i, bus in enumerate(BUSES)}
+        return sorted(entry.plugins, key=lambda item: order.get(item[0].bus, len(order)))
+
+    def next_deadline(self) -> float | None:
+        times = [self._due(e) for e in self._loaded.values() if e.acb.status is ActorStatus.RUNNING]
+        return min(times) if times else None
+
+    # --- backup ---------------------------------------------------------------------------
+
+    def snapshot(self) -> bytes:
+        """Every loaded actor: its status, context and plugin states (msgpack)."""
+        state = {
+            name: {
+                "status": e.acb.status.value,
+                "params": dict(e.acb.context.params),
+                "index": e.acb.context.index,
+                "plugins": [
+                    plugin._drive_snapshot() if plugin.lifecycle in ("running", "sleeping") else {}
+                    for _, plugin, _ in e.plugins
+                ],
+            }
+            for name, e in self._loaded.items()
+            if e.acb.status in (ActorStatus.RUNNING, ActorStatus.SLEEPING)
+        }
+        return msgspec.msgpack.encode(state)
+
+    def restore(self, data: bytes, now: float) -> list[str]:
+        """Load the actors of a :meth:`snapshot` (restored sleeping, then the running ones
+        activated); returns the actors brought back running."""
+        state: Mapping[str, Any] = msgspec.msgpack.decode(data)
+        resumed = []
+        for name, saved in state.items():
+            definition = self._defs.get(name)
+            if definition is None or name in self._loaded:
+                continue
+            acb = self._new_acb(definition)
+            instances = []
+            for pdef, snap in zip(definition.plugins, saved["plugins"], strict=False):
+                params = pdef.cls.bind_params(pdef.params, saved["params"])
+                plugin = pdef.cls()
+                plugin._drive_restore(snap)
+                instances.append((pdef, plugin, params))
+            acb.context = TaskContext(params=dict(saved["params"]), index=saved["index"])
+            self._loaded[name] = _Loaded(acb=acb, plugins=instances)
+            # Restored plugins sleep: bring the ACB to the same state, then activate.
+            apply(acb, Operation.START, now)
+            apply(acb, Operation.PAUSE, now)
+            if saved["status"] == ActorStatus.RUNNING.value:
+                self.activate(name, now)
+                resumed.append(name)
+        return resumed
+
+    # --- internals ------------------------------------------------------------------------
+
+    def _new_acb(self, definition: _ActorDef) -> ACB:
+        return ACB(
+            name=definition.name,
+            actor_id=definition.actor_id,
+            priority=definition.priority,
+            software=tuple((p.bus, p.name) for p in definition.plugins),
+            hardware=definition.resources,
+        )
+
+    def _require(self, actor: str) -> _Loaded:
+        entry = self._loaded.get(actor)
+        if entry is None:
+            raise ValueError(
+                f"actor {actor!r} is not loaded on platform {self.platform} "
+                f"(loaded: {', '.join(self._loaded) or 'none'})"
+            )
+        return entry
+
+    def _due(self, entry: _Loaded) -> float:
+        due = entry.next_step
+        for _, plugin, _ in entry.plugins:
+            wake = plugin._drive_next_deadline()
+            if wake is not None and wake < due:
+                due = wake
+        return due
+
+    def _context(self, entry: _Loaded, params: dict[str, Any], now: float) -> PluginContext:
+        return PluginContext(
+            now=now,
+            platform=self.platform,
+            actor=entry.acb.name,
+            params=params,
+            blackboard=entry.blackboard,
+            vehicle=self.vehicle,
+            collective=self.collective,
+            rng=self._rng,
+            index=entry.acb.context.index,
+            data=entry.acb.context.data,
+        )
+
+    def _call(
+        self,
+        entry: _Loaded,
+        pdef: _PluginDef,
+        plugin: Plugin,
+        driver: str,
+        now: float,
+        params: dict[str, Any],
+        *,
+        out: list[Emitted] | None = None,
+        fail: bool = True,
+    ) -> bool:
+        """Run one lifecycle driver; a plugin that raises puts its actor in error."""
+        ctx = self._context(entry, params, now)
+        try:
+            getattr(plugin, driver)(ctx)
+        except Exception as exc:  # a plugin's bug must not take the platform down
+            message = f"plugin {pdef.name!r} raised {type(exc).__name__}: {exc}"
+            self.failures.append(PluginFailure(now, entry.acb.name, pdef.name, message))
+            if fail and entry.acb.status in (ActorStatus.RUNNING, ActorStatus.SLEEPING):
+                apply(entry.acb, Operation.FAIL, now, error=message)
+                self._release(entry.acb.name, now)
+            return False
+        if out is not None:
+            out.extend(ctx.drain())
+        return True
+
+    def _suspend(self, actor: str, now: float) -> None:
+        """Pause an actor whose hardware a higher priority took (the arbiter resumes it)."""
+        entry = self._loaded.get(actor)
+        if entry is None or entry.acb.status is not ActorStatus.RUNNING:
+            return
+        apply(entry.acb, Operation.PAUSE, now)
+        for pdef, plugin, params in entry.plugins:
+            self._call(entry, pdef, plugin, "_drive_pause", now, params)
+
+    def _release(self, actor: str, now: float) -> None:
+        for resumed in self._arbiter.release(actor):
+            entry = self._loaded.get(resumed)
+            if entry is None or entry.acb.status is not ActorStatus.SLEEPING:
+                continue
+            apply(entry.acb, Operation.ACTIVATE, now)
+            entry.next_step = now
+            for pdef, plugin, params in entry.plugins:
+                self._call(entry, pdef, plugin, "_drive_activate", now, params)
