@@ -174,15 +174,16 @@ ERRORS: list[tuple[str, str, str, str]] = [
     ("emit-after-no-event",
      make({3: with_plugin("core.emit_after", '<param key="after" value="1"/>')}),
      "3:90", "core.emit_after needs the param event"),
-    ("emit-after-no-after",
-     make({3: with_plugin("core.emit_after", '<param key="event" value="go"/>')}),
-     "3:90", "core.emit_after needs the param after"),
+    ("emit-after-unknown-param",
+     make({3: with_plugin("core.emit_after", '<param key="event" value="go"/>'
+                                             '<param key="delay" value="1"/>')}),
+     "3:146", "core.emit_after has no param 'delay'"),
     ("emit-after-negative", make({3: with_plugin("core.emit_after", '<param key="event" '
                                                  'value="go"/><param key="after" value="-1"/>')}),
-     "3:146", "after must be a number of seconds ≥ 0"),
+     "3:146", "after must be ≥ 0"),
     ("emit-after-scope",
      make({3: with_plugin("core.emit_after", EMIT + '<param key="scope" value="global"/>')}),
-     "3:176", 'scope must be "local" or "swarm"'),
+     "3:176", 'scope must be one of "local", "swarm"'),
     ("emit-after-spread", make({3: with_plugin("core.emit_after", EMIT + '<param key='
                                                '"spread_per_platform" value="fast"/>')}),
      "3:176", "spread_per_platform must be a number"),

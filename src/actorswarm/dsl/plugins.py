@@ -15,8 +15,10 @@ Two plugins need no vehicle and always exist (DESIGN.md §6):
     ≥ 0), ``spread_per_platform`` (seconds, default 0) and ``scope`` (``local``, the default:
     only the emitting platform becomes a candidate; or ``swarm``).
 
-They are listed here by name until the actor runtime registers them as real entry points;
-their param contracts live here so the checker and the runtime agree on them.
+They are registered as entry points like any third-party plugin
+(:mod:`actorswarm.runtime.builtin`); the checker reads every installed plugin's params from
+its class (:func:`param_rules`). The table below is the fallback for a machine where the
+classes cannot be loaded, and is tested to read values as the classes do.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from importlib.metadata import entry_points
+from typing import Protocol
 
 from actorswarm.dsl import syntax
 
@@ -72,6 +75,30 @@ BUILTIN_PLUGINS: Mapping[str, Mapping[str, ParamRule]] = {
         "scope": ParamRule(required=False, parse=_scope, meaning="local or swarm"),
     },
 }
+
+
+class _ParamLike(Protocol):
+    """What the checker needs of a param declaration (a runtime ``Param`` or a rule above)."""
+
+    @property
+    def required(self) -> bool: ...
+
+    @property
+    def meaning(self) -> str: ...
+
+    def parse(self, text: str) -> object: ...
+
+
+def param_rules(name: str) -> Mapping[str, _ParamLike] | None:
+    """The params plugin ``name`` declares, from its class (the registry) — so a wrong
+    param of any installed plugin is a ``file:line:col`` error at check time; the table
+    above when the class cannot be loaded; None for an unknown plugin."""
+    from actorswarm.runtime.registry import RegistryError, param_schema
+
+    try:
+        return param_schema(name)
+    except RegistryError:
+        return BUILTIN_PLUGINS.get(name)
 
 
 def installed_plugins() -> frozenset[str]:

@@ -18,13 +18,14 @@ make their conclusions wrong.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from actorswarm.dsl.diagnostics import Report, did_you_mean
 from actorswarm.dsl.feasibility import edges, infeasible_groups, reachable
 from actorswarm.dsl.model import Param, Position, TaskScript, Transition
-from actorswarm.dsl.plugins import BUILTIN_PLUGINS
+from actorswarm.dsl.plugins import param_rules
 from actorswarm.dsl.syntax import id_ranges, plugin_kind
 
 _LOST = "_lost"
@@ -104,14 +105,19 @@ def _check_actors(script: TaskScript, report: Report, known_plugins: Collection[
                     f"{did_you_mean(plugin.name, known_plugins)}; install the package that "
                     f"provides it or fix the name (installed: {_listing(known_plugins)})",
                 )
-            elif plugin.name in BUILTIN_PLUGINS:
-                _check_builtin_params(plugin.name, plugin.params, plugin.pos, report)
+            else:
+                rules = param_rules(plugin.name)
+                if rules is not None:
+                    _check_params(plugin.name, rules, plugin.params, plugin.pos, report)
 
 
-def _check_builtin_params(
-    plugin: str, params: tuple[Param, ...], pos: Position, report: Report
+def _check_params(
+    plugin: str,
+    rules: Mapping[str, Any],
+    params: tuple[Param, ...],
+    pos: Position,
+    report: Report,
 ) -> None:
-    rules = BUILTIN_PLUGINS[plugin]
     given = {param.key for param in params}
     for param in params:
         if param.key not in rules:
