@@ -132,3 +132,19 @@ def test_sim_refuses_bad_flags_clearly(args: list[str], message: str) -> None:
 def test_sim_needs_no_world_until_the_world_exists() -> None:
     result = runner.invoke(app, ["sim", str(EXAMPLES / "ready_barrier.xml")])
     assert result.exit_code == 2 and "--no-world" in result.output
+
+
+def test_bench_switch_rows(tmp_path: Path) -> None:
+    out = tmp_path / "switch.json"
+    result = runner.invoke(
+        app, ["bench", "switch", "--plugins", "1,5", "--runs", "20", "--json", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    rows = json.loads(out.read_text())
+    assert {(r["plugins"], r["mode"]) for r in rows} == {
+        (1, "cold"),
+        (1, "warm"),
+        (5, "cold"),
+        (5, "warm"),
+    }
+    assert all(r["median_ms"] > 0 and r["p99_ms"] >= r["median_ms"] for r in rows)

@@ -152,6 +152,34 @@ def bench_core(
         console.print(f"picture written to {plot}")
 
 
+@bench_app.command("switch")
+def bench_switch(
+    plugins: Annotated[str, typer.Option(help="Comma-separated plugins per actor.")] = "1,5",
+    runs: Annotated[int, typer.Option(min=10, help="Switches measured per row.")] = 1000,
+    out: Annotated[Path | None, typer.Option(help="Write the Markdown table here.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the rows here.")] = None,
+) -> None:
+    """Single-platform Actor switch time, cold and warm (DESIGN.md §8)."""
+    from actorswarm.bench.switch import markdown, run, to_json
+
+    try:
+        counts = [int(p) for p in plugins.split(",") if p.strip()]
+    except ValueError:
+        typer.echo(f"--plugins: expected comma-separated integers, got {plugins!r}", err=True)
+        raise typer.Exit(2) from None
+    if not counts or any(c < 1 or c > 64 for c in counts):
+        typer.echo(f"--plugins: every count must be 1..64, got {plugins!r}", err=True)
+        raise typer.Exit(2)
+    rows = run(counts, runs)
+    text = markdown(rows)
+    typer.echo(text)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(f"Command: `actorswarm bench switch {' '.join(sys.argv[3:])}`\n\n{text}")
+    if json_out is not None:
+        json_out.write_text(json.dumps(to_json(rows), indent=2))
+
+
 @bench_app.command("plot")
 def bench_plot(
     results: Annotated[Path, typer.Argument(help="JSON written by bench core --json.")],
