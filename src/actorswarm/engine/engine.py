@@ -55,6 +55,7 @@ from actorswarm.dsl.model import Transition
 from actorswarm.engine import commands as cmds
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
+from actorswarm.runtime.storage import BackupStore, MemoryBackupStore
 
 Cause = Literal["barrier", "timeout", "forced", "start"]
 
@@ -100,7 +101,15 @@ class _Candidacy:
 class TaskEngine:
     """The Actor state machine of platform ``node.platform`` for one task script."""
 
-    def __init__(self, node: Node, plan: Plan, runtime: ActorHost, *, grace: float | None = None):
+    def __init__(
+        self,
+        node: Node,
+        plan: Plan,
+        runtime: ActorHost,
+        *,
+        grace: float | None = None,
+        store: BackupStore | None = None,
+    ):
         self.node = node
         self.plan = plan
         self.runtime = runtime
@@ -119,8 +128,9 @@ class TaskEngine:
         self._chunks: dict[str, dict[int, bytes]] = {}
         self._deployed: dict[str, Plan] = {}
         self.script_sha = ""
-        #: Snapshots taken by the ``backup`` command (local storage in a real daemon).
-        self.backups: list[bytes] = []
+        #: Where the ``backup`` command writes (atomically); a restarted platform resumes
+        #: from its latest backup (:meth:`resume`).
+        self.store: BackupStore = store if store is not None else MemoryBackupStore()
         node.resolve_all = self._holders
         node.scatter = self._scatter
         runtime.use_script(plan.script)
@@ -147,6 +157,26 @@ class TaskEngine:
                     )
                 )
         self._announce(now)
+
+    def resume(self, now: float) -> bool:
+        """After a restart: bring back the actors of the latest backup (False: none, the
+        caller starts the task's initial actors instead)."""
+        data = self.store.latest()
+        if data is None:
+            return False
+        try:
+            self.runtime.restore(data, now)
+        except (ValueError, KeyError, TypeError) as exc:
+            self.ignored.append((now, "", f"backup not restored: {exc}"))
+            return False
+        for actor in self.runtime.running():
+            self.transitions.append(
+                TransitionRecord(
+                    t=now, platform=self.node.platform, src="", dst=actor, event="", cause="start"
+                )
+            )
+        self._announce(now)
+        return True
 
     def tick(self, now: float) -> None:
         for emitted in self.runtime.step(now):
@@ -445,8 +475,8 @@ class TaskEngine:
             return f"activated {command.actor}"
         if isinstance(command, cmds.Backup):
             snapshot = self.runtime.snapshot()
-            self.backups.append(snapshot)
-            self._reply(cmds.BackupReply(generation=len(self.backups), size=len(snapshot)), now)
+            generation = self.store.write(snapshot)
+            self._reply(cmds.BackupReply(generation=generation, size=len(snapshot)), now)
             return None
         self._reply(self._status(), now)  # Status
         return None

@@ -66,3 +66,7 @@ class ActorHost(Protocol):
     def snapshot(self) -> bytes:
         """Every loaded actor and its plugin states, for a backup."""
         ...
+
+    def restore(self, data: bytes, now: float) -> list[str]:
+        """Bring back the actors of a :meth:`snapshot`; returns those running again."""
+        ...

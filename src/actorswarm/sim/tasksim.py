@@ -23,6 +23,7 @@ from actorswarm.engine.engine import TaskEngine
 from actorswarm.engine.plan import Plan
 from actorswarm.ground.station import GroundStation
 from actorswarm.runtime.actor_runtime import ActorRuntime
+from actorswarm.runtime.storage import MemoryBackupStore
 from actorswarm.sim.radio import LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
@@ -75,6 +76,8 @@ class TaskSim:
     ignored: list[dict[str, Any]] = field(default_factory=list, init=False)
     _sent: int = field(default=0, init=False)
     plugin_failures: list[dict[str, Any]] = field(default_factory=list, init=False)
+    #: Each platform's backup storage (its "disk": it outlives a crash).
+    stores: dict[int, MemoryBackupStore] = field(default_factory=dict, init=False)
 
     def __post_init__(self) -> None:
         self.plan = Plan.build(self.script)
@@ -88,12 +91,16 @@ class TaskSim:
         for p in platforms:
             self._boot(p)
 
-    def _boot(self, platform: int) -> None:
+    def _boot(self, platform: int, *, restarted: bool = False) -> None:
         runtime = ActorRuntime(platform, seed=self.seed)
-        engine = TaskEngine(self.swarm.node(platform), self.plan, runtime)
+        store = self.stores.setdefault(platform, MemoryBackupStore())  # survives crashes
+        engine = TaskEngine(self.swarm.node(platform), self.plan, runtime, store=store)
         self.hosts[platform] = _Host(engine)
-        if self.auto_start:
-            self.swarm.call(platform, lambda n: engine.start(self.swarm.now))
+        now = self.swarm.now
+        if restarted and store.latest() is not None:
+            self.swarm.call(platform, lambda n: engine.resume(now))
+        elif self.auto_start:
+            self.swarm.call(platform, lambda n: engine.start(now))
         self._arm(platform)
 
     def _retire(self, platform: int) -> None:
@@ -227,7 +234,7 @@ class TaskSim:
             for p in sorted(fault.ids):
                 self._retire(p)
                 self.swarm.restart(p)
-                self._boot(p)
+                self._boot(p, restarted=True)
         elif fault.kind == "partition":
             self.swarm.partition([sorted(fault.ids)])
         elif fault.kind == "heal":
