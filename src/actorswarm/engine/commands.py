@@ -121,6 +121,9 @@ class StatusReply(_Cmd, frozen=True):
     epoch: int
     incarnation: int
     script: Annotated[str, Meta(max_length=64)] = ""
+    #: Every loaded actor's control block (name, ID, status, priority, plugins, hardware,
+    #: permission, task context, relations, statistics).
+    acbs: dict[Name, Any] = {}
 
 
 class BackupReply(_Cmd, frozen=True):

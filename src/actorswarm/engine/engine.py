@@ -55,6 +55,7 @@ from actorswarm.dsl.model import Transition
 from actorswarm.engine import commands as cmds
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
+from actorswarm.runtime.collective import plugin_view
 from actorswarm.runtime.storage import BackupStore, MemoryBackupStore
 
 Cause = Literal["barrier", "timeout", "forced", "start"]
@@ -216,6 +217,10 @@ class TaskEngine:
         return f"{self.node.platform}.{self.node.incarnation}:{self._occasions}"
 
     def on_core_event(self, event: CoreEvent, now: float) -> None:
+        answer = plugin_view(event)
+        if answer is not None:
+            self.runtime.deliver(answer)
+            return
         if isinstance(event, BarrierReleased):
             self._released(event, now)
         elif isinstance(event, BarrierStaleNotice):
@@ -478,11 +483,12 @@ class TaskEngine:
             generation = self.store.write(snapshot)
             self._reply(cmds.BackupReply(generation=generation, size=len(snapshot)), now)
             return None
-        self._reply(self._status(), now)  # Status
+        self._reply(self._status(now), now)  # Status
         return None
 
-    def _status(self) -> cmds.StatusReply:
+    def _status(self, now: float | None = None) -> cmds.StatusReply:
         return cmds.StatusReply(
+            acbs=self.runtime.status(now),
             actors=self.runtime.loaded(),
             master=self.node.is_master,
             epoch=self.node.epoch,

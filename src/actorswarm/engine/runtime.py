@@ -67,6 +67,14 @@ class ActorHost(Protocol):
         """Every loaded actor and its plugin states, for a backup."""
         ...
 
+    def deliver(self, answer: dict[str, Any]) -> None:
+        """An answer of the collective core for the plugins (barrier release, role)."""
+        ...
+
+    def status(self, now: float | None = None) -> dict[str, Any]:
+        """Every loaded actor's control block, JSON-ready."""
+        ...
+
     def restore(self, data: bytes, now: float) -> list[str]:
         """Bring back the actors of a :meth:`snapshot`; returns those running again."""
         ...

@@ -113,6 +113,8 @@ class ActorRuntime:
         self._loaded: dict[str, _Loaded] = {}
         self._arbiter = ResourceArbiter()
         self.failures: list[PluginFailure] = []
+        #: The time of the call in progress (what ``ctx.collective`` stamps requests with).
+        self.now = 0.0
 
     # --- the script ----------------------------------------------------------------------
 
@@ -324,7 +326,19 @@ class ActorRuntime:
                 due = wake
         return due
 
+    def deliver(self, answer: dict[str, Any]) -> None:
+        """An answer of the collective (see :mod:`.collective`) for the plugins: appended to
+        the ``"collective"`` list of every running actor's blackboard."""
+        for entry in self._loaded.values():
+            if entry.acb.status is ActorStatus.RUNNING:
+                entry.blackboard.setdefault("collective", []).append(answer)
+
+    def status(self, now: float | None = None) -> dict[str, Any]:
+        """Every loaded actor's control block, JSON-ready (for the status command)."""
+        return {name: e.acb.to_status(now) for name, e in self._loaded.items()}
+
     def _context(self, entry: _Loaded, params: dict[str, Any], now: float) -> PluginContext:
+        self.now = now
         return PluginContext(
             now=now,
             platform=self.platform,

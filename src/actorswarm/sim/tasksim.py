@@ -23,6 +23,7 @@ from actorswarm.engine.engine import TaskEngine
 from actorswarm.engine.plan import Plan
 from actorswarm.ground.station import GroundStation
 from actorswarm.runtime.actor_runtime import ActorRuntime
+from actorswarm.runtime.collective import NodeCollective
 from actorswarm.runtime.storage import MemoryBackupStore
 from actorswarm.sim.radio import LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
@@ -93,6 +94,7 @@ class TaskSim:
 
     def _boot(self, platform: int, *, restarted: bool = False) -> None:
         runtime = ActorRuntime(platform, seed=self.seed)
+        runtime.collective = NodeCollective(self.swarm.node(platform), lambda: runtime.now)
         store = self.stores.setdefault(platform, MemoryBackupStore())  # survives crashes
         engine = TaskEngine(self.swarm.node(platform), self.plan, runtime, store=store)
         self.hosts[platform] = _Host(engine)

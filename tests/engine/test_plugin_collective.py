@@ -1,0 +1,105 @@
+"""Plugins use the collective core too: a plugin barrier with gather/scatter and a role."""
+
+from __future__ import annotations
+
+import sys
+import types
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import pytest
+
+from actorswarm.dsl import check
+from actorswarm.engine import commands as cmds
+from actorswarm.runtime.context import PluginContext
+from actorswarm.runtime.plugin import Param, Plugin
+from actorswarm.sim.tasksim import TaskSim
+
+
+class Rendezvous(Plugin):
+    """Asks every platform to meet at plugin barrier 7 with its ID as gather data; once
+    released, records its slot and emits ``met``. Also claims the role ``leader``."""
+
+    any_bus = True
+    params: ClassVar[Mapping[str, Param]] = {"need": Param(kind="int", default=4)}
+
+    def __init__(self) -> None:
+        self.asked = False
+        self.done = False
+
+    def step(self, ctx: PluginContext) -> None:
+        if not self.asked:
+            self.asked = True
+            ctx.collective.barrier(7, ctx.params["need"], data=ctx.platform)
+            ctx.collective.claim_role("leader", 1)
+        for answer in ctx.blackboard.pop("collective", []):
+            if answer["kind"] == "barrier" and answer["key"] == 7 and not self.done:
+                self.done = True
+                ctx.blackboard["slot"] = answer["index"]
+                ctx.blackboard["gathered"] = sorted(d for _, d in answer["gathered"])
+                ctx.emit("met")
+            elif answer["kind"] == "role":
+                ctx.blackboard["leader"] = answer["state"]
+
+    def snapshot(self) -> dict[str, Any]:
+        return {"asked": self.asked, "done": self.done}
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        self.asked, self.done = bool(state["asked"]), bool(state["done"])
+
+
+@pytest.fixture(autouse=True)
+def _module() -> Any:
+    module = types.ModuleType("pc_plugins")
+    module.Rendezvous = Rendezvous  # type: ignore[attr-defined]
+    sys.modules["pc_plugins"] = module
+    yield
+    del sys.modules["pc_plugins"]
+
+
+def test_plugin_barrier_gathers_scatters_and_drives_a_transition() -> None:
+    text = (
+        '<TaskScript name="pc" version="1"><_ActorsConfig>'
+        "<Actor><_P_Name>Meet</_P_Name><OODAConfig><Bus><_P_Name>decide_bus</_P_Name>"
+        "<Plugin><_P_Name>pc_plugins:Rendezvous</_P_Name></Plugin></Bus></OODAConfig></Actor>"
+        "<Actor><_P_Name>Go</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>"
+        "<Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>"
+        '</_ActorsConfig><_TaskConfig><actor name="Meet"><transition name="met" sysNum="1">'
+        '<successor actor="Go"/></transition></actor></_TaskConfig>'
+        '<_PlatformActorConfig><platform id="1-4" actor="Meet"/></_PlatformActorConfig>'
+        "</TaskScript>"
+    )
+    result = check(text, path="pc.xml")
+    assert result.script is not None, [str(d) for d in result.diagnostics]
+    sim = TaskSim(result.script, seed=3)
+    report = sim.run(4.0)
+    assert report["violations"] == []
+    boards = {p: h.engine.runtime._loaded["Meet"].blackboard for p, h in sim.hosts.items()}
+    assert sorted(b["slot"] for b in boards.values()) == [1, 2, 3, 4], "each learns its slot"
+    assert all(b["gathered"] == [1, 2, 3, 4] for b in boards.values()), "everyone's data"
+    leaders = [p for p, b in boards.items() if b.get("leader") == "granted"]
+    assert len(leaders) == 1, f"one leader: {boards}"
+    assert all(h.engine.runtime.running() == ("Go",) for h in sim.hosts.values())
+
+
+def test_status_reports_the_actor_control_blocks() -> None:
+    text = (
+        '<TaskScript name="st" version="1"><_ActorsConfig>'
+        "<Actor><_P_Name>A</_P_Name><_P_Prio>3</_P_Prio><OODAConfig><Bus>"
+        "<_P_Name>act_bus</_P_Name><Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus>"
+        "</OODAConfig></Actor></_ActorsConfig><_TaskConfig/>"
+        '<_PlatformActorConfig><platform id="1-2" actor="A"/></_PlatformActorConfig>'
+        "</TaskScript>"
+    )
+    result = check(text, path="st.xml")
+    assert result.script is not None
+    sim = TaskSim(result.script, seed=4)
+    sim.swarm.run_until(1.0)
+    sim.operate(lambda g, now: g.send(cmds.Status(), [2], now))
+    sim.swarm.run_until(1.5)
+    assert sim.ground is not None
+    (status,) = [r.reply for r in sim.ground.replies if isinstance(r.reply, cmds.StatusReply)]
+    acb = status.acbs["A"]
+    for key in ("name", "actor_id", "status", "priority", "software", "hardware", "permission"):
+        assert key in acb, key
+    assert acb["status"] == "running" and acb["priority"] == 3
