@@ -7,7 +7,10 @@ import importlib
 import pytest
 
 
-@pytest.mark.parametrize("module", ["actorswarm", "actorswarm.core", "actorswarm.sim"])
+@pytest.mark.parametrize(
+    "module",
+    ["actorswarm", "actorswarm.core", "actorswarm.sim", "actorswarm.runtime", "actorswarm.engine"],
+)
 def test_all_names_exist(module: str) -> None:
     mod = importlib.import_module(module)
     missing = [name for name in mod.__all__ if not hasattr(mod, name)]

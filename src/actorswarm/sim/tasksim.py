@@ -2,8 +2,9 @@
 
 Every platform the script starts gets a core :class:`~actorswarm.core.Node` (inside
 :class:`~actorswarm.sim.swarm.SimSwarm`), a :class:`~actorswarm.engine.TaskEngine` and the
-stand-in actor runtime; the task starts at time 0. Ground-station events, crashes, restarts,
-partitions and heals happen at the virtual times given. The report has the keys of
+actor runtime (plugins from the registry, no vehicle); the task starts at time 0.
+Ground-station events, crashes, restarts, partitions and heals happen at the virtual times
+given. The report has the keys of
 DESIGN.md §7: ``completed``, ``sim_time_s``, ``final_actors``, ``transitions`` (with their
 ``cause``), ``masters``, ``traffic`` and ``violations``.
 """
