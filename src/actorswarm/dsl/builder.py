@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import TypeVar
 
 from actorswarm.dsl import syntax
-from actorswarm.dsl.diagnostics import Report, did_you_mean
+from actorswarm.dsl.diagnostics import Report
 from actorswarm.dsl.model import (
     BUSES,
     Actor,
@@ -40,6 +40,7 @@ from actorswarm.dsl.model import (
     frozen_map,
 )
 from actorswarm.dsl.parser import XmlElement
+from actorswarm.suggest import did_you_mean
 
 _T = TypeVar("_T")
 

@@ -9,7 +9,6 @@ refuses a script.
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Literal
@@ -79,18 +78,3 @@ class Report:
     def sorted(self) -> tuple[Diagnostic, ...]:
         """Everything recorded, in script order (stable for findings at one place)."""
         return tuple(sorted(self.diagnostics, key=lambda d: (d.line, d.col)))
-
-
-def did_you_mean(word: str, candidates: Iterable[str]) -> str:
-    """``' (did you mean "X"?)'`` for the candidate closest to ``word``, or ``''``.
-
-    A case-only difference always matches (``actor`` for ``Actor``); otherwise the candidate
-    must be similar enough that the suggestion is more likely help than noise.
-    """
-    pool = list(dict.fromkeys(candidates))
-    for candidate in pool:
-        if candidate.lower() == word.lower() and candidate != word:
-            return f' (did you mean "{candidate}"?)'
-    lowered = {c.lower(): c for c in pool}
-    close = difflib.get_close_matches(word.lower(), list(lowered), n=1, cutoff=0.6)
-    return f' (did you mean "{lowered[close[0]]}"?)' if close else ""

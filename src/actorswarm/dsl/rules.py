@@ -22,11 +22,12 @@ from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from actorswarm.dsl.diagnostics import Report, did_you_mean
+from actorswarm.dsl.diagnostics import Report
 from actorswarm.dsl.feasibility import edges, infeasible_groups, reachable
 from actorswarm.dsl.model import Param, Position, TaskScript, Transition
 from actorswarm.dsl.plugins import param_rules
 from actorswarm.dsl.syntax import id_ranges, plugin_kind
+from actorswarm.suggest import did_you_mean
 
 _LOST = "_lost"
 

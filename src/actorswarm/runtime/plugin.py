@@ -66,7 +66,6 @@ actor and plugin names and puts the actor in its error state.
 
 from __future__ import annotations
 
-import difflib
 import math
 import re
 from abc import ABC, abstractmethod
@@ -74,6 +73,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, ClassVar, Final, Literal, final, get_args
+
+from actorswarm.suggest import did_you_mean as _did_you_mean
 
 if TYPE_CHECKING:
     from actorswarm.runtime.context import PluginContext
@@ -158,17 +159,6 @@ _KIND_NAMES: Final[Mapping[ParamKind, str]] = MappingProxyType(
 )
 _TRUE: Final = frozenset({"true", "yes", "on", "1"})
 _FALSE: Final = frozenset({"false", "no", "off", "0"})
-
-
-def _did_you_mean(word: str, candidates: Iterable[str]) -> str:
-    """``' (did you mean "X"?)'`` for the candidate closest to ``word``, or ``''``."""
-    pool = list(dict.fromkeys(candidates))
-    for candidate in pool:
-        if candidate.lower() == word.lower() and candidate != word:
-            return f' (did you mean "{candidate}"?)'
-    lowered = {c.lower(): c for c in pool}
-    close = difflib.get_close_matches(word.lower(), list(lowered), n=1, cutoff=0.6)
-    return f' (did you mean "{lowered[close[0]]}"?)' if close else ""
 
 
 class PluginDeclarationError(TypeError):

@@ -33,7 +33,8 @@ from collections.abc import Mapping
 from importlib import metadata
 from typing import Final
 
-from actorswarm.runtime.plugin import Param, Plugin, _did_you_mean
+from actorswarm.runtime.plugin import Param, Plugin
+from actorswarm.suggest import did_you_mean as _did_you_mean
 
 __all__ = [
     "ENTRY_POINT_GROUP",
