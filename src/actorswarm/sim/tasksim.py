@@ -101,10 +101,17 @@ class TaskSim:
         self.hosts[platform] = _Host(engine)
         now = self.swarm.now
         if restarted and store.latest() is not None:
-            self.swarm.call(platform, lambda n: engine.resume(now))
+            # Resume from the latest backup; a backup that cannot be restored falls back to
+            # the task's initial actors.
+            self.swarm.call(platform, lambda n: self._resume_or_start(engine, now))
         elif self.auto_start:
             self.swarm.call(platform, lambda n: engine.start(now))
         self._arm(platform)
+
+    @staticmethod
+    def _resume_or_start(engine: TaskEngine, now: float) -> None:
+        if not engine.resume(now):
+            engine.start(now)
 
     def _retire(self, platform: int) -> None:
         host = self.hosts.pop(platform, None)
