@@ -1,0 +1,113 @@
+"""How distance degrades the radio: a pure model, from positions to loss and latency.
+
+Theory of operation
+-------------------
+The simulated radio (:class:`~actorswarm.sim.radio.SimRadio`) decides each packet's fate
+from a loss probability and a latency. Driven by the world, those come from where sender
+and receiver are, through this model (parameters in
+:class:`~actorswarm.world.config.RadioConfig`), with ``d`` the 3-D distance in metres:
+
+* **Loss.** ``loss_at_range * (d / range) ** loss_exponent`` within ``range``, and 1 beyond
+  it. It is 0 at d = 0 and grows monotonically with distance; a large exponent keeps links
+  near-perfect over most of the range and lets them fall off steeply near its edge, as a
+  real link's packet error rate does once the signal nears the receiver's sensitivity.
+* **Latency.** ``base_latency + latency_per_km * d / 1000`` seconds: a fixed cost (queueing,
+  MAC access, processing) plus a part that grows with distance, standing for the lower data
+  rates and retries of a long link (propagation alone, 3.3 µs/km, is negligible).
+* **Jitter** is not computed here: the radio draws it per packet, in ``[0, jitter]``, from
+  its own seeded generator, so this model stays a pure function.
+
+Every function is pure (no state, no randomness, no clock) and works on numpy arrays:
+positions of shape ``(..., 3)`` broadcast against each other, so one call can answer for
+one pair, for one sender and all receivers, or for the whole swarm (:func:`link_matrix`).
+A link is symmetric: the model depends only on the distance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import overload
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from actorswarm.world.config import RadioConfig
+
+__all__ = [
+    "distances",
+    "latency_at",
+    "link",
+    "link_arrays",
+    "link_matrix",
+    "loss_at",
+    "reachable",
+]
+
+FloatArray = NDArray[np.float64]
+Position = Sequence[float]
+
+
+@overload
+def loss_at(distance: float, cfg: RadioConfig) -> float: ...
+@overload
+def loss_at(distance: FloatArray, cfg: RadioConfig) -> FloatArray: ...
+def loss_at(distance: float | FloatArray, cfg: RadioConfig) -> float | FloatArray:
+    """The probability that a packet is lost over ``distance`` metres (elementwise)."""
+    d = np.asarray(distance, dtype=np.float64)
+    within = np.minimum(cfg.loss_at_range * (d / cfg.range) ** cfg.loss_exponent, 1.0)
+    loss = np.where(d > cfg.range, 1.0, within)
+    return float(loss) if loss.ndim == 0 else loss
+
+
+@overload
+def latency_at(distance: float, cfg: RadioConfig) -> float: ...
+@overload
+def latency_at(distance: FloatArray, cfg: RadioConfig) -> FloatArray: ...
+def latency_at(distance: float | FloatArray, cfg: RadioConfig) -> float | FloatArray:
+    """The one-way latency, seconds, over ``distance`` metres (elementwise; before jitter)."""
+    d = np.asarray(distance, dtype=np.float64)
+    latency = cfg.base_latency + cfg.latency_per_km * d / 1000.0
+    return float(latency) if latency.ndim == 0 else latency
+
+
+def link(a_pos: Position, b_pos: Position, cfg: RadioConfig) -> tuple[float, float]:
+    """``(loss_probability, latency_s)`` of the link between two points ``(x, y, z)``."""
+    d = float(np.linalg.norm(np.asarray(a_pos, dtype=np.float64) - np.asarray(b_pos)))
+    return loss_at(d, cfg), latency_at(d, cfg)
+
+
+def link_arrays(
+    a_pos: ArrayLike, b_pos: ArrayLike, cfg: RadioConfig
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`link` for arrays of points, shape ``(..., 3)``, broadcast against each other:
+    loss and latency arrays of the broadcast shape without its last axis."""
+    delta = np.asarray(a_pos, dtype=np.float64) - np.asarray(b_pos, dtype=np.float64)
+    d = np.asarray(np.linalg.norm(delta, axis=-1), dtype=np.float64)
+    return (
+        np.asarray(loss_at(d, cfg), dtype=np.float64),
+        np.asarray(latency_at(d, cfg), dtype=np.float64),
+    )
+
+
+def distances(positions: ArrayLike) -> FloatArray:
+    """``(n, n)`` distances between the ``n`` points of an ``(n, 3)`` array."""
+    p = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    out: FloatArray = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=-1)
+    return out
+
+
+def link_matrix(positions: ArrayLike, cfg: RadioConfig) -> tuple[FloatArray, FloatArray]:
+    """``(loss, latency)``, each ``(n, n)``, between every pair of the ``n`` points (rows
+    send, columns receive; both are symmetric). The diagonal is a platform talking to
+    itself: loss 0, latency ``base_latency``."""
+    d = distances(positions)
+    return loss_at(d, cfg), latency_at(d, cfg)
+
+
+def reachable(positions: ArrayLike, cfg: RadioConfig) -> NDArray[np.bool_]:
+    """``(n, n)``: True where two of the ``n`` points can hear each other at all (within
+    ``range``, loss below 1). The diagonal is True."""
+    d = distances(positions)
+    out: NDArray[np.bool_] = loss_at(d, cfg) < 1.0
+    np.fill_diagonal(out, True)
+    return out
