@@ -129,9 +129,22 @@ def test_sim_refuses_bad_flags_clearly(args: list[str], message: str) -> None:
     assert message in result.output
 
 
-def test_sim_needs_no_world_until_the_world_exists() -> None:
-    result = runner.invoke(app, ["sim", str(EXAMPLES / "ready_barrier.xml")])
-    assert result.exit_code == 2 and "--no-world" in result.output
+def test_sim_runs_in_the_default_world_or_a_given_one(tmp_path: Path) -> None:
+    result = runner.invoke(app, ["sim", str(EXAMPLES / "ready_barrier.xml"), "--duration", "5"])
+    assert result.exit_code == 0 and "invariants: all held" in result.output, result.output
+    world = EXAMPLES / "worlds" / "default.toml"
+    result = runner.invoke(
+        app, ["sim", str(EXAMPLES / "ready_barrier.xml"), "--world", str(world), "--duration", "5"]
+    )
+    assert result.exit_code == 0, result.output
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[radio]\nrnage = 10\n")
+    result = runner.invoke(app, ["sim", str(EXAMPLES / "ready_barrier.xml"), "--world", str(bad)])
+    assert result.exit_code == 2 and "rnage" in result.output
+    result = runner.invoke(
+        app, ["sim", str(EXAMPLES / "ready_barrier.xml"), "--world", str(world), "--no-world"]
+    )
+    assert result.exit_code == 2 and "exclude each other" in result.output
 
 
 def test_bench_switch_rows(tmp_path: Path) -> None:

@@ -235,12 +235,10 @@ def sim(
     from actorswarm.runtime.registry import RegistryError
     from actorswarm.sim.radio import LinkModel
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
+    from actorswarm.world.config import WorldConfig, WorldError, load_world
 
-    if not no_world or world is not None:
-        typer.echo(
-            "the simulated world (vehicles, --world) is not available yet; run with --no-world",
-            err=True,
-        )
+    if no_world and world is not None:
+        typer.echo("--world and --no-world exclude each other", err=True)
         raise typer.Exit(2)
     code, script = _check_script(file, DEFAULT_MAX_BYTES)
     if script is None:
@@ -255,8 +253,15 @@ def sim(
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
     link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
+    world_config: WorldConfig | None = None
+    if not no_world:
+        try:
+            world_config = load_world(world)  # None: the default world
+        except (WorldError, OSError) as exc:
+            typer.echo(str(exc), err=True)
+            raise typer.Exit(2) from None
     try:
-        run = TaskSim(script, seed=seed, link=link, config=CoreConfig())
+        run = TaskSim(script, seed=seed, link=link, config=CoreConfig(), world_config=world_config)
         report = run.run(duration, events=events, faults=faults)
     except (UnsupportedPlugin, RegistryError) as exc:
         typer.echo(f"{file}: {exc}", err=True)

@@ -56,7 +56,7 @@ __all__ = [
 P = TypeVar("P")
 
 #: Causes under which :attr:`SimRadio.drops` counts packets that were not delivered.
-DROP_CAUSES: Final = ("loss", "burst", "partition", "detached")
+DROP_CAUSES: Final = ("loss", "burst", "partition", "detached", "range")
 
 # Group of every platform that no partition group names (see SimRadio.partition).
 _REST: Final = -1
@@ -336,6 +336,7 @@ class SimRadio(Generic[P]):
         "_tx_free",
         "decoder",
         "drops",
+        "link_fn",
         "rng",
         "tap",
         "traffic",
@@ -355,6 +356,10 @@ class SimRadio(Generic[P]):
         self.traffic = Traffic()
         self.drops: dict[str, int] = dict.fromkeys(DROP_CAUSES, 0)
         self.tap: Callable[[float, int, int | None, str, int], None] | None = None
+        #: Optional per-link model ``link_fn(src, dst) -> (loss probability, extra latency)``
+        #: drawn for each receiver on top of the link model — the world's radio model, so a
+        #: platform that flies out of range really drops out. None: every link is alike.
+        self.link_fn: Callable[[int, int], tuple[float, float]] | None = None
         self._handlers: dict[int, Callable[[Transmission[P], float], None]] = {}
         # Attached platforms ascending, rebuilt lazily after attach/detach. A broadcast keeps
         # the tuple of its send time, so later attach/detach never disturbs one in flight.
@@ -463,7 +468,28 @@ class SimRadio(Generic[P]):
         group = self._group
         for platform in platforms:
             by_group.setdefault(group.get(platform, _REST), set()).add(platform)
-        return sorted((frozenset(members) for members in by_group.values()), key=min)
+        if self.link_fn is None:
+            return sorted((frozenset(members) for members in by_group.values()), key=min)
+        # With a per-link model, a partition group splits further where links are out of
+        # range (loss 1): components are what remains connected, hop by hop.
+        link_fn = self.link_fn
+        out: list[frozenset[int]] = []
+        for members in by_group.values():
+            left = set(members)
+            while left:
+                start = min(left)
+                seen = {start}
+                frontier = [start]
+                left.discard(start)
+                while frontier:
+                    a = frontier.pop()
+                    for b in sorted(left):
+                        if link_fn(a, b)[0] < 1.0:
+                            left.discard(b)
+                            seen.add(b)
+                            frontier.append(b)
+                out.append(frozenset(seen))
+        return sorted(out, key=min)
 
     # --- sending ------------------------------------------------------------------------
 
@@ -507,7 +533,7 @@ class SimRadio(Generic[P]):
             return
 
         group = self._group
-        if self._fast and not group:
+        if self._fast and not group and self.link_fn is None:
             # The common case: everyone hears it at the same time, so one event serves all.
             # ``receivers`` may contain src; delivery skips it.
             sched.call_at(arrival, self._deliver, tx, receivers)
@@ -532,6 +558,7 @@ class SimRadio(Generic[P]):
         reorder_delay = model.reorder_delay
         duplicate = model.duplicate
         corrupt = model.corrupt
+        link_fn = self.link_fn
         # (arrival time, receiver) of every uncorrupted delivery, receivers ascending.
         arrivals: list[tuple[float, int]] = []
         add = arrivals.append
@@ -560,6 +587,12 @@ class SimRadio(Generic[P]):
                 drops["loss"] += 1
                 continue
             t = arrival
+            if link_fn is not None:
+                link_loss, link_latency = link_fn(src, dst)
+                if link_loss >= 1.0 or (link_loss > 0.0 and random_() < link_loss):
+                    drops["range"] += 1
+                    continue
+                t += link_latency
             if jitter:
                 t += random_() * jitter
             if reorder and random_() < reorder:
@@ -577,7 +610,7 @@ class SimRadio(Generic[P]):
 
         if not arrivals:
             return
-        if not (jitter or reorder or duplicate):
+        if not (jitter or reorder or duplicate or link_fn):
             # Everyone at the same time (only losses differ between receivers): one event.
             sched.call_at(arrival, self._deliver, tx, [dst for _, dst in arrivals])
             return

@@ -29,6 +29,8 @@ from actorswarm.runtime.storage import MemoryBackupStore
 from actorswarm.sim.radio import LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
+from actorswarm.world.config import WorldConfig
+from actorswarm.world.world import World
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,6 +70,9 @@ class TaskSim:
     #: Start the task at time 0 (the script counts as deployed); False: the ground station
     #: (:attr:`ground`) deploys and starts it.
     auto_start: bool = True
+    #: The simulated world (vehicles, targets, position-driven radio); None: no vehicles.
+    world_config: WorldConfig | None = None
+    world: World | None = field(default=None, init=False)
     ground: GroundStation | None = field(default=None, init=False)
     _gs_timer: Timer | None = field(default=None, init=False)
     _gs_at: float = field(default=float("inf"), init=False)
@@ -88,13 +93,18 @@ class TaskSim:
             raise ValueError("the script starts no platform")
         self.swarm = SimSwarm(platforms, seed=self.seed, config=self.config, link=self.link)
         self.swarm.listeners.append(self._on_core_event)
+        if self.world_config is not None:
+            self.world = World(self.world_config, platforms)
+            self.swarm.radio.link_fn = self._link
+            self.swarm.at(0.0, self._physics)
         self.ground = GroundStation(swarm=self.swarm.swarm, config=self.config)
         self.swarm.radio.attach(0, self._gs_deliver)
         for p in platforms:
             self._boot(p)
 
     def _boot(self, platform: int, *, restarted: bool = False) -> None:
-        runtime = ActorRuntime(platform, seed=self.seed)
+        vehicle = self.world.vehicle(platform) if self.world is not None else None
+        runtime = ActorRuntime(platform, seed=self.seed, vehicle=vehicle)
         runtime.collective = NodeCollective(self.swarm.node(platform), lambda: runtime.now)
         store = self.stores.setdefault(platform, MemoryBackupStore())  # survives crashes
         engine = TaskEngine(self.swarm.node(platform), self.plan, runtime, store=store)
@@ -107,6 +117,20 @@ class TaskSim:
         elif self.auto_start:
             self.swarm.call(platform, lambda n: engine.start(now))
         self._arm(platform)
+
+    def _link(self, src: int, dst: int) -> tuple[float, float]:
+        """The world's radio model between two vehicles (the ground station, platform 0, is
+        taken to be in range of everyone)."""
+        assert self.world is not None
+        if src == 0 or dst == 0:
+            return 0.0, 0.0
+        return self.world.link(src, dst)
+
+    def _physics(self) -> None:
+        """Advance the world in its fixed steps, in step with virtual time."""
+        assert self.world is not None and self.world_config is not None
+        self.world.step_to(self.swarm.now)
+        self.swarm.scheduler.after(self.world_config.world.step, self._physics)
 
     @staticmethod
     def _resume_or_start(engine: TaskEngine, now: float) -> None:

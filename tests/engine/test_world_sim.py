@@ -1,0 +1,89 @@
+"""Task scripts in the simulated world: vehicles for the plugins, and a radio driven by
+positions, so a platform that flies out of range really drops out of the swarm."""
+
+from __future__ import annotations
+
+import sys
+import types
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import pytest
+
+from actorswarm.dsl import check
+from actorswarm.runtime.context import PluginContext
+from actorswarm.runtime.plugin import Param, Plugin
+from actorswarm.sim.tasksim import TaskSim
+from actorswarm.world.config import loads_world
+
+WORLD = """
+[radio]
+range = 300.0
+loss_at_range = 0.2
+loss_exponent = 4.0
+base_latency = 0.005
+latency_per_km = 0.001
+jitter = 0.0
+"""
+
+
+class FlyTo(Plugin):
+    """Flies to (x, y, z) at start."""
+
+    bus = "act_bus"
+    needs_vehicle = True
+    params: ClassVar[Mapping[str, Param]] = {
+        "target": Param(kind="point", default=(0.0, 0.0, 20.0), doc="where to fly")
+    }
+
+    def on_start(self, ctx: PluginContext) -> None:
+        x, y, z = ctx.params["target"]
+        ctx.require_vehicle().goto(x, y, z)
+
+    def step(self, ctx: PluginContext) -> None:
+        pass
+
+    def snapshot(self) -> dict[str, Any]:
+        return {}
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        pass
+
+
+@pytest.fixture(autouse=True)
+def _module() -> Any:
+    module = types.ModuleType("ws_plugins")
+    module.FlyTo = FlyTo  # type: ignore[attr-defined]
+    sys.modules["ws_plugins"] = module
+    yield
+    del sys.modules["ws_plugins"]
+
+
+def test_a_platform_flying_out_of_range_drops_out_and_is_replaced() -> None:
+    text = (
+        '<TaskScript name="ws" version="1"><_ActorsConfig>'
+        "<Actor><_P_Name>Scout</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>"
+        "<Plugin><_P_Name>ws_plugins:FlyTo</_P_Name>"
+        '<param key="target" value="1000 0 20"/></Plugin></Bus></OODAConfig></Actor>'
+        "<Actor><_P_Name>Wait</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>"
+        "<Plugin><_P_Name>ws_plugins:FlyTo</_P_Name>"
+        '<param key="target" value="0 0 20"/></Plugin></Bus></OODAConfig></Actor>'
+        '</_ActorsConfig><_TaskConfig><actor name="Wait">'
+        '<transition name="Scout_lost" sysNum="1"><successor actor="Scout"/></transition>'
+        "</actor></_TaskConfig><_PlatformActorConfig>"
+        '<platform id="5" actor="Scout"/><platform id="1-4" actor="Wait"/>'
+        "</_PlatformActorConfig></TaskScript>"
+    )
+    result = check(text, path="ws.xml")
+    assert result.script is not None, [str(d) for d in result.diagnostics]
+    sim = TaskSim(result.script, seed=1, world_config=loads_world(WORLD))
+    report = sim.run(60.0)
+    assert sim.world is not None
+    x5 = sim.world.positions()[5][0]
+    assert x5 > 400, f"the scout flew away (x = {x5:.0f} m)"
+    assert 5 not in sim.swarm.node(1).members, "out of range: it left the others' view"
+    promoted = [t for t in report["transitions"] if t["event"] == "Scout_lost"]
+    assert len(promoted) == 1 and promoted[0]["to"] == "Scout", promoted
+    assert sim.swarm.radio.drops["range"] > 0
+    # Out of range is a component of its own: a master there too is no violation.
+    assert report["violations"] == []
