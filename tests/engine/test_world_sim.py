@@ -87,3 +87,25 @@ def test_a_platform_flying_out_of_range_drops_out_and_is_replaced() -> None:
     assert sim.swarm.radio.drops["range"] > 0
     # Out of range is a component of its own: a master there too is no violation.
     assert report["violations"] == []
+
+
+def test_takeoff_ingress_return_example_flies_and_lands() -> None:
+    from pathlib import Path
+
+    from actorswarm.dsl import load
+    from actorswarm.world.config import load_world
+
+    root = Path(__file__).resolve().parents[2]
+    sim = TaskSim(
+        load(root / "examples" / "takeoff_ingress_return.xml"),
+        seed=2,
+        world_config=load_world(root / "examples" / "worlds" / "default.toml"),
+    )
+    report = sim.run(90.0)
+    assert report["violations"] == []
+    moves = [(t["from"], t["to"], t["cause"]) for t in report["transitions"] if t["from"]]
+    assert moves.count(("Standby", "Ingress", "barrier")) == 10
+    assert moves.count(("Ingress", "Return", "barrier")) == 10
+    assert report["completed"] is True
+    assert sim.world is not None
+    assert all(sim.world.fleet.mode(p) == "landed" for p in range(1, 11))

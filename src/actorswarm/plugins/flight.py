@@ -1,0 +1,440 @@
+"""The flight plugins (DESIGN.md §6): take off, go to a point, return home.
+
+``flight.takeoff`` (:class:`TakeOff`)
+    The paper's *Standby* actor: take off to ``altitude`` and hover; emit ``event``
+    (``ready_event``) once there.
+``flight.goto`` (:class:`GoTo`)
+    The paper's *Ingress* actor: fly to ``target`` — or to the ``TargetPoint`` the switching
+    transition gives — and hover; emit ``event`` (``arriving_event``) once within
+    ``tolerance`` of it.
+``flight.return_home`` (:class:`ReturnHome`)
+    The paper's *Return* actor (switched in by ``go_home_event``): fly to ``home`` at
+    ``altitude``, land there, and emit ``event`` (``landed_event``) once on the ground.
+
+Theory of operation
+-------------------
+Each plugin sits on ``act_bus``, holds the ``autopilot`` resource and needs a vehicle. It
+works the way an autopilot is meant to be used: it sets a goal once and then *watches*.
+
+* ``on_start`` sends the one command that starts the manoeuvre (``takeoff``, ``goto``).
+  Commands return at once (:class:`~actorswarm.runtime.context.Vehicle`); the vehicle's own
+  controller flies the path.
+* ``step`` reads :meth:`~actorswarm.runtime.context.Vehicle.position` and compares it with
+  the goal. When the goal is reached it emits the plugin's *arrival event* — exactly once
+  per start — and tells the vehicle to hold (or, for :class:`ReturnHome`, to land, and
+  emits once it is down). A step never blocks and never sends a command while nothing
+  changed, so a plugin stepped at any rate costs a comparison per step.
+* ``on_pause`` sends nothing: the actor that preempted this one owns the autopilot now.
+  ``on_activate`` re-sends the command of the current phase, since that actor may have
+  moved the vehicle; once the event has gone out it only holds (lands, for
+  :class:`ReturnHome`) where the vehicle is.
+* ``snapshot`` is the phase and what the plugin resolved at start (the target point, the
+  home it remembered), so a restored instance resumes the same manoeuvre from
+  ``on_activate``, on whatever host restores it, and never emits its event a second time.
+
+None of them has a timer of its own (``next_deadline`` is None): they are stepped at the
+actor's rate, which is what watching a moving vehicle needs. Positions are metres in the
+mission's local frame (x east, y north, z up); the ground is at z = 0.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, Final
+
+from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
+from actorswarm.runtime.plugin import Param, Plugin, Point
+
+if TYPE_CHECKING:
+    from actorswarm.runtime.context import PluginContext, Vehicle
+
+__all__ = ["GoTo", "ReturnHome", "TakeOff"]
+
+#: A vehicle this low (metres) and this slow (m/s) is on the ground.
+LANDED_ALTITUDE: Final = 0.2
+LANDED_SPEED: Final = 0.1
+
+
+def _scope_param() -> Param:
+    return Param(
+        kind="str",
+        default="local",
+        choices=("local", "swarm"),
+        doc="local: only this platform becomes a candidate for the event's transition; "
+        "swarm: every platform whose actor has one",
+    )
+
+
+def _event_param(default: str, when: str) -> Param:
+    return Param(
+        kind="str",
+        default=default,
+        pattern=EVENT_NAME_PATTERN,
+        doc=f"the event to emit, once, {when}",
+    )
+
+
+def _distance(a: Sequence[float], b: Sequence[float]) -> float:
+    return math.dist(tuple(a), tuple(b))
+
+
+def _speed(vehicle: Vehicle) -> float:
+    vx, vy, vz = vehicle.velocity()
+    return math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
+def _read_point(name: str, what: str, value: object) -> Point:
+    """``value`` (a snapshot's ``[x, y, z]``) as a point, or ValueError naming ``what``."""
+    if (
+        isinstance(value, list | tuple)
+        and len(value) == 3
+        and all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        )
+    ):
+        return (float(value[0]), float(value[1]), float(value[2]))
+    raise ValueError(f"{name}: a snapshot's {what!r} must be [x, y, z] (numbers), not {value!r}")
+
+
+def _read_flag(name: str, state: Mapping[str, Any], key: str) -> bool:
+    value = state.get(key)
+    if not isinstance(value, bool):
+        raise ValueError(f"{name}: a snapshot's {key!r} must be true or false, not {value!r}")
+    return value
+
+
+class TakeOff(Plugin):
+    """``flight.takeoff``: take off, climb to ``altitude``, emit ``event`` there, hover.
+
+    Params:
+
+    ``altitude`` (float > 0, default 20)
+        Metres above the ground to climb to.
+    ``tolerance`` (float ≥ 0, default 1)
+        How close to ``altitude`` (metres, vertically) counts as arrived.
+    ``event`` (default ``ready_event``)
+        The arrival event, emitted once per start on the first step at which the vehicle
+        is within ``tolerance`` of ``altitude``; the plugin then tells the vehicle to hold.
+    ``scope`` (``local``, the default, or ``swarm``)
+        The event's scope (:meth:`~actorswarm.runtime.context.PluginContext.emit`).
+
+    A vehicle already in the air within ``tolerance`` of ``altitude`` when the actor starts
+    gets no take-off command: the event goes out on the first step. (One in the air at
+    another altitude is sent ``takeoff``, which moves it to ``altitude`` where it is.)
+
+    The snapshot is ``{"fired": bool}``. A restored or re-activated instance that has not
+    fired yet sends ``takeoff`` again; one that has fired holds.
+    """
+
+    bus = "act_bus"
+    resources = frozenset({"autopilot"})
+    needs_vehicle = True
+    params: ClassVar[Mapping[str, Param]] = {
+        "altitude": Param(
+            kind="float",
+            default=20.0,
+            minimum=0.0,
+            doc="metres above the ground to climb to (> 0)",
+        ),
+        "tolerance": Param(
+            kind="float",
+            default=1.0,
+            minimum=0.0,
+            doc="metres from altitude (vertically) that count as arrived",
+        ),
+        "event": _event_param("ready_event", "when the vehicle reaches the altitude"),
+        "scope": _scope_param(),
+    }
+
+    def __init__(self) -> None:
+        self._fired = False
+
+    def on_start(self, ctx: PluginContext) -> None:
+        altitude = float(ctx.params["altitude"])
+        if altitude <= 0:
+            raise ValueError(f"flight.takeoff: altitude must be > 0 metres, not {altitude:g}")
+        vehicle = ctx.require_vehicle()
+        self._fired = False
+        z = vehicle.position()[2]
+        if not (z > LANDED_ALTITUDE and abs(z - altitude) <= ctx.params["tolerance"]):
+            vehicle.takeoff(altitude)
+
+    def step(self, ctx: PluginContext) -> None:
+        if self._fired:
+            return
+        vehicle = ctx.require_vehicle()
+        if abs(vehicle.position()[2] - ctx.params["altitude"]) <= ctx.params["tolerance"]:
+            self._fired = True
+            ctx.emit(ctx.params["event"], scope=ctx.params["scope"])
+            vehicle.hold()
+
+    def on_activate(self, ctx: PluginContext) -> None:
+        vehicle = ctx.require_vehicle()
+        if self._fired:
+            vehicle.hold()
+        else:
+            vehicle.takeoff(float(ctx.params["altitude"]))
+
+    def snapshot(self) -> dict[str, Any]:
+        return {"fired": self._fired}
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        self._fired = _read_flag("flight.takeoff", state, "fired")
+
+
+class GoTo(Plugin):
+    """``flight.goto``: fly to a point, emit ``event`` once within ``tolerance``, hover.
+
+    Params:
+
+    ``target`` (point ``"x y z"``)
+        Where to fly, metres. Required unless ``TargetPoint`` is given.
+    ``TargetPoint`` (point ``"x y z"``)
+        The same, under the name the paper's transitions use
+        (``<param TargetPoint "200 200 20">`` on the transition that switches the actor
+        in). **When both are given, TargetPoint wins**: a transition's params are laid over
+        the script's, so the transition names the point and ``target`` in the script is
+        the fallback. Starting with neither raises ValueError.
+    ``speed`` (float > 0, optional)
+        Ground speed in m/s; left out: the vehicle's cruise speed.
+    ``tolerance`` (float ≥ 0, default 5)
+        How close to the point (metres, straight-line) counts as arrived.
+    ``event`` (default ``arriving_event``)
+        The arrival event, emitted once per start on the first step within ``tolerance``;
+        the plugin then tells the vehicle to hold.
+    ``scope`` (``local``, the default, or ``swarm``)
+        The event's scope.
+
+    A vehicle on the ground takes off on its way (what the vehicle does with a ``goto``).
+    The snapshot is ``{"target": [x, y, z], "fired": bool}``: the point resolved at start,
+    so a restored instance flies to the same point whatever params it is given.
+    """
+
+    bus = "act_bus"
+    resources = frozenset({"autopilot"})
+    needs_vehicle = True
+    params: ClassVar[Mapping[str, Param]] = {
+        "target": Param(
+            kind="point",
+            doc='where to fly, "x y z" metres (required unless TargetPoint is given)',
+        ),
+        "TargetPoint": Param(
+            kind="point",
+            doc='where to fly, "x y z" metres, usually from the switching transition; '
+            "wins over target",
+        ),
+        "speed": Param(
+            kind="float",
+            minimum=0.0,
+            doc="ground speed in m/s (> 0); left out: the vehicle's cruise speed",
+        ),
+        "tolerance": Param(
+            kind="float",
+            default=5.0,
+            minimum=0.0,
+            doc="metres from the point that count as arrived",
+        ),
+        "event": _event_param("arriving_event", "when the vehicle is within tolerance"),
+        "scope": _scope_param(),
+    }
+
+    def __init__(self) -> None:
+        self._target: Point | None = None
+        self._fired = False
+
+    @staticmethod
+    def resolve_target(params: Mapping[str, Any]) -> Point:
+        """The point to fly to: ``TargetPoint`` when given, else ``target``; ValueError
+        when neither is."""
+        point = params.get("TargetPoint")
+        if point is None:
+            point = params.get("target")
+        if point is None:
+            raise ValueError(
+                'flight.goto: no point to fly to; give <param target "x y z"> in the script '
+                "or TargetPoint on the transition that switches the actor in"
+            )
+        return _read_point("flight.goto", "target", point)
+
+    def on_start(self, ctx: PluginContext) -> None:
+        self._target = self.resolve_target(ctx.params)
+        self._fired = False
+        self._command(ctx)
+
+    def step(self, ctx: PluginContext) -> None:
+        if self._fired or self._target is None:
+            return
+        vehicle = ctx.require_vehicle()
+        if _distance(vehicle.position(), self._target) <= ctx.params["tolerance"]:
+            self._fired = True
+            ctx.emit(ctx.params["event"], scope=ctx.params["scope"])
+            vehicle.hold()
+
+    def on_activate(self, ctx: PluginContext) -> None:
+        if self._fired:
+            ctx.require_vehicle().hold()
+        else:
+            self._command(ctx)
+
+    def snapshot(self) -> dict[str, Any]:
+        return {
+            "target": None if self._target is None else list(self._target),
+            "fired": self._fired,
+        }
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        self._target = _read_point("flight.goto", "target", state.get("target"))
+        self._fired = _read_flag("flight.goto", state, "fired")
+
+    def _command(self, ctx: PluginContext) -> None:
+        if self._target is None:
+            return
+        speed = ctx.params["speed"]
+        if speed is not None and speed <= 0:
+            raise ValueError(f"flight.goto: speed must be > 0 m/s, not {speed:g}")
+        x, y, z = self._target
+        ctx.require_vehicle().goto(x, y, z, speed=None if speed is None else float(speed))
+
+
+class ReturnHome(Plugin):
+    """``flight.return_home``: fly home at ``altitude``, land, emit ``event`` once down.
+
+    Params:
+
+    ``home`` (point ``"x y z"``, optional)
+        Where home is. Left out: where the vehicle was when this plugin first started
+        (kept in the snapshot, so a restored instance goes to the same place). Only x and y
+        are used: the vehicle travels at ``altitude`` and lands on the ground below.
+    ``altitude`` (float > 0, default 20)
+        Metres above the ground to travel home at.
+    ``land`` (bool, default true)
+        Land at home. With false the vehicle hovers over home at ``altitude`` instead.
+    ``tolerance`` (float ≥ 0, default 1)
+        How close to the point over home (metres, straight-line) counts as there.
+    ``event`` (default ``landed_event``)
+        Emitted once per start: when the vehicle is down at home (below 0.2 m and slower
+        than 0.1 m/s), or, with ``land`` false, when it is over home.
+    ``scope`` (``local``, the default, or ``swarm``)
+        The event's scope.
+
+    The phases are ``transit`` (a ``goto`` to the point ``altitude`` metres over home),
+    ``landing`` (a ``land`` once within ``tolerance`` of it) and ``done``. A vehicle already
+    on the ground at home when the plugin starts skips straight to ``landing``. The
+    snapshot is ``{"home": [x, y, z], "phase": str}``.
+    """
+
+    bus = "act_bus"
+    resources = frozenset({"autopilot"})
+    needs_vehicle = True
+    params: ClassVar[Mapping[str, Param]] = {
+        "home": Param(
+            kind="point",
+            doc='home, "x y z" metres (z unused); left out: where the vehicle was at start',
+        ),
+        "altitude": Param(
+            kind="float",
+            default=20.0,
+            minimum=0.0,
+            doc="metres above the ground to travel home at (> 0)",
+        ),
+        "land": Param(
+            kind="bool",
+            default=True,
+            doc="land at home (false: hover over home at altitude)",
+        ),
+        "tolerance": Param(
+            kind="float",
+            default=1.0,
+            minimum=0.0,
+            doc="metres from the point over home that count as there",
+        ),
+        "event": _event_param("landed_event", "when the vehicle is down at home"),
+        "scope": _scope_param(),
+    }
+
+    _PHASES: ClassVar[tuple[str, ...]] = ("transit", "landing", "done")
+
+    def __init__(self) -> None:
+        self._home: Point | None = None
+        self._phase = "transit"
+
+    @property
+    def home(self) -> Point | None:
+        """Where this start flies to (None before the start)."""
+        return self._home
+
+    @property
+    def phase(self) -> str:
+        """``transit``, ``landing`` or ``done``."""
+        return self._phase
+
+    def on_start(self, ctx: PluginContext) -> None:
+        altitude = float(ctx.params["altitude"])
+        if altitude <= 0:
+            raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
+        vehicle = ctx.require_vehicle()
+        given = ctx.params["home"]
+        self._home = (
+            vehicle.position()
+            if given is None
+            else _read_point("flight.return_home", "home", given)
+        )
+        x, y, z = vehicle.position()
+        at_home = math.hypot(x - self._home[0], y - self._home[1]) <= ctx.params["tolerance"]
+        on_ground = z <= LANDED_ALTITUDE
+        self._phase = "landing" if at_home and on_ground and ctx.params["land"] else "transit"
+        self._command(ctx)
+
+    def step(self, ctx: PluginContext) -> None:
+        if self._home is None or self._phase == "done":
+            return
+        vehicle = ctx.require_vehicle()
+        if self._phase == "transit":
+            if _distance(vehicle.position(), self._over_home(ctx)) > ctx.params["tolerance"]:
+                return
+            if ctx.params["land"]:
+                self._phase = "landing"
+                vehicle.land()
+                return
+            self._finish(ctx)
+            vehicle.hold()
+        elif vehicle.position()[2] <= LANDED_ALTITUDE and _speed(vehicle) <= LANDED_SPEED:
+            self._finish(ctx)
+
+    def on_activate(self, ctx: PluginContext) -> None:
+        self._command(ctx)
+
+    def snapshot(self) -> dict[str, Any]:
+        return {"home": None if self._home is None else list(self._home), "phase": self._phase}
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        phase = state.get("phase")
+        if phase not in self._PHASES:
+            raise ValueError(
+                f"flight.return_home: a snapshot's 'phase' must be one of "
+                f"{', '.join(self._PHASES)}, not {phase!r}"
+            )
+        self._home = _read_point("flight.return_home", "home", state.get("home"))
+        self._phase = str(phase)
+
+    def _over_home(self, ctx: PluginContext) -> Point:
+        assert self._home is not None
+        return (self._home[0], self._home[1], float(ctx.params["altitude"]))
+
+    def _finish(self, ctx: PluginContext) -> None:
+        self._phase = "done"
+        ctx.emit(ctx.params["event"], scope=ctx.params["scope"])
+
+    def _command(self, ctx: PluginContext) -> None:
+        """Send the command of the current phase."""
+        if self._home is None:
+            return
+        vehicle = ctx.require_vehicle()
+        if self._phase == "transit":
+            vehicle.goto(*self._over_home(ctx))
+        elif self._phase == "landing" or ctx.params["land"]:
+            vehicle.land()
+        else:
+            vehicle.hold()

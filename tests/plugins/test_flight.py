@@ -1,0 +1,295 @@
+"""The flight plugins: against the test vehicle, through the conformance kit, and flying a
+whole take-off / ingress / return mission in the simulated world's physics."""
+
+from __future__ import annotations
+
+import math
+from importlib.metadata import entry_points
+
+import pytest
+
+from actorswarm.engine.runtime import Emitted
+from actorswarm.plugins.flight import GoTo, ReturnHome, TakeOff
+from actorswarm.runtime.context import PluginContext
+from actorswarm.runtime.plugin import Plugin
+from actorswarm.testing import FakeVehicle, check_plugin, make_context, run_plugin
+from actorswarm.world.config import load_world
+from actorswarm.world.world import World
+
+
+def names(events: list[Emitted]) -> list[str]:
+    return [e.event for e in events]
+
+
+# --- registration and declarations ---------------------------------------------------------------
+
+
+def test_entry_points_name_the_three_plugins() -> None:
+    found = {ep.name: ep.load() for ep in entry_points(group="actorswarm.plugins")}
+    assert found["flight.takeoff"] is TakeOff
+    assert found["flight.goto"] is GoTo
+    assert found["flight.return_home"] is ReturnHome
+
+
+@pytest.mark.parametrize("cls", [TakeOff, GoTo, ReturnHome])
+def test_declarations(cls: type[Plugin]) -> None:
+    assert cls.bus == "act_bus"
+    assert cls.needs_vehicle is True
+    assert cls.resources == frozenset({"autopilot"})
+    assert all(param.doc for param in cls.params.values())
+
+
+@pytest.mark.parametrize(
+    ("cls", "params"),
+    [
+        (TakeOff, {}),
+        (TakeOff, {"altitude": "3", "scope": "swarm"}),
+        (GoTo, {"target": "4 3 2"}),
+        (GoTo, {"TargetPoint": "1 1 1", "speed": "2"}),
+        (ReturnHome, {}),
+        (ReturnHome, {"home": "3 4 0", "altitude": "2"}),
+        (ReturnHome, {"home": "1 0 0", "altitude": "1", "land": "false"}),
+    ],
+)
+def test_conformance(cls: type[Plugin], params: dict[str, str]) -> None:
+    check_plugin(cls, params=params)
+
+
+# --- TakeOff -------------------------------------------------------------------------------------
+
+
+def test_takeoff_emits_once_at_altitude_then_holds() -> None:
+    vehicle = FakeVehicle(climb_rate=2.0)
+    ctx = make_context(TakeOff, params={"altitude": "10"}, vehicle=vehicle)
+    plugin = TakeOff()
+    events = run_plugin(plugin, ctx, steps=40, dt=0.1)  # 4 s: 8 m, not there yet
+    assert events == []
+    assert vehicle.commands == [("takeoff", 10.0)]
+    events = run_plugin(plugin, ctx, steps=100, dt=0.1)
+    assert names(events) == ["ready_event"]
+    assert events[0].scope == "local"
+    assert vehicle.commands[-1] == ("hold",)
+    assert abs(vehicle.position()[2] - 10.0) <= 1.0
+
+
+def test_takeoff_already_at_altitude_sends_no_takeoff() -> None:
+    vehicle = FakeVehicle(position=(5.0, 5.0, 19.5))
+    ctx = make_context(TakeOff, params={"event": "up", "scope": "swarm"}, vehicle=vehicle)
+    events = run_plugin(TakeOff(), ctx, steps=3)
+    assert [(e.event, e.scope) for e in events] == [("up", "swarm")]
+    assert vehicle.commands == [("hold",)]
+
+
+def test_takeoff_snapshot_restore_mid_climb() -> None:
+    vehicle = FakeVehicle()
+    ctx = make_context(TakeOff, params={"altitude": "10"}, vehicle=vehicle)
+    first = TakeOff()
+    assert run_plugin(first, ctx, steps=20) == []
+    state = first._drive_snapshot()
+    assert state == {"fired": False}
+    first._drive_stop(ctx)
+    vehicle.hold()  # another actor stopped the climb meanwhile
+
+    second = TakeOff()
+    second._drive_restore(state)
+    second._drive_activate(ctx)
+    assert vehicle.commands[-1] == ("takeoff", 10.0)
+    events = run_plugin(second, ctx, steps=100)
+    assert names(events) == ["ready_event"]
+
+
+# --- GoTo ----------------------------------------------------------------------------------------
+
+
+def test_goto_emits_once_within_tolerance_then_holds() -> None:
+    vehicle = FakeVehicle(position=(0.0, 0.0, 10.0), cruise_speed=5.0)
+    ctx = make_context(GoTo, params={"target": "50 0 10", "speed": "4"}, vehicle=vehicle)
+    plugin = GoTo()
+    events = run_plugin(plugin, ctx, steps=100, dt=0.1)  # 10 s at 4 m/s: 40 m, not yet
+    assert events == []
+    assert vehicle.commands == [("goto", 50.0, 0.0, 10.0, 4.0)]
+    events = run_plugin(plugin, ctx, steps=100, dt=0.1)
+    assert names(events) == ["arriving_event"]
+    assert vehicle.commands[-1] == ("hold",)
+    assert math.dist(vehicle.position(), (50.0, 0.0, 10.0)) <= 5.0
+
+
+def test_goto_transition_target_point_wins() -> None:
+    vehicle = FakeVehicle(position=(0.0, 0.0, 10.0))
+    ctx = make_context(
+        GoTo,
+        params={"target": "50 0 10"},
+        transition_params={"TargetPoint": "0 30 10", "Other": "ignored"},
+        vehicle=vehicle,
+    )
+    events = run_plugin(GoTo(), ctx, steps=200)
+    assert names(events) == ["arriving_event"]
+    assert vehicle.commands[0] == ("goto", 0.0, 30.0, 10.0, None)
+    assert math.dist(vehicle.position(), (0.0, 30.0, 10.0)) <= 5.0
+
+
+def test_goto_target_point_alone_is_enough() -> None:
+    vehicle = FakeVehicle(position=(0.0, 0.0, 10.0))
+    ctx = make_context(GoTo, transition_params={"TargetPoint": "10 0 10"}, vehicle=vehicle)
+    assert names(run_plugin(GoTo(), ctx, steps=50)) == ["arriving_event"]
+
+
+def test_goto_without_any_point_refuses_to_start() -> None:
+    ctx = make_context(GoTo, vehicle=FakeVehicle())
+    with pytest.raises(ValueError, match="no point to fly to"):
+        GoTo()._drive_start(ctx)
+
+
+def test_goto_snapshot_restore_mid_flight_keeps_the_point() -> None:
+    vehicle = FakeVehicle(position=(0.0, 0.0, 10.0))
+    ctx = make_context(GoTo, transition_params={"TargetPoint": "40 0 10"}, vehicle=vehicle)
+    first = GoTo()
+    assert run_plugin(first, ctx, steps=30) == []
+    state = first._drive_snapshot()
+    assert state == {"target": [40.0, 0.0, 10.0], "fired": False}
+    first._drive_stop(ctx)
+    vehicle.hold()
+
+    # The restoring host has only the script's params: the snapshot keeps the point.
+    later = make_context(GoTo, params={"target": "-40 0 10"}, vehicle=vehicle, now=ctx.now)
+    second = GoTo()
+    second._drive_restore(state)
+    second._drive_activate(later)
+    assert vehicle.commands[-1] == ("goto", 40.0, 0.0, 10.0, None)
+    events = run_plugin(second, later, steps=100)
+    assert names(events) == ["arriving_event"]
+    assert second._drive_snapshot() == {"target": [40.0, 0.0, 10.0], "fired": True}
+
+
+def test_goto_restore_refuses_a_bad_snapshot() -> None:
+    with pytest.raises(ValueError, match="target"):
+        GoTo()._drive_restore({"target": [1, 2], "fired": False})
+
+
+# --- ReturnHome ----------------------------------------------------------------------------------
+
+
+def test_return_home_flies_home_lands_and_emits_once() -> None:
+    vehicle = FakeVehicle(position=(30.0, 40.0, 15.0), cruise_speed=10.0, climb_rate=3.0)
+    ctx = make_context(ReturnHome, params={"home": "0 0 0"}, vehicle=vehicle)
+    plugin = ReturnHome()
+    events = run_plugin(plugin, ctx, steps=100)
+    assert events == []
+    assert vehicle.commands[0] == ("goto", 0.0, 0.0, 20.0, None)
+    events = run_plugin(plugin, ctx, steps=200)
+    assert names(events) == ["landed_event"]
+    assert ("land",) in vehicle.commands
+    x, y, z = vehicle.position()
+    assert math.hypot(x, y) <= 1.0 and z == 0.0
+    assert plugin.phase == "done"
+
+
+def test_return_home_defaults_to_where_it_started() -> None:
+    vehicle = FakeVehicle(position=(7.0, -3.0, 0.0))
+    ctx = make_context(ReturnHome, params={"altitude": "4"}, vehicle=vehicle)
+    plugin = ReturnHome()
+    plugin._drive_start(ctx)
+    assert plugin.home == (7.0, -3.0, 0.0)
+    assert plugin._drive_snapshot() == {"home": [7.0, -3.0, 0.0], "phase": "landing"}
+    # Already down at home: it lands at once (the event) without flying anywhere.
+    assert names(run_plugin(plugin, ctx, steps=3)) == ["landed_event"]
+
+
+def test_return_home_without_landing_hovers_over_home() -> None:
+    vehicle = FakeVehicle(position=(10.0, 0.0, 5.0))
+    ctx = make_context(
+        ReturnHome,
+        params={"home": "0 0 0", "altitude": "5", "land": "false", "event": "home_event"},
+        vehicle=vehicle,
+    )
+    events = run_plugin(ReturnHome(), ctx, steps=60)
+    assert names(events) == ["home_event"]
+    assert ("land",) not in vehicle.commands
+    assert vehicle.commands[-1] == ("hold",)
+    assert vehicle.position()[2] == pytest.approx(5.0)
+
+
+def test_return_home_snapshot_restore_remembers_home() -> None:
+    vehicle = FakeVehicle(position=(0.0, 0.0, 0.0))
+    vehicle.goto(60.0, 0.0, 20.0)
+    for _ in range(200):
+        vehicle.advance(0.1)
+    ctx = make_context(ReturnHome, vehicle=vehicle)
+    vehicle.commands.clear()
+    # Its first start is away from the origin: that is home.
+    first = ReturnHome()
+    first._drive_start(ctx)
+    assert first.home == (60.0, 0.0, 20.0)
+    vehicle.goto(0.0, 0.0, 20.0)  # another actor takes it away
+    for _ in range(100):
+        vehicle.advance(0.1)
+    state = first._drive_snapshot()
+    first._drive_stop(ctx)
+
+    second = ReturnHome()
+    second._drive_restore(state)
+    second._drive_activate(ctx)
+    assert vehicle.commands[-1] == ("goto", 60.0, 0.0, 20.0, None)
+    events = run_plugin(second, ctx, steps=300)
+    assert names(events) == ["landed_event"]
+    assert math.hypot(vehicle.position()[0] - 60.0, vehicle.position()[1]) <= 1.0
+
+
+def test_return_home_restore_refuses_an_unknown_phase() -> None:
+    with pytest.raises(ValueError, match="phase"):
+        ReturnHome()._drive_restore({"home": [0, 0, 0], "phase": "cruising"})
+
+
+# --- the whole mission in the simulated world's physics ------------------------------------------
+
+
+def fly(
+    world: World, plugin: Plugin, ctx: PluginContext, *, until: str, limit: float, dt: float = 0.1
+) -> list[tuple[float, str]]:
+    """Start ``plugin`` and step it with the world until it emits ``until``; stop it."""
+    out: list[tuple[float, str]] = []
+    plugin._drive_start(ctx)
+    out.extend((ctx.now, e.event) for e in ctx.drain())
+    end = ctx.now + limit
+    while not any(name == until for _, name in out):
+        assert ctx.now < end, f"no {until} within {limit} s; vehicle {world.vehicle(1)!r}"
+        t = round(ctx.now + dt, 6)
+        world.step_to(t)
+        ctx.now = t
+        plugin._drive_step(ctx)
+        out.extend((t, e.event) for e in ctx.drain())
+    plugin._drive_stop(ctx)
+    return out
+
+
+def test_quadrotor_mission_in_the_world() -> None:
+    world = World(load_world(None), [1])
+    vehicle = world.vehicle(1)
+    assert (vehicle.kind, vehicle.mode) == ("quadrotor", "ground")
+    home = vehicle.position()
+    now = 0.0
+    log: list[tuple[float, str]] = []
+
+    ctx = make_context(TakeOff, params={"altitude": "20"}, vehicle=vehicle, now=now)
+    log += fly(world, TakeOff(), ctx, until="ready_event", limit=60)
+    assert abs(vehicle.position()[2] - 20.0) <= 1.0
+
+    ctx = make_context(
+        GoTo,
+        params={"target": "-100 0 20"},
+        transition_params={"TargetPoint": "100 0 20"},
+        vehicle=vehicle,
+        now=ctx.now,
+    )
+    log += fly(world, GoTo(), ctx, until="arriving_event", limit=120)
+    assert math.dist(vehicle.position(), (100.0, 0.0, 20.0)) <= 5.0
+
+    ctx = make_context(ReturnHome, params={"home": "0 0 0"}, vehicle=vehicle, now=ctx.now)
+    log += fly(world, ReturnHome(), ctx, until="landed_event", limit=180)
+
+    assert [name for _, name in log] == ["ready_event", "arriving_event", "landed_event"]
+    times = [t for t, _ in log]
+    assert times == sorted(times)
+    assert world.fleet.mode(1) == "landed"
+    x, y, z = vehicle.position()
+    assert math.hypot(x - home[0], y - home[1]) <= 1.5 and z == 0.0
