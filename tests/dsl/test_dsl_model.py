@@ -17,11 +17,12 @@ from actorswarm.dsl import (
     TaskScript,
     check,
     check_file,
+    installed_plugins,
     load,
     to_xml,
 )
 
-PLUGINS = frozenset({"core.idle", "core.emit_after"})
+PLUGINS = installed_plugins()  # every example must check on this machine
 REPO = Path(__file__).resolve().parents[2]
 REPO_EXAMPLES = REPO / "examples"
 SHARED_EXAMPLES = REPO / ".." / "shared" / "examples"
