@@ -109,3 +109,7 @@ def test_takeoff_ingress_return_example_flies_and_lands() -> None:
     assert report["completed"] is True
     assert sim.world is not None
     assert all(sim.world.fleet.mode(p) == "landed" for p in range(1, 11))
+    for p in range(1, 11):
+        x, y, _ = sim.world.vehicle(p).position()
+        hx, hy, _ = sim.world.vehicle(p).home()
+        assert abs(x - hx) < 2.0 and abs(y - hy) < 2.0, f"platform {p} landed at home"

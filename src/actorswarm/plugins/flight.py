@@ -304,9 +304,11 @@ class ReturnHome(Plugin):
     Params:
 
     ``home`` (point ``"x y z"``, optional)
-        Where home is. Left out: where the vehicle was when this plugin first started
-        (kept in the snapshot, so a restored instance goes to the same place). Only x and y
-        are used: the vehicle travels at ``altitude`` and lands on the ground below.
+        Where home is. Left out: the vehicle's home point when it has one (``home()``, as
+        the simulated world's vehicles do), else where the vehicle was when this plugin
+        first started (kept in the snapshot, so a restored instance goes to the same place).
+        Only x and y are used: the vehicle travels at ``altitude`` and lands on the ground
+        below.
     ``altitude`` (float > 0, default 20)
         Metres above the ground to travel home at.
     ``land`` (bool, default true)
@@ -331,7 +333,7 @@ class ReturnHome(Plugin):
     params: ClassVar[Mapping[str, Param]] = {
         "home": Param(
             kind="point",
-            doc='home, "x y z" metres (z unused); left out: where the vehicle was at start',
+            doc='home, "x y z" metres (z unused); left out: the vehicle\'s home point',
         ),
         "altitude": Param(
             kind="float",
@@ -376,11 +378,13 @@ class ReturnHome(Plugin):
             raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
         given = ctx.params["home"]
-        self._home = (
-            vehicle.position()
-            if given is None
-            else _read_point("flight.return_home", "home", given)
-        )
+        if given is not None:
+            self._home = _read_point("flight.return_home", "home", given)
+        else:
+            # The vehicle's own home when it knows it (the simulated world's vehicles and
+            # autopilots with a home point do), else where it was when this plugin started.
+            home = getattr(vehicle, "home", None)
+            self._home = home() if callable(home) else vehicle.position()
         x, y, z = vehicle.position()
         at_home = math.hypot(x - self._home[0], y - self._home[1]) <= ctx.params["tolerance"]
         on_ground = z <= LANDED_ALTITUDE

@@ -157,6 +157,7 @@ class Fleet:
         self._pos = np.zeros((n, 3))
         self._pos[:, 0] = column(spec.home[0] for spec in specs)
         self._pos[:, 1] = column(spec.home[1] for spec in specs)
+        self._home = self._pos.copy()  # where each vehicle started: its home
         self._vel = np.zeros((n, 3))
         self._heading = column(spec.heading for spec in specs)
         self._airspeed = np.zeros(n)
@@ -526,6 +527,11 @@ class SimVehicle:
         self._row = row
         self.platform: int = fleet.platforms[row]
         self.kind: Kind = fleet.kinds[row]
+
+    def home(self) -> tuple[float, float, float]:
+        """Where this vehicle started (its home position on the ground)."""
+        x, y, z = self._fleet._home[self._row].tolist()
+        return (x, y, z)
 
     def __repr__(self) -> str:
         x, y, z = self.position()

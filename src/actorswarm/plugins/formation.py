@@ -1,0 +1,594 @@
+"""The formation plugins (DESIGN.md §6): fly a slot of a shape that follows a moving leader.
+
+``formation.arrow`` (:class:`Arrow`)
+    One V, the leader at its tip, its arms opening backwards.
+``formation.two_arrows`` (:class:`TwoArrows`)
+    Two Vs side by side, the leader at the tip of the left one.
+``formation.line`` (:class:`Line`)
+    A line abreast, the leader in the middle.
+``formation.six_arrows`` (:class:`SixArrows`)
+    Six small Vs, their tips laid out as a V of Vs.
+``formation.herringbone`` (:class:`Herringbone`)
+    A spine along the direction of flight with two-slot ribs swept back on both sides.
+``formation.circle`` (:class:`Circle`)
+    A ring around the leader.
+``formation.grid`` (:class:`Grid`)
+    Rows abreast, one behind the other, the leader in the middle of the front row.
+
+Theory of operation
+-------------------
+Three layers, each usable on its own:
+
+* **Geometry.** :func:`slots` gives the ``(n, 2)`` offsets of a shape in the *formation
+  frame* (x forward, y to the left, metres), slot 1 at the leader's position ``(0, 0)``.
+  Every shape keeps every pair of slots at least ``spacing`` apart, for any ``n``; the
+  composite shapes (two arrows, six arrows) place their sub-formations on a pitch larger
+  than a sub-formation's bounding box plus ``spacing``, which is what guarantees it.
+  A shape depends on ``n`` only where it must (the number of arrows a slot falls in, the
+  radius of the ring, the width of the grid), so every member must be given the same
+  ``size``. :func:`to_world` rotates offsets by the heading (radians, counter-clockwise
+  from x, the mission frame's east) and moves them to the leader.
+* **A virtual leader.** :class:`VirtualLeader` is a point that flies a route of straight
+  segments at constant speed from ``start_time``: a pure function of time, so every member
+  computes the same leader from its own clock without talking to the others. It stops at
+  the last point, or loops back to the first. Its heading is the direction of the segment
+  it is on (the last segment's once stopped; 0, east, for a route of one point), so the
+  formation turns as a whole at each waypoint.
+* **The plugin.** Each member's :class:`Formation` reads its slot from ``ctx.index`` (the
+  1-based place the master scattered when the group switched the actor in; 0, no index,
+  flies slot 1), and on every step sends the vehicle to the slot's point: the leader's
+  position now plus the rotated offset, at ``altitude``. It asks for the leader's
+  ``speed`` plus what closes the gap to the slot in :data:`CATCH_UP_TIME` seconds (the
+  vehicle clamps that to what it can fly), and only re-sends the command when the point
+  moved at least :data:`RECOMMAND_DISTANCE` from the one last sent, so a formation at
+  rest costs a comparison per step. A vehicle on the ground takes off on the way (what a
+  ``goto`` does).
+
+  The route's progress is a function of time, so the snapshot is just the time the leader
+  set off, ``{"start": t}``: a restored instance re-reads its params in ``on_activate``
+  and the whole group stays on the same leader. ``on_pause`` sends nothing (the actor
+  that preempted this one owns the autopilot); ``on_activate`` sends the slot's point
+  again.
+
+The plugins do not steer around each other: members fly straight to their slots, so paths
+from a home grid to a formation may cross. ``altitude_step`` separates the members
+vertically (one layer per slot), which keeps crossing paths apart.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+from actorswarm.runtime.plugin import Param, Plugin, Point
+
+if TYPE_CHECKING:
+    from actorswarm.runtime.context import PluginContext
+
+__all__ = [
+    "CATCH_UP_TIME",
+    "RECOMMAND_DISTANCE",
+    "ROUTE_PATTERN",
+    "SHAPES",
+    "Arrow",
+    "Circle",
+    "Formation",
+    "Grid",
+    "Herringbone",
+    "Line",
+    "SixArrows",
+    "TwoArrows",
+    "VirtualLeader",
+    "parse_route",
+    "slots",
+    "to_world",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: A slot's point that moved less than this (metres) since the last command is not re-sent.
+RECOMMAND_DISTANCE: Final = 1.0
+#: The commanded speed closes the distance to the slot in about this many seconds, on top
+#: of the leader's speed.
+CATCH_UP_TIME: Final = 5.0
+
+#: The half-angle of an arrow's V (between an arm and the backward axis).
+_ARROW_HALF_ANGLE: Final = math.radians(40.0)
+#: The angle of a herringbone rib from the backward axis, and the spine's pitch in spacings.
+_RIB_ANGLE: Final = math.radians(60.0)
+_SPINE_PITCH: Final = 1.5
+_RIB_LENGTH: Final = 2
+#: Steps along a slanted arm or a ring are stretched by this factor, so that rounding in
+#: the trigonometry never brings two slots under the spacing.
+_MARGIN: Final = 1.0 + 1e-9
+
+
+def _arrow(n: int, spacing: float) -> FloatArray:
+    """One V: slot 1 at the tip, then rank by rank alternately left and right, ``spacing``
+    apart along each arm."""
+    out = np.zeros((n, 2))
+    step = spacing * _MARGIN
+    back, side = math.cos(_ARROW_HALF_ANGLE) * step, math.sin(_ARROW_HALF_ANGLE) * step
+    for k in range(1, n):
+        rank = (k + 1) // 2
+        out[k] = (-rank * back, rank * side if k % 2 else -rank * side)
+    return out
+
+
+def _line(n: int, spacing: float) -> FloatArray:
+    """Abreast: slot 1 in the middle, then alternately left and right."""
+    out = np.zeros((n, 2))
+    for k in range(1, n):
+        rank = (k + 1) // 2
+        out[k, 1] = rank * spacing if k % 2 else -rank * spacing
+    return out
+
+
+def _extent(offsets: FloatArray) -> tuple[float, float]:
+    """The depth (x) and width (y) of the offsets' bounding box."""
+    if not len(offsets):
+        return 0.0, 0.0
+    span = offsets.max(axis=0) - offsets.min(axis=0)
+    return float(span[0]), float(span[1])
+
+
+def _split(n: int, parts: int) -> list[int]:
+    """``n`` slots into ``parts`` groups as even as can be, the larger ones first."""
+    return [n // parts + (1 if j < n % parts else 0) for j in range(parts)]
+
+
+def _tiled(
+    n: int, spacing: float, parts: int, tips: Callable[[int, float, float], FloatArray]
+) -> FloatArray:
+    """``parts`` arrows holding the slots in order (the first ones in the first arrow),
+    the arrows' tips at ``tips(parts, pitch_x, pitch_y)``. The pitches are a sub-arrow's
+    bounding box plus ``spacing``, so tips that differ by a whole pitch in x or in y keep
+    every slot of one arrow ``spacing`` from every slot of the other."""
+    sizes = [size for size in _split(n, parts) if size]
+    template = _arrow(max(sizes), spacing)
+    depth, width = _extent(template)
+    origins = tips(len(sizes), (depth + spacing) * _MARGIN, (width + spacing) * _MARGIN)
+    return np.concatenate(
+        [_arrow(size, spacing) + origins[j] for j, size in enumerate(sizes)], axis=0
+    )
+
+
+def _side_by_side(count: int, _pitch_x: float, pitch_y: float) -> FloatArray:
+    return np.array([(0.0, -j * pitch_y) for j in range(count)])
+
+
+def _arrow_of_tips(count: int, pitch_x: float, pitch_y: float) -> FloatArray:
+    out = np.zeros((count, 2))
+    for j in range(1, count):
+        rank = (j + 1) // 2
+        out[j] = (-rank * pitch_x, rank * pitch_y if j % 2 else -rank * pitch_y)
+    return out
+
+
+def _two_arrows(n: int, spacing: float) -> FloatArray:
+    return _tiled(n, spacing, 2, _side_by_side)
+
+
+def _six_arrows(n: int, spacing: float) -> FloatArray:
+    return _tiled(n, spacing, 6, _arrow_of_tips)
+
+
+def _herringbone(n: int, spacing: float) -> FloatArray:
+    """Rows of ``1 + 2·_RIB_LENGTH`` slots: the spine's slot, then the ribs' slots
+    alternately left and right, each ``spacing`` further out and swept back."""
+    per_row = 1 + 2 * _RIB_LENGTH
+    step = spacing * _MARGIN
+    back, side = math.cos(_RIB_ANGLE) * step, math.sin(_RIB_ANGLE) * step
+    out = np.zeros((n, 2))
+    for k in range(n):
+        row, place = divmod(k, per_row)
+        x0 = -row * _SPINE_PITCH * spacing
+        if place == 0:
+            out[k] = (x0, 0.0)
+        else:
+            reach = (place + 1) // 2
+            out[k] = (x0 - reach * back, reach * side if place % 2 else -reach * side)
+    return out
+
+
+def _circle(n: int, spacing: float) -> FloatArray:
+    """The leader at the centre, the others on a ring starting straight ahead,
+    counter-clockwise; the radius keeps both the chord and the radius ≥ ``spacing``."""
+    out = np.zeros((n, 2))
+    ring = n - 1
+    if ring < 1:
+        return out
+    radius = spacing if ring < 2 else max(spacing, spacing / (2.0 * math.sin(math.pi / ring)))
+    radius *= _MARGIN
+    for k in range(ring):
+        angle = 2.0 * math.pi * k / ring
+        out[k + 1] = (radius * math.cos(angle), radius * math.sin(angle))
+    return out
+
+
+def _grid(n: int, spacing: float) -> FloatArray:
+    """``ceil(sqrt(n))`` columns, rows behind one another; in each row the columns go
+    middle, left, right, further left, ..."""
+    columns = math.isqrt(n - 1) + 1 if n > 1 else 1
+    out = np.zeros((n, 2))
+    for k in range(n):
+        row, column = divmod(k, columns)
+        rank = (column + 1) // 2
+        out[k] = (-row * spacing, rank * spacing if column % 2 else -rank * spacing)
+    return out
+
+
+_SHAPES: Final[Mapping[str, Callable[[int, float], FloatArray]]] = {
+    "arrow": _arrow,
+    "two_arrows": _two_arrows,
+    "line": _line,
+    "six_arrows": _six_arrows,
+    "herringbone": _herringbone,
+    "circle": _circle,
+    "grid": _grid,
+}
+#: The shape names :func:`slots` knows.
+SHAPES: Final[tuple[str, ...]] = tuple(_SHAPES)
+
+
+def slots(shape: str, n: int, spacing: float) -> FloatArray:
+    """The ``(n, 2)`` offsets of ``n`` slots of ``shape`` in the formation frame (x
+    forward, y left, metres): row ``k - 1`` is slot ``k``, slot 1 is ``(0, 0)``, and every
+    two slots are at least ``spacing`` apart. ValueError for an unknown shape, ``n < 1`` or
+    a ``spacing`` that is not a positive finite number."""
+    build = _SHAPES.get(shape)
+    if build is None:
+        raise ValueError(f"unknown formation shape {shape!r}; the shapes are {', '.join(SHAPES)}")
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ValueError(f"a formation needs n ≥ 1 slots, not {n!r}")
+    if not (_finite(spacing) and spacing > 0):
+        raise ValueError(f"spacing must be a positive number of metres, not {spacing!r}")
+    return build(n, float(spacing))
+
+
+def to_world(offsets: FloatArray, leader_xy: Sequence[float], heading_rad: float) -> FloatArray:
+    """Formation-frame ``offsets`` (``(n, 2)``, or one ``(2,)``) in the mission frame: rotated
+    counter-clockwise by ``heading_rad`` (the direction x forward points, from east) and
+    moved to ``leader_xy``."""
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    rotation = np.array([[c, -s], [s, c]])
+    points = np.asarray(offsets, dtype=np.float64)
+    out: FloatArray = points @ rotation.T + np.asarray(leader_xy[:2], dtype=np.float64)
+    return out
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+class VirtualLeader:
+    """A point that flies ``route`` (``(x, y, z)`` points, metres) in straight segments at
+    ``speed`` m/s, setting off from the first point at ``start_time`` seconds.
+
+    Before ``start_time`` it is at the first point. It stops at the last point, or with
+    ``loop`` flies back to the first and round again forever. Consecutive repeated points
+    are one point. :meth:`position` and :meth:`heading` are pure functions of time.
+    """
+
+    def __init__(
+        self,
+        route: Sequence[Sequence[float]],
+        speed: float,
+        start_time: float = 0.0,
+        *,
+        loop: bool = False,
+    ) -> None:
+        points: list[Point] = []
+        for i, p in enumerate(route):
+            if len(p) != 3 or not all(_finite(v) for v in p):
+                raise ValueError(f"route point {i + 1} must be three finite numbers, not {p!r}")
+            point = (float(p[0]), float(p[1]), float(p[2]))
+            if not points or point != points[-1]:
+                points.append(point)
+        if not points:
+            raise ValueError("a route needs at least one point")
+        if not (_finite(speed) and speed > 0):
+            raise ValueError(f"speed must be a positive number (m/s), not {speed!r}")
+        if not _finite(start_time):
+            raise ValueError(f"start_time must be a finite number of seconds, not {start_time!r}")
+        if loop and len(points) > 1 and points[0] != points[-1]:
+            points.append(points[0])
+        self.route: tuple[Point, ...] = tuple(points)
+        self.speed = float(speed)
+        self.start_time = float(start_time)
+        self.loop = loop and len(points) > 1
+        self._ends = np.cumsum([0.0] + [math.dist(a, b) for a, b in itertools.pairwise(points)])
+
+    @property
+    def length(self) -> float:
+        """The route's length, metres (one lap, when looping)."""
+        return float(self._ends[-1])
+
+    def _locate(self, t: float) -> tuple[int, float]:
+        """The segment the leader is on at ``t`` and how far along it (metres); segment
+        ``-1`` for a route of one point."""
+        if len(self.route) < 2:
+            return -1, 0.0
+        travelled = max(0.0, t - self.start_time) * self.speed
+        if self.loop:
+            travelled %= self.length
+        elif travelled >= self.length:
+            last = len(self.route) - 2
+            return last, float(self._ends[-1] - self._ends[-2])
+        segment = int(np.searchsorted(self._ends, travelled, side="right")) - 1
+        segment = min(max(segment, 0), len(self.route) - 2)
+        return segment, travelled - float(self._ends[segment])
+
+    def position(self, t: float) -> Point:
+        """Where the leader is at ``t`` seconds."""
+        segment, along = self._locate(t)
+        if segment < 0:
+            return self.route[0]
+        a, b = self.route[segment], self.route[segment + 1]
+        f = along / float(self._ends[segment + 1] - self._ends[segment])
+        return (a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f)
+
+    def heading(self, t: float) -> float:
+        """The leader's heading at ``t``: radians counter-clockwise from east, of the
+        segment it is on (of the last one once stopped; 0 for a route of one point). A
+        vertical segment keeps the heading of the segment before it."""
+        segment, _ = self._locate(t)
+        for k in range(segment, -1, -1):
+            a, b = self.route[k], self.route[k + 1]
+            if a[0] != b[0] or a[1] != b[1]:
+                return math.atan2(b[1] - a[1], b[0] - a[0])
+        return 0.0
+
+    def moving(self, t: float) -> bool:
+        """Whether the leader is on its way at ``t`` (not waiting, not stopped)."""
+        if len(self.route) < 2 or t < self.start_time:
+            return False
+        return self.loop or (t - self.start_time) * self.speed < self.length
+
+
+_NUMBER: Final = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+_WAYPOINT: Final = rf"\s*{_NUMBER}\s+{_NUMBER}\s*"
+#: What a ``route`` param looks like: ``x y`` pairs separated by ``;``.
+ROUTE_PATTERN: Final = rf"{_WAYPOINT}(?:;{_WAYPOINT})*;?\s*"
+
+
+def parse_route(text: str, altitude: float) -> list[Point]:
+    """The waypoints of ``"x1 y1; x2 y2; ..."`` (metres) at ``altitude``. ValueError naming
+    the waypoint for anything else (a missing or extra number, a word, a non-finite
+    number). A trailing ``;`` is allowed."""
+    parts = [part.strip() for part in text.split(";")]
+    if parts and not parts[-1]:
+        parts.pop()
+    if not parts:
+        raise ValueError("route: give at least one waypoint, as 'x y' (metres)")
+    out: list[Point] = []
+    for i, part in enumerate(parts, start=1):
+        fields = part.split()
+        if len(fields) != 2 or not all(re.fullmatch(_NUMBER, f) for f in fields):
+            raise ValueError(f"route: waypoint {i} must be two numbers 'x y', not {part!r}")
+        x, y = float(fields[0]), float(fields[1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"route: waypoint {i} ({part!r}) is not finite")
+        out.append((x, y, float(altitude)))
+    return out
+
+
+def _positive(name: str, params: Mapping[str, Any], key: str) -> float:
+    value = float(params[key])
+    if not value > 0:
+        raise ValueError(f"{name}: {key} must be > 0, not {value:g}")
+    return value
+
+
+class Formation(Plugin):
+    """A member of a formation of shape :attr:`shape` following a virtual leader (module
+    docstring). One subclass per shape; this base is not registered itself.
+
+    Params:
+
+    ``spacing`` (float > 0, default 20)
+        Metres between neighbouring slots: the least distance between any two slots.
+    ``speed`` (float > 0, default 10)
+        The leader's ground speed along the route, m/s. A member asks for more when it
+        is behind its slot, as much as its vehicle can fly.
+    ``altitude`` (float > 0, default 30)
+        The formation's altitude, metres above the ground.
+    ``route`` (default ``"0 0"``)
+        The leader's waypoints, ``"x1 y1; x2 y2; ..."`` metres. The leader starts at the
+        first when the actor starts and flies the others in order; the first point of
+        the route is where the formation gathers.
+    ``altitude_step`` (float ≥ 0, default 0)
+        Slot ``k`` flies at ``altitude + (k - 1) · altitude_step``. Members fly straight to
+        their slots and may cross each other's paths on the way; a step of a few metres
+        puts every member on a layer of its own, so crossing paths pass above each other.
+    ``loop`` (bool, default false)
+        Fly the route round and round (back from the last point to the first) instead of
+        stopping at the last point.
+    ``size`` (int ≥ 1, default 30)
+        The number of slots, the same for every member: the shape of the composite
+        formations depends on it. A member whose index is above ``size`` refuses to
+        start. Set it to the number of platforms the switching transition gathers.
+
+    The slot is ``ctx.index`` (1 when the actor was not switched in by a group). The
+    snapshot is ``{"start": t}``, the time the leader set off.
+    """
+
+    bus = "act_bus"
+    resources = frozenset({"autopilot"})
+    needs_vehicle = True
+    #: The :func:`slots` shape this class flies.
+    shape: ClassVar[str] = "arrow"
+    params: ClassVar[Mapping[str, Param]] = {
+        "spacing": Param(
+            kind="float",
+            default=20.0,
+            minimum=0.0,
+            doc="metres between neighbouring slots, the least distance between two (> 0)",
+        ),
+        "speed": Param(
+            kind="float",
+            default=10.0,
+            minimum=0.0,
+            doc="the leader's ground speed along the route, m/s (> 0)",
+        ),
+        "altitude": Param(
+            kind="float",
+            default=30.0,
+            minimum=0.0,
+            doc="the formation's altitude, metres above the ground (> 0)",
+        ),
+        "route": Param(
+            kind="str",
+            default="0 0",
+            pattern=ROUTE_PATTERN,
+            doc="the leader's waypoints, 'x1 y1; x2 y2; ...' metres, flown in order",
+        ),
+        "altitude_step": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="metres of altitude between consecutive slots' layers (slot k flies at "
+            "altitude + (k - 1) * altitude_step); 0: one layer",
+        ),
+        "loop": Param(
+            kind="bool",
+            default=False,
+            doc="fly the route round and round instead of stopping at its last point",
+        ),
+        "size": Param(
+            kind="int",
+            default=30,
+            minimum=1,
+            doc="the number of slots, the same for every member (the group's size)",
+        ),
+    }
+
+    def __init__(self) -> None:
+        self._start: float | None = None
+        self._leader: VirtualLeader | None = None
+        self._offset: FloatArray = np.zeros(2)
+        self._altitude = 0.0
+        self._speed = 0.0
+        self._sent: tuple[float, float, float] | None = None
+
+    @classmethod
+    def entry_name(cls) -> str:
+        """The entry-point name this class is registered under (``formation.<shape>``)."""
+        return f"formation.{cls.shape}"
+
+    def _setup(self, ctx: PluginContext, start: float) -> None:
+        name, params = self.entry_name(), ctx.params
+        spacing = _positive(name, params, "spacing")
+        self._speed = _positive(name, params, "speed")
+        self._altitude = _positive(name, params, "altitude")
+        size = int(params["size"])
+        slot = ctx.index if ctx.index > 0 else 1
+        if slot > size:
+            raise ValueError(
+                f"{name}: this member's slot {slot} is beyond size {size}; give every member "
+                "a size of at least the group's number of platforms"
+            )
+        self._altitude += (slot - 1) * float(params["altitude_step"])
+        route = parse_route(str(params["route"]), self._altitude)
+        self._leader = VirtualLeader(route, self._speed, start, loop=bool(params["loop"]))
+        self._offset = slots(self.shape, size, spacing)[slot - 1]
+        self._start = start
+        self._sent = None
+
+    def slot_point(self, t: float) -> Point:
+        """Where this member's slot is at ``t`` (after the start)."""
+        if self._leader is None:
+            raise RuntimeError(f"{self.entry_name()}: the formation is not set up (start it first)")
+        x, y, _ = self._leader.position(t)
+        wx, wy = to_world(self._offset, (x, y), self._leader.heading(t)).tolist()
+        return (float(wx), float(wy), self._altitude)
+
+    def _command(self, ctx: PluginContext, *, force: bool) -> None:
+        vehicle = ctx.require_vehicle()
+        target = self.slot_point(ctx.now)
+        unchanged = self._sent is not None and math.dist(target, self._sent) < RECOMMAND_DISTANCE
+        if unchanged and not force:
+            return
+        gap = math.dist(vehicle.position(), target)
+        vehicle.goto(*target, speed=self._speed + gap / CATCH_UP_TIME)
+        self._sent = target
+
+    def on_start(self, ctx: PluginContext) -> None:
+        self._setup(ctx, ctx.now)
+        self._command(ctx, force=True)
+
+    def step(self, ctx: PluginContext) -> None:
+        self._command(ctx, force=False)
+
+    def on_activate(self, ctx: PluginContext) -> None:
+        if self._leader is None:
+            # Restored from a snapshot: rebuild from the params, keeping the leader's start.
+            self._setup(ctx, ctx.now if self._start is None else self._start)
+        self._command(ctx, force=True)
+
+    def snapshot(self) -> dict[str, Any]:
+        return {"start": self._start}
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        start = state.get("start")
+        if not _finite(start):
+            raise ValueError(
+                f"{self.entry_name()}: a snapshot's 'start' must be a number of seconds, "
+                f"not {start!r}"
+            )
+        assert isinstance(start, int | float)
+        self._start = float(start)
+
+
+class Arrow(Formation):
+    """``formation.arrow``: one V opening backwards, the leader at its tip."""
+
+    shape = "arrow"
+
+
+class TwoArrows(Formation):
+    """``formation.two_arrows``: two Vs side by side; slots ``1..ceil(size/2)`` in the left
+    one (the leader's), the rest in the right one."""
+
+    shape = "two_arrows"
+
+
+class Line(Formation):
+    """``formation.line``: a line abreast, the leader in the middle, then alternately
+    left and right."""
+
+    shape = "line"
+
+
+class SixArrows(Formation):
+    """``formation.six_arrows``: six small Vs (the slots split as evenly as can be, in
+    order), their tips laid out as a V of Vs behind the leader's."""
+
+    shape = "six_arrows"
+
+
+class Herringbone(Formation):
+    """``formation.herringbone``: a spine along the direction of flight, each spine slot
+    with a rib of two slots swept back on either side."""
+
+    shape = "herringbone"
+
+
+class Circle(Formation):
+    """``formation.circle``: the leader at the centre and the others on a ring around it,
+    the ring's radius keeping neighbours ``spacing`` apart."""
+
+    shape = "circle"
+
+
+class Grid(Formation):
+    """``formation.grid``: ``ceil(sqrt(size))`` columns abreast, rows one behind the other,
+    the leader in the middle of the front row."""
+
+    shape = "grid"

@@ -1,0 +1,305 @@
+"""The formation plugins: slot geometry, the virtual leader, the plugin against the test
+vehicle and the conformance kit, and ten quadrotors forming up in the world's physics."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from importlib.metadata import entry_points
+
+import numpy as np
+import pytest
+
+from actorswarm.plugins.formation import (
+    SHAPES,
+    Arrow,
+    Circle,
+    Formation,
+    Grid,
+    Herringbone,
+    Line,
+    SixArrows,
+    TwoArrows,
+    VirtualLeader,
+    parse_route,
+    slots,
+    to_world,
+)
+from actorswarm.runtime.plugin import ParamError
+from actorswarm.testing import FakeVehicle, check_plugin, make_context, run_plugin
+from actorswarm.world.config import load_world
+from actorswarm.world.world import World
+
+CLASSES: dict[str, type[Formation]] = {
+    "arrow": Arrow,
+    "two_arrows": TwoArrows,
+    "line": Line,
+    "six_arrows": SixArrows,
+    "herringbone": Herringbone,
+    "circle": Circle,
+    "grid": Grid,
+}
+
+
+# --- geometry ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("spacing", [1.0, 20.0])
+def test_slots_are_apart_and_start_at_the_leader(shape: str, spacing: float) -> None:
+    for n in range(1, 41):
+        offsets = slots(shape, n, spacing)
+        assert offsets.shape == (n, 2)
+        assert np.isfinite(offsets).all()
+        assert offsets[0].tolist() == [0.0, 0.0]
+        if n > 1:
+            gaps = np.linalg.norm(offsets[:, None, :] - offsets[None, :, :], axis=2)
+            np.fill_diagonal(gaps, np.inf)
+            assert gaps.min() >= spacing, (shape, n, float(gaps.min()))
+
+
+def test_arrow_opens_backwards_symmetrically() -> None:
+    offsets = slots("arrow", 5, 10.0)
+    assert (offsets[1:, 0] < 0).all()
+    assert offsets[1, 1] > 0 > offsets[2, 1]
+    assert offsets[1].tolist() == pytest.approx([offsets[2, 0], -offsets[2, 1]])
+    assert math.hypot(*offsets[1]) == pytest.approx(10.0)
+    assert math.dist(offsets[1], offsets[3]) == pytest.approx(10.0)
+
+
+def test_line_is_abreast_and_grid_is_square() -> None:
+    line = slots("line", 5, 10.0)
+    assert line[:, 0].tolist() == [0.0] * 5
+    assert sorted(line[:, 1].tolist()) == [-20.0, -10.0, 0.0, 10.0, 20.0]
+    grid = slots("grid", 9, 10.0)
+    assert sorted(set(grid[:, 0].tolist())) == [-20.0, -10.0, 0.0]
+    assert sorted(set(grid[:, 1].tolist())) == [-10.0, 0.0, 10.0]
+
+
+def test_composite_shapes_split_the_slots_evenly() -> None:
+    two = slots("two_arrows", 10, 10.0)
+    assert (two[:5, 1] > two[5:, 1].max()).all()  # the leader's arrow on the left
+    assert two[5].tolist() == pytest.approx([0.0, two[5, 1]])  # the other tip abreast
+    six = slots("six_arrows", 30, 10.0)
+    tips = six[::5]
+    assert tips[0].tolist() == [0.0, 0.0]
+    assert len({tuple(t) for t in tips.round(6).tolist()}) == 6
+
+
+def test_circle_rings_the_leader() -> None:
+    offsets = slots("circle", 13, 10.0)
+    radii = np.linalg.norm(offsets[1:], axis=1)
+    assert radii == pytest.approx(np.full(12, radii[0]))
+    assert offsets[1].tolist() == pytest.approx([radii[0], 0.0])
+
+
+def test_herringbone_has_a_spine() -> None:
+    offsets = slots("herringbone", 15, 10.0)
+    spine = offsets[::5]
+    assert spine[:, 1].tolist() == [0.0, 0.0, 0.0]
+    assert (np.diff(spine[:, 0]) < 0).all()
+
+
+@pytest.mark.parametrize(
+    ("shape", "n", "spacing"),
+    [("star", 3, 1.0), ("arrow", 0, 1.0), ("arrow", 3, 0.0), ("arrow", 3, math.nan)],
+)
+def test_slots_refuse_bad_arguments(shape: str, n: int, spacing: float) -> None:
+    with pytest.raises(ValueError):
+        slots(shape, n, spacing)
+
+
+def test_to_world_rotates_then_translates() -> None:
+    offsets = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 5.0]])
+    north = to_world(offsets, (100.0, 50.0), math.pi / 2)
+    assert north == pytest.approx(np.array([[100.0, 50.0], [100.0, 60.0], [95.0, 50.0]]))
+    east = to_world(offsets, (1.0, 2.0), 0.0)
+    assert east == pytest.approx(np.array([[1.0, 2.0], [11.0, 2.0], [1.0, 7.0]]))
+    one = to_world(np.array([10.0, 0.0]), (0.0, 0.0), math.pi)
+    assert one.tolist() == pytest.approx([-10.0, 0.0])
+
+
+# --- the virtual leader --------------------------------------------------------------------------
+
+
+def test_leader_flies_the_route_and_stops() -> None:
+    leader = VirtualLeader([(0, 0, 10), (100, 0, 10), (100, 50, 10)], speed=10, start_time=5)
+    assert leader.length == pytest.approx(150.0)
+    assert leader.position(0) == (0.0, 0.0, 10.0)
+    assert leader.position(10) == pytest.approx((50.0, 0.0, 10.0))
+    assert leader.heading(10) == pytest.approx(0.0)
+    assert leader.position(17) == pytest.approx((100.0, 20.0, 10.0))
+    assert leader.heading(17) == pytest.approx(math.pi / 2)
+    assert leader.position(1000) == pytest.approx((100.0, 50.0, 10.0))
+    assert leader.heading(1000) == pytest.approx(math.pi / 2)
+    assert leader.moving(10) and not leader.moving(1000) and not leader.moving(1)
+
+
+def test_leader_loops() -> None:
+    leader = VirtualLeader([(0, 0, 0), (30, 0, 0), (30, 40, 0)], speed=10, loop=True)
+    assert leader.length == pytest.approx(120.0)  # back to the start: 30 + 40 + 50
+    assert leader.position(12) == pytest.approx(leader.position(0))
+    assert leader.position(3 + 12 * 5) == pytest.approx((30.0, 0.0, 0.0))
+    assert leader.heading(9) == pytest.approx(math.atan2(-40, -30))
+    assert leader.moving(1e6)
+
+
+def test_leader_of_one_point_and_repeated_points() -> None:
+    still = VirtualLeader([(5, 6, 7), (5, 6, 7)], speed=3)
+    assert still.route == ((5.0, 6.0, 7.0),)
+    assert still.position(100) == (5.0, 6.0, 7.0)
+    assert still.heading(100) == 0.0
+    assert not still.moving(1)
+
+
+@pytest.mark.parametrize(
+    ("route", "speed"),
+    [([], 1.0), ([(0, 0)], 1.0), ([(0, 0, math.inf)], 1.0), ([(0, 0, 0)], 0.0)],
+)
+def test_leader_refuses_bad_arguments(route: list[tuple[float, ...]], speed: float) -> None:
+    with pytest.raises(ValueError):
+        VirtualLeader(route, speed)
+
+
+def test_parse_route() -> None:
+    assert parse_route("0 0; 10 -5.5;1e2 3;", 30) == [
+        (0.0, 0.0, 30.0),
+        (10.0, -5.5, 30.0),
+        (100.0, 3.0, 30.0),
+    ]
+    for bad in ("", "1", "1 2 3", "a b", "1 2;; 3 4", "1e999 0"):
+        with pytest.raises(ValueError, match="route"):
+            parse_route(bad, 30)
+
+
+# --- the plugin ----------------------------------------------------------------------------------
+
+
+def test_entry_points_name_the_shapes() -> None:
+    found = {ep.name: ep.load() for ep in entry_points(group="actorswarm.plugins")}
+    for shape, cls in CLASSES.items():
+        assert found[f"formation.{shape}"] is cls
+        assert cls.shape == shape
+        assert cls.entry_name() == f"formation.{shape}"
+        assert cls.bus == "act_bus"
+        assert cls.needs_vehicle is True
+        assert cls.resources == frozenset({"autopilot"})
+        assert all(param.doc for param in cls.params.values())
+
+
+@pytest.mark.parametrize(
+    ("cls", "params"),
+    [
+        (Arrow, {}),
+        (Herringbone, {"route": "0 0; 50 0; 50 50", "speed": "4", "size": "12"}),
+        (Circle, {"route": "0 0; 10 0", "loop": "true", "altitude_step": "2"}),
+    ],
+)
+def test_conformance(cls: type[Formation], params: dict[str, str]) -> None:
+    check_plugin(cls, params=params)
+
+
+def test_route_param_is_checked_with_the_params() -> None:
+    with pytest.raises(ParamError, match="route"):
+        make_context(Arrow, params={"route": "1 2; three 4"})
+
+
+def test_member_flies_to_its_slot_and_follows_the_leader() -> None:
+    vehicle = FakeVehicle(position=(0.0, -20.0, 30.0), cruise_speed=20.0)
+    params = {"route": "0 0; 100 0", "speed": "5", "spacing": "10", "size": "5"}
+    ctx = make_context(Arrow, params=params, vehicle=vehicle, index=2)
+    plugin = Arrow()
+    run_plugin(plugin, ctx, steps=1)
+    expected = to_world(slots("arrow", 5, 10.0)[1], (0.0, 0.0), 0.0)
+    first = vehicle.commands[0]
+    assert first[0] == "goto"
+    assert first[1:3] == pytest.approx(tuple(expected.tolist()))
+    assert first[3] == 30.0
+    assert first[4] > 5.0  # the leader's speed plus catching up
+    run_plugin(plugin, ctx, steps=400)  # 40 s: the leader went 100 m and stopped at 20 s
+    point = plugin.slot_point(ctx.now)
+    assert point[:2] == pytest.approx(tuple((expected + np.array([100.0, 0.0])).tolist()))
+    assert math.dist(vehicle.position(), point) < 0.5
+    # Far fewer commands than steps: a target that moved less than a metre is not re-sent.
+    count = len(vehicle.commands)
+    assert 10 < count < 200
+    run_plugin(plugin, ctx, steps=50)
+    assert len(vehicle.commands) == count  # the leader is stopped: nothing to send
+
+
+def test_index_zero_is_slot_one_and_altitude_step_layers() -> None:
+    vehicle = FakeVehicle()
+    params = {"route": "40 50", "altitude": "20", "altitude_step": "3"}
+    run_plugin(Line(), make_context(Line, params=params, vehicle=vehicle, index=0), steps=1)
+    assert vehicle.commands[0][1:4] == (40.0, 50.0, 20.0)
+    other = FakeVehicle()
+    run_plugin(Line(), make_context(Line, params=params, vehicle=other, index=4), steps=1)
+    assert other.commands[0][3] == 29.0
+
+
+def test_index_beyond_size_is_refused() -> None:
+    ctx = make_context(Grid, params={"size": "4"}, vehicle=FakeVehicle(), index=5)
+    with pytest.raises(ValueError, match="slot 5 is beyond size 4"):
+        Grid()._drive_start(ctx)
+
+
+def test_restore_keeps_the_leader_start() -> None:
+    params = {"route": "0 0; 1000 0", "speed": "10"}
+    ctx = make_context(Arrow, params=params, vehicle=FakeVehicle(), now=100.0, index=1)
+    plugin = Arrow()
+    plugin._drive_start(ctx)
+    saved = plugin._drive_snapshot()
+    assert saved == {"start": 100.0}
+    vehicle = FakeVehicle()
+    later = make_context(Arrow, params=params, vehicle=vehicle, now=130.0, index=1)
+    fresh = Arrow()
+    fresh._drive_restore(saved)
+    fresh._drive_activate(later)
+    assert vehicle.commands[0][1:4] == pytest.approx((300.0, 0.0, 30.0))
+    with pytest.raises(ValueError, match="start"):
+        Arrow()._drive_restore({"start": "soon"})
+
+
+# --- ten quadrotors in the world's physics -------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_ten_quadrotors_form_up(shape: str) -> None:
+    world = World(load_world(None), platforms=range(1, 11))
+    cls = CLASSES[shape]
+    params = {
+        "spacing": "15",
+        "speed": "5",
+        "altitude": "20",
+        "altitude_step": "6",
+        "size": "10",
+        "route": "15 60; 15 160",
+    }
+    contexts = {
+        p: make_context(cls, params=params, vehicle=world.vehicle(p), platform=p, index=p)
+        for p in world.platforms
+    }
+    members = {p: cls() for p in world.platforms}
+    for p, member in members.items():
+        member._drive_start(contexts[p])  # on the ground: the goto takes off on the way
+    closest = math.inf
+    dt = 0.1
+    for k in range(1, 601):  # 60 s
+        t = k * dt
+        world.step_to(t)
+        for p, member in members.items():
+            contexts[p].now = t
+            member._drive_step(contexts[p])
+        positions = world.positions()
+        if all(z > 1.0 for _, _, z in positions.values()):
+            for a, b in itertools.combinations(positions.values(), 2):
+                closest = min(closest, math.dist(a, b))
+    assert closest >= 5.0, f"{shape}: two vehicles came within {closest:.2f} m"
+    positions = world.positions()
+    for p, member in members.items():
+        error = math.dist(positions[p], member.slot_point(60.0))
+        assert error < 5.0, f"{shape}: platform {p} is {error:.1f} m from its slot"
+    # And the slots are the shape's, laid along the route's heading (north).
+    expected = to_world(slots(shape, 10, 15.0), (15.0, 160.0), math.pi / 2)
+    for p, member in members.items():
+        assert member.slot_point(60.0)[:2] == pytest.approx(tuple(expected[p - 1].tolist()))
