@@ -161,3 +161,30 @@ def test_bench_switch_rows(tmp_path: Path) -> None:
         (5, "warm"),
     }
     assert all(r["median_ms"] > 0 and r["p99_ms"] >= r["median_ms"] for r in rows)
+
+
+def test_sim_records_and_plot_draws(tmp_path: Path) -> None:
+    rec = tmp_path / "run.jsonl"
+    result = runner.invoke(
+        app,
+        [
+            "sim",
+            str(EXAMPLES / "takeoff_ingress_return.xml"),
+            "--duration",
+            "40",
+            "--record",
+            str(rec),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert rec.read_text().startswith('{"type":"meta"') or rec.read_text().startswith(
+        '{"type": "meta"'
+    )
+    result = runner.invoke(app, ["plot", str(rec), "--out", str(tmp_path / "pics")])
+    assert result.exit_code == 0, result.output
+    for name in ("run-trajectories.png", "run-timeline.png"):
+        assert (tmp_path / "pics" / name).read_bytes().startswith(b"\x89PNG")
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("not json\n")
+    result = runner.invoke(app, ["plot", str(bad)])
+    assert result.exit_code == 2 and "line 1" in result.output

@@ -228,12 +228,17 @@ def sim(
     json_out: Annotated[
         str | None, typer.Option("--json", help="Write the JSON report here ('-': stdout).")
     ] = None,
+    record: Annotated[
+        Path | None,
+        typer.Option(help="Write trajectories and the actor timeline here (JSON Lines)."),
+    ] = None,
 ) -> None:
     """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7)."""
     from actorswarm.core.config import CoreConfig
     from actorswarm.runtime.actor_runtime import UnsupportedPlugin
     from actorswarm.runtime.registry import RegistryError
     from actorswarm.sim.radio import LinkModel
+    from actorswarm.sim.record import sample_world, write_record
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
     from actorswarm.world.config import WorldConfig, WorldError, load_world
 
@@ -262,10 +267,20 @@ def sim(
             raise typer.Exit(2) from None
     try:
         run = TaskSim(script, seed=seed, link=link, config=CoreConfig(), world_config=world_config)
+        if record is not None and run.world is not None:
+            sample_world(run, 0.5)
         report = run.run(duration, events=events, faults=faults)
     except (UnsupportedPlugin, RegistryError) as exc:
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
+    if record is not None:
+        rows = run.world.track().rows() if run.world is not None else []
+        write_record(
+            record,
+            rows=rows,
+            transitions=report["transitions"],
+            meta={"script": script.name, "seed": seed, "sim_time_s": report["sim_time_s"]},
+        )
     text = json.dumps(report, indent=2)
     if json_out == "-":
         typer.echo(text)
@@ -276,6 +291,28 @@ def sim(
             typer.echo(line)
     if report["violations"]:
         raise typer.Exit(1)
+
+
+@app.command("plot")
+def plot(
+    recording: Annotated[Path, typer.Argument(help="A recording written by sim --record.")],
+    out: Annotated[Path, typer.Option(help="Directory for the pictures.")] = Path("."),
+) -> None:
+    """Draw a recorded run: trajectories (top view, coloured by actor) and the timeline."""
+    from actorswarm.sim.record import RecordError, read_record
+    from actorswarm.viz import timeline_png, trajectory_png
+
+    try:
+        data = read_record(recording)
+    except (RecordError, OSError) as exc:
+        typer.echo(f"{recording}: {exc}", err=True)
+        raise typer.Exit(2) from None
+    stem = recording.stem
+    for path in (
+        trajectory_png(data, out / f"{stem}-trajectories.png"),
+        timeline_png(data, out / f"{stem}-timeline.png"),
+    ):
+        typer.echo(f"wrote {path}")
 
 
 class GraphFormat(StrEnum):
