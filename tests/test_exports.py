@@ -42,3 +42,26 @@ def test_core_imports_no_io_modules() -> None:
                 and node.attr != "Random"
             )
             assert not global_random, f"{path.name} draws global randomness: seed an rng instead"
+
+
+@pytest.mark.parametrize(
+    ("package", "above"),
+    [
+        ("core", {"engine", "runtime", "dsl", "sim", "ground", "cli", "world", "plugins"}),
+        ("runtime", {"engine", "dsl", "sim", "ground", "cli"}),
+        ("world", {"engine", "dsl", "sim", "ground", "cli"}),
+    ],
+)
+def test_layers_only_import_downward(package: str, above: set[str]) -> None:
+    """DESIGN.md §2: dependencies point downward only (type-checking imports aside)."""
+    import ast
+    from pathlib import Path
+
+    root = Path(importlib.import_module("actorswarm").__file__ or "").parent / package
+    for path in root.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        for node in tree.body:  # module level only: `if TYPE_CHECKING:` blocks are not
+            if isinstance(node, ast.ImportFrom) and node.module:
+                parts = node.module.split(".")
+                if parts[0] == "actorswarm" and len(parts) > 1:
+                    assert parts[1] not in above, f"{package}/{path.name} imports {node.module}"

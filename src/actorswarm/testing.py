@@ -55,8 +55,8 @@ from typing import Any, Final
 
 import msgspec
 
-from actorswarm.engine.runtime import Emitted
 from actorswarm.runtime.context import Collective, PluginContext, Vehicle
+from actorswarm.runtime.events import Emitted
 from actorswarm.runtime.plugin import (
     Lifecycle,
     LifecycleError,
@@ -223,6 +223,23 @@ def make_context(
     )
 
 
+def drive(
+    plugin: Plugin, op: LifecycleOp, ctx: PluginContext, state: Mapping[str, Any] | None = None
+) -> object:
+    """Call the framework's driver for lifecycle operation ``op`` (as the runtime would);
+    ``state`` is what ``restore`` gets (default: an empty snapshot)."""
+    calls: dict[LifecycleOp, Callable[[], object]] = {
+        "start": lambda: plugin._drive_start(ctx),
+        "step": lambda: plugin._drive_step(ctx),
+        "pause": lambda: plugin._drive_pause(ctx),
+        "activate": lambda: plugin._drive_activate(ctx),
+        "stop": lambda: plugin._drive_stop(ctx),
+        "snapshot": plugin._drive_snapshot,
+        "restore": lambda: plugin._drive_restore(state or {}),
+    }
+    return calls[op]()
+
+
 def run_plugin(plugin: Plugin, ctx: PluginContext, *, steps: int, dt: float = 0.1) -> list[Emitted]:
     """Start ``plugin`` (unless it already runs), then step it ``steps`` times, ``dt``
     seconds apart: ``ctx.now`` moves on and a :class:`FakeVehicle` in ``ctx.vehicle`` is
@@ -387,18 +404,9 @@ class _Kit:
     def refused(self, what: str, plugin: Plugin, op: LifecycleOp, ctx: PluginContext) -> None:
         """``op`` must raise LifecycleError and leave the plugin where it was."""
         before: Lifecycle = plugin.lifecycle
-        calls: dict[LifecycleOp, Callable[[], object]] = {
-            "start": lambda: plugin._drive_start(ctx),
-            "step": lambda: plugin._drive_step(ctx),
-            "pause": lambda: plugin._drive_pause(ctx),
-            "activate": lambda: plugin._drive_activate(ctx),
-            "stop": lambda: plugin._drive_stop(ctx),
-            "snapshot": plugin._drive_snapshot,
-            "restore": lambda: plugin._drive_restore({}),
-        }
         try:
             with self.guard.watching():
-                calls[op]()
+                drive(plugin, op, ctx)
         except LifecycleError:
             pass
         except Exception as exc:

@@ -3,7 +3,7 @@ two built-in plugins."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any, ClassVar
 
 import pytest
@@ -28,7 +28,7 @@ from actorswarm.runtime.plugin import (
     Plugin,
     PluginDeclarationError,
 )
-from actorswarm.testing import FakeVehicle, make_context, run_plugin
+from actorswarm.testing import FakeVehicle, drive, make_context, run_plugin
 
 # --- Param: reading texts ----------------------------------------------------------------------
 
@@ -302,19 +302,6 @@ class Recorder(Plugin):
         self.n = state["n"]
 
 
-def _do(plugin: Plugin, op: LifecycleOp, ctx: PluginContext) -> object:
-    calls: dict[LifecycleOp, Callable[[], object]] = {
-        "start": lambda: plugin._drive_start(ctx),
-        "step": lambda: plugin._drive_step(ctx),
-        "pause": lambda: plugin._drive_pause(ctx),
-        "activate": lambda: plugin._drive_activate(ctx),
-        "stop": lambda: plugin._drive_stop(ctx),
-        "snapshot": plugin._drive_snapshot,
-        "restore": lambda: plugin._drive_restore({"n": 0}),
-    }
-    return calls[op]()
-
-
 # How to bring a fresh Recorder into each state.
 _PATHS: dict[Lifecycle, tuple[LifecycleOp, ...]] = {
     "new": (),
@@ -369,14 +356,14 @@ def test_out_of_order_calls_are_refused_and_change_nothing(
     ctx = make_context()
     p = Recorder()
     for step in _PATHS[state]:
-        _do(p, step, ctx)
+        drive(p, step, ctx, {"n": 0})
     before = list(p.calls)
     if (state, op) in LIFECYCLE:
-        _do(p, op, ctx)
+        drive(p, op, ctx, {"n": 0})
         assert p.lifecycle == LIFECYCLE[(state, op)]
         return
     with pytest.raises(LifecycleError) as info:
-        _do(p, op, ctx)
+        drive(p, op, ctx, {"n": 0})
     err = info.value
     assert p.lifecycle == state and p.calls == before  # no hook ran
     assert (err.state, err.operation) == (state, op)

@@ -38,6 +38,19 @@ app.add_typer(task_app, name="task")
 console = Console()
 
 
+def _int_list(text: str, flag: str, low: int, high: int) -> list[int]:
+    """A comma-separated list of integers in low..high, or a clear error and exit 2."""
+    try:
+        values = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        typer.echo(f"{flag}: expected comma-separated integers, got {text!r}", err=True)
+        raise typer.Exit(2) from None
+    if not values or any(v < low or v > high for v in values):
+        typer.echo(f"{flag}: every value must be {low}..{high}, got {text!r}", err=True)
+        raise typer.Exit(2)
+    return values
+
+
 @app.command()
 def version() -> None:
     """Print the version."""
@@ -112,14 +125,7 @@ def bench_core(
     from actorswarm.bench.core import bench_size, markdown, to_json
     from actorswarm.core.config import CoreConfig
 
-    try:
-        size_list = [int(s) for s in sizes.split(",") if s.strip()]
-    except ValueError:
-        typer.echo(f"--sizes: expected comma-separated integers, got {sizes!r}", err=True)
-        raise typer.Exit(2) from None
-    if not size_list or any(n < 2 or n > 5000 for n in size_list):
-        typer.echo(f"--sizes: every size must be 2..5000, got {sizes!r}", err=True)
-        raise typer.Exit(2)
+    size_list = _int_list(sizes, "--sizes", 2, 5000)
     config = CoreConfig(adaptive_retry=adaptive_retry)
     results = []
     with console.status("benchmarking") as status:
@@ -162,14 +168,7 @@ def bench_switch(
     """Single-platform Actor switch time, cold and warm (DESIGN.md §8)."""
     from actorswarm.bench.switch import markdown, run, to_json
 
-    try:
-        counts = [int(p) for p in plugins.split(",") if p.strip()]
-    except ValueError:
-        typer.echo(f"--plugins: expected comma-separated integers, got {plugins!r}", err=True)
-        raise typer.Exit(2) from None
-    if not counts or any(c < 1 or c > 64 for c in counts):
-        typer.echo(f"--plugins: every count must be 1..64, got {plugins!r}", err=True)
-        raise typer.Exit(2)
+    counts = _int_list(plugins, "--plugins", 1, 64)
     rows = run(counts, runs)
     text = markdown(rows)
     typer.echo(text)

@@ -9,33 +9,13 @@ plugins found by entry points, exclusive hardware) is its own layer, below the e
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol
+from typing import Any, Protocol
 
-Scope = Literal["local", "swarm"]
+# What plugins emit and what a starting actor is handed belong to the runtime layer below;
+# they are named here too because they are the vocabulary of this interface.
+from actorswarm.runtime.events import ActorContext, Emitted, Scope
 
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class Emitted:
-    """An event a plugin emitted: ``scope`` local (only this platform is a candidate) or
-    swarm (every platform whose actor has a transition for it). ``bid`` None: the
-    platform ID."""
-
-    event: str
-    scope: Scope = "local"
-    bid: float | None = None
-    data: Any = None
-    actor: str = ""
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class ActorContext:
-    """What a starting actor is handed: transition params, its index in the group that
-    switched it, and the data the master scattered to it."""
-
-    params: dict[str, str] = field(default_factory=dict)
-    index: int = 0
-    data: Any = None
+__all__ = ["ActorContext", "ActorHost", "Emitted", "Scope"]
 
 
 class ActorHost(Protocol):

@@ -37,18 +37,20 @@ import random
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 
-from actorswarm.dsl.model import BUSES, TaskScript
-from actorswarm.engine.runtime import ActorContext, Emitted
 from actorswarm.runtime.acb import ACB, ActorStatus, Relations, TaskContext
 from actorswarm.runtime.context import Collective, NullCollective, PluginContext, Vehicle
+from actorswarm.runtime.events import ActorContext, Emitted
 from actorswarm.runtime.operations import Operation, apply
-from actorswarm.runtime.plugin import Plugin
+from actorswarm.runtime.plugin import BUSES, Plugin
 from actorswarm.runtime.registry import resolve
 from actorswarm.runtime.resources import ResourceArbiter
+
+if TYPE_CHECKING:  # the script model is data handed down; no import of the layer above
+    from actorswarm.dsl.model import TaskScript
 
 
 class UnsupportedPlugin(ValueError):

@@ -33,7 +33,7 @@ import re
 from collections.abc import Mapping
 from typing import Any, Final, Protocol, get_args, runtime_checkable
 
-from actorswarm.engine.runtime import Emitted, Scope
+from actorswarm.runtime.events import Emitted, Scope
 
 __all__ = [
     "Collective",
