@@ -47,7 +47,7 @@ import math
 import random
 import re
 import sys
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from types import FrameType, ModuleType
@@ -55,7 +55,7 @@ from typing import Any, Final
 
 import msgspec
 
-from actorswarm.runtime.context import Collective, PluginContext, Vehicle
+from actorswarm.runtime.context import Camera, Collective, Detection, PluginContext, Vehicle
 from actorswarm.runtime.events import Emitted
 from actorswarm.runtime.plugin import (
     Lifecycle,
@@ -65,7 +65,7 @@ from actorswarm.runtime.plugin import (
     Plugin,
 )
 
-__all__ = ["FakeVehicle", "check_plugin", "make_context", "run_plugin"]
+__all__ = ["FakeCamera", "FakeVehicle", "check_plugin", "make_context", "run_plugin"]
 
 _EVENT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
 
@@ -181,6 +181,46 @@ def _point(value: tuple[float, float, float], what: str) -> Point:
     return (float(value[0]), float(value[1]), float(value[2]))
 
 
+class FakeCamera:
+    """A :class:`~actorswarm.runtime.context.Camera` for tests: it sees the ``targets``
+    (name → ``(x, y, z)``, or name → ``(kind, (x, y, z))``) from ``vehicle``'s position with
+    the simulated world's geometry (:func:`actorswarm.world.sensors.detect`;
+    ``field_of_view`` degrees, ``max_range`` and ``min_altitude`` metres). Move a target by
+    assigning ``camera.targets[name]``."""
+
+    def __init__(
+        self,
+        vehicle: Vehicle,
+        targets: Mapping[str, Any] | None = None,
+        *,
+        field_of_view: float = 90.0,
+        max_range: float = 200.0,
+        min_altitude: float = 2.0,
+    ) -> None:
+        from actorswarm.world.config import CameraConfig
+
+        self.vehicle = vehicle
+        self.targets: dict[str, Any] = dict(targets or {})
+        self.config = CameraConfig(
+            field_of_view=field_of_view, max_range=max_range, min_altitude=min_altitude
+        )
+
+    def _targets(self) -> Iterator[tuple[str, str, Point]]:
+        for name, value in self.targets.items():
+            kind, where = value if isinstance(value[0], str) else ("target", value)
+            yield name, kind, _point(where, f"FakeCamera target {name!r}")
+
+    def detections(self) -> list[Detection]:
+        from actorswarm.world.sensors import detect
+
+        return detect(self.vehicle.position(), self._targets(), self.config)
+
+    def footprint(self) -> float:
+        from actorswarm.world.sensors import footprint_radius
+
+        return footprint_radius(self.vehicle.position()[2], self.config)
+
+
 def make_context(
     plugin: type[Plugin] | None = None,
     *,
@@ -195,6 +235,11 @@ def make_context(
     seed: int | None = None,
     index: int = 0,
     data: Any = None,
+    size: int = 0,
+    slot: int = 0,
+    slots: int = 0,
+    camera: Camera | None = None,
+    areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
 ) -> PluginContext:
     """A :class:`PluginContext` for a plugin unit test.
 
@@ -203,8 +248,14 @@ def make_context(
     runtime does (:meth:`Plugin.bind_params`; a bad value raises
     :class:`~actorswarm.runtime.plugin.ParamError`). Without it, ``params`` are used as
     given. ``seed`` seeds ``ctx.rng`` (default: the platform ID). The collective defaults to
-    one that refuses every call; pass your own to test a coordinating plugin.
+    one that refuses every call; pass your own to test a coordinating plugin. ``index`` and
+    ``size`` place the actor in the group that switched it in, ``slot`` and ``slots`` in its
+    branch (give ``slot``/``slots`` 0 to copy ``index``/``size``, as a transition without
+    branches does); ``camera`` (a :class:`FakeCamera`) and ``areas`` are what a
+    detection or search plugin sees.
     """
+    if slot == 0 and slots == 0:
+        slot, slots = index, size
     if plugin is not None:
         values: Mapping[str, Any] = plugin.bind_params(dict(params or {}), transition_params)
     else:
@@ -220,6 +271,11 @@ def make_context(
         rng=random.Random(platform if seed is None else seed),
         index=index,
         data=data,
+        size=size,
+        slot=slot,
+        slots=slots,
+        camera=camera,
+        areas=areas,
     )
 
 

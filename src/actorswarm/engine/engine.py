@@ -320,13 +320,21 @@ class TaskEngine:
         if not event.chosen:
             return
         target = self.plan.successor(transition, event.index)
+        slot, slots = self.plan.placement(transition, event.index, event.size)
         self._switch(
             cand.actor,
             target,
             now,
             transition.event,
             "barrier",
-            ActorContext(params=transition.param_map, index=event.index, data=event.data),
+            ActorContext(
+                params=transition.param_map,
+                index=event.index,
+                data=event.data,
+                size=event.size,
+                slot=slot,
+                slots=slots,
+            ),
         )
 
     def _stale(self, event: BarrierStaleNotice, now: float) -> None:

@@ -100,6 +100,28 @@ class Plan:
         # More participants than the counts (sysNum="all" grew): the last branch takes them.
         return transition.branches[-1].successor
 
+    @staticmethod
+    def placement(transition: Transition, index: int, size: int) -> tuple[int, int]:
+        """``(slot, slots)`` of the participant numbered ``index`` of ``size`` chosen: its
+        1-based place among those :meth:`successor` sends to the same branch, and how many
+        it sends there. Counted branches fill first, in script order, then ``rest``; when
+        more were chosen than the counts (``sysNum="all"`` grew) the last branch takes the
+        extra ones, as :meth:`successor` does."""
+        if index < 1:
+            return 0, 0
+        size = max(size, index)
+        counted = [b for b in transition.branches if b.count != "rest"]
+        has_rest = len(counted) < len(transition.branches)
+        before = 0
+        for k, branch in enumerate(counted):
+            count = int(branch.count)
+            last = k == len(counted) - 1 and not has_rest
+            if index <= before + count or last:
+                slots = size - before if last else min(count, size - before)
+                return index - before, slots
+            before += count
+        return index - before, size - before
+
     def initial_actors(self, platform: int) -> list[str]:
         """The actors ``platform`` starts, in script order."""
         return [line.actor for line in self.script.platforms if platform in line.ids]

@@ -7,7 +7,7 @@ actor's control block; :class:`Plugin` is what algorithm developers subclass (se
 
 from actorswarm.runtime.acb import ACB, ActorStatus
 from actorswarm.runtime.actor_runtime import ActorRuntime, PluginFailure, UnsupportedPlugin
-from actorswarm.runtime.context import PluginContext, Vehicle
+from actorswarm.runtime.context import Camera, Detection, PluginContext, Vehicle
 from actorswarm.runtime.operations import IllegalOperation, Operation
 from actorswarm.runtime.plugin import LifecycleError, Param, ParamError, Plugin
 from actorswarm.runtime.resources import ResourceArbiter, ResourceBusy
@@ -18,6 +18,8 @@ __all__ = [
     "ActorRuntime",
     "ActorStatus",
     "BackupStore",
+    "Camera",
+    "Detection",
     "FileBackupStore",
     "IllegalOperation",
     "LifecycleError",

@@ -70,8 +70,9 @@ class TaskContext:
 
     ``params`` are the transition's ``<param key value>`` pairs handed to the plugins;
     ``group_key`` and ``generation`` name the barrier firing that switched it in (None and 0
-    for an actor started directly); ``index`` is its 1-based index in that group (0: none);
-    ``data`` is whatever the master scattered to it. Treat ``params`` as read-only.
+    for an actor started directly); ``index`` is its 1-based index in that group (0: none)
+    and ``size`` the group's size; ``slot`` and ``slots`` are the same within the branch it
+    went to; ``data`` is whatever the master scattered to it. Treat ``params`` as read-only.
     """
 
     params: dict[str, str] = field(default_factory=dict)
@@ -79,6 +80,9 @@ class TaskContext:
     generation: int = 0
     index: int = 0
     data: Any = None
+    size: int = 0
+    slot: int = 0
+    slots: int = 0
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -256,6 +260,9 @@ class ACB:
                 "group_key": self.context.group_key,
                 "generation": self.context.generation,
                 "index": self.context.index,
+                "size": self.context.size,
+                "slot": self.context.slot,
+                "slots": self.context.slots,
                 "data": _jsonable(self.context.data),
             },
             "relations": {f.name: getattr(self.relations, f.name) for f in fields(Relations)},

@@ -35,14 +35,20 @@ from __future__ import annotations
 import dataclasses
 import random
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import msgspec
 
 from actorswarm.runtime.acb import ACB, ActorStatus, Relations, TaskContext
-from actorswarm.runtime.context import Collective, NullCollective, PluginContext, Vehicle
+from actorswarm.runtime.context import (
+    Camera,
+    Collective,
+    NullCollective,
+    PluginContext,
+    Vehicle,
+)
 from actorswarm.runtime.events import ActorContext, Emitted
 from actorswarm.runtime.operations import Operation, apply
 from actorswarm.runtime.plugin import BUSES, Plugin
@@ -103,11 +109,15 @@ class ActorRuntime:
         collective: Collective | None = None,
         rate: float = 10.0,
         seed: int = 0,
+        camera: Camera | None = None,
+        areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
     ) -> None:
         if rate <= 0:
             raise ValueError(f"rate must be > 0 Hz, got {rate}")
         self.platform = platform
         self.vehicle = vehicle
+        self.camera = camera
+        self.areas: Mapping[str, Sequence[tuple[float, float]]] = dict(areas or {})
         self.collective: Collective = collective or NullCollective()
         self.period = 1.0 / rate
         self._rng = random.Random(f"runtime:{seed}:{platform}")
@@ -174,7 +184,12 @@ class ActorRuntime:
             instances.append((pdef, pdef.cls(), params))
         self._loaded[actor] = entry = _Loaded(acb=acb, plugins=instances)
         acb.context = TaskContext(
-            params=dict(context.params), index=context.index, data=context.data
+            params=dict(context.params),
+            index=context.index,
+            data=context.data,
+            size=context.size,
+            slot=context.slot,
+            slots=context.slots,
         )
         acb.relations = Relations(index=context.index)
         acb.hardware = definition.resources
@@ -264,6 +279,9 @@ class ActorRuntime:
                 "status": e.acb.status.value,
                 "params": dict(e.acb.context.params),
                 "index": e.acb.context.index,
+                "size": e.acb.context.size,
+                "slot": e.acb.context.slot,
+                "slots": e.acb.context.slots,
                 "plugins": [
                     plugin._drive_snapshot() if plugin.lifecycle in ("running", "sleeping") else {}
                     for _, plugin, _ in e.plugins
@@ -290,7 +308,14 @@ class ActorRuntime:
                 plugin = pdef.cls()
                 plugin._drive_restore(snap)
                 instances.append((pdef, plugin, params))
-            acb.context = TaskContext(params=dict(saved["params"]), index=saved["index"])
+            acb.context = TaskContext(
+                params=dict(saved["params"]),
+                index=saved["index"],
+                # Backups written before these keys existed restore without them.
+                size=int(saved.get("size", 0)),
+                slot=int(saved.get("slot", 0)),
+                slots=int(saved.get("slots", 0)),
+            )
             self._loaded[name] = _Loaded(acb=acb, plugins=instances)
             # Restored plugins sleep: bring the ACB to the same state, then activate.
             apply(acb, Operation.START, now)
@@ -352,6 +377,11 @@ class ActorRuntime:
             rng=self._rng,
             index=entry.acb.context.index,
             data=entry.acb.context.data,
+            size=entry.acb.context.size,
+            slot=entry.acb.context.slot,
+            slots=entry.acb.context.slots,
+            camera=self.camera,
+            areas=self.areas,
         )
 
     def _call(

@@ -13,6 +13,11 @@ simulator, on a real platform, and in a unit test:
 * **The vehicle** is ``ctx.vehicle``, a :class:`Vehicle`: the simulated world and each real
   autopilot adapter implement the same small interface. It is None on a platform without a
   vehicle (and in the simulator's ``--no-world`` mode).
+* **The camera** is ``ctx.camera``, a :class:`Camera` reporting the targets in view as
+  :class:`Detection` s (the simulated world's, or a real detector's adapter); None without
+  one. **Named areas** of the mission (``ctx.areas``: name → polygon) come from the host
+  too — the world file in the simulator, the platform's config on a robot — so a script
+  can say ``area="search"`` and stay vehicle- and site-agnostic.
 * **Events** go out with :meth:`PluginContext.emit`; the context collects them and the host
   takes them with :meth:`PluginContext.drain` after the call, so nothing is sent from inside
   a plugin.
@@ -30,14 +35,18 @@ from __future__ import annotations
 import math
 import random
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, Final, Protocol, get_args, runtime_checkable
 
 from actorswarm.runtime.events import Emitted, Scope
 
 __all__ = [
+    "Camera",
+    "CameraUnavailable",
     "Collective",
     "CollectiveUnavailable",
+    "Detection",
     "NullCollective",
     "PluginContext",
     "Vehicle",
@@ -91,6 +100,37 @@ class Vehicle(Protocol):
         ...
 
 
+@dataclass(frozen=True, slots=True)
+class Detection:
+    """One target a :class:`Camera` sees now.
+
+    ``name`` identifies the target (the same name from one frame to the next, so a tracker
+    can keep to one); ``kind`` says what it is (``"jeep"``); ``position`` is where it is,
+    ``(x, y, z)`` metres in the mission frame (a real detector geolocates it); ``distance``
+    is the straight-line distance from the camera to it, metres.
+    """
+
+    name: str
+    kind: str
+    position: tuple[float, float, float]
+    distance: float
+
+
+@runtime_checkable
+class Camera(Protocol):
+    """A platform's target detector: what it sees now. Reads never block."""
+
+    def detections(self) -> list[Detection]:
+        """The targets in view now, nearest first (empty when none is, or the camera cannot
+        see: on the ground, too low)."""
+        ...
+
+    def footprint(self) -> float:
+        """The radius, metres, of the disc of ground the camera sees now (0 when it sees
+        nothing). A search plugin spaces its sweeps by it."""
+        ...
+
+
 @runtime_checkable
 class Collective(Protocol):
     """The swarm coordination primitives a plugin may use, wired by the runtime to the
@@ -120,6 +160,10 @@ class CollectiveUnavailable(RuntimeError):
 
 class VehicleUnavailable(RuntimeError):
     """A plugin asked for the vehicle on a platform (or in a run) that has none."""
+
+
+class CameraUnavailable(RuntimeError):
+    """A plugin asked for the camera on a platform (or in a run) that has none."""
 
 
 class NullCollective:
@@ -160,13 +204,25 @@ class PluginContext:
         This plugin's validated params (see :meth:`~actorswarm.runtime.plugin.Plugin.
         bind_params`): the script's values with the switching transition's on top. Every
         declared key is present. Read-only by convention.
-    ``index``, ``data``
-        The actor's 1-based index in the group firing that switched it in (0: it was not
-        switched in by a group), and the data the master scattered to it.
+    ``index``, ``size``
+        The actor's 1-based index in the group firing that switched it in, in bid order,
+        and the number of platforms that firing chose (both 0: it was not switched in by a
+        group).
+    ``slot``, ``slots``
+        The same within the branch this platform went to: its 1-based place among the
+        platforms the firing sent to this actor, and how many it sent (``slot == index``
+        and ``slots == size`` for a transition without branches; 0 without a group). A
+        formation or a search splits its work by these.
+    ``data``
+        The data the master scattered to it.
     ``blackboard``
         A dict shared by every plugin of this actor instance.
     ``vehicle``
         The platform's :class:`Vehicle`, or None without one.
+    ``camera``
+        The platform's :class:`Camera`, or None without one.
+    ``areas``
+        The mission's named areas: name → polygon (``(x, y)`` vertices, metres).
     ``collective``
         The swarm primitives (:class:`Collective`).
     ``rng``
@@ -176,7 +232,9 @@ class PluginContext:
     __slots__ = (
         "_emitted",
         "actor",
+        "areas",
         "blackboard",
+        "camera",
         "collective",
         "data",
         "index",
@@ -184,6 +242,9 @@ class PluginContext:
         "params",
         "platform",
         "rng",
+        "size",
+        "slot",
+        "slots",
         "vehicle",
     )
 
@@ -200,6 +261,11 @@ class PluginContext:
         rng: random.Random | None = None,
         index: int = 0,
         data: Any = None,
+        size: int = 0,
+        slot: int = 0,
+        slots: int = 0,
+        camera: Camera | None = None,
+        areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
     ) -> None:
         self.now = now
         self.platform = platform
@@ -211,7 +277,12 @@ class PluginContext:
         # Seeded by platform, so two platforms of one test do not draw the same numbers.
         self.rng = random.Random(platform) if rng is None else rng
         self.index = index
+        self.size = size
+        self.slot = slot
+        self.slots = slots
         self.data = data
+        self.camera = camera
+        self.areas: Mapping[str, Sequence[tuple[float, float]]] = dict(areas or {})
         self._emitted: list[Emitted] = []
 
     def __repr__(self) -> str:
@@ -272,3 +343,12 @@ class PluginContext:
                 "vehicle, and the platform has none (or the run has no world)"
             )
         return self.vehicle
+
+    def require_camera(self) -> Camera:
+        """``camera``, or :class:`CameraUnavailable` saying the plugin needs one."""
+        if self.camera is None:
+            raise CameraUnavailable(
+                f"actor {self.actor!r} on platform {self.platform}: this plugin needs a "
+                "camera, and the platform has none (or the run has no world)"
+            )
+        return self.camera

@@ -30,8 +30,12 @@ class Emitted:
 @dataclass(frozen=True, slots=True, kw_only=True)
 class ActorContext:
     """What a starting actor is handed: transition params, its index in the group that
-    switched it, and the data the master scattered to it."""
+    switched it and the group's size, its slot in the branch it went to and the branch's
+    size (all 0 when no group switched it in), and the data the master scattered to it."""
 
     params: dict[str, str] = field(default_factory=dict)
     index: int = 0
     data: Any = None
+    size: int = 0
+    slot: int = 0
+    slots: int = 0

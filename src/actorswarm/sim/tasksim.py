@@ -83,6 +83,8 @@ class TaskSim:
     ignored: list[dict[str, Any]] = field(default_factory=list, init=False)
     _sent: int = field(default=0, init=False)
     plugin_failures: list[dict[str, Any]] = field(default_factory=list, init=False)
+    #: Platforms lost with their vehicle (battery empty, fallen): ``{"t", "platform"}``.
+    wrecks: list[dict[str, Any]] = field(default_factory=list, init=False)
     #: Each platform's backup storage (its "disk": it outlives a crash).
     stores: dict[int, MemoryBackupStore] = field(default_factory=dict, init=False)
 
@@ -103,8 +105,14 @@ class TaskSim:
             self._boot(p)
 
     def _boot(self, platform: int, *, restarted: bool = False) -> None:
-        vehicle = self.world.vehicle(platform) if self.world is not None else None
-        runtime = ActorRuntime(platform, seed=self.seed, vehicle=vehicle)
+        world = self.world
+        runtime = ActorRuntime(
+            platform,
+            seed=self.seed,
+            vehicle=None if world is None else world.vehicle(platform),
+            camera=None if world is None else world.camera(platform),
+            areas=None if world is None else world.area_polygons(),
+        )
         runtime.collective = NodeCollective(self.swarm.node(platform), lambda: runtime.now)
         store = self.stores.setdefault(platform, MemoryBackupStore())  # survives crashes
         engine = TaskEngine(self.swarm.node(platform), self.plan, runtime, store=store)
@@ -127,9 +135,16 @@ class TaskSim:
         return self.world.link(src, dst)
 
     def _physics(self) -> None:
-        """Advance the world in its fixed steps, in step with virtual time."""
+        """Advance the world in its fixed steps, in step with virtual time. A platform whose
+        vehicle died and hit the ground is gone: its node crashes (the robot, its computer
+        and its radio are one), so the swarm notices it as it would a real loss."""
         assert self.world is not None and self.world_config is not None
         self.world.step_to(self.swarm.now)
+        for platform in self.world.wrecked():
+            if platform in self.hosts:
+                self.wrecks.append({"t": round(self.swarm.now, 6), "platform": platform})
+                self.swarm.crash(platform)
+                self._retire(platform)
         self.swarm.scheduler.after(self.world_config.world.step, self._physics)
 
     @staticmethod
@@ -319,6 +334,7 @@ class TaskSim:
             "traffic": traffic,
             "ignored_events": self.ignored,
             "plugin_failures": self.plugin_failures,
+            "wrecks": list(self.wrecks),
             "violations": self.swarm.finish(),
             "seed": self.seed,
         }

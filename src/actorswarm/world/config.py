@@ -30,6 +30,9 @@ The file's top-level tables:
 ``[radio]``
     How distance degrades the radio (:class:`RadioConfig`, used by
     :mod:`actorswarm.world.radio_model`).
+``[camera]``
+    Every vehicle's downward-looking camera: field of view, range, the least altitude it
+    works at (:class:`CameraConfig`, used by :mod:`actorswarm.world.sensors`).
 
 Units are SI — metres, seconds, m/s, m/s² — except angles, which are degrees in the file
 (headings, turn rates) because that is how people write them; the physics converts. The
@@ -66,6 +69,7 @@ from actorswarm.suggest import did_you_mean
 __all__ = [
     "KINDS",
     "Area",
+    "CameraConfig",
     "FixedWingParams",
     "FleetConfig",
     "FleetGroup",
@@ -514,6 +518,30 @@ class RadioConfig:
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class CameraConfig:
+    """``[camera]``: every vehicle's downward-looking camera (the simulated
+    :class:`~actorswarm.runtime.context.Camera`, in :mod:`actorswarm.world.sensors`).
+
+    A target is seen when the vehicle is at least ``min_altitude`` metres up, the target is
+    within ``field_of_view / 2`` degrees of straight down, and no further than
+    ``max_range`` metres (slant range). At altitude ``h`` the footprint on the ground is a
+    disc of radius ``h · tan(field_of_view / 2)``.
+    """
+
+    field_of_view: float = 90.0
+    max_range: float = 200.0
+    min_altitude: float = 2.0
+
+    def __post_init__(self) -> None:
+        _positive(self, "field_of_view", "max_range")
+        _non_negative(self, "min_altitude")
+        if self.field_of_view >= 180.0:
+            raise _fail(
+                self, "field_of_view", f"must be below 180 degrees, not {self.field_of_view:g}"
+            )
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class VehicleSpec:
     """One platform's vehicle, resolved from the world: kind, home ``(x, y)`` on the ground,
     ``heading`` in radians (counter-clockwise from east), starting ``battery`` and the
@@ -542,6 +570,7 @@ class WorldConfig:
     targets: tuple[TargetConfig, ...] = ()
     areas: tuple[Area, ...] = ()
     radio: RadioConfig = field(default_factory=RadioConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
@@ -738,6 +767,7 @@ _TOP_KEYS: Final = (
     "targets",
     "areas",
     "radio",
+    "camera",
 )
 
 
@@ -866,6 +896,7 @@ class _Loader:
         quadrotor = self.simple(root, "quadrotor", QuadrotorParams)
         fixed_wing = self.simple(root, "fixed_wing", FixedWingParams)
         radio = self.simple(root, "radio", RadioConfig)
+        camera = self.simple(root, "camera", CameraConfig)
         fleet = self.fleet(root.table("fleet", (*_field_names(FleetConfig), "groups")))
         vehicles = tuple(
             self.vehicle(t) for t in root.tables("vehicles", _field_names(VehicleEntry))
@@ -882,6 +913,7 @@ class _Loader:
             targets=targets,
             areas=areas,
             radio=radio,
+            camera=camera,
             source=self.source,
         )
 

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from actorswarm.world import radio_model
 from actorswarm.world.config import Area, WorldConfig
+from actorswarm.world.sensors import SimCamera
 from actorswarm.world.targets import Targets
 from actorswarm.world.vehicles import MODES, Fleet, Mode, SimVehicle
 
@@ -110,6 +111,9 @@ class World:
             tuple[float, FloatArray, FloatArray, NDArray[np.int8], FloatArray, FloatArray]
         ] = []
         self._record_stride = 0
+        # The radio model over the current positions, as (step count, loss, latency) lists:
+        # positions change only on a step, and the simulated radio asks once per packet.
+        self._links: tuple[int, list[list[float]], list[list[float]]] | None = None
         if record_every is not None:
             if not (math.isfinite(record_every) and record_every > 0):
                 raise ValueError(
@@ -180,14 +184,35 @@ class World:
         """The area called ``name``; KeyError with a suggestion when there is none."""
         return self.config.area(name)
 
+    def area_polygons(self) -> dict[str, tuple[tuple[float, float], ...]]:
+        """Every area's polygon by name (what the plugins' ``ctx.areas`` holds)."""
+        return {name: area.polygon for name, area in self.areas.items()}
+
+    def camera(self, platform: int) -> SimCamera:
+        """The :class:`~actorswarm.runtime.context.Camera` of ``platform``'s vehicle."""
+        return SimCamera(self, platform)
+
+    def wrecked(self) -> list[int]:
+        """The platforms whose vehicle died (battery empty) and has hit the ground: the
+        robot and its radio are gone."""
+        fleet = self.fleet
+        dead = (fleet.modes == MODES.index("dead")) & (fleet.positions[:, 2] <= 0.0)
+        return [fleet.platforms[int(i)] for i in np.flatnonzero(dead)]
+
     # --- radio -----------------------------------------------------------------------------------
 
     def link(self, a: int, b: int) -> tuple[float, float]:
-        """``(loss_probability, latency_s)`` between platforms ``a`` and ``b`` now."""
-        pos = self.fleet.positions
-        return radio_model.link(
-            pos[self.fleet.index(a)].tolist(), pos[self.fleet.index(b)].tolist(), self.config.radio
-        )
+        """``(loss_probability, latency_s)`` between platforms ``a`` and ``b`` now.
+
+        The whole matrix is computed once per physics step, on the first question of that
+        step, since the radio asks once per packet (thousands of times a second) while the
+        positions change only when the world steps. KeyError for an unknown platform."""
+        links = self._links
+        if links is None or links[0] != self._steps:
+            loss, latency = radio_model.link_matrix(self.fleet.positions, self.config.radio)
+            links = self._links = (self._steps, loss.tolist(), latency.tolist())
+        i, j = self.fleet.index(a), self.fleet.index(b)
+        return links[1][i][j], links[2][i][j]
 
     def link_matrix(self) -> tuple[FloatArray, FloatArray]:
         """``(loss, latency)`` between every pair of platforms now, ``(n, n)`` in
