@@ -283,13 +283,28 @@ def test_the_shared_ready_barrier_example_as_its_comment_says() -> None:
     assert len(out) == 10 and all(2.95 <= t["t"] <= 3.1 for t in out)
 
 
+def test_a_merge_of_two_parts_numbers_the_successor_s_slots_across_both() -> None:
+    """The paper's merge (B and C into one actor on one key): one slot per member, counted
+    over both parts, so a formation flown by the merged group has no shared slot."""
+    sim = TaskSim(load(EXAMPLES / "branch_merge.xml"), seed=3)
+    sim.run(12, events=[GroundEvent("AtoBC_branch_event", 5.0), GroundEvent("finish_event", 9)])
+    contexts = [h.engine.runtime.acbs()["A"].context for h in sim.hosts.values()]
+    assert sorted(c.slot for c in contexts) == list(range(1, 11))
+    assert {c.slots for c in contexts} == {10}
+    assert {c.size for c in contexts} == {2, 8}, "size stays the size of the platform's part"
+
+
 def test_successor_gets_the_params_its_index_and_the_scattered_data() -> None:
     sim = TaskSim(load(EXAMPLES / "branch_merge.xml"), seed=14)
     sim.run(7, events=[GroundEvent("AtoBC_branch_event", 5.0)])
     acbs = {p: h.engine.runtime.acbs() for p, h in sim.hosts.items()}
     b = acbs[1]["B"].context
     assert b.params == {"TargetPoint": "200 200 20"}
-    assert b.index == 1 and b.data == {"to": "B"}
+    assert b.index == 1 and b.data == {"to": "B", "slot": 1, "slots": 2}
+    assert (b.size, b.slot, b.slots) == (10, 1, 2)
     c = acbs[10]["C"].context
-    assert c.index == 10 and c.data == {"to": "C"}, "indices run over the group in bid order"
+    assert c.index == 10 and c.data == {"to": "C", "slot": 8, "slots": 8}, (
+        "indices run over the group in bid order; slots over the branch"
+    )
+    assert (c.size, c.slot, c.slots) == (10, 8, 8)
     assert acbs[1]["A"].status.value == "sleeping", "switch pauses the actor it leaves"

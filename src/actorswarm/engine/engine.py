@@ -320,7 +320,9 @@ class TaskEngine:
         if not event.chosen:
             return
         target = self.plan.successor(transition, event.index)
-        slot, slots = self.plan.placement(transition, event.index, event.size)
+        slot, slots = _scattered_slot(event.data) or self.plan.placement(
+            transition, event.index, event.size
+        )
         self._switch(
             cand.actor,
             target,
@@ -429,12 +431,24 @@ class TaskEngine:
     def _scatter(
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
     ) -> dict[int, Any]:
-        """Each chosen participant's successor and the transition's params."""
-        out: dict[int, Any] = {}
+        """Each chosen participant's successor, and its slot among everyone the firing
+        sends to that successor: ``{"to": actor, "slot": k, "slots": n}``.
+
+        Slots are counted across the parts of a group (two transitions sharing a key, such
+        as the paper's merge of B and C into D), in part then index order, so a merged
+        formation gets one slot per member rather than two members per slot; only the
+        master sees every part, which is why it is computed here and scattered."""
+        going: dict[str, list[tuple[int, int, int]]] = {}
         for platform, part, index, _ in chosen:
             transition = self.plan.transition(key, part)
             if transition is not None:
-                out[platform] = {"to": self.plan.successor(transition, index)}
+                successor = self.plan.successor(transition, index)
+                going.setdefault(successor, []).append((part, index, platform))
+        out: dict[int, Any] = {}
+        for successor, members in going.items():
+            members.sort()
+            for slot, (_, _, platform) in enumerate(members, start=1):
+                out[platform] = {"to": successor, "slot": slot, "slots": len(members)}
         return out
 
     # --- ground-station commands ---------------------------------------------------------
@@ -576,3 +590,20 @@ class TaskEngine:
             )
         )
         self._announce(now)
+
+
+def _scattered_slot(data: Any) -> tuple[int, int] | None:
+    """The ``(slot, slots)`` the master scattered (:meth:`TaskEngine._scatter`), or None
+    when the data does not hold a sound pair (a release from an older master)."""
+    if not isinstance(data, dict):
+        return None
+    slot, slots = data.get("slot"), data.get("slots")
+    if (
+        isinstance(slot, int)
+        and isinstance(slots, int)
+        and not isinstance(slot, bool)
+        and not isinstance(slots, bool)
+        and 1 <= slot <= slots
+    ):
+        return slot, slots
+    return None

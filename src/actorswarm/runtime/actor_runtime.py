@@ -167,6 +167,18 @@ class ActorRuntime:
     def start(self, actor: str, now: float, context: ActorContext) -> None:
         loaded = self._loaded.get(actor)
         if loaded is not None and loaded.acb.status is ActorStatus.SLEEPING:
+            # Switched back in: the plugins resume with their state and their params, but
+            # the place in the group is the new firing's (a formation re-forms on its new
+            # slot), so the context's group fields are updated before the activation.
+            loaded.acb.context = dataclasses.replace(
+                loaded.acb.context,
+                index=context.index,
+                data=context.data,
+                size=context.size,
+                slot=context.slot,
+                slots=context.slots,
+            )
+            loaded.acb.relations = Relations(index=context.index)
             self.activate(actor, now)
             return
         if loaded is not None and loaded.acb.status is ActorStatus.RUNNING:
