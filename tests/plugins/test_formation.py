@@ -213,9 +213,12 @@ def test_member_flies_to_its_slot_and_follows_the_leader() -> None:
     expected = to_world(slots("arrow", 5, 10.0)[1], (0.0, 0.0), 0.0)
     first = vehicle.commands[0]
     assert first[0] == "goto"
-    assert first[1:3] == pytest.approx(tuple(expected.tolist()))
+    # While the leader moves the member aims lookahead (4 s) × speed (5 m/s) past its slot.
+    assert first[1:3] == pytest.approx(tuple((expected + np.array([20.0, 0.0])).tolist()))
     assert first[3] == 30.0
-    assert first[4] > 5.0  # the leader's speed plus catching up
+    # The leader's speed plus what closes the along-track gap in 5 s: the member starts
+    # 7.7 m ahead of its slot (x 0 against -7.66), so it asks for less than the leader.
+    assert first[4] == pytest.approx(5.0 + float(expected[0]) / 5.0)
     run_plugin(plugin, ctx, steps=400)  # 40 s: the leader went 100 m and stopped at 20 s
     point = plugin.slot_point(ctx.now)
     assert point[:2] == pytest.approx(tuple((expected + np.array([100.0, 0.0])).tolist()))
@@ -255,7 +258,8 @@ def test_restore_keeps_the_leader_start() -> None:
     fresh = Arrow()
     fresh._drive_restore(saved)
     fresh._drive_activate(later)
-    assert vehicle.commands[0][1:4] == pytest.approx((300.0, 0.0, 30.0))
+    # The leader is 300 m along; the member aims 4 s × 10 m/s ahead of its slot.
+    assert vehicle.commands[0][1:4] == pytest.approx((340.0, 0.0, 30.0))
     with pytest.raises(ValueError, match="start"):
         Arrow()._drive_restore({"start": "soon"})
 
@@ -303,3 +307,52 @@ def test_ten_quadrotors_form_up(shape: str) -> None:
     expected = to_world(slots(shape, 10, 15.0), (15.0, 160.0), math.pi / 2)
     for p, member in members.items():
         assert member.slot_point(60.0)[:2] == pytest.approx(tuple(expected[p - 1].tolist()))
+
+
+def test_a_shared_departure_puts_every_formation_on_one_leader() -> None:
+    """Two formation actors with the same route and depart follow one leader: the second,
+    started later, picks the leader up where the first one's is."""
+    params = {"route": "0 0; 1000 0", "speed": "10", "depart": "5", "lookahead": "0"}
+    first = make_context(Arrow, params=params, vehicle=FakeVehicle(), now=5.0, slot=1, slots=3)
+    arrow = Arrow()
+    arrow._drive_start(first)
+    later = make_context(Line, params=params, vehicle=FakeVehicle(), now=25.0, slot=1, slots=3)
+    line = Line()
+    line._drive_start(later)
+    assert line.slot_point(25.0) == pytest.approx(arrow.slot_point(25.0)) == (200.0, 0.0, 30.0)
+
+
+def test_offset_moves_the_formation_s_own_leader() -> None:
+    params = {"route": "0 0; 1000 0", "speed": "10", "offset": "-250 40"}
+    ctx = make_context(Line, params=params, vehicle=FakeVehicle(), now=0.0, slot=1, slots=5)
+    line = Line()
+    line._drive_start(ctx)
+    assert line.slot_point(10.0) == pytest.approx((100.0 - 250.0, 40.0, 30.0))
+
+
+def test_size_zero_takes_the_branch_s_number_of_slots() -> None:
+    """With size 0 the shape is the firing's branch: slot 3 of 3 of an arrow is the second
+    rank's right-hand slot, wherever the member's index in the whole group was."""
+    params = {"route": "0 0", "spacing": "10"}
+    ctx = make_context(
+        Arrow, params=params, vehicle=FakeVehicle(), index=9, size=12, slot=3, slots=3
+    )
+    arrow = Arrow()
+    arrow._drive_start(ctx)
+    expected = slots("arrow", 3, 10.0)[2]
+    assert arrow.slot_point(0.0)[:2] == pytest.approx(tuple(expected.tolist()))
+
+
+def test_switched_back_in_with_a_new_slot_re_forms_on_the_same_leader() -> None:
+    params = {"route": "0 0; 1000 0", "speed": "10", "spacing": "10", "lookahead": "0"}
+    vehicle = FakeVehicle()
+    ctx = make_context(Arrow, params=params, vehicle=vehicle, now=0.0, slot=1, slots=3)
+    arrow = Arrow()
+    arrow._drive_start(ctx)
+    arrow._drive_pause(ctx)
+    back = make_context(Arrow, params=params, vehicle=vehicle, now=20.0, slot=3, slots=3)
+    arrow._drive_activate(back)
+    leader = (200.0, 0.0)
+    expected = to_world(slots("arrow", 3, 10.0)[2], leader, 0.0)
+    assert arrow.slot_point(20.0)[:2] == pytest.approx(tuple(expected.tolist()))
+    assert arrow._drive_snapshot() == {"start": 0.0}, "the leader did not start again"

@@ -292,6 +292,51 @@ def sim(
         raise typer.Exit(1)
 
 
+@app.command("demo")
+def demo(
+    mission: Annotated[
+        str, typer.Option(help="formation (the default), search-track or battery.")
+    ] = "formation",
+    platforms: Annotated[
+        int | None, typer.Option(min=1, max=1000, help="Swarm size (default: the mission's).")
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the radio and the platforms.")] = 0,
+    loss: Annotated[
+        float, typer.Option(min=0.0, max=0.9, help="Extra packet loss probability.")
+    ] = 0.0,
+    kill: Annotated[list[str] | None, typer.Option(help="ID@T: crash platforms.")] = None,
+    realtime: Annotated[
+        bool, typer.Option("--realtime", help="Pace the run to the wall clock.")
+    ] = False,
+    out: Annotated[Path, typer.Option(help="Directory for pictures and files.")] = Path("demo-out"),
+) -> None:
+    """The main job: a shipped mission in the simulator, with progress and pictures."""
+    from actorswarm.cli.demo import run_demo
+    from actorswarm.missions import mission as find_mission
+    from actorswarm.sim.tasksim import parse_fault
+
+    try:
+        chosen = find_mission(mission)
+        kills = tuple(
+            (p, f.t) for f in (parse_fault("kill", k) for k in kill or []) for p in sorted(f.ids)
+        )
+    except (KeyError, ValueError) as exc:
+        typer.echo(str(exc).strip('"'), err=True)
+        raise typer.Exit(2) from None
+    report = run_demo(
+        chosen,
+        out=out,
+        platforms=platforms,
+        seed=seed,
+        loss=loss,
+        realtime=realtime,
+        kills=kills,
+        console=console,
+    )
+    if report["violations"] or not report["completed"]:
+        raise typer.Exit(1)
+
+
 @app.command("plot")
 def plot(
     recording: Annotated[Path, typer.Argument(help="A recording written by sim --record.")],

@@ -34,15 +34,20 @@ Three layers, each usable on its own:
   the last point, or loops back to the first. Its heading is the direction of the segment
   it is on (the last segment's once stopped; 0, east, for a route of one point), so the
   formation turns as a whole at each waypoint.
-* **The plugin.** Each member's :class:`Formation` reads its slot from ``ctx.index`` (the
-  1-based place the master scattered when the group switched the actor in; 0, no index,
-  flies slot 1), and on every step sends the vehicle to the slot's point: the leader's
-  position now plus the rotated offset, at ``altitude``. It asks for the leader's
-  ``speed`` plus what closes the gap to the slot in :data:`CATCH_UP_TIME` seconds (the
-  vehicle clamps that to what it can fly), and only re-sends the command when the point
-  moved at least :data:`RECOMMAND_DISTANCE` from the one last sent, so a formation at
-  rest costs a comparison per step. A vehicle on the ground takes off on the way (what a
-  ``goto`` does).
+* **The plugin.** Each member's :class:`Formation` reads its slot from ``ctx.slot`` (the
+  1-based place the master scattered when the group switched the actor in; 0, no slot,
+  flies slot 1), and on every step steers the vehicle by its slot's point: the leader's
+  position now plus the rotated offset, at ``altitude``. While the leader moves, the
+  member aims at a *carrot* ``lookahead`` seconds of leader travel ahead of its slot and
+  asks for the leader's ``speed`` plus what closes the along-track gap to the slot in
+  :data:`CATCH_UP_TIME` seconds (the vehicle clamps that to what it can fly). Aiming ahead
+  is what lets a fixed-wing keep a moving slot: a vehicle sent to the slot itself would
+  reach it and start circling it, while one chasing a point ahead flies parallel to the
+  leader and settles on the slot's line. Once the leader stops, the member goes to the
+  slot itself. A command is re-sent only when the aimed point moved at least
+  :data:`RECOMMAND_DISTANCE` from the one last sent, so a formation at rest costs a
+  comparison per step. A vehicle on the ground takes off on the way (what a ``goto``
+  does).
 
   The route's progress is a function of time, so the snapshot is just the time the leader
   set off, ``{"start": t}``: a restored instance re-reads its params in ``on_activate``
@@ -410,13 +415,30 @@ class Formation(Plugin):
     ``loop`` (bool, default false)
         Fly the route round and round (back from the last point to the first) instead of
         stopping at the last point.
-    ``size`` (int ≥ 1, default 30)
+    ``lookahead`` (float ≥ 0, default 4)
+        While the leader moves, aim ``lookahead · speed`` metres ahead of the slot (module
+        docstring); 0 aims at the slot itself, which suits only vehicles that can hover.
+    ``size`` (int ≥ 0, default 0)
         The number of slots, the same for every member: the shape of the composite
-        formations depends on it. A member whose index is above ``size`` refuses to
-        start. Set it to the number of platforms the switching transition gathers.
+        formations depends on it. 0: the number of platforms the switching firing sent to
+        this actor (``ctx.slots``), which is what a group wants; give a number to keep a
+        shape whatever the group's size. A member whose slot is above ``size`` refuses to
+        start.
+    ``depart`` (float, optional)
+        The time the leader set off from the route's first point, on the clock of
+        ``ctx.now`` (the simulator's mission time; on robots, the host's clock, so only
+        where the platforms share a time base such as GPS). Left out: when the actor
+        starts. Giving several formation actors the same ``route`` and ``depart`` makes
+        them follow **one** leader: the swarm changes shape without leaving its path.
+    ``offset`` (default ``"0 0"``)
+        ``"forward left"`` metres: this formation's own leader is that far from the route's
+        leader, in the formation frame. Two sub-swarms on one route fly side by side.
 
-    The slot is ``ctx.index`` (1 when the actor was not switched in by a group). The
-    snapshot is ``{"start": t}``, the time the leader set off.
+    The slot is ``ctx.slot`` — the place among the platforms the firing sent to this actor,
+    counted by the master across every part of a merge — and 1 when the actor was not
+    switched in by a group. A member switched back in (re-activated) by a new firing takes
+    its new slot on the same leader. The snapshot is ``{"start": t}``, the time the leader
+    set off.
     """
 
     bus = "act_bus"
@@ -461,11 +483,30 @@ class Formation(Plugin):
             default=False,
             doc="fly the route round and round instead of stopping at its last point",
         ),
+        "lookahead": Param(
+            kind="float",
+            default=4.0,
+            minimum=0.0,
+            doc="while the leader moves, aim this many seconds of leader travel ahead of "
+            "the slot (0: at the slot itself)",
+        ),
         "size": Param(
             kind="int",
-            default=30,
-            minimum=1,
-            doc="the number of slots, the same for every member (the group's size)",
+            default=0,
+            minimum=0,
+            doc="the number of slots, the same for every member; 0: as many as the firing "
+            "sent to this actor",
+        ),
+        "depart": Param(
+            kind="float",
+            doc="when the leader set off from the route's first point, seconds on the "
+            "platforms' clock; left out: when the actor starts",
+        ),
+        "offset": Param(
+            kind="str",
+            default="0 0",
+            pattern=rf"\s*{_NUMBER}\s+{_NUMBER}\s*",
+            doc="'forward left' metres from the route's leader to this formation's leader",
         ),
     }
 
@@ -475,6 +516,7 @@ class Formation(Plugin):
         self._offset: FloatArray = np.zeros(2)
         self._altitude = 0.0
         self._speed = 0.0
+        self._slot = 0
         self._sent: tuple[float, float, float] | None = None
 
     @classmethod
@@ -487,19 +529,25 @@ class Formation(Plugin):
         spacing = _positive(name, params, "spacing")
         self._speed = _positive(name, params, "speed")
         self._altitude = _positive(name, params, "altitude")
-        size = int(params["size"])
-        slot = ctx.index if ctx.index > 0 else 1
+        slot = ctx.slot if ctx.slot > 0 else 1
+        size = int(params["size"]) or max(ctx.slots, slot)
         if slot > size:
             raise ValueError(
                 f"{name}: this member's slot {slot} is beyond size {size}; give every member "
-                "a size of at least the group's number of platforms"
+                "a size of at least the group's number of platforms (or 0: the group's)"
             )
         self._altitude += (slot - 1) * float(params["altitude_step"])
         route = parse_route(str(params["route"]), self._altitude)
         self._leader = VirtualLeader(route, self._speed, start, loop=bool(params["loop"]))
-        self._offset = slots(self.shape, size, spacing)[slot - 1]
+        forward, left = (float(v) for v in str(params["offset"]).split())
+        self._offset = slots(self.shape, size, spacing)[slot - 1] + np.array([forward, left])
+        self._slot = slot
         self._start = start
         self._sent = None
+
+    def _departure(self, ctx: PluginContext) -> float:
+        depart = ctx.params["depart"]
+        return ctx.now if depart is None else float(depart)
 
     def slot_point(self, t: float) -> Point:
         """Where this member's slot is at ``t`` (after the start)."""
@@ -510,26 +558,38 @@ class Formation(Plugin):
         return (float(wx), float(wy), self._altitude)
 
     def _command(self, ctx: PluginContext, *, force: bool) -> None:
+        assert self._leader is not None
         vehicle = ctx.require_vehicle()
-        target = self.slot_point(ctx.now)
+        slot = self.slot_point(ctx.now)
+        position = vehicle.position()
+        if self._leader.moving(ctx.now):
+            heading = self._leader.heading(ctx.now)
+            ux, uy = math.cos(heading), math.sin(heading)
+            ahead = self._speed * float(ctx.params["lookahead"])
+            target = (slot[0] + ux * ahead, slot[1] + uy * ahead, slot[2])
+            behind = (slot[0] - position[0]) * ux + (slot[1] - position[1]) * uy
+            speed = max(self._speed + behind / CATCH_UP_TIME, 0.1 * self._speed)
+        else:
+            target = slot
+            speed = self._speed + math.dist(position, slot) / CATCH_UP_TIME
         unchanged = self._sent is not None and math.dist(target, self._sent) < RECOMMAND_DISTANCE
         if unchanged and not force:
             return
-        gap = math.dist(vehicle.position(), target)
-        vehicle.goto(*target, speed=self._speed + gap / CATCH_UP_TIME)
+        vehicle.goto(*target, speed=speed)
         self._sent = target
 
     def on_start(self, ctx: PluginContext) -> None:
-        self._setup(ctx, ctx.now)
+        self._setup(ctx, self._departure(ctx))
         self._command(ctx, force=True)
 
     def step(self, ctx: PluginContext) -> None:
         self._command(ctx, force=False)
 
     def on_activate(self, ctx: PluginContext) -> None:
-        if self._leader is None:
-            # Restored from a snapshot: rebuild from the params, keeping the leader's start.
-            self._setup(ctx, ctx.now if self._start is None else self._start)
+        if self._leader is None or (ctx.slot > 0 and ctx.slot != self._slot):
+            # Restored from a snapshot, or switched back in by a firing that gave this
+            # member another slot: rebuild from the params, keeping the leader's start.
+            self._setup(ctx, self._departure(ctx) if self._start is None else self._start)
         self._command(ctx, force=True)
 
     def snapshot(self) -> dict[str, Any]:

@@ -291,6 +291,23 @@ class TaskSim:
         else:
             raise ValueError(f"unknown fault {fault.kind!r}")
 
+    def schedule(self, events: Iterable[GroundEvent] = (), faults: Iterable[Fault] = ()) -> None:
+        """Have the ground-station ``events`` and the ``faults`` happen at their times."""
+        for ev in events:
+            self.swarm.at(ev.t, self.ground_event, ev)
+        for f in faults:
+            self.swarm.at(f.t, self.fault, f)
+
+    def advance(self, until: float) -> list[dict[str, Any]]:
+        """Run to ``until`` seconds of virtual time and return the transitions made since
+        the last call (the report's ``transitions`` entries), oldest first: a caller that
+        advances in slices sees the mission unfold."""
+        before = len(self.records)
+        self.swarm.run_until(until)
+        for host in self.hosts.values():
+            self._collect(host.engine)
+        return sorted(self.records[before:], key=lambda r: (r["t"], r["platform"]))
+
     def run(
         self,
         duration: float,
@@ -299,10 +316,7 @@ class TaskSim:
         faults: Iterable[Fault] = (),
     ) -> dict[str, Any]:
         """Run for ``duration`` seconds of virtual time; return the JSON-ready report."""
-        for ev in events:
-            self.swarm.at(ev.t, self.ground_event, ev)
-        for f in faults:
-            self.swarm.at(f.t, self.fault, f)
+        self.schedule(events, faults)
         self.swarm.run_until(duration)
         return self.report()
 

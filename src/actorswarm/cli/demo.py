@@ -1,0 +1,178 @@
+"""``actorswarm demo``: run a shipped mission in the simulator and show it.
+
+The front end of :mod:`actorswarm.sim.mission`: a progress bar over the mission's virtual
+time, one line per collective transition as it happens (how many platforms moved from which
+actor to which, on what event, and how long the switch took from the first platform to the
+last), then the pictures (trajectories and timeline), the recording and the JSON report in
+the output directory, and a one-screen summary. ``realtime`` paces the run to the wall
+clock; by default it runs as fast as the machine allows.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from actorswarm.missions import Mission
+from actorswarm.sim.mission import prepare, run_slices
+from actorswarm.sim.record import read_record, write_record
+from actorswarm.viz import timeline_png, trajectory_png
+
+__all__ = ["describe_steps", "run_demo"]
+
+
+def describe_steps(records: list[dict[str, Any]]) -> list[str]:
+    """One line per group of transitions that moved together (same event, from and to)."""
+    groups: dict[tuple[str, str, str, str], list[dict[str, Any]]] = {}
+    for r in records:
+        if r["cause"] == "start":
+            continue
+        groups.setdefault(
+            (r["event"] or "", r["from"] or "-", r["to"] or "-", r["cause"]), []
+        ).append(r)
+    lines = []
+    for (event, src, dst, cause), rows in sorted(groups.items(), key=lambda kv: kv[1][0]["t"]):
+        first = min(r["t"] for r in rows)
+        spread = (max(r["t"] for r in rows) - first) * 1000.0
+        on = f" on {event}" if event else ""
+        lines.append(
+            f"{first:7.1f} s  {len(rows):3d} × {src} → {dst} ({cause}{on}), "
+            f"switched within {spread:.0f} ms"
+        )
+    return lines
+
+
+def _summary_table(report: dict[str, Any], mission: Mission) -> Table:
+    table = Table(title=f"summary of the {mission.name} mission", show_header=False, box=None)
+    table.add_column(style="bold")
+    table.add_column()
+    switches = [t for t in report["transitions"] if t["cause"] != "start"]
+    causes = Counter(t["cause"] for t in switches)
+    table.add_row("completed", "yes" if report["completed"] else "NO")
+    table.add_row("simulated", f"{report['sim_time_s']:.0f} s")
+    table.add_row(
+        "transitions", f"{len(switches)} ({', '.join(f'{n} {c}' for c, n in causes.items())})"
+    )
+    masters = report["masters"]
+    table.add_row(
+        "masters",
+        ", ".join(f"{m['platform']} from {m['t']:.1f} s (epoch {m['epoch']})" for m in masters)
+        or "none",
+    )
+    traffic = report["traffic"]
+    sent = sum(row["sent_packets"] for row in traffic.values())
+    sent_bytes = sum(row["sent_bytes"] for row in traffic.values())
+    seconds = max(report["sim_time_s"], 1e-9)
+    table.add_row(
+        "packets",
+        f"{sent} sent by the swarm ({sent / seconds:.0f}/s, {sent_bytes / 1e6:.1f} MB; "
+        "a broadcast counts once)",
+    )
+    if masters and str(masters[-1]["platform"]) in traffic:
+        row = traffic[str(masters[-1]["platform"])]
+        table.add_row(
+            "at the master",
+            f"{row['sent_packets'] / seconds:.0f} sent/s, {row['recv_packets'] / seconds:.0f} "
+            "received/s",
+        )
+    finals = Counter(",".join(a) or "-" for a in report["final_actors"].values())
+    table.add_row("final actors", ", ".join(f"{a} on {n}" for a, n in finals.items()))
+    if report.get("wrecks"):
+        table.add_row(
+            "lost vehicles",
+            ", ".join(f"{w['platform']} at {w['t']:.1f} s" for w in report["wrecks"]),
+        )
+    if report["plugin_failures"]:
+        table.add_row("plugin failures", str(len(report["plugin_failures"])))
+    table.add_row(
+        "invariants",
+        "all held" if not report["violations"] else "; ".join(report["violations"]),
+    )
+    return table
+
+
+def run_demo(
+    mission: Mission,
+    *,
+    out: Path,
+    platforms: int | None,
+    seed: int,
+    loss: float,
+    realtime: bool,
+    kills: tuple[tuple[int, float], ...] = (),
+    console: Console | None = None,
+) -> dict[str, Any]:
+    """Run ``mission``, show it on ``console`` and write its files to ``out``; return the
+    report (with ``files``: what was written)."""
+    console = console or Console()
+    out.mkdir(parents=True, exist_ok=True)
+    n = platforms or mission.platforms
+    console.print(
+        f"[bold]{mission.title}[/bold]\n{n} platforms, seed {seed}, "
+        f"{mission.duration:.0f} s of mission time"
+        + (f", {loss:.0%} extra packet loss" if loss else "")
+        + (", in real time" if realtime else "")
+    )
+    sim = prepare(mission, platforms=platforms, seed=seed, loss=loss, kills=kills)
+    started = time.monotonic()
+    with Progress(
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed:.0f}/{task.total:.0f} s"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as progress:
+        task = progress.add_task("simulating", total=mission.duration)
+
+        def on_slice(t: float, new: list[dict[str, Any]]) -> None:
+            for line in describe_steps(new):
+                progress.console.print(line)
+            progress.update(task, completed=t)
+            if realtime:
+                # Pacing is the front end's business: the simulation never reads a clock.
+                ahead = t - (time.monotonic() - started)
+                if ahead > 0:
+                    time.sleep(ahead)
+
+        report = run_slices(sim, mission.duration, on_slice=on_slice)
+    wall = time.monotonic() - started
+    record = out / "record.jsonl"
+    assert sim.world is not None
+    write_record(
+        record,
+        rows=sim.world.track().rows(),
+        transitions=report["transitions"],
+        meta={
+            "script": sim.script.name,
+            "mission": mission.name,
+            "seed": seed,
+            "platforms": n,
+            "sim_time_s": report["sim_time_s"],
+        },
+    )
+    recording = read_record(record)
+    files = [
+        record,
+        trajectory_png(recording, out / "trajectories.png"),
+        timeline_png(recording, out / "timeline.png"),
+    ]
+    report_path = out / "report.json"
+    report_path.write_text(json.dumps(report, indent=2) + "\n")
+    files.append(report_path)
+    console.print(_summary_table(report, mission))
+    console.print(
+        f"{report['sim_time_s']:.0f} s of mission simulated in {wall:.1f} s "
+        f"({report['sim_time_s'] / max(wall, 1e-9):.1f}× real time)"
+    )
+    for path in files:
+        console.print(f"wrote {path}")
+    report["files"] = [str(p) for p in files]
+    return report
