@@ -395,8 +395,17 @@ class _Guard:
 class _Kit:
     """One run of :func:`check_plugin`: the plugin class and how to complain about it."""
 
-    def __init__(self, cls: type[Plugin], values: dict[str, Any], steps: int, dt: float):
+    def __init__(
+        self,
+        cls: type[Plugin],
+        values: dict[str, Any],
+        steps: int,
+        dt: float,
+        *,
+        camera_targets: Mapping[str, Any] | None = None,
+    ):
         self.cls = cls
+        self.camera_targets = camera_targets
         self.name = f"{cls.__module__}.{cls.__qualname__}"
         self.values = values
         self.steps = steps
@@ -505,6 +514,11 @@ class _Kit:
         return back
 
     def context(self, vehicle: FakeVehicle | None, now: float) -> PluginContext:
+        camera = None
+        if self.camera_targets is not None:
+            # A plugin without a vehicle looks down from a fixed point 20 m over the origin.
+            eye = vehicle if vehicle is not None else FakeVehicle(position=(0.0, 0.0, 20.0))
+            camera = FakeCamera(eye, self.camera_targets)
         return PluginContext(
             now=now,
             platform=3,
@@ -512,6 +526,7 @@ class _Kit:
             params=dict(self.values),
             vehicle=vehicle,
             rng=random.Random(1234),
+            camera=camera,
         )
 
     def new(self) -> Plugin:
@@ -614,11 +629,14 @@ def check_plugin(
     params: Mapping[str, str] | None = None,
     steps: int = 50,
     dt: float = 0.1,
+    camera_targets: Mapping[str, Any] | None = None,
 ) -> None:
     """Check that ``plugin_cls`` keeps the plugin contract; raise :class:`AssertionError`
     saying what is broken and how to fix it. ``params`` are the texts a script would give
     (required params must be among them); ``steps`` steps of ``dt`` seconds are run, half
-    before a pause and half after. See the module documentation for what is checked."""
+    before a pause and half after. With ``camera_targets`` (what :class:`FakeCamera` takes)
+    the contexts get a camera: on the kit's vehicle, or for a plugin that needs none, 20 m
+    over the origin. See the module documentation for what is checked."""
     if not (isinstance(steps, int) and steps >= 2) or not (_finite(dt) and dt > 0):
         raise ValueError(
             f"check_plugin: steps must be an integer ≥ 2 and dt > 0, not {steps!r}, {dt!r}"
@@ -673,7 +691,7 @@ def check_plugin(
             f"{list(plugin_cls.params)}"
         )
 
-    kit = _Kit(plugin_cls, values, steps, dt)
+    kit = _Kit(plugin_cls, values, steps, dt, camera_targets=camera_targets)
     fresh = kit.new()
     ctx = kit.context(FakeVehicle() if plugin_cls.needs_vehicle else None, 0.0)
     new_ops: tuple[LifecycleOp, ...] = ("step", "pause", "activate", "stop", "snapshot")
@@ -681,7 +699,7 @@ def check_plugin(
         kit.refused("before start", fresh, op, ctx)
 
     first = kit.run()
-    second = _Kit(plugin_cls, values, steps, dt).run()
+    second = _Kit(plugin_cls, values, steps, dt, camera_targets=camera_targets).run()
     if first != second:
         diff = next(
             (i for i, (a, b) in enumerate(zip(first, second, strict=False)) if a != b),

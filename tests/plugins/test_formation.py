@@ -252,7 +252,7 @@ def test_restore_keeps_the_leader_start() -> None:
     plugin = Arrow()
     plugin._drive_start(ctx)
     saved = plugin._drive_snapshot()
-    assert saved == {"start": 100.0}
+    assert saved == {"start": 100.0, "arrived": False}
     vehicle = FakeVehicle()
     later = make_context(Arrow, params=params, vehicle=vehicle, now=130.0, index=1)
     fresh = Arrow()
@@ -355,4 +355,30 @@ def test_switched_back_in_with_a_new_slot_re_forms_on_the_same_leader() -> None:
     leader = (200.0, 0.0)
     expected = to_world(slots("arrow", 3, 10.0)[2], leader, 0.0)
     assert arrow.slot_point(20.0)[:2] == pytest.approx(tuple(expected.tolist()))
-    assert arrow._drive_snapshot() == {"start": 0.0}, "the leader did not start again"
+    assert arrow._drive_snapshot()["start"] == 0.0, "the leader did not start again"
+
+
+def test_arrival_event_fires_once_when_the_leader_stopped_and_the_member_is_on_its_slot() -> None:
+    params = {
+        "route": "0 0; 50 0",
+        "speed": "10",
+        "lookahead": "0",
+        "event": "arriving_event",
+        "tolerance": "2",
+    }
+    vehicle = FakeVehicle(position=(0.0, 0.0, 30.0), cruise_speed=20.0)
+    ctx = make_context(Arrow, params=params, vehicle=vehicle, slot=1, slots=1)
+    arrow = Arrow()
+    early = run_plugin(arrow, ctx, steps=40)  # 4 s: the leader is still on its way
+    assert early == []
+    later = run_plugin(arrow, ctx, steps=100)
+    assert [e.event for e in later] == ["arriving_event"]
+    assert math.dist(vehicle.position(), (50.0, 0.0, 30.0)) <= 2.0
+    assert run_plugin(arrow, ctx, steps=20) == [], "once per start"
+    assert arrow._drive_snapshot()["arrived"] is True
+
+
+def test_a_looping_route_never_arrives() -> None:
+    params = {"route": "0 0; 20 0", "loop": "true", "speed": "10", "event": "arriving_event"}
+    ctx = make_context(Arrow, params=params, vehicle=FakeVehicle(cruise_speed=20.0))
+    assert run_plugin(Arrow(), ctx, steps=200) == []

@@ -273,13 +273,24 @@ def sim(
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
     if record is not None:
-        rows = run.world.track().rows() if run.world is not None else []
-        write_record(
-            record,
-            rows=rows,
-            transitions=report["transitions"],
-            meta={"script": script.name, "seed": seed, "sim_time_s": report["sim_time_s"]},
-        )
+        meta: dict[str, object] = {
+            "script": script.name,
+            "seed": seed,
+            "sim_time_s": report["sim_time_s"],
+        }
+        if run.world is not None:
+            track = run.world.track()
+            areas = run.world.area_polygons()
+            meta["areas"] = {k: [list(p) for p in v] for k, v in areas.items()}
+            write_record(
+                record,
+                rows=track.rows(),
+                targets=track.target_rows(),
+                transitions=report["transitions"],
+                meta=meta,
+            )
+        else:
+            write_record(record, rows=[], transitions=report["transitions"], meta=meta)
     text = json.dumps(report, indent=2)
     if json_out == "-":
         typer.echo(text)

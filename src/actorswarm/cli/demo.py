@@ -146,11 +146,14 @@ def run_demo(
     wall = time.monotonic() - started
     record = out / "record.jsonl"
     assert sim.world is not None
+    track = sim.world.track()
     write_record(
         record,
-        rows=sim.world.track().rows(),
+        rows=track.rows(),
+        targets=track.target_rows(),
         transitions=report["transitions"],
         meta={
+            "areas": {k: [list(p) for p in v] for k, v in sim.world.area_polygons().items()},
             "script": sim.script.name,
             "mission": mission.name,
             "seed": seed,

@@ -71,6 +71,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Final
 import numpy as np
 from numpy.typing import NDArray
 
+from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
 if TYPE_CHECKING:
@@ -415,6 +416,13 @@ class Formation(Plugin):
     ``loop`` (bool, default false)
         Fly the route round and round (back from the last point to the first) instead of
         stopping at the last point.
+    ``event`` (optional; left out: none)
+        The arrival event (the paper's ``arriving_event`` at the end of an ingress): emitted
+        once per start, local scope, on the first step at which the leader has stopped at
+        the route's last point and this member is within ``tolerance`` metres of its slot.
+        A looping route never ends, so it never fires there.
+    ``tolerance`` (float ≥ 0, default 5)
+        Metres from the slot that count as arrived.
     ``lookahead`` (float ≥ 0, default 4)
         While the leader moves, aim ``lookahead · speed`` metres ahead of the slot (module
         docstring); 0 aims at the slot itself, which suits only vehicles that can hover.
@@ -437,8 +445,8 @@ class Formation(Plugin):
     The slot is ``ctx.slot`` — the place among the platforms the firing sent to this actor,
     counted by the master across every part of a merge — and 1 when the actor was not
     switched in by a group. A member switched back in (re-activated) by a new firing takes
-    its new slot on the same leader. The snapshot is ``{"start": t}``, the time the leader
-    set off.
+    its new slot on the same leader. The snapshot is the time the leader set off and
+    whether the arrival event went out: ``{"start": t, "arrived": bool}``.
     """
 
     bus = "act_bus"
@@ -483,6 +491,18 @@ class Formation(Plugin):
             default=False,
             doc="fly the route round and round instead of stopping at its last point",
         ),
+        "event": Param(
+            kind="str",
+            pattern=EVENT_NAME_PATTERN,
+            doc="emitted once (local scope) when the leader has reached the route's end and "
+            "this member is within tolerance of its slot; left out: none",
+        ),
+        "tolerance": Param(
+            kind="float",
+            default=5.0,
+            minimum=0.0,
+            doc="metres from the slot that count as arrived (for event)",
+        ),
         "lookahead": Param(
             kind="float",
             default=4.0,
@@ -517,6 +537,7 @@ class Formation(Plugin):
         self._altitude = 0.0
         self._speed = 0.0
         self._slot = 0
+        self._arrived = False
         self._sent: tuple[float, float, float] | None = None
 
     @classmethod
@@ -579,11 +600,21 @@ class Formation(Plugin):
         self._sent = target
 
     def on_start(self, ctx: PluginContext) -> None:
+        self._arrived = False
         self._setup(ctx, self._departure(ctx))
         self._command(ctx, force=True)
 
     def step(self, ctx: PluginContext) -> None:
         self._command(ctx, force=False)
+        event = ctx.params["event"]
+        if event is None or self._arrived or self._leader is None or self._leader.moving(ctx.now):
+            return
+        if self._leader.loop:
+            return
+        slot = self.slot_point(ctx.now)
+        if math.dist(ctx.require_vehicle().position(), slot) <= float(ctx.params["tolerance"]):
+            self._arrived = True
+            ctx.emit(event)
 
     def on_activate(self, ctx: PluginContext) -> None:
         if self._leader is None or (ctx.slot > 0 and ctx.slot != self._slot):
@@ -593,7 +624,7 @@ class Formation(Plugin):
         self._command(ctx, force=True)
 
     def snapshot(self) -> dict[str, Any]:
-        return {"start": self._start}
+        return {"start": self._start, "arrived": self._arrived}
 
     def restore(self, state: Mapping[str, Any]) -> None:
         start = state.get("start")
@@ -604,6 +635,13 @@ class Formation(Plugin):
             )
         assert isinstance(start, int | float)
         self._start = float(start)
+        arrived = state.get("arrived", False)
+        if not isinstance(arrived, bool):
+            raise ValueError(
+                f"{self.entry_name()}: a snapshot's 'arrived' must be true or false, "
+                f"not {arrived!r}"
+            )
+        self._arrived = arrived
 
 
 class Arrow(Formation):

@@ -160,6 +160,12 @@ class ActorRuntime:
     def loaded(self) -> dict[str, str]:
         return {n: a.acb.status.value for n, a in self._loaded.items()}
 
+    def plugins(self, actor: str) -> list[Plugin]:
+        """The plugin instances of loaded ``actor``, in bus order (for tools and tests that
+        inspect a running mission; empty when the actor is not loaded)."""
+        entry = self._loaded.get(actor)
+        return [] if entry is None else [plugin for _, plugin, _ in entry.plugins]
+
     def acbs(self) -> dict[str, ACB]:
         """Every loaded actor's control block (what the status command reports)."""
         return {n: a.acb for n, a in self._loaded.items()}

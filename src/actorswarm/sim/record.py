@@ -8,6 +8,8 @@ One JSON object per line, UTF-8, each with a ``type``:
   caller's free metadata (script, seed, duration, ...) next to the format marker;
 * ``{"type": "pose", "t", "platform", "x", "y", "z", "heading", "mode"}``: one vehicle at
   one time (metres in the world's ENU frame, heading in radians, the vehicle's mode);
+* ``{"type": "target", "t", "name", "x", "y", "z"}``: one moving target (the jeep) at one
+  time; the meta line may carry the world's ``areas`` as ``{name: [[x, y], ...]}``;
 * ``{"type": "transition", "t", "platform", "from", "to", "event", "cause", ...}``: one
   entry of a run report's ``transitions`` (an empty ``from`` starts an actor, an empty
   ``to`` stops one).
@@ -87,6 +89,25 @@ class Recording:
     heading: NDArray[np.float64]
     mode: list[str]
     transitions: list[dict[str, Any]] = field(default_factory=list)
+    #: Each target's ``(times (m,), positions (m, 3))``, by name, in time order.
+    targets: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
+        default_factory=dict
+    )
+
+    def areas(self) -> dict[str, list[tuple[float, float]]]:
+        """The areas the meta line names (``{name: polygon}``; malformed entries are
+        skipped, since meta is free-form)."""
+        raw = self.meta.get("areas")
+        out: dict[str, list[tuple[float, float]]] = {}
+        if not isinstance(raw, dict):
+            return out
+        for name, polygon in raw.items():
+            if isinstance(polygon, list) and all(
+                isinstance(p, list) and len(p) == 2 and all(_is_number(v) for v in p)
+                for p in polygon
+            ):
+                out[str(name)] = [(float(p[0]), float(p[1])) for p in polygon]
+        return out
 
     def __len__(self) -> int:
         """The number of poses."""
@@ -150,10 +171,13 @@ def write_record(
     rows: Iterable[tuple[float, int, float, float, float, float, str]],
     transitions: list[dict[str, Any]],
     meta: dict[str, Any],
+    targets: Iterable[tuple[float, str, float, float, float]] = (),
 ) -> None:
     """Write a recording to ``path`` (module docstring): the meta line, one line per pose
     row ``(t, platform, x, y, z, heading, mode)`` (as :meth:`~actorswarm.world.world.Track.
-    rows` gives them), then one line per transition (as a run report's ``transitions``).
+    rows` gives them), one per target row ``(t, name, x, y, z)`` (:meth:`~actorswarm.world.
+    world.Track.target_rows`), then one line per transition (as a run report's
+    ``transitions``).
 
     ``ValueError`` when ``meta`` uses a reserved key (``type``, ``format``, ``version``),
     a transition has a ``type`` key, or a value is not finite or not JSON. The file is
@@ -180,6 +204,17 @@ def write_record(
                     "mode": str(mode),
                 }
                 out.write(_line(pose))
+                out.write("\n")
+            for t, name, x, y, z in targets:
+                sighting = {
+                    "type": "target",
+                    "t": float(t),
+                    "name": str(name),
+                    "x": float(x),
+                    "y": float(y),
+                    "z": float(z),
+                }
+                out.write(_line(sighting))
                 out.write("\n")
             for tr in transitions:
                 if "type" in tr:
@@ -225,6 +260,7 @@ def read_record(path: Path | str) -> Recording:
     platforms: list[int] = []
     modes: list[str] = []
     transitions: list[dict[str, Any]] = []
+    target_rows: dict[str, list[tuple[float, float, float, float]]] = {}
     with Path(path).open(encoding="utf-8") as stream:
         for lineno, text in enumerate(stream, start=1):
             if not text.strip():
@@ -269,11 +305,22 @@ def read_record(path: Path | str) -> Recording:
                     if not isinstance(obj.get(key), str):
                         raise _fail(where, lineno, f"transition {key!r} must be a string")
                 transitions.append({k: v for k, v in obj.items() if k != "type"})
+            elif kind == "target":
+                for key in ("t", "x", "y", "z"):
+                    if not _is_number(obj.get(key)):
+                        raise _fail(where, lineno, f"target {key!r} must be a finite number")
+                if not isinstance(obj.get("name"), str):
+                    raise _fail(where, lineno, "target 'name' must be a string")
+                target_rows.setdefault(obj["name"], []).append(
+                    (float(obj["t"]), float(obj["x"]), float(obj["y"]), float(obj["z"]))
+                )
             elif kind == "meta":
                 raise _fail(where, lineno, "a second meta line")
             else:
                 raise _fail(
-                    where, lineno, f"unknown type {kind!r} (meta, pose or transition expected)"
+                    where,
+                    lineno,
+                    f"unknown type {kind!r} (meta, pose, target or transition expected)",
                 )
     if meta is None:
         raise RecordError(f"{where}, line 1: empty recording (no meta line)")
@@ -287,7 +334,15 @@ def read_record(path: Path | str) -> Recording:
         heading=np.asarray(cols["heading"], dtype=np.float64),
         mode=modes,
         transitions=transitions,
+        targets={name: _path_of(rows) for name, rows in target_rows.items()},
     )
+
+
+def _path_of(
+    rows: list[tuple[float, float, float, float]],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    data = np.asarray(sorted(rows), dtype=np.float64).reshape(-1, 4)
+    return data[:, 0], data[:, 1:]
 
 
 # --- analysis ------------------------------------------------------------------------------

@@ -22,6 +22,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Polygon
 from numpy.typing import NDArray
 
 from actorswarm.sim.record import Collective, Recording, Span, actor_timeline
@@ -129,6 +130,7 @@ def trajectory_png(recording: Recording, out: Path) -> Path:
                 LineCollection(segments[label], colors=[colour[label]], linewidths=1.6, zorder=2)
             )
 
+    _areas_and_targets(ax, recording)
     starts = np.array([xyz[0, :2] for _, xyz in paths.values()])
     ends = np.array([xyz[-1, :2] for _, xyz in paths.values()])
     ax.scatter(starts[:, 0], starts[:, 1], s=36, facecolors="white", edgecolors="black", zorder=4)
@@ -189,8 +191,45 @@ def trajectory_png(recording: Recording, out: Path) -> Path:
         Line2D([], [], marker="s", linestyle="", color="black", label="end"),
         *snap_handles,
     ]
+    if recording.targets:
+        handles.append(
+            Line2D([], [], marker="D", linestyle="--", color="black", label="target (end: ◆)")
+        )
     fig.legend(handles=handles, loc="outside right upper", fontsize=8, framealpha=0.9)
     return _save(fig, out)
+
+
+def _areas_and_targets(ax: Axes, recording: Recording) -> None:
+    """The world's areas (shaded outlines, named) and each target's path (dashed black,
+    a diamond where it ended), under the vehicles' paths."""
+    for name, polygon in recording.areas().items():
+        ax.add_patch(
+            Polygon(polygon, closed=True, facecolor="0.9", edgecolor="0.6", linewidth=0.8, zorder=1)
+        )
+        x0, y0 = min(p[0] for p in polygon), max(p[1] for p in polygon)
+        ax.annotate(
+            f"area {name}",
+            (x0, y0),
+            textcoords="offset points",
+            xytext=(3, -10),
+            fontsize=7,
+            color="0.4",
+            zorder=1,
+        )
+    for name, (_, xyz) in recording.targets.items():
+        if not len(xyz):
+            continue
+        ax.plot(xyz[:, 0], xyz[:, 1], linestyle="--", color="black", linewidth=1.0, zorder=3)
+        ax.scatter([xyz[-1, 0]], [xyz[-1, 1]], marker="D", s=40, color="black", zorder=6)
+        ax.annotate(
+            name,
+            (float(xyz[-1, 0]), float(xyz[-1, 1])),
+            textcoords="offset points",
+            xytext=(5, 4),
+            fontsize=8,
+            fontweight="bold",
+            zorder=7,
+        )
 
 
 def _first_start(spans: Sequence[Span], label: str) -> float:

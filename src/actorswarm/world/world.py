@@ -76,6 +76,14 @@ class Track:
                 x, y, z = pos[j]
                 yield (t, platform, x, y, z, headings[j], MODES[modes[j]])
 
+    def target_rows(self) -> Iterator[tuple[float, str, float, float, float]]:
+        """``(t, name, x, y, z)`` per snapshot and target, in time then file order."""
+        for i, t in enumerate(self.times.tolist()):
+            for name, (x, y, z) in zip(
+                self.target_names, self.target_positions[i].tolist(), strict=True
+            ):
+                yield (t, name, x, y, z)
+
     def of(self, platform: int) -> FloatArray:
         """``(m, 3)``: the trajectory of ``platform``."""
         where = np.flatnonzero(self.platforms == platform)
