@@ -33,6 +33,7 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -53,6 +54,7 @@ from actorswarm.core.wire import GROUND_STATION, BarrierRequest
 from actorswarm.dsl.checker import check
 from actorswarm.dsl.model import Transition
 from actorswarm.engine import commands as cmds
+from actorswarm.engine.assign import assign_slots
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
 from actorswarm.runtime.collective import plugin_view
@@ -125,6 +127,9 @@ class TaskEngine:
         # announce its actors lost.
         self._master_actors: tuple[int, tuple[str, ...]] | None = None
         self._occasions = 0
+        #: The time of the latest call into the engine: the master's slot assignment asks
+        #: where the slots are "now", and the core's scatter hook carries no time.
+        self._now = 0.0
         # Ground-station deployment: chunks being reassembled, scripts confirmed, the one run.
         self._chunks: dict[str, dict[int, bytes]] = {}
         self._deployed: dict[str, Plan] = {}
@@ -140,6 +145,7 @@ class TaskEngine:
 
     def start(self, now: float) -> None:
         """Start this platform's initial actors (the task's ``start``)."""
+        self._now = now
         for actor in self.plan.initial_actors(self.node.platform):
             if actor not in self.runtime.running():
                 try:
@@ -180,6 +186,7 @@ class TaskEngine:
         return True
 
     def tick(self, now: float) -> None:
+        self._now = now
         for emitted in self.runtime.step(now):
             self._emitted(emitted, now)
         for key, cand in list(self._pending.items()):
@@ -217,6 +224,7 @@ class TaskEngine:
         return f"{self.node.platform}.{self.node.incarnation}:{self._occasions}"
 
     def on_core_event(self, event: CoreEvent, now: float) -> None:
+        self._now = now
         answer = plugin_view(event)
         if answer is not None:
             self.runtime.deliver(answer)
@@ -295,13 +303,15 @@ class TaskEngine:
         self._pending[key] = _Candidacy(
             actor, transition, None if timeout is None else now + timeout + self.grace, occasion
         )
+        at = self.runtime.position()
         self.node.request_barrier(
             key,
             group.need(),
             now,
             part=part,
             bid=bid,
-            data=data,
+            # Where this platform is rides along, for the master's slot assignment.
+            data={"event": data, "at": None if at is None else [at[0], at[1], at[2]]},
             timeout=timeout,
             occasion=occasion,
         )
@@ -439,17 +449,40 @@ class TaskEngine:
         formation gets one slot per member rather than two members per slot; only the
         master sees every part, which is why it is computed here and scattered."""
         going: dict[str, list[tuple[int, int, int]]] = {}
-        for platform, part, index, _ in chosen:
+        params: dict[str, dict[str, str]] = {}
+        where: dict[int, Any] = {}
+        for platform, part, index, request in chosen:
             transition = self.plan.transition(key, part)
             if transition is not None:
                 successor = self.plan.successor(transition, index)
                 going.setdefault(successor, []).append((part, index, platform))
+                params.setdefault(successor, transition.param_map)
+                if isinstance(request.data, dict):
+                    where[platform] = request.data.get("at")
         out: dict[int, Any] = {}
         for successor, members in going.items():
             members.sort()
-            for slot, (_, _, platform) in enumerate(members, start=1):
+            order = [platform for _, _, platform in members]
+            slots = self._assigned(successor, order, where, params[successor])
+            for platform, slot in zip(order, slots, strict=True):
                 out[platform] = {"to": successor, "slot": slot, "slots": len(members)}
         return out
+
+    def _assigned(
+        self, successor: str, order: list[int], where: dict[int, Any], params: dict[str, str]
+    ) -> list[int]:
+        """Slots for the members in ``order`` (part then index order): by least total
+        distance to the successor's places when its plugins give places and every member
+        said where it is; otherwise in that order."""
+        in_order = list(range(1, len(order) + 1))
+        said = [where.get(p) for p in order]
+        if len(order) < 2 or not all(_is_xy(p) for p in said):
+            return in_order
+        positions: list[list[float]] = [list(p) for p in said if isinstance(p, list)]
+        points = self.runtime.group_points(successor, len(order), self._now, params)
+        if points is None:
+            return in_order
+        return assign_slots(positions, points[: len(order)])
 
     # --- ground-station commands ---------------------------------------------------------
 
@@ -607,3 +640,15 @@ def _scattered_slot(data: Any) -> tuple[int, int] | None:
     ):
         return slot, slots
     return None
+
+
+def _is_xy(value: Any) -> bool:
+    """A position a request carried: a list of 2 or 3 finite numbers."""
+    return (
+        isinstance(value, list)
+        and len(value) in (2, 3)
+        and all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        )
+    )

@@ -55,6 +55,18 @@ class ActorHost(Protocol):
         """Every loaded actor's control block, JSON-ready."""
         ...
 
+    def position(self) -> tuple[float, float, float] | None:
+        """Where this platform's vehicle is (None without one): requests carry it, so the
+        master can hand out slots by distance."""
+        ...
+
+    def group_points(
+        self, actor: str, count: int, now: float, params: dict[str, str]
+    ) -> list[tuple[float, float]] | None:
+        """Where ``count`` members switching into ``actor`` with the transition's
+        ``params`` will go (slot 1 first), or None when its plugins give no places."""
+        ...
+
     def restore(self, data: bytes, now: float) -> list[str]:
         """Bring back the actors of a :meth:`snapshot`; returns those running again."""
         ...

@@ -55,9 +55,12 @@ Three layers, each usable on its own:
   that preempted this one owns the autopilot); ``on_activate`` sends the slot's point
   again.
 
-The plugins do not steer around each other: members fly straight to their slots, so paths
-from a home grid to a formation may cross. ``altitude_step`` separates the members
-vertically (one layer per slot), which keeps crossing paths apart.
+Which member takes which slot is the master's choice when it releases the group: by
+:meth:`Formation.group_points` it knows where the slots are, by the requests where the
+members are, and it hands out the slots by least total distance, so no two members' paths
+to their slots cross (:mod:`actorswarm.engine.assign`). The plugins do not steer around
+each other beyond that; ``altitude_step`` separates the members vertically as well (one
+layer per slot), for the paths that still meet while the shape turns with the leader.
 """
 
 from __future__ import annotations
@@ -539,6 +542,28 @@ class Formation(Plugin):
         self._slot = 0
         self._arrived = False
         self._sent: tuple[float, float, float] | None = None
+
+    @classmethod
+    def group_points(
+        cls, params: Mapping[str, Any], count: int, now: float
+    ) -> list[tuple[float, float]] | None:
+        """The points of slots ``1..count`` at ``now`` (x, y metres): where the leader is
+        then (from ``depart``, or setting off now) plus each slot's offset — what the
+        master assigns the group's members to by least total distance."""
+        size = int(params["size"]) or count
+        if size < count:
+            return None
+        name = cls.entry_name()
+        speed = _positive(name, params, "speed")
+        depart = params["depart"]
+        start = now if depart is None else float(depart)
+        route = parse_route(str(params["route"]), 0.0)
+        leader = VirtualLeader(route, speed, start, loop=bool(params["loop"]))
+        forward, left = (float(v) for v in str(params["offset"]).split())
+        offsets = slots(cls.shape, size, _positive(name, params, "spacing"))[:count]
+        x, y, _ = leader.position(now)
+        points = to_world(offsets + np.array([forward, left]), (x, y), leader.heading(now))
+        return [(float(p[0]), float(p[1])) for p in points.tolist()]
 
     @classmethod
     def entry_name(cls) -> str:

@@ -160,6 +160,30 @@ class ActorRuntime:
     def loaded(self) -> dict[str, str]:
         return {n: a.acb.status.value for n, a in self._loaded.items()}
 
+    def position(self) -> tuple[float, float, float] | None:
+        """Where the vehicle is (None without one)."""
+        return None if self.vehicle is None else self.vehicle.position()
+
+    def group_points(
+        self, actor: str, count: int, now: float, params: Mapping[str, str]
+    ) -> list[tuple[float, float]] | None:
+        """The first answer of ``actor``'s plugins to :meth:`Plugin.group_points` that
+        gives ``count`` points or more, or None. A plugin that raises is skipped: the
+        master's release must not fail over a plugin's geometry."""
+        definition = self._defs.get(actor)
+        if definition is None or count < 1:
+            return None
+        for pdef in definition.plugins:
+            try:
+                bound = pdef.cls.bind_params(pdef.params, params)
+                points = pdef.cls.group_points(bound, count, now)
+                if points is None or len(points) < count:
+                    continue
+                return [(float(p[0]), float(p[1])) for p in points]
+            except Exception:
+                continue
+        return None
+
     def plugins(self, actor: str) -> list[Plugin]:
         """The plugin instances of loaded ``actor``, in bus order (for tools and tests that
         inspect a running mission; empty when the actor is not loaded)."""

@@ -69,7 +69,7 @@ from __future__ import annotations
 import math
 import re
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, ClassVar, Final, Literal, final, get_args
@@ -620,6 +620,25 @@ class Plugin(ABC):
             if key in cls.params:
                 merged[key] = text
         return cls.validate_params(merged)
+
+    @classmethod
+    def group_points(
+        cls, params: Mapping[str, Any], count: int, now: float
+    ) -> Sequence[tuple[float, float]] | None:
+        """Where the ``count`` members of a group switching into this plugin's actor at
+        ``now`` will go, ``(x, y)`` metres, slot 1 first — or None (the default) when the
+        plugin gives its members no places. ``params`` are validated (:meth:`bind_params`).
+
+        The master calls it when it releases a group and hands out the slots so that the
+        sum of the distances from where the members are to where they go is least (a
+        min-cost assignment, :mod:`actorswarm.engine.assign`): no member crosses the whole
+        swarm to a slot a neighbour would reach sooner, and no two straight paths from
+        members to their slots cross (were they to, swapping the two slots would be
+        shorter, by the triangle inequality). A formation returns its slots'
+        points; a search its strips' starting points. A class method, so it must not keep
+        state; it is called on the master only.
+        """
+        return None
 
     # --- hooks: override these -------------------------------------------------------------
 

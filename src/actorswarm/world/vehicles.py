@@ -45,10 +45,14 @@ Fixed-wing
 
         -(r² - R²) / (r² + R²) · r̂  +  2 r R / (r² + R²) · t̂       (t̂: counter-clockwise)
 
-    a unit vector that points almost straight at the point from afar and becomes the
-    circle's tangent at r = R, so "fly to the goal" and "circle the goal" are one law and
-    the aircraft never stops: it arrives by spiralling onto the circle of radius R around
-    its goal and loiters there, counter-clockwise, until told otherwise. ``hold`` makes the
+    a unit vector that becomes the circle's tangent at r = R, so "fly to the goal" and
+    "circle the goal" are one law and the aircraft never stops: it arrives by spiralling
+    onto the circle of radius R around its goal and loiters there, counter-clockwise, until
+    told otherwise. The field alone still points 28° off the goal at r = 4R, which would make
+    an aircraft chasing a moving goal (a formation slot) drift sideways for ever; so beyond
+    2R the wanted direction turns from the field's towards the straight bearing to the goal,
+    reaching it at 3R (pure pursuit from afar, as an autopilot flies to a waypoint before it
+    loiters there). ``hold`` makes the
     current position the goal. Take-off rolls along the runway (the heading at home),
     accelerating towards cruise speed, lifts off at ``min_airspeed`` and climbs straight
     ahead to the take-off altitude; it then loiters around the point where it got there,
@@ -315,7 +319,12 @@ class Fleet:
         r2, big_r2 = r * r, radius * radius
         inward = -(r2 - big_r2) / (r2 + big_r2)
         along = 2.0 * r * radius / (r2 + big_r2)
-        field = np.arctan2(inward * ry + along * rx, inward * rx - along * ry)
+        fx, fy = inward * rx - along * ry, inward * ry + along * rx
+        # Beyond 2R blend towards the straight bearing (-r̂), all of it from 3R (docstring).
+        pursuit = np.clip(r / np.maximum(radius, 1e-9) - 2.0, 0.0, 1.0)
+        fx = (1.0 - pursuit) * fx - pursuit * rx
+        fy = (1.0 - pursuit) * fy - pursuit * ry
+        field = np.arctan2(fy, fx)
         wanted_heading = np.where(flying, field, heading)
         turn = _wrap(wanted_heading - heading)
         limit = self._turn[rows] * dt
