@@ -16,13 +16,11 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP)
 
-## The main job: the paper's branch-and-merge task script (Fig. 7) run by ten simulated
-## platforms on a lossy radio, then a swarm that loses its master mid-barrier, reboots it,
-## is partitioned and heals — every invariant checked.
+## The main job: the paper's 30-UAV formation mission in the simulator (arrow, two arrows,
+## a branch into a line, six arrows, herringbone, return), with progress, the pictures of
+## the run in demo-out/ and a summary. `actorswarm demo --help` for the other missions.
 demo: $(STAMP)
-	$(BIN)/actorswarm sim examples/branch_merge.xml --no-world --loss 0.1 --duration 12 \
-		--event AtoBC_branch_event@5 --event finish_event@10
-	$(BIN)/actorswarm swarm demo
+	$(BIN)/actorswarm demo --out demo-out
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests

@@ -188,3 +188,34 @@ def test_sim_records_and_plot_draws(tmp_path: Path) -> None:
     bad.write_text("not json\n")
     result = runner.invoke(app, ["plot", str(bad)])
     assert result.exit_code == 2 and "line 1" in result.output
+
+
+def test_demo_command_runs_a_mission_and_writes_its_pictures(tmp_path: Path) -> None:
+    """The main job, on a small swarm so the test stays quick: the search-and-track mission
+    with 4 quadrotors (the full 30-UAV formation run is in tests/sim/test_missions.py)."""
+    out = tmp_path / "demo"
+    result = runner.invoke(
+        app, ["demo", "--mission", "search-track", "--platforms", "4", "--out", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    assert "Standby → Ingress" in result.output and "switched within" in result.output
+    assert "summary of the search-track mission" in result.output
+    for name in ("trajectories.png", "timeline.png"):
+        assert (out / name).read_bytes().startswith(b"\x89PNG")
+    report = json.loads((out / "report.json").read_text())
+    assert report["completed"] and report["violations"] == []
+    assert len(report["final_actors"]) == 4
+    assert (out / "record.jsonl").read_text().startswith('{"type":"meta"')
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--mission", "formaton"], 'did you mean "formation"'),
+        (["--kill", "3"], "ID@T"),
+    ],
+)
+def test_demo_refuses_bad_options_clearly(args: list[str], message: str) -> None:
+    result = runner.invoke(app, ["demo", *args])
+    assert result.exit_code == 2
+    assert message in result.output

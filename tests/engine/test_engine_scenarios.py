@@ -43,7 +43,7 @@ def script(actors: str, task: str, platforms: str) -> TaskScript:
 
 
 def switches(report: dict[str, Any]) -> list[dict[str, Any]]:
-    return [t for t in report["transitions"] if t["cause"] != "start"]
+    return [t for t in report["transitions"] if t["cause"] not in ("start", "lost")]
 
 
 def clean(report: dict[str, Any]) -> None:
@@ -87,6 +87,8 @@ def test_sysnum_all_adapts_to_a_platform_that_left() -> None:
     clean(report)
     out = switches(report)
     assert sorted(t["platform"] for t in out) == list(range(1, 10))
+    lost = [t for t in report["transitions"] if t["cause"] == "lost"]
+    assert [(t["platform"], t["from"], t["to"], t["t"]) for t in lost] == [(10, "Standby", "", 1.0)]
     # Platform 9 is the last ready (2.9 s): nobody waits for the dead 10 until a timeout.
     assert all(t["cause"] == "barrier" and t["t"] < 3.0 for t in out)
 

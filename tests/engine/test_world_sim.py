@@ -113,3 +113,52 @@ def test_takeoff_ingress_return_example_flies_and_lands() -> None:
         x, y, _ = sim.world.vehicle(p).position()
         hx, hy, _ = sim.world.vehicle(p).home()
         assert abs(x - hx) < 2.0 and abs(y - hy) < 2.0, f"platform {p} landed at home"
+
+
+ASSIGN_WORLD = """
+[[vehicles]]
+platform = 1
+home = [30.0, -20.0]
+[[vehicles]]
+platform = 2
+home = [20.0, -20.0]
+[[vehicles]]
+platform = 3
+home = [10.0, -20.0]
+[[vehicles]]
+platform = 4
+home = [0.0, -20.0]
+"""
+
+ASSIGN_SCRIPT = """<TaskScript name="assign" version="1">
+  <_ActorsConfig>
+    <Actor><_P_Name>Wait</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
+    <Actor><_P_Name>Line</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>formation.line</_P_Name>
+        <param key="route" value="0 0; 0 100"/><param key="speed" value="1"/>
+        <param key="spacing" value="10"/><param key="depart" value="0"/>
+      </Plugin></Bus></OODAConfig></Actor>
+  </_ActorsConfig>
+  <_TaskConfig>
+    <actor name="Wait">
+      <transition name="go" barrierKey="1" sysNum="all"><successor actor="Line"/></transition>
+    </actor>
+  </_TaskConfig>
+  <_PlatformActorConfig><platform id="1-4" actor="Wait"/></_PlatformActorConfig>
+</TaskScript>"""
+
+
+def test_the_master_hands_out_slots_by_least_total_distance() -> None:
+    """Four vehicles in a row west to east (4, 3, 2, 1) and a line abreast facing north
+    (slots west to east: 4, 2, 1, 3): the least total distance pairs them in order, which
+    is not the bid order (platform k to slot k)."""
+    from actorswarm.sim.tasksim import GroundEvent
+
+    result = check(ASSIGN_SCRIPT)
+    assert result.script is not None, result.diagnostics
+    sim = TaskSim(result.script, world_config=loads_world(ASSIGN_WORLD))
+    report = sim.run(3.0, events=[GroundEvent("go", 1.0)])
+    assert report["violations"] == []
+    slots = {p: h.engine.runtime.acbs()["Line"].context.slot for p, h in sim.hosts.items()}
+    assert slots == {1: 3, 2: 1, 3: 2, 4: 4}

@@ -339,3 +339,15 @@ def test_snapshot_restore_carries_on_from_the_same_waypoint() -> None:
 def test_restore_refuses_a_bad_snapshot(state: dict[str, object]) -> None:
     with pytest.raises(ValueError, match=r"search\.area: a snapshot's"):
         AreaSearch()._drive_restore(state)
+
+
+def test_group_points_are_where_each_strip_s_sweep_begins() -> None:
+    params = AreaSearch.bind_params({"area": "search", "altitude": "20"})
+    square = [(0.0, 0.0), (100.0, 0.0), (100.0, 100.0), (0.0, 100.0)]
+    points = AreaSearch.group_points(params, 4, 0.0, {"search": square})
+    assert points is not None and len(points) == 4
+    for strip, (x, y) in enumerate(points, start=1):
+        first = lanes(square, strip, 4, AreaSearch.resolve_lane(params), 20.0)[0]
+        assert (x, y) == (first[0], first[1])
+    with pytest.raises(ValueError, match="no area 'search'"):
+        AreaSearch.group_points(params, 4, 0.0, {})

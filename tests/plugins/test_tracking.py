@@ -508,3 +508,32 @@ def test_three_quadrotors_search_and_one_tracks(exclusive: str, trackers: int) -
         x, y, z = sim.world.vehicle(p).position()
         assert math.hypot(x - 80.0, y - 130.0) < 2.0, f"platform {p} is not over the jeep"
         assert z == pytest.approx(20.0, abs=1.0)
+
+
+def test_a_tracker_that_knows_nothing_sweeps_its_area_until_it_sees_the_target() -> None:
+    """What a tracker promoted by Track_lost does: it sweeps the area from the lane end
+    nearest to it, and follows the target once its camera sees it."""
+    vehicle = FakeVehicle(position=(95.0, 95.0, 30.0), cruise_speed=10.0)
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (20.0, 80.0, 0.0))})
+    params = {"area": "0 0 100 100", "search_altitude": "30", "altitude": "15"}
+    ctx = make_context(
+        TrackTarget, params=params, vehicle=vehicle, camera=camera, collective=FakeCollective()
+    )
+    plugin = TrackTarget()
+    plugin._drive_start(ctx)
+    first = vehicle.commands[-1]
+    assert first[0] == "goto" and first[3] == 30.0
+    # The nearest lane end to (95, 95) is on the eastern lane, at the north edge.
+    assert first[1] > 50.0 and first[2] == pytest.approx(100.0)
+    run_plugin(plugin, ctx, steps=600, dt=0.1)  # a minute: the sweep reaches the jeep
+    x, y, z = vehicle.position()
+    assert math.hypot(x - 20.0, y - 80.0) < 2.0 and z == pytest.approx(15.0)
+    assert plugin.last == (20.0, 80.0, 0.0)
+
+
+def test_a_tracker_without_an_area_hovers_until_told() -> None:
+    vehicle = FakeVehicle(position=(0.0, 0.0, 20.0))
+    ctx = make_context(TrackTarget, vehicle=vehicle, camera=FakeCamera(vehicle))
+    plugin = TrackTarget()
+    run_plugin(plugin, ctx, steps=20)
+    assert [c[0] for c in vehicle.commands] == ["hold"]

@@ -11,16 +11,33 @@ from typing import Any
 GUIDE = Path(__file__).resolve().parents[2] / "docs" / "writing-a-plugin.md"
 
 
-def test_the_guide_example_plugin_passes_its_own_tests() -> None:
-    blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
-    assert len(blocks) == 2, "the guide has the plugin and its tests"
-    module = types.ModuleType("battery_watch")
-    exec(compile(blocks[0], str(GUIDE), "exec"), module.__dict__)
-    sys.modules["battery_watch"] = module
+def _run_example(name: str, plugin: str, tests_code: str) -> list[str]:
+    """Load the example ``plugin`` as module ``name``, run every test of ``tests_code``;
+    return the names of the tests run."""
+    module = types.ModuleType(name)
+    exec(compile(plugin, str(GUIDE), "exec"), module.__dict__)
+    sys.modules[name] = module
     try:
         tests: dict[str, Any] = {}
-        exec(compile(blocks[1], str(GUIDE), "exec"), tests)
-        tests["test_conformance"]()
-        tests["test_warns_once"]()
+        exec(compile(tests_code, str(GUIDE), "exec"), tests)
+        ran = [key for key, value in tests.items() if key.startswith("test_") and callable(value)]
+        for key in ran:
+            tests[key]()
+        return ran
     finally:
-        del sys.modules["battery_watch"]
+        del sys.modules[name]
+
+
+def test_the_guide_example_plugins_pass_their_own_tests() -> None:
+    blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), re.S)
+    assert len(blocks) == 4, "the guide has two plugins, each with its tests"
+    battery, ring, ring_tests, battery_tests = blocks
+    assert _run_example("battery_watch", battery, battery_tests) == [
+        "test_conformance",
+        "test_warns_once",
+    ]
+    assert _run_example("ring_watch", ring, ring_tests) == [
+        "test_conformance",
+        "test_sees_the_jeep_from_its_slot",
+        "test_the_master_gives_the_nearest_slots",
+    ]

@@ -134,6 +134,8 @@ TRANSITION = (
         ([META, "", META], 3, "second meta"),
         ([META.replace('"version": 1', '"version": 2')], 1, "version"),
         ([META.replace("actorswarm-record", "other")], 1, "format"),
+        ([META, '{"type": "target", "t": 0, "name": "j", "x": 0, "y": "n", "z": 0}'], 2, "'y'"),
+        ([META, '{"type": "target", "t": 0, "name": 3, "x": 0, "y": 0, "z": 0}'], 2, "'name'"),
     ],
 )
 def test_malformed_files_are_refused_with_the_line(
@@ -260,3 +262,17 @@ def test_end_to_end_takeoff_ingress_return(tmp_path: Path) -> None:
     traj = trajectory_png(rec, tmp_path / "trajectory.png")
     line = timeline_png(rec, tmp_path / "timeline.png")
     assert _is_png(traj) and _is_png(line)
+
+
+def test_targets_and_areas_round_trip_and_are_drawn(tmp_path: Path) -> None:
+    rows, transitions = _synthetic()
+    targets = [(float(t), "jeep", 10.0 + t, 5.0, 0.0) for t in (2.0, 0.0, 1.0)]
+    path = tmp_path / "run.jsonl"
+    areas = {"search": [[0.0, 0.0], [50.0, 0.0], [50.0, 40.0]], "bad": "not a polygon"}
+    write_record(path, rows=rows, transitions=transitions, meta={"areas": areas}, targets=targets)
+    rec = read_record(path)
+    times, xyz = rec.targets["jeep"]
+    assert times.tolist() == [0.0, 1.0, 2.0], "sorted by time"
+    assert xyz[:, 0].tolist() == [10.0, 11.0, 12.0]
+    assert rec.areas() == {"search": [(0.0, 0.0), (50.0, 0.0), (50.0, 40.0)]}, "bad skipped"
+    assert _is_png(trajectory_png(rec, tmp_path / "t.png"))

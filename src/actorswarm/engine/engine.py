@@ -442,7 +442,8 @@ class TaskEngine:
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
     ) -> dict[int, Any]:
         """Each chosen participant's successor, and its slot among everyone the firing
-        sends to that successor: ``{"to": actor, "slot": k, "slots": n}``.
+        sends to that successor: ``{"to": actor, "slot": k, "slots": n}``, plus ``"event"``:
+        the data of the event it became a candidate for, when there was any.
 
         Slots are counted across the parts of a group (two transitions sharing a key, such
         as the paper's merge of B and C into D), in part then index order, so a merged
@@ -451,6 +452,7 @@ class TaskEngine:
         going: dict[str, list[tuple[int, int, int]]] = {}
         params: dict[str, dict[str, str]] = {}
         where: dict[int, Any] = {}
+        said: dict[int, Any] = {}
         for platform, part, index, request in chosen:
             transition = self.plan.transition(key, part)
             if transition is not None:
@@ -459,13 +461,19 @@ class TaskEngine:
                 params.setdefault(successor, transition.param_map)
                 if isinstance(request.data, dict):
                     where[platform] = request.data.get("at")
+                    said[platform] = request.data.get("event")
         out: dict[int, Any] = {}
         for successor, members in going.items():
             members.sort()
             order = [platform for _, _, platform in members]
             slots = self._assigned(successor, order, where, params[successor])
             for platform, slot in zip(order, slots, strict=True):
-                out[platform] = {"to": successor, "slot": slot, "slots": len(members)}
+                entry: dict[str, Any] = {"to": successor, "slot": slot, "slots": len(members)}
+                if said.get(platform) is not None:
+                    # The data of the event that made it a candidate (a detection's target
+                    # position): the successor's plugins find it in ctx.data["event"].
+                    entry["event"] = said[platform]
+                out[platform] = entry
         return out
 
     def _assigned(

@@ -102,7 +102,7 @@ MISSIONS: Final[dict[str, Mission]] = {
             script="search_track_10.xml",
             world="search_track_10.toml",
             events=(("go_home_event", 200.0),),
-            duration=240.0,
+            duration=300.0,
             platforms=10,
         ),
         Mission(
@@ -111,7 +111,7 @@ MISSIONS: Final[dict[str, Mission]] = {
             script="search_track_10.xml",
             world="battery_track_10.toml",
             events=(("go_home_event", 200.0),),
-            duration=240.0,
+            duration=300.0,
             platforms=10,
         ),
     )

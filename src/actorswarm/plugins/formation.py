@@ -545,7 +545,11 @@ class Formation(Plugin):
 
     @classmethod
     def group_points(
-        cls, params: Mapping[str, Any], count: int, now: float
+        cls,
+        params: Mapping[str, Any],
+        count: int,
+        now: float,
+        areas: Mapping[str, Sequence[tuple[float, float]]],
     ) -> list[tuple[float, float]] | None:
         """The points of slots ``1..count`` at ``now`` (x, y metres): where the leader is
         then (from ``depart``, or setting off now) plus each slot's offset — what the

@@ -320,6 +320,27 @@ class AreaSearch(Plugin):
         lane = float(params["lane"])
         return lane if lane > 0 else LANE_PER_ALTITUDE * float(params["altitude"])
 
+    @classmethod
+    def group_points(
+        cls,
+        params: Mapping[str, Any],
+        count: int,
+        now: float,
+        areas: Mapping[str, Sequence[tuple[float, float]]],
+    ) -> list[tuple[float, float]] | None:
+        """Where strips ``1..count`` begin (each strip's first waypoint): the master hands
+        the strips out by least total distance, so searchers do not cross the area to reach
+        theirs. None when a strip has no lane (an area too narrow for that many)."""
+        polygon = parse_area(str(params["area"]), areas)
+        lane, altitude = cls.resolve_lane(params), float(params["altitude"])
+        starts = []
+        for strip in range(1, count + 1):
+            route = lanes(polygon, strip, count, lane, altitude)
+            if not route:
+                return None
+            starts.append((route[0][0], route[0][1]))
+        return starts
+
     def on_start(self, ctx: PluginContext) -> None:
         params = ctx.params
         altitude = float(params["altitude"])

@@ -50,12 +50,16 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
 from actorswarm.plugins.formation import RECOMMAND_DISTANCE
+from actorswarm.plugins.search import LANE_PER_ALTITUDE, lanes, parse_area
 from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
 from actorswarm.runtime.context import CollectiveUnavailable
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
 if TYPE_CHECKING:
     from actorswarm.runtime.context import Detection, PluginContext
+
+#: How close to a sweep waypoint (metres) counts as reached.
+_SWEEP_TOLERANCE: Final = 3.0
 
 __all__ = ["CATCH_UP_TIME", "DetectTarget", "TrackTarget", "track_role"]
 
@@ -343,6 +347,17 @@ class TrackTarget(Plugin):
         answer (the claim keeps other platforms' detectors quiet), and release it on stop;
         without a swarm behind ``ctx.collective`` this is skipped silently.
 
+    ``area`` (optional)
+        Where to look when the target is nowhere known or is lost: an area name of
+        ``ctx.areas`` or ``"x_min y_min x_max y_max"``, as for ``search.area``. The tracker
+        then sweeps the whole area in lanes (``1.6 · search_altitude`` apart) at
+        ``search_altitude``, from the lane end nearest to it, until its camera sees the
+        target. This is what a platform
+        promoted by ``Track_lost`` needs: it was told to track but not where the target
+        is. Left out: the tracker hovers where it is (or over the last known position).
+    ``search_altitude`` (float > 0, default 35)
+        The altitude of that sweep (higher: a wider footprint).
+
     Where the target is and how it is followed: see the module docstring. A camera is used
     when the platform has one; without one the tracker flies to the last position it was
     given and hovers there. The lost countdown runs from the last sighting, or from the
@@ -380,6 +395,17 @@ class TrackTarget(Plugin):
             doc="claim the target's tracker role (quota 1) once its name is known, so other "
             "platforms' detectors stay quiet",
         ),
+        "area": Param(
+            kind="str",
+            doc="an area name or 'x_min y_min x_max y_max' to sweep while the target is "
+            "unknown or lost; left out: hover",
+        ),
+        "search_altitude": Param(
+            kind="float",
+            default=35.0,
+            minimum=0.0,
+            doc="metres above the ground of that sweep (> 0)",
+        ),
     }
 
     def __init__(self) -> None:
@@ -392,6 +418,8 @@ class TrackTarget(Plugin):
         self._sent: Point | None = None
         self._holding = False
         self._claimed: str | None = None
+        self._sweep: list[Point] = []  # the area's lanes, while looking for the target
+        self._leg = 0
 
     @property
     def last(self) -> Point | None:
@@ -411,6 +439,7 @@ class TrackTarget(Plugin):
         if lost_after <= 0:
             raise ValueError(f"track.target: lost_after must be > 0 seconds, not {lost_after:g}")
         ctx.require_vehicle()
+        self._plan_sweep(ctx)
         self._last, self._seen_at, self._lost = None, None, False
         self._since = ctx.now
         event = ctx.data.get("event") if isinstance(ctx.data, Mapping) else None
@@ -433,6 +462,8 @@ class TrackTarget(Plugin):
         self._command(ctx, force=False)
 
     def on_activate(self, ctx: PluginContext) -> None:
+        if not self._sweep:  # restored from a snapshot: the sweep is not part of it
+            self._plan_sweep(ctx)
         self._since = ctx.now
         self._sent, self._holding = None, False
         self._observe(ctx)
@@ -528,6 +559,9 @@ class TrackTarget(Plugin):
 
     def _command(self, ctx: PluginContext, *, force: bool) -> None:
         vehicle = ctx.require_vehicle()
+        if self._sweep and (self._last is None or self._lost):
+            self._look(ctx, force=force)
+            return
         if self._last is None:
             if force or not self._holding:
                 vehicle.hold()
@@ -541,3 +575,33 @@ class TrackTarget(Plugin):
         speed = max(_MIN_SPEED, math.hypot(*self._velocity) + gap / CATCH_UP_TIME)
         vehicle.goto(*point, speed=speed)
         self._sent, self._holding = point, False
+
+    def _plan_sweep(self, ctx: PluginContext) -> None:
+        """The lanes over ``area`` (none without one); ValueError for a bad area."""
+        self._sweep, self._leg = [], 0
+        area = ctx.params["area"]
+        if area is None:
+            return
+        search_altitude = float(ctx.params["search_altitude"])
+        if search_altitude <= 0:
+            raise ValueError(
+                f"track.target: search_altitude must be > 0 metres, not {search_altitude:g}"
+            )
+        polygon = parse_area(str(area), ctx.areas)
+        self._sweep = lanes(polygon, 1, 1, LANE_PER_ALTITUDE * search_altitude, search_altitude)
+
+    def _look(self, ctx: PluginContext, *, force: bool) -> None:
+        """Fly the sweep of ``area``, lane after lane and round again, until a sighting;
+        it begins at the waypoint nearest the vehicle, not across the area."""
+        vehicle = ctx.require_vehicle()
+        if self._leg == 0 and self._sent is None:
+            here = vehicle.position()
+            self._leg = min(range(len(self._sweep)), key=lambda i: math.dist(here, self._sweep[i]))
+        point = self._sweep[self._leg % len(self._sweep)]
+        if math.dist(vehicle.position(), point) <= _SWEEP_TOLERANCE:
+            self._leg += 1
+            point = self._sweep[self._leg % len(self._sweep)]
+            force = True
+        if force or self._sent != point:
+            vehicle.goto(*point)
+            self._sent, self._holding = point, False

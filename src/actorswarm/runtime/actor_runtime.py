@@ -176,7 +176,7 @@ class ActorRuntime:
         for pdef in definition.plugins:
             try:
                 bound = pdef.cls.bind_params(pdef.params, params)
-                points = pdef.cls.group_points(bound, count, now)
+                points = pdef.cls.group_points(bound, count, now, self.areas)
                 if points is None or len(points) < count:
                     continue
                 return [(float(p[0]), float(p[1])) for p in points]

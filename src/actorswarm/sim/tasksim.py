@@ -153,12 +153,25 @@ class TaskSim:
             engine.start(now)
 
     def _retire(self, platform: int) -> None:
+        """The platform is gone (crashed, rebooting, wrecked): what it ran ends now, as a
+        transition to nothing with cause ``lost``, so timelines do not show it running on."""
         host = self.hosts.pop(platform, None)
         if host is None:
             return
         if host.timer is not None:
             host.timer.cancel()
         self._collect(host.engine)
+        for actor in host.engine.runtime.running():
+            self.records.append(
+                {
+                    "t": round(self.swarm.now, 6),
+                    "platform": platform,
+                    "from": actor,
+                    "to": "",
+                    "event": "",
+                    "cause": "lost",
+                }
+            )
 
     def _collect(self, engine: TaskEngine) -> None:
         for rec in engine.transitions:
