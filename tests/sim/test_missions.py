@@ -199,8 +199,18 @@ def test_formation_slots_are_the_master_s_least_distance_assignment(formation: R
 
 @pytest.mark.parametrize("seed", range(1, 11))
 def test_formation_completes_under_other_seeds(seed: int) -> None:
-    # 15 platforms keep ten whole missions affordable; the branch is scaled to 8 of 15.
-    run = Run("formation", seed=seed, platforms=15)
+    run = Run("formation", seed=seed)
+    run.clean()
+    moves = run.moves()
+    assert moves[("A", "B", "AtoB_event")] == 30
+    assert moves[("B", "C", "BtoBC_branching_event")] == 15
+    assert moves[("A", "Return", "go_home_event")] == 30
+    assert run.least_separation() >= SAFETY_DISTANCE
+
+
+def test_formation_scales_to_another_swarm_size() -> None:
+    """``--platforms 15``: the branch of 15 of 30 becomes 8 of 15."""
+    run = Run("formation", seed=1, platforms=15)
     run.clean()
     moves = run.moves()
     assert moves[("A", "B", "AtoB_event")] == 15
