@@ -50,6 +50,11 @@ def test_core_imports_no_io_modules() -> None:
         ("core", {"engine", "runtime", "dsl", "sim", "ground", "cli", "world", "plugins"}),
         ("runtime", {"engine", "dsl", "sim", "ground", "cli"}),
         ("world", {"engine", "dsl", "sim", "ground", "cli"}),
+        (
+            "transport",
+            {"core", "engine", "runtime", "dsl", "sim", "ground", "cli", "world", "daemon"},
+        ),
+        ("security", {"engine", "runtime", "dsl", "sim", "ground", "cli", "world", "daemon"}),
     ],
 )
 def test_layers_only_import_downward(package: str, above: set[str]) -> None:

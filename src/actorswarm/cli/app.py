@@ -35,6 +35,20 @@ app.add_typer(swarm_app, name="swarm")
 app.add_typer(bench_app, name="bench")
 app.add_typer(task_app, name="task")
 
+
+def _register_real_swarm() -> None:
+    """``daemon`` and ``gs``: imported here so the commands exist, their heavy imports
+    (Zenoh) happen only when they run."""
+    from actorswarm.cli.gs import daemon, gs_app
+    from actorswarm.cli.keys import keys_app
+
+    app.command("daemon")(daemon)
+    app.add_typer(gs_app, name="gs")
+    app.add_typer(keys_app, name="keys")
+
+
+_register_real_swarm()
+
 console = Console()
 
 

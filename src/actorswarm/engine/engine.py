@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -137,6 +138,10 @@ class TaskEngine:
         #: Where the ``backup`` command writes (atomically); a restarted platform resumes
         #: from its latest backup (:meth:`resume`).
         self.store: BackupStore = store if store is not None else MemoryBackupStore()
+        #: Called with ``(sha256, script bytes)`` when a deployment completes, and with the
+        #: hash when a script starts: a daemon keeps both in its state directory.
+        self.on_deployed: Callable[[str, bytes], None] | None = None
+        self.on_started: Callable[[str], None] | None = None
         node.resolve_all = self._holders
         node.scatter = self._scatter
         runtime.use_script(plan.script)
@@ -576,8 +581,36 @@ class TaskEngine:
             first = next((str(d) for d in result.diagnostics), "the script is invalid")
             raise ValueError(f"script refused: {first}")
         self._deployed[chunk.sha256] = Plan.build(result.script)
+        if self.on_deployed is not None:
+            self.on_deployed(chunk.sha256, text)
         self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
         return None
+
+    def adopt(self, script: bytes) -> str:
+        """Register ``script`` as deployed (a daemon restarting with the scripts of its state
+        directory); returns its SHA-256. ValueError when the script is invalid."""
+        sha = hashlib.sha256(script).hexdigest()
+        result = check(script.decode("utf-8", errors="replace"), path=f"kept:{sha[:12]}")
+        if result.script is None or not result.ok:
+            first = next((str(d) for d in result.diagnostics), "the script is invalid")
+            raise ValueError(f"script {sha[:12]} refused: {first}")
+        self._deployed[sha] = Plan.build(result.script)
+        return sha
+
+    def rejoin(self, sha: str, now: float) -> bool:
+        """After a restart: run the adopted script ``sha`` again, resuming the actors of the
+        latest backup, or starting the initial actors when there is none (returns whether
+        a backup was resumed). ValueError when ``sha`` was not adopted."""
+        plan = self._deployed.get(sha)
+        if plan is None:
+            raise ValueError(f"script {sha[:12]} is not known here; adopt it first")
+        self.script_sha = sha
+        self.plan = plan
+        self.runtime.use_script(plan.script)
+        if self.resume(now):
+            return True
+        self.start(now)
+        return False
 
     def _start_script(self, sha: str, now: float) -> str:
         plan = self._deployed.get(sha)
@@ -587,6 +620,8 @@ class TaskEngine:
             return f"script {sha[:12]} already running"
         fresh = not self.script_sha
         self.script_sha = sha
+        if self.on_started is not None:
+            self.on_started(sha)
         self.runtime.use_script(plan.script)
         if fresh and not self.runtime.running():
             self.plan = plan

@@ -1,0 +1,17 @@
+"""The daemon host (DESIGN.md §2): one process per platform, the same core, engine and
+runtime objects as the simulator, driven by the wall clock and a real transport.
+
+:class:`PlatformEndpoint` composes a platform's sans-IO pieces (core node, task engine,
+actor runtime) behind the small interface every host drives (``receive``, ``tick``,
+``next_deadline``, ``drain_outgoing``); the ground station's
+:class:`~actorswarm.ground.station.GroundStation` has the same interface. :func:`serve`
+is the asyncio loop that drives one of them over a transport. :class:`StateDir` keeps
+what a platform needs across a crash: its incarnation, the scripts deployed to it, its
+backups.
+"""
+
+from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint
+from actorswarm.daemon.loop import serve
+from actorswarm.daemon.state import StateDir
+
+__all__ = ["Endpoint", "PlatformEndpoint", "StateDir", "serve"]

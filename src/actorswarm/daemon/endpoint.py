@@ -1,0 +1,128 @@
+"""A platform's protocol endpoint: core node, task engine and actor runtime as one object.
+
+The simulator hosts these three pieces itself (:class:`~actorswarm.sim.tasksim.TaskSim`);
+a daemon hosts them through :class:`PlatformEndpoint`, which does what the simulator's host
+does between them: it passes the node's events to the engine, ticks the engine when its
+deadline comes, and services the node until it has nothing more to say. No clock, no
+socket: the caller gives ``now`` and moves the bytes (:func:`actorswarm.daemon.serve`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Protocol
+
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.node import Node, Outgoing
+from actorswarm.core.wire import Packet
+from actorswarm.dsl.model import TaskScript
+from actorswarm.engine.engine import TaskEngine
+from actorswarm.engine.plan import Plan
+from actorswarm.runtime.actor_runtime import ActorRuntime
+from actorswarm.runtime.collective import NodeCollective
+from actorswarm.runtime.context import Camera, Vehicle
+from actorswarm.runtime.storage import BackupStore
+
+__all__ = ["Endpoint", "PlatformEndpoint"]
+
+#: A node that keeps producing output for this many rounds in one call is stopped there
+#: (the rest goes out on the next call): a guard against a feedback loop, never hit in tests.
+_MAX_ROUNDS = 1000
+
+
+class Endpoint(Protocol):
+    """What a host loop drives: a platform (:class:`PlatformEndpoint`) or the ground
+    station (:class:`~actorswarm.ground.station.GroundStation`)."""
+
+    def receive(self, data: bytes, now: float) -> None: ...
+
+    def receive_packet(self, packet: Packet, now: float) -> None: ...
+
+    def tick(self, now: float) -> None: ...
+
+    def next_deadline(self) -> float | None: ...
+
+    def drain_outgoing(self) -> list[Outgoing]: ...
+
+
+class PlatformEndpoint:
+    """Platform ``platform`` of swarm ``swarm`` in its ``incarnation``; the task engine
+    starts without a script (the ground station deploys one) and backs up to ``store``."""
+
+    def __init__(
+        self,
+        platform: int,
+        *,
+        swarm: str,
+        incarnation: int,
+        now: float,
+        config: CoreConfig | None = None,
+        store: BackupStore | None = None,
+        vehicle: Vehicle | None = None,
+        camera: Camera | None = None,
+        areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
+        seed: int = 0,
+    ) -> None:
+        self.node = Node(
+            platform, swarm=swarm, incarnation=incarnation, config=config or CoreConfig(), now=now
+        )
+        self.runtime = ActorRuntime(
+            platform, seed=seed, vehicle=vehicle, camera=camera, areas=areas
+        )
+        self.runtime.collective = NodeCollective(self.node, lambda: self.runtime.now)
+        empty = Plan.build(TaskScript(name="(none deployed)", version="0", actors=()))
+        self.engine = TaskEngine(self.node, empty, self.runtime, store=store)
+        self._outgoing: list[Outgoing] = []
+
+    def __repr__(self) -> str:
+        n = self.node
+        return (
+            f"PlatformEndpoint(platform={n.platform}, incarnation={n.incarnation}, "
+            f"master={n.master}, running={list(self.runtime.running())})"
+        )
+
+    # --- the host interface -------------------------------------------------------------
+
+    def receive(self, data: bytes, now: float) -> None:
+        """Untrusted bytes from the transport. Never raises."""
+        self.node.receive(data, now)
+        self._service(now)
+
+    def receive_packet(self, packet: Packet, now: float) -> None:
+        """A packet already decoded (and authenticated) by the security layer."""
+        self.node.receive_packet(packet, now)
+        self._service(now)
+
+    def tick(self, now: float) -> None:
+        """Run whatever is due at ``now``: the node's timers and the engine's steps."""
+        deadline = self.node.next_deadline()
+        if deadline is not None and deadline <= now:
+            self.node.tick(now)
+        deadline = self.engine.next_deadline()
+        if deadline is not None and deadline <= now:
+            self.engine.tick(now)
+        self._service(now)
+
+    def next_deadline(self) -> float | None:
+        """The earliest time :meth:`tick` is due."""
+        times = [
+            t for t in (self.node.next_deadline(), self.engine.next_deadline()) if t is not None
+        ]
+        return min(times) if times else None
+
+    def drain_outgoing(self) -> list[Outgoing]:
+        """The packets to send, oldest first."""
+        out, self._outgoing = self._outgoing, []
+        return out
+
+    # --- between the pieces -------------------------------------------------------------
+
+    def _service(self, now: float) -> None:
+        node = self.node
+        for _ in range(_MAX_ROUNDS):
+            self._outgoing.extend(node.drain_outgoing())
+            events = node.drain_events()
+            for event in events:
+                self.engine.on_core_event(event, now)
+            if not node.has_output:
+                break

@@ -1,0 +1,99 @@
+"""The ground station over a real transport: a session the ``gs`` commands run in.
+
+A :class:`GroundSession` opens the ground station's endpoint
+(:class:`~actorswarm.ground.station.GroundStation`, platform 0) on Zenoh and drives it with
+:func:`~actorswarm.daemon.loop.serve` in the background; a command calls :meth:`do` to act
+(deploy, start, inject...) and :meth:`wait_for` to wait for the swarm's answers. Each
+session is a new *incarnation* of the ground station (the wall clock's seconds), so the
+platforms never take a new session's messages for repeats of an old one's. The swarm does
+not depend on a ground station being there: sessions come and go.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable
+from types import TracebackType
+from typing import TypeVar
+
+from actorswarm.core.config import CoreConfig
+from actorswarm.daemon.loop import clock, flush, serve
+from actorswarm.ground.station import GroundStation
+from actorswarm.security.guard import PacketGuard
+from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
+
+__all__ = ["GroundSession"]
+
+_T = TypeVar("_T")
+
+#: How often :meth:`GroundSession.wait_for` looks at its condition, seconds.
+_POLL = 0.05
+
+
+class GroundSession:
+    """``async with GroundSession(swarm, settings) as gs:`` — the ground station is
+    ``gs.station``."""
+
+    def __init__(
+        self,
+        swarm: str,
+        settings: ZenohSettings | None = None,
+        guard: PacketGuard | None = None,
+    ) -> None:
+        self.swarm = swarm
+        self.settings = settings or ZenohSettings()
+        #: Seals the operator's packets (HMAC and Ed25519 signature) and checks the swarm's.
+        self.guard = guard or PacketGuard.insecure()
+        self.station = GroundStation(
+            swarm=swarm, now=clock(), incarnation=int(time.time()), config=CoreConfig()
+        )
+        self._inbox: asyncio.Queue[bytes] = asyncio.Queue()
+        self._stop = asyncio.Event()
+        self._task: asyncio.Task[None] | None = None
+        self._transport: ZenohTransport | None = None
+
+    async def __aenter__(self) -> GroundSession:
+        loop = asyncio.get_running_loop()
+
+        def arrived(data: bytes) -> None:
+            loop.call_soon_threadsafe(self._inbox.put_nowait, data)
+
+        self._transport = ZenohTransport(self.swarm, 0, arrived, self.settings)
+        self._task = asyncio.create_task(
+            serve(self.station, self._transport, self._inbox, self._stop, guard=self.guard)
+        )
+        return self
+
+    async def __aexit__(
+        self,
+        kind: type[BaseException] | None,
+        value: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self._stop.set()
+        if self._task is not None:
+            await self._task
+        if self._transport is not None:
+            # Let the last acknowledgements go out before the session closes.
+            self._transport.close()
+
+    def do(self, action: Callable[[GroundStation, float], _T]) -> _T:
+        """Run ``action(station, now)`` now and send what it produced."""
+        result = action(self.station, clock())
+        if self._transport is not None:
+            flush(self.station, self._transport, self.guard)
+        return result
+
+    async def wait_for(self, condition: Callable[[], bool], timeout: float) -> bool:
+        """Wait until ``condition()`` holds (True) or ``timeout`` seconds pass (False)."""
+        end = clock() + timeout
+        while not condition():
+            if clock() >= end:
+                return False
+            await asyncio.sleep(_POLL)
+        return True
+
+    async def listen(self, seconds: float) -> None:
+        """Just listen (heartbeats tell who is there) for ``seconds``."""
+        await asyncio.sleep(seconds)

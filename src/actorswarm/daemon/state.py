@@ -1,0 +1,85 @@
+"""A platform's state directory: what survives a crash of its daemon.
+
+Layout (all written atomically: a temporary file, ``fsync``, then a rename):
+
+``incarnation``
+    The incarnation of the last start, as decimal text. Each start takes the next one, so
+    the swarm tells a restarted daemon from its previous life (its old packets are stale).
+``scripts/<sha256>.xml``
+    Every task script deployed to this platform, by content hash.
+``running``
+    The SHA-256 of the script the platform runs (absent: none started yet).
+``backups/``
+    The runtime's backups (:class:`~actorswarm.runtime.storage.FileBackupStore`); a
+    restarted daemon restores the latest.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+from actorswarm.runtime.storage import FileBackupStore
+
+__all__ = ["StateDir"]
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    partial = path.with_name(path.name + ".partial")
+    with partial.open("wb") as out:
+        out.write(data)
+        out.flush()
+        os.fsync(out.fileno())
+    partial.replace(path)
+
+
+class StateDir:
+    """The state directory at ``path`` (created, mode 0700, when missing)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self.path.mkdir(parents=True, exist_ok=True, mode=0o700)
+        (self.path / "scripts").mkdir(exist_ok=True)
+        self.backups = FileBackupStore(self.path / "backups")
+
+    def __repr__(self) -> str:
+        return f"StateDir({str(self.path)!r})"
+
+    def next_incarnation(self) -> int:
+        """The incarnation of this start: one more than the last one recorded (0 on a
+        fresh directory), recorded before it is returned. A corrupt file counts as 0 and
+        is overwritten."""
+        file = self.path / "incarnation"
+        try:
+            last = int(file.read_text().strip())
+        except (OSError, ValueError):
+            last = -1
+        current = max(last + 1, 0)
+        _write_atomic(file, f"{current}\n".encode())
+        return current
+
+    def save_script(self, script: bytes) -> str:
+        """Keep a deployed script; returns its SHA-256."""
+        sha = hashlib.sha256(script).hexdigest()
+        _write_atomic(self.path / "scripts" / f"{sha}.xml", script)
+        return sha
+
+    def script(self, sha: str) -> bytes | None:
+        """A kept script by hash (None: not kept, or its content does not match)."""
+        try:
+            data = (self.path / "scripts" / f"{sha}.xml").read_bytes()
+        except OSError:
+            return None
+        return data if hashlib.sha256(data).hexdigest() == sha else None
+
+    def set_running(self, sha: str) -> None:
+        _write_atomic(self.path / "running", f"{sha}\n".encode())
+
+    def running(self) -> str | None:
+        """The hash of the script last started here (None: none)."""
+        try:
+            sha = (self.path / "running").read_text().strip()
+        except OSError:
+            return None
+        return sha or None

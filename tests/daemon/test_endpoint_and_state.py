@@ -1,0 +1,116 @@
+"""The daemon's sans-IO pieces: the platform endpoint and its state directory, driven by a
+hand-made clock and an in-memory network (no Zenoh, no process)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from actorswarm.core.wire import GROUND_STATION
+from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint
+from actorswarm.daemon.state import StateDir
+from actorswarm.ground.station import GroundStation
+
+SCRIPT = b"""<TaskScript name="two" version="1">
+  <_ActorsConfig>
+    <Actor><_P_Name>A</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
+    <Actor><_P_Name>B</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
+  </_ActorsConfig>
+  <_TaskConfig>
+    <actor name="A">
+      <transition name="go" barrierKey="1" sysNum="all"><successor actor="B"/></transition>
+    </actor>
+  </_TaskConfig>
+  <_PlatformActorConfig><platform id="1-3" actor="A"/></_PlatformActorConfig>
+</TaskScript>"""
+
+
+class Net:
+    """Endpoints wired together: every packet reaches its destination (or everyone else)
+    after ``latency``; time advances in steps of ``dt``."""
+
+    def __init__(self, endpoints: dict[int, Endpoint], latency: float = 0.005) -> None:
+        self.endpoints = endpoints
+        self.latency = latency
+        self.now = 0.0
+        self.in_flight: list[tuple[float, int, bytes]] = []
+
+    def run(self, until: float, dt: float = 0.005) -> None:
+        while self.now < until:
+            self.now = round(self.now + dt, 9)
+            due = [p for p in self.in_flight if p[0] <= self.now]
+            self.in_flight = [p for p in self.in_flight if p[0] > self.now]
+            for _, dst, data in due:
+                if dst in self.endpoints:
+                    self.endpoints[dst].receive(data, self.now)
+            for src, endpoint in self.endpoints.items():
+                endpoint.tick(self.now)
+                for out in endpoint.drain_outgoing():
+                    targets = (
+                        [out.dst]
+                        if out.dst is not None
+                        else [p for p in self.endpoints if p != src]
+                    )
+                    for dst in targets:
+                        self.in_flight.append((self.now + self.latency, dst, out.data))
+
+
+def _swarm(tmp_path: Path) -> tuple[Net, dict[int, PlatformEndpoint], GroundStation]:
+    platforms = {
+        p: PlatformEndpoint(
+            p, swarm="t", incarnation=0, now=0.0, store=StateDir(tmp_path / f"s{p}").backups
+        )
+        for p in (1, 2, 3)
+    }
+    station = GroundStation(swarm="t", incarnation=7)
+    endpoints: dict[int, Endpoint] = {**platforms, GROUND_STATION: station}
+    return Net(endpoints), platforms, station
+
+
+def _running(platforms: dict[int, PlatformEndpoint]) -> dict[int, tuple[str, ...]]:
+    return {p: e.runtime.running() for p, e in platforms.items()}
+
+
+def test_platform_endpoints_deploy_start_and_switch_together(tmp_path: Path) -> None:
+    net, platforms, station = _swarm(tmp_path)
+    net.run(2.0)  # join and elect
+    assert {p.node.master for p in platforms.values()} == {1}
+    sha = station.deploy(SCRIPT, [1, 2, 3], net.now)
+    net.run(net.now + 0.5)
+    assert station.missing(sha) == []
+    station.start(net.now)
+    net.run(net.now + 0.5)
+    assert {p: e.runtime.running() for p, e in platforms.items()} == dict.fromkeys(
+        (1, 2, 3), ("A",)
+    )
+    station.event("go", net.now, platforms=[1, 2, 3])
+    net.run(net.now + 0.5)
+    assert {p: e.runtime.running() for p, e in platforms.items()} == dict.fromkeys(
+        (1, 2, 3), ("B",)
+    )
+    assert "PlatformEndpoint(platform=1" in repr(platforms[1])
+
+
+def test_a_restarted_platform_rejoins_its_script_from_the_state_dir(tmp_path: Path) -> None:
+    state = StateDir(tmp_path / "p1")
+    assert state.next_incarnation() == 0 and state.next_incarnation() == 1
+    sha = state.save_script(SCRIPT)
+    state.set_running(sha)
+    assert state.running() == sha and state.script(sha) == SCRIPT
+    endpoint = PlatformEndpoint(1, swarm="t", incarnation=state.next_incarnation(), now=0.0)
+    endpoint.engine.adopt(SCRIPT)
+    assert endpoint.engine.rejoin(sha, 0.0) is False, "no backup: the initial actors start"
+    assert endpoint.runtime.running() == ("A",)
+    assert endpoint.node.incarnation == 2
+
+
+def test_the_state_dir_survives_damage(tmp_path: Path) -> None:
+    state = StateDir(tmp_path / "p")
+    (state.path / "incarnation").write_text("garbage")
+    assert state.next_incarnation() == 0, "a corrupt counter restarts from 0"
+    sha = state.save_script(SCRIPT)
+    (state.path / "scripts" / f"{sha}.xml").write_bytes(b"tampered")
+    assert state.script(sha) is None, "content that does not match its hash is not used"
+    assert state.running() is None
+    assert oct(state.path.stat().st_mode & 0o777) == "0o700"

@@ -1,0 +1,245 @@
+"""A real swarm on this machine: daemon processes over Zenoh on loopback, driven by the
+``gs`` commands as an operator would (each step bounded in time)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+SCRIPT = """<TaskScript name="three" version="1">
+  <_ActorsConfig>
+    <Actor><_P_Name>A</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
+    <Actor><_P_Name>B</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
+  </_ActorsConfig>
+  <_TaskConfig>
+    <actor name="A">
+      <transition name="go_event" barrierKey="1" sysNum="all" timeout="20">
+        <successor actor="B"/>
+      </transition>
+    </actor>
+  </_TaskConfig>
+  <_PlatformActorConfig><platform id="1-3" actor="A"/></_PlatformActorConfig>
+</TaskScript>
+"""
+
+
+def _free_ports(n: int) -> list[int]:
+    socks = [socket.socket() for _ in range(n)]
+    try:
+        for s in socks:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()
+
+
+class Swarm:
+    """Daemons on loopback, each listening on its own port and connecting to the earlier
+    ones; authenticated with keys made in ``tmp/keys``."""
+
+    def __init__(self, tmp: Path, size: int) -> None:
+        from actorswarm.security import init_keys
+
+        self.tmp = tmp
+        self.keys = tmp / "keys"
+        init_keys(self.keys)
+        self.swarm = f"t{os.getpid()}"
+        self.ports = _free_ports(size)
+        self.procs: dict[int, subprocess.Popen[bytes]] = {}
+        self.endpoints = [f"tcp/127.0.0.1:{p}" for p in self.ports]
+
+    def start(self, platform: int) -> None:
+        args = [
+            sys.executable, "-m", "actorswarm", "daemon", "--platform", str(platform),
+            "--swarm", self.swarm, "--keys", str(self.keys), "--no-multicast",
+            "--listen", self.endpoints[platform - 1],
+            "--state-dir", str(self.tmp / f"state-{platform}"),
+        ]  # fmt: skip
+        for other in self.endpoints[: platform - 1]:
+            args += ["--connect", other]
+        log = (self.tmp / f"daemon-{platform}.log").open("ab")
+        self.procs[platform] = subprocess.Popen(args, stdout=log, stderr=log)
+
+    def stop(self, platform: int, sig: int = signal.SIGTERM) -> int:
+        proc = self.procs.pop(platform)
+        proc.send_signal(sig)
+        return proc.wait(timeout=10)
+
+    def gs(self, *args: str, timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
+        cmd = [sys.executable, "-m", "actorswarm", "gs", *args, "--swarm", self.swarm,
+               "--no-multicast", "--keys", str(self.keys)]  # fmt: skip
+        for endpoint in self.endpoints:
+            cmd += ["--connect", endpoint]
+        return subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=timeout)
+
+    def status(self, platform: int) -> dict[str, object]:
+        path = self.tmp / f"state-{platform}" / "status.json"
+        return dict(json.loads(path.read_text())) if path.exists() else {}
+
+    def wait(
+        self,
+        what: str,
+        condition: object,
+        timeout: float = 15.0,
+        detail: Callable[[], str] | None = None,
+    ) -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if callable(condition) and condition():
+                return
+            time.sleep(0.2)
+        logs = "\n".join(p.read_text()[-1500:] for p in sorted(self.tmp.glob("daemon-*.log")))
+        more = "" if detail is None else f" ({detail()})"
+        raise AssertionError(f"timed out waiting for {what}{more}\n{logs}")
+
+    def close(self) -> None:
+        for platform in list(self.procs):
+            proc = self.procs.pop(platform)
+            proc.kill()
+            proc.wait(timeout=10)
+
+
+@pytest.fixture
+def swarm(tmp_path: Path) -> Iterator[Swarm]:
+    s = Swarm(tmp_path, 3)
+    try:
+        yield s
+    finally:
+        s.close()
+
+
+def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
+    swarm: Swarm, tmp_path: Path
+) -> None:
+    for p in (1, 2, 3):
+        swarm.start(p)
+    swarm.wait(
+        "three daemons that agree on a master",
+        lambda: all(swarm.status(p).get("master") == 1 for p in (1, 2, 3)),
+    )
+    script = tmp_path / "three.xml"
+    script.write_text(SCRIPT)
+    state = ["--state", str(tmp_path / "gs.json")]
+    deployed = swarm.gs("deploy", str(script), "--expect", "3", *state)
+    assert deployed.returncode == 0, deployed.stderr
+    assert "confirmed by 3 of 3: [1, 2, 3]" in deployed.stdout
+    started = swarm.gs("start", *state)
+    assert started.returncode == 0, started.stderr
+    assert "started on 3 of 3" in started.stdout
+    fired = swarm.gs("event", "go_event")
+    assert fired.returncode == 0, fired.stdout + fired.stderr
+    assert fired.stdout.count("event go_event delivered") == 3
+    swarm.wait(
+        "every platform in B",
+        lambda: all(swarm.status(p).get("actors") == ["B"] for p in (1, 2, 3)),
+    )
+    status = swarm.gs("status", "--json")
+    assert status.returncode == 0, status.stderr
+    platforms = json.loads(status.stdout)["platforms"]
+    assert set(platforms) == {"1", "2", "3"}
+    assert {p: row["actors"] for p, row in platforms.items()} == {p: ["B"] for p in "123"}
+    assert [p for p, row in platforms.items() if row["master"]] == ["1"]
+    assert {row["incarnation"] for row in platforms.values()} == {0}
+
+    # A daemon stopped cleanly and started again from its state directory comes back in a
+    # new incarnation, in the script it ran.
+    assert swarm.stop(3) == 0
+    swarm.start(3)
+    swarm.wait(
+        "platform 3 back in incarnation 1 with the script",
+        lambda: swarm.status(3).get("incarnation") == 1 and swarm.status(3).get("actors"),
+    )
+    assert swarm.status(3)["script"] == json.loads((tmp_path / "gs.json").read_text())["sha256"]
+
+
+def test_start_is_refused_until_every_expected_platform_confirmed(
+    swarm: Swarm, tmp_path: Path
+) -> None:
+    swarm.start(1)
+    swarm.wait("platform 1 up", lambda: swarm.status(1).get("master") == 1)
+    script = tmp_path / "three.xml"
+    script.write_text(SCRIPT)
+    state = ["--state", str(tmp_path / "gs.json")]
+    deployed = swarm.gs("deploy", str(script), "--expect", "1-2", "--timeout", "2", *state)
+    assert deployed.returncode == 1
+    assert "confirmed by 1 of 2: [1]" in deployed.stdout
+    assert "not confirmed by: [2]" in deployed.stderr
+    refused = swarm.gs("start", "--timeout", "2", *state)
+    assert refused.returncode == 1 and "2" in refused.stderr
+
+
+def test_forged_wrongly_keyed_replayed_and_random_packets_are_rejected_and_counted(
+    swarm: Swarm, tmp_path: Path
+) -> None:
+    """A process on the network that is not the swarm: it records a genuine heartbeat and
+    replays it, sends packets sealed with another swarm's key, an operator command without
+    the ground station's signature, truncated and random bytes. Every daemon refuses and
+    counts them, and keeps running."""
+    from actorswarm.core.wire import GROUND_STATION, Heartbeat, encode
+    from actorswarm.security import PacketGuard, init_keys, load_keys
+    from actorswarm.transport import ZenohSettings, ZenohTransport
+
+    for p in (1, 2):
+        swarm.start(p)
+    swarm.wait("two daemons joined", lambda: swarm.status(2).get("master") == 1)
+    captured: list[bytes] = []
+    settings = ZenohSettings(connect=tuple(swarm.endpoints[:2]), multicast=False)
+    with ZenohTransport(swarm.swarm, 9, captured.append, settings) as intruder:
+        swarm.wait("a packet heard", lambda: len(captured) > 5)
+        init_keys(tmp_path / "other")
+        other = PacketGuard.from_keys(load_keys(tmp_path / "other"))
+        heartbeat = encode(
+            swarm=swarm.swarm, sender=9, incarnation=0, seq=1,
+            body=Heartbeat(is_master=True, epoch=99, master=9),
+        )  # fmt: skip
+        mine = PacketGuard.from_keys(load_keys(swarm.keys))  # a captured robot's key
+        operator = encode(
+            swarm=swarm.swarm, sender=GROUND_STATION, incarnation=1, seq=1,
+            body=Heartbeat(is_master=False, epoch=0, master=0),
+        )  # fmt: skip
+        sends = {
+            "replay": [captured[0]] * 3,
+            "bad_tag": [other.seal(heartbeat)],
+            "unauthenticated": [heartbeat],
+            "unsigned_operator": [mine.seal(operator)],
+            "malformed": [captured[1][:9], b"\x00" * 40, os.urandom(200)],
+        }
+        for packets in sends.values():
+            for data in packets:
+                intruder.send(None, data)
+        expected = {reason: len(packets) for reason, packets in sends.items()}
+        # The recorded packet is one daemon's own: that daemon never checked it before, so
+        # its first copy passes the guard (and the core drops it as its own); the other two
+        # are replays there. The other daemon had heard the original: all three are replays.
+        expected["replay"] = 2
+
+        def counted() -> bool:
+            return all(
+                all(swarm.status(p).get("rejected", {}).get(r, 0) >= n for r, n in expected.items())
+                for p in (1, 2)
+            )
+
+        swarm.wait(
+            "every bad packet counted by both daemons",
+            counted,
+            detail=lambda: (
+                f"expected {expected}, counted {[swarm.status(p).get('rejected') for p in (1, 2)]}"
+            ),
+        )
+    for p in (1, 2):
+        status = swarm.status(p)
+        assert status["secure"] is True
+        assert status["master"] == 1, "the intruder's forged heartbeat claimed nothing"
+        assert swarm.procs[p].poll() is None, "still running"
