@@ -10,20 +10,8 @@ from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint
 from actorswarm.daemon.state import StateDir
 from actorswarm.ground.station import GroundStation
 
-SCRIPT = b"""<TaskScript name="two" version="1">
-  <_ActorsConfig>
-    <Actor><_P_Name>A</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
-      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
-    <Actor><_P_Name>B</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
-      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
-  </_ActorsConfig>
-  <_TaskConfig>
-    <actor name="A">
-      <transition name="go" barrierKey="1" sysNum="all"><successor actor="B"/></transition>
-    </actor>
-  </_TaskConfig>
-  <_PlatformActorConfig><platform id="1-3" actor="A"/></_PlatformActorConfig>
-</TaskScript>"""
+#: Three platforms start in A and switch to B together on go_event.
+SCRIPT = Path(__file__).with_name("three.xml").read_bytes()
 
 
 class Net:
@@ -84,7 +72,7 @@ def test_platform_endpoints_deploy_start_and_switch_together(tmp_path: Path) -> 
     assert {p: e.runtime.running() for p, e in platforms.items()} == dict.fromkeys(
         (1, 2, 3), ("A",)
     )
-    station.event("go", net.now, platforms=[1, 2, 3])
+    station.event("go_event", net.now, platforms=[1, 2, 3])
     net.run(net.now + 0.5)
     assert {p: e.runtime.running() for p, e in platforms.items()} == dict.fromkeys(
         (1, 2, 3), ("B",)

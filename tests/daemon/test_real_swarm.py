@@ -15,23 +15,7 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = """<TaskScript name="three" version="1">
-  <_ActorsConfig>
-    <Actor><_P_Name>A</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
-      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
-    <Actor><_P_Name>B</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
-      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
-  </_ActorsConfig>
-  <_TaskConfig>
-    <actor name="A">
-      <transition name="go_event" barrierKey="1" sysNum="all" timeout="20">
-        <successor actor="B"/>
-      </transition>
-    </actor>
-  </_TaskConfig>
-  <_PlatformActorConfig><platform id="1-3" actor="A"/></_PlatformActorConfig>
-</TaskScript>
-"""
+SCRIPT = Path(__file__).with_name("three.xml")
 
 
 def _free_ports(n: int) -> list[int]:
@@ -129,8 +113,7 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
         "three daemons that agree on a master",
         lambda: all(swarm.status(p).get("master") == 1 for p in (1, 2, 3)),
     )
-    script = tmp_path / "three.xml"
-    script.write_text(SCRIPT)
+    script = SCRIPT
     state = ["--state", str(tmp_path / "gs.json")]
     deployed = swarm.gs("deploy", str(script), "--expect", "3", *state)
     assert deployed.returncode == 0, deployed.stderr
@@ -169,8 +152,7 @@ def test_start_is_refused_until_every_expected_platform_confirmed(
 ) -> None:
     swarm.start(1)
     swarm.wait("platform 1 up", lambda: swarm.status(1).get("master") == 1)
-    script = tmp_path / "three.xml"
-    script.write_text(SCRIPT)
+    script = SCRIPT
     state = ["--state", str(tmp_path / "gs.json")]
     deployed = swarm.gs("deploy", str(script), "--expect", "1-2", "--timeout", "2", *state)
     assert deployed.returncode == 1

@@ -23,6 +23,7 @@ from rich.table import Table
 from actorswarm.missions import Mission
 from actorswarm.sim.mission import prepare, run_slices
 from actorswarm.sim.record import read_record, write_record
+from actorswarm.sim.tasksim import steps
 from actorswarm.viz import timeline_png, trajectory_png
 
 __all__ = ["describe_steps", "run_demo"]
@@ -30,21 +31,12 @@ __all__ = ["describe_steps", "run_demo"]
 
 def describe_steps(records: list[dict[str, Any]]) -> list[str]:
     """One line per group of transitions that moved together (same event, from and to)."""
-    groups: dict[tuple[str, str, str, str], list[dict[str, Any]]] = {}
-    for r in records:
-        if r["cause"] == "start":
-            continue
-        groups.setdefault(
-            (r["event"] or "", r["from"] or "-", r["to"] or "-", r["cause"]), []
-        ).append(r)
     lines = []
-    for (event, src, dst, cause), rows in sorted(groups.items(), key=lambda kv: kv[1][0]["t"]):
-        first = min(r["t"] for r in rows)
-        spread = (max(r["t"] for r in rows) - first) * 1000.0
+    for first, last, event, src, dst, cause, who in steps(records):
         on = f" on {event}" if event else ""
         lines.append(
-            f"{first:7.1f} s  {len(rows):3d} × {src} → {dst} ({cause}{on}), "
-            f"switched within {spread:.0f} ms"
+            f"{first:7.1f} s  {len(who):3d} × {src or '-'} → {dst or '-'} ({cause}{on}), "
+            f"switched within {(last - first) * 1000.0:.0f} ms"
         )
     return lines
 

@@ -60,7 +60,7 @@ async def serve(
         while not stop.is_set():
             t = now()
             endpoint.tick(t)
-            _flush(endpoint, transport, guard)
+            flush(endpoint, transport, guard)
             if on_wake is not None:
                 on_wake(t)
             deadline = endpoint.next_deadline()
@@ -75,7 +75,7 @@ async def serve(
                 # Whatever else arrived meanwhile, in one go.
                 while not inbox.empty():
                     _receive(endpoint, inbox.get_nowait(), t, guard)
-                _flush(endpoint, transport, guard)
+                flush(endpoint, transport, guard)
             else:
                 getting.cancel()
     finally:
@@ -96,6 +96,3 @@ def flush(endpoint: Endpoint, transport: Transport, guard: PacketGuard | None = 
     for out in endpoint.drain_outgoing():
         data = out.data if guard is None else guard.seal(out.data)
         transport.send(out.dst, data, urgent=out.channel == URGENT)
-
-
-_flush = flush

@@ -43,6 +43,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
+from actorswarm.plugins.snapshot import read_flag, read_point
 from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
@@ -82,27 +83,6 @@ def _distance(a: Sequence[float], b: Sequence[float]) -> float:
 def _speed(vehicle: Vehicle) -> float:
     vx, vy, vz = vehicle.velocity()
     return math.sqrt(vx * vx + vy * vy + vz * vz)
-
-
-def _read_point(name: str, what: str, value: object) -> Point:
-    """``value`` (a snapshot's ``[x, y, z]``) as a point, or ValueError naming ``what``."""
-    if (
-        isinstance(value, list | tuple)
-        and len(value) == 3
-        and all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value
-        )
-    ):
-        return (float(value[0]), float(value[1]), float(value[2]))
-    raise ValueError(f"{name}: a snapshot's {what!r} must be [x, y, z] (numbers), not {value!r}")
-
-
-def _read_flag(name: str, state: Mapping[str, Any], key: str) -> bool:
-    value = state.get(key)
-    if not isinstance(value, bool):
-        raise ValueError(f"{name}: a snapshot's {key!r} must be true or false, not {value!r}")
-    return value
 
 
 class TakeOff(Plugin):
@@ -181,7 +161,7 @@ class TakeOff(Plugin):
         return {"fired": self._fired}
 
     def restore(self, state: Mapping[str, Any]) -> None:
-        self._fired = _read_flag("flight.takeoff", state, "fired")
+        self._fired = read_flag("flight.takeoff", state, "fired")
 
 
 class GoTo(Plugin):
@@ -256,7 +236,7 @@ class GoTo(Plugin):
                 'flight.goto: no point to fly to; give <param target "x y z"> in the script '
                 "or TargetPoint on the transition that switches the actor in"
             )
-        return _read_point("flight.goto", "target", point)
+        return read_point("flight.goto", "target", point)
 
     def on_start(self, ctx: PluginContext) -> None:
         self._target = self.resolve_target(ctx.params)
@@ -285,8 +265,8 @@ class GoTo(Plugin):
         }
 
     def restore(self, state: Mapping[str, Any]) -> None:
-        self._target = _read_point("flight.goto", "target", state.get("target"))
-        self._fired = _read_flag("flight.goto", state, "fired")
+        self._target = read_point("flight.goto", "target", state.get("target"))
+        self._fired = read_flag("flight.goto", state, "fired")
 
     def _command(self, ctx: PluginContext) -> None:
         if self._target is None:
@@ -379,7 +359,7 @@ class ReturnHome(Plugin):
         vehicle = ctx.require_vehicle()
         given = ctx.params["home"]
         if given is not None:
-            self._home = _read_point("flight.return_home", "home", given)
+            self._home = read_point("flight.return_home", "home", given)
         else:
             # The vehicle's own home when it knows it (the simulated world's vehicles and
             # autopilots with a home point do), else where it was when this plugin started.
@@ -420,7 +400,7 @@ class ReturnHome(Plugin):
                 f"flight.return_home: a snapshot's 'phase' must be one of "
                 f"{', '.join(self._PHASES)}, not {phase!r}"
             )
-        self._home = _read_point("flight.return_home", "home", state.get("home"))
+        self._home = read_point("flight.return_home", "home", state.get("home"))
         self._phase = str(phase)
 
     def _over_home(self, ctx: PluginContext) -> Point:

@@ -74,6 +74,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Final
 import numpy as np
 from numpy.typing import NDArray
 
+from actorswarm.plugins.snapshot import finite
 from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
@@ -256,7 +257,7 @@ def slots(shape: str, n: int, spacing: float) -> FloatArray:
         raise ValueError(f"unknown formation shape {shape!r}; the shapes are {', '.join(SHAPES)}")
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"a formation needs n ≥ 1 slots, not {n!r}")
-    if not (_finite(spacing) and spacing > 0):
+    if not (finite(spacing) and spacing > 0):
         raise ValueError(f"spacing must be a positive number of metres, not {spacing!r}")
     return build(n, float(spacing))
 
@@ -270,10 +271,6 @@ def to_world(offsets: FloatArray, leader_xy: Sequence[float], heading_rad: float
     points = np.asarray(offsets, dtype=np.float64)
     out: FloatArray = points @ rotation.T + np.asarray(leader_xy[:2], dtype=np.float64)
     return out
-
-
-def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 class VirtualLeader:
@@ -295,16 +292,16 @@ class VirtualLeader:
     ) -> None:
         points: list[Point] = []
         for i, p in enumerate(route):
-            if len(p) != 3 or not all(_finite(v) for v in p):
+            if len(p) != 3 or not all(finite(v) for v in p):
                 raise ValueError(f"route point {i + 1} must be three finite numbers, not {p!r}")
             point = (float(p[0]), float(p[1]), float(p[2]))
             if not points or point != points[-1]:
                 points.append(point)
         if not points:
             raise ValueError("a route needs at least one point")
-        if not (_finite(speed) and speed > 0):
+        if not (finite(speed) and speed > 0):
             raise ValueError(f"speed must be a positive number (m/s), not {speed!r}")
-        if not _finite(start_time):
+        if not finite(start_time):
             raise ValueError(f"start_time must be a finite number of seconds, not {start_time!r}")
         if loop and len(points) > 1 and points[0] != points[-1]:
             points.append(points[0])
@@ -657,7 +654,7 @@ class Formation(Plugin):
 
     def restore(self, state: Mapping[str, Any]) -> None:
         start = state.get("start")
-        if not _finite(start):
+        if not finite(start):
             raise ValueError(
                 f"{self.entry_name()}: a snapshot's 'start' must be a number of seconds, "
                 f"not {start!r}"

@@ -45,6 +45,7 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
+from actorswarm.plugins.snapshot import finite, read_point
 from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 from actorswarm.suggest import did_you_mean
@@ -64,10 +65,6 @@ LANE_PER_ALTITUDE: Final = 1.6
 
 _NUMBER: Final = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NAME: Final = "search.area"
-
-
-def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _rectangle(text: str) -> tuple[float, float, float, float] | None:
@@ -112,7 +109,7 @@ def parse_area(text: str, areas: Mapping[str, Polygon]) -> list[tuple[float, flo
 def _polygon(name: str, polygon: Iterable[Sequence[float]]) -> list[tuple[float, float]]:
     out: list[tuple[float, float]] = []
     for vertex in polygon:
-        if len(vertex) != 2 or not all(_finite(v) for v in vertex):
+        if len(vertex) != 2 or not all(finite(v) for v in vertex):
             raise ValueError(f"{_NAME}: area {name!r} has a vertex {vertex!r}; give (x, y) pairs")
         out.append((float(vertex[0]), float(vertex[1])))
     if len(out) < 3:
@@ -163,9 +160,9 @@ def lanes(polygon: Polygon, strip: int, strips: int, lane: float, altitude: floa
     lane flown north, lanes at most ``lane`` metres apart, every point of the polygon in
     the strip within ``lane / 2`` of a lane. Empty when the polygon does not reach into
     the strip. ValueError for a bad strip, ``lane`` or ``altitude``."""
-    if not (_finite(lane) and lane > 0):
+    if not (finite(lane) and lane > 0):
         raise ValueError(f"lane must be a positive number of metres, not {lane!r}")
-    if not _finite(altitude):
+    if not finite(altitude):
         raise ValueError(f"altitude must be a finite number of metres, not {altitude!r}")
     west, east = strip_bounds(polygon, strip, strips)
     count = max(1, math.ceil((east - west) / lane - 1e-9))
@@ -195,14 +192,7 @@ def _read_route(state: Mapping[str, Any]) -> list[Point]:
             f"{_NAME}: a snapshot's 'waypoints' must be a non-empty list of [x, y, z], "
             f"not {value!r}"
         )
-    route: list[Point] = []
-    for point in value:
-        if not (isinstance(point, list | tuple) and len(point) == 3 and all(map(_finite, point))):
-            raise ValueError(
-                f"{_NAME}: a snapshot's waypoint {point!r} is not [x, y, z] (finite numbers)"
-            )
-        route.append((float(point[0]), float(point[1]), float(point[2])))
-    return route
+    return [read_point(_NAME, "waypoints", point) for point in value]
 
 
 class AreaSearch(Plugin):

@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Final
 
 from actorswarm.plugins.formation import RECOMMAND_DISTANCE
 from actorswarm.plugins.search import LANE_PER_ALTITUDE, lanes, parse_area
+from actorswarm.plugins.snapshot import finite, read_flag, read_point
 from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
 from actorswarm.runtime.context import CollectiveUnavailable
 from actorswarm.runtime.plugin import Param, Plugin, Point
@@ -73,10 +74,6 @@ _MIN_SPEED: Final = 1.0
 def track_role(name: str) -> str:
     """The collective role a platform holds while it is the tracker of target ``name``."""
     return f"track:{name}"
-
-
-def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _filter_params() -> dict[str, Param]:
@@ -107,17 +104,10 @@ def _xyz(value: object) -> Point | None:
     if not isinstance(value, Mapping):
         return None
     x, y, z = value.get("x"), value.get("y"), value.get("z", 0.0)
-    if not (_finite(x) and _finite(y) and _finite(z)):
+    if not (finite(x) and finite(y) and finite(z)):
         return None
     assert isinstance(x, int | float) and isinstance(y, int | float) and isinstance(z, int | float)
     return (float(x), float(y), float(z))
-
-
-def _read_flag(name: str, state: Mapping[str, Any], key: str) -> bool:
-    value = state.get(key)
-    if not isinstance(value, bool):
-        raise ValueError(f"{name}: a snapshot's {key!r} must be true or false, not {value!r}")
-    return value
 
 
 class DetectTarget(Plugin):
@@ -322,7 +312,7 @@ class DetectTarget(Plugin):
         return {"fired": self._fired}
 
     def restore(self, state: Mapping[str, Any]) -> None:
-        self._fired = _read_flag("detect.target", state, "fired")
+        self._fired = read_flag("detect.target", state, "fired")
 
 
 class TrackTarget(Plugin):
@@ -484,19 +474,13 @@ class TrackTarget(Plugin):
 
     def restore(self, state: Mapping[str, Any]) -> None:
         last, seen_at = state.get("last"), state.get("seen_at")
-        if last is not None and not (
-            isinstance(last, list | tuple) and len(last) == 3 and all(map(_finite, last))
-        ):
-            raise ValueError(
-                f"track.target: a snapshot's 'last' must be [x, y, z] (numbers) or null, "
-                f"not {last!r}"
-            )
-        if seen_at is not None and not _finite(seen_at):
+        point = None if last is None else read_point("track.target", "last", last)
+        if seen_at is not None and not finite(seen_at):
             raise ValueError(
                 f"track.target: a snapshot's 'seen_at' must be a time or null, not {seen_at!r}"
             )
-        self._lost = _read_flag("track.target", state, "lost")
-        self._last = None if last is None else (float(last[0]), float(last[1]), float(last[2]))
+        self._lost = read_flag("track.target", state, "lost")
+        self._last = point
         self._seen_at = None if seen_at is None else float(seen_at)
 
     # --- where the target is ------------------------------------------------------------------
@@ -529,7 +513,7 @@ class TrackTarget(Plugin):
             ctx.params["kind"] is not None and kind != ctx.params["kind"]
         ):
             return
-        if _finite(t):
+        if finite(t):
             assert isinstance(t, int | float)
             if self._seen_at is not None and t <= self._seen_at:
                 return

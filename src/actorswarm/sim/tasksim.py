@@ -412,26 +412,36 @@ def parse_fault(kind: str, text: str) -> Fault:
     return Fault(kind, _time(when, flag), _ids(ids, flag))
 
 
+Step = tuple[float, float, str, str, str, str, list[int]]
+
+
+def steps(transitions: Iterable[dict[str, Any]]) -> list[Step]:
+    """Transitions (report entries, time order) grouped into the steps of the task:
+    ``(first t, last t, event, from, to, cause, platforms)`` for each same move on the same
+    event within a second (one release may reach some platforms a retransmission later
+    than others). Starts are left out."""
+    out: list[Step] = []
+    for t in transitions:
+        if t["cause"] == "start":
+            continue
+        for i, (first, _, event, src, dst, cause, who) in enumerate(out):
+            same = (event, src, dst, cause) == (t["event"], t["from"], t["to"], t["cause"])
+            if same and t["t"] - first <= 1.0:
+                out[i] = (first, t["t"], event, src, dst, cause, [*who, t["platform"]])
+                break
+        else:
+            out.append(
+                (t["t"], t["t"], t["event"], t["from"], t["to"], t["cause"], [t["platform"]])
+            )
+    return out
+
+
 def summary(report: dict[str, Any]) -> list[str]:
     """A few human-readable lines about a run's report."""
     lines = [
         f"simulated {report['sim_time_s']:.1f} s; completed: {report['completed']}",
     ]
-    switches = [t for t in report["transitions"] if t["cause"] != "start"]
-    # One line per step: the same move for the same event within a second (one release may
-    # reach some platforms a retransmission later than others).
-    steps: list[tuple[float, float, str, str, str, str, list[int]]] = []
-    for t in switches:
-        for i, (first, _, event, src, dst, cause, who) in enumerate(steps):
-            same = (event, src, dst, cause) == (t["event"], t["from"], t["to"], t["cause"])
-            if same and t["t"] - first <= 1.0:
-                steps[i] = (first, t["t"], event, src, dst, cause, [*who, t["platform"]])
-                break
-        else:
-            steps.append(
-                (t["t"], t["t"], t["event"], t["from"], t["to"], t["cause"], [t["platform"]])
-            )
-    for first, last, event, src, dst, cause, who in steps:
+    for first, last, event, src, dst, cause, who in steps(report["transitions"]):
         spread = f" (+{(last - first) * 1000:.0f} ms)" if last > first else ""
         on = f" on {event}" if event else ""
         lines.append(
