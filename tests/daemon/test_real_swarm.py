@@ -5,115 +5,24 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import socket
-import subprocess
-import sys
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from actorswarm.daemon.launch import LocalSwarm
+
 SCRIPT = Path(__file__).with_name("three.xml")
 
 
-def _free_ports(n: int) -> list[int]:
-    socks = [socket.socket() for _ in range(n)]
-    try:
-        for s in socks:
-            s.bind(("127.0.0.1", 0))
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
-
-
-class Swarm:
-    """Daemons on loopback, each listening on its own port and connecting to the earlier
-    ones; authenticated with keys made in ``tmp/keys``."""
-
-    def __init__(self, tmp: Path, size: int) -> None:
-        from actorswarm.security import init_keys
-
-        self.tmp = tmp
-        self.keys = tmp / "keys"
-        init_keys(self.keys)
-        self.swarm = f"t{os.getpid()}"
-        self.ports = _free_ports(size)
-        self.procs: dict[int, subprocess.Popen[bytes]] = {}
-        self.endpoints = [f"tcp/127.0.0.1:{p}" for p in self.ports]
-
-    def start(self, platform: int) -> None:
-        args = [
-            sys.executable, "-m", "actorswarm", "daemon", "--platform", str(platform),
-            "--swarm", self.swarm, "--keys", str(self.keys), "--no-multicast",
-            "--listen", self.endpoints[platform - 1],
-            "--state-dir", str(self.tmp / f"state-{platform}"),
-        ]  # fmt: skip
-        for other in self.endpoints[: platform - 1]:
-            args += ["--connect", other]
-        log = (self.tmp / f"daemon-{platform}.log").open("ab")
-        self.procs[platform] = subprocess.Popen(args, stdout=log, stderr=log)
-
-    def stop(self, platform: int, sig: int = signal.SIGTERM) -> int:
-        proc = self.procs.pop(platform)
-        proc.send_signal(sig)
-        return proc.wait(timeout=10)
-
-    def gs(self, *args: str, timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
-        cmd = [sys.executable, "-m", "actorswarm", "gs", *args, "--swarm", self.swarm,
-               "--no-multicast", "--keys", str(self.keys)]  # fmt: skip
-        for endpoint in self.endpoints:
-            cmd += ["--connect", endpoint]
-        return subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=timeout)
-
-    def status(self, platform: int) -> dict[str, object]:
-        path = self.tmp / f"state-{platform}" / "status.json"
-        return dict(json.loads(path.read_text())) if path.exists() else {}
-
-    def wait(
-        self,
-        what: str,
-        condition: object,
-        timeout: float = 15.0,
-        detail: Callable[[], str] | None = None,
-    ) -> None:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if callable(condition) and condition():
-                return
-            time.sleep(0.2)
-        logs = "\n".join(p.read_text()[-1500:] for p in sorted(self.tmp.glob("daemon-*.log")))
-        more = "" if detail is None else f" ({detail()})"
-        raise AssertionError(f"timed out waiting for {what}{more}\n{logs}")
-
-    def agreed_master(self, platforms: tuple[int, ...]) -> int | None:
-        """The master every one of ``platforms`` follows, when they all follow the same
-        one and it is one of them (None otherwise). Which one it is depends on who started
-        first: election is sticky, so a loaded machine may elect platform 2."""
-        masters = {self.status(p).get("master") for p in platforms}
-        master = masters.pop() if len(masters) == 1 else None
-        return master if isinstance(master, int) and master in platforms else None
-
-    def close(self) -> None:
-        for platform in list(self.procs):
-            proc = self.procs.pop(platform)
-            proc.kill()
-            proc.wait(timeout=10)
-
-
 @pytest.fixture
-def swarm(tmp_path: Path) -> Iterator[Swarm]:
-    s = Swarm(tmp_path, 3)
-    try:
+def swarm(tmp_path: Path) -> Iterator[LocalSwarm]:
+    with LocalSwarm(tmp_path, 3) as s:
         yield s
-    finally:
-        s.close()
 
 
 def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
-    swarm: Swarm, tmp_path: Path
+    swarm: LocalSwarm, tmp_path: Path
 ) -> None:
     for p in (1, 2, 3):
         swarm.start(p)
@@ -157,7 +66,7 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
 
 
 def test_start_is_refused_until_every_expected_platform_confirmed(
-    swarm: Swarm, tmp_path: Path
+    swarm: LocalSwarm, tmp_path: Path
 ) -> None:
     swarm.start(1)
     swarm.wait("platform 1 up", lambda: swarm.status(1).get("master") == 1)
@@ -172,7 +81,7 @@ def test_start_is_refused_until_every_expected_platform_confirmed(
 
 
 def test_forged_wrongly_keyed_replayed_and_random_packets_are_rejected_and_counted(
-    swarm: Swarm, tmp_path: Path
+    swarm: LocalSwarm, tmp_path: Path
 ) -> None:
     """A process on the network that is not the swarm: it records a genuine heartbeat and
     replays it, sends packets sealed with another swarm's key, an operator command without

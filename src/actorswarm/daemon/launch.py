@@ -1,0 +1,195 @@
+"""A real swarm on one machine: daemon processes on loopback, for tests and benchmarks.
+
+:class:`LocalSwarm` starts ``actorswarm daemon`` processes, each listening on its own
+Zenoh endpoint and connecting to the others (no multicast, so it works where multicast is
+filtered), authenticated with keys it creates; it runs the ``gs`` commands against them and
+reads each daemon's ``status.json``. Everything lives in one directory (keys, state
+directories, one log per daemon), which is what to look at when something fails: the
+error of :meth:`LocalSwarm.wait` ends with the tail of every log.
+
+``wrap(platform)`` may prefix a daemon's command (``ip netns exec ns3``) and ``endpoints``
+may give other addresses than loopback, which is how the network-namespace tests put
+daemons behind emulated radio links.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+__all__ = ["LocalSwarm", "free_ports"]
+
+
+def free_ports(n: int) -> list[int]:
+    """``n`` TCP ports on 127.0.0.1 that were free a moment ago."""
+    socks = [socket.socket() for _ in range(n)]
+    try:
+        for s in socks:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()
+
+
+class LocalSwarm:
+    """Platforms ``1..size`` as daemon processes, files under ``directory``.
+
+    ``connect_all``: each daemon connects to every earlier one (a full mesh, the default)
+    instead of to platform 1 only. ``extra`` arguments go to every daemon (``--vehicle
+    sim``, ``--config FILE``). Use it as a context manager: leaving kills what still runs.
+    """
+
+    def __init__(
+        self,
+        directory: Path,
+        size: int,
+        *,
+        swarm: str | None = None,
+        secure: bool = True,
+        endpoints: Sequence[str] | None = None,
+        wrap: Callable[[int], Sequence[str]] | None = None,
+        extra: Sequence[str] = (),
+    ) -> None:
+        self.dir = Path(directory)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.size = size
+        self.swarm = swarm or f"local{os.getpid()}"
+        self.secure = secure
+        self.keys = self.dir / "keys"
+        if secure and not (self.keys / "swarm.key").exists():
+            from actorswarm.security import init_keys
+
+            init_keys(self.keys)
+        if endpoints is None:
+            endpoints = [f"tcp/127.0.0.1:{p}" for p in free_ports(size)]
+        if len(endpoints) != size:
+            raise ValueError(f"{len(endpoints)} endpoints for {size} platforms")
+        self.endpoints = list(endpoints)
+        self.wrap = wrap
+        self.extra = list(extra)
+        self.procs: dict[int, subprocess.Popen[bytes]] = {}
+
+    def __enter__(self) -> LocalSwarm:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        value: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # --- processes ----------------------------------------------------------------------
+
+    def _security(self) -> list[str]:
+        return ["--keys", str(self.keys)] if self.secure else ["--insecure"]
+
+    def state_dir(self, platform: int) -> Path:
+        return self.dir / f"state-{platform}"
+
+    def log(self, platform: int) -> Path:
+        return self.dir / f"daemon-{platform}.log"
+
+    def start(self, platform: int, *extra: str) -> subprocess.Popen[bytes]:
+        """Start platform ``platform`` (again, after a stop: from its state directory)."""
+        if platform in self.procs:
+            raise RuntimeError(f"platform {platform} is already running")
+        args = [
+            sys.executable, "-m", "actorswarm", "daemon", "--platform", str(platform),
+            "--swarm", self.swarm, "--no-multicast", *self._security(),
+            "--listen", self.endpoints[platform - 1],
+            "--state-dir", str(self.state_dir(platform)), *self.extra, *extra,
+        ]  # fmt: skip
+        for other in self.endpoints[: platform - 1]:
+            args += ["--connect", other]
+        prefix = list(self.wrap(platform)) if self.wrap is not None else []
+        with self.log(platform).open("ab") as log:
+            proc = subprocess.Popen([*prefix, *args], stdout=log, stderr=log)
+        self.procs[platform] = proc
+        return proc
+
+    def start_all(self) -> None:
+        for platform in range(1, self.size + 1):
+            self.start(platform)
+
+    def stop(self, platform: int, sig: int = signal.SIGTERM) -> int:
+        """Send ``sig`` to the platform's daemon and wait for it; returns its exit status."""
+        proc = self.procs.pop(platform)
+        proc.send_signal(sig)
+        return proc.wait(timeout=15)
+
+    def kill(self, platform: int) -> None:
+        """``kill -9``: the daemon dies where it stands (no clean shutdown)."""
+        self.stop(platform, signal.SIGKILL)
+
+    def running(self) -> list[int]:
+        return sorted(p for p, proc in self.procs.items() if proc.poll() is None)
+
+    def close(self) -> None:
+        for platform in list(self.procs):
+            proc = self.procs.pop(platform)
+            proc.kill()
+            proc.wait(timeout=15)
+
+    # --- the operator's side ------------------------------------------------------------
+
+    def gs(self, *args: str, timeout: float = 60.0) -> subprocess.CompletedProcess[str]:
+        """Run ``actorswarm gs ARGS`` against this swarm (connected to every daemon)."""
+        cmd = [sys.executable, "-m", "actorswarm", "gs", *args, "--swarm", self.swarm,
+               "--no-multicast", *self._security()]  # fmt: skip
+        for endpoint in self.endpoints:
+            cmd += ["--connect", endpoint]
+        prefix = list(self.wrap(0)) if self.wrap is not None else []
+        return subprocess.run(
+            [*prefix, *cmd], check=False, capture_output=True, text=True, timeout=timeout
+        )
+
+    def status(self, platform: int) -> dict[str, Any]:
+        """The daemon's last ``status.json`` ({} before the first)."""
+        path = self.state_dir(platform) / "status.json"
+        try:
+            return dict(json.loads(path.read_text()))
+        except (OSError, ValueError):
+            return {}
+
+    def agreed_master(self, platforms: Sequence[int] | None = None) -> int | None:
+        """The master every one of ``platforms`` (default: the running ones) follows, when
+        they all follow the same one and it is one of them (None otherwise). Which one it
+        is depends on who started first: election is sticky."""
+        group = list(platforms) if platforms is not None else self.running()
+        masters = {self.status(p).get("master") for p in group}
+        master = masters.pop() if len(masters) == 1 else None
+        return master if isinstance(master, int) and master in group else None
+
+    def wait(
+        self,
+        what: str,
+        condition: Callable[[], bool],
+        timeout: float = 20.0,
+        detail: Callable[[], str] | None = None,
+    ) -> float:
+        """Wait until ``condition()``; returns the seconds it took. On timeout raises
+        AssertionError naming ``what`` with ``detail()`` and the tail of every log."""
+        start = time.monotonic()
+        end = start + timeout
+        while time.monotonic() < end:
+            if condition():
+                return time.monotonic() - start
+            time.sleep(0.1)
+        logs = "\n".join(
+            f"--- {p.name}\n{p.read_text(errors='replace')[-1200:]}"
+            for p in sorted(self.dir.glob("daemon-*.log"))
+        )
+        more = "" if detail is None else f" ({detail()})"
+        raise AssertionError(f"timed out after {timeout} s waiting for {what}{more}\n{logs}")
