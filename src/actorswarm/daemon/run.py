@@ -48,7 +48,9 @@ class DaemonOptions:
 
 
 def _log(event: str, **fields: Any) -> None:
-    log.info(json.dumps({"event": event, **fields}, default=str))
+    # ``t`` is the host's monotonic clock, the same clock as the transitions' times in
+    # status.json: lines of several daemons on one machine can be compared.
+    log.info(json.dumps({"t": round(clock(), 6), "event": event, **fields}, default=str))
 
 
 def _write_status(path: Path, endpoint: PlatformEndpoint, now: float, guard: PacketGuard) -> None:
@@ -134,7 +136,7 @@ async def _main(options: DaemonOptions) -> int:
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
         records = engine.transitions
         for r in records[int(last["transitions"] or 0) :]:
-            _log("transition", frm=r.src, to=r.dst, on=r.event, cause=r.cause)
+            _log("transition", at=r.t, frm=r.src, to=r.dst, on=r.event, cause=r.cause)
         last["transitions"] = len(records)
         if t - float(last["status"] or 0.0) >= 1.0:
             last["status"] = t
