@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test lint typecheck unit campaign bench clean
+.PHONY: setup sysdeps demo test lint typecheck unit campaign bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,7 +29,12 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-unit: $(STAMP)
+## The Debian packages only the tests need (chromium, nftables, iproute2): installed when
+## missing and root, otherwise named (the tests that need them skip). Fast when present.
+sysdeps:
+	bash scripts/system-deps.sh
+
+unit: $(STAMP) sysdeps
 	$(BIN)/python -m pytest -n 2 --durations=10
 
 ## Every check: linter, strict type checker, the whole test suite (with the seeded campaign).

@@ -102,3 +102,35 @@ def test_the_state_dir_survives_damage(tmp_path: Path) -> None:
     assert state.script(sha) is None, "content that does not match its hash is not used"
     assert state.running() is None
     assert oct(state.path.stat().st_mode & 0o777) == "0o700"
+
+
+def test_replay_windows_survive_a_restart_and_damage(tmp_path: Path) -> None:
+    """What a daemon accepted before a restart is still a replay after it."""
+    from actorswarm.core.wire import Heartbeat, encode
+    from actorswarm.security import PacketGuard, init_keys, load_keys
+
+    init_keys(tmp_path / "keys")
+    keys = load_keys(tmp_path / "keys")
+    sender = PacketGuard.from_keys(keys)
+    recorded = [
+        sender.seal(
+            encode(swarm="t", sender=2, incarnation=4, seq=seq, body=Heartbeat(False, 1, 1))
+        )
+        for seq in (1, 2, 3)
+    ]
+    before = PacketGuard.from_keys(keys)
+    assert all(before.check(data, 0.0) is not None for data in recorded)
+    state = StateDir(tmp_path / "p")
+    state.save_replay_windows(before.replay_snapshot())
+
+    after = PacketGuard.from_keys(keys)  # the restarted daemon
+    after.restore_replay(StateDir(tmp_path / "p").replay_windows(), 10.0)
+    assert [after.check(data, 10.0) for data in recorded] == [None, None, None]
+    assert after.rejected["replay"] == 3
+    fresh = encode(swarm="t", sender=2, incarnation=4, seq=4, body=Heartbeat(False, 1, 1))
+    assert after.check(sender.seal(fresh), 10.0) is not None, "new packets still pass"
+
+    (state.path / "replay.json").write_text('{"2": [4]}')
+    assert state.replay_windows() == {}, "a damaged file protects nothing, and starts"
+    (state.path / "replay.json").write_text("not json")
+    assert state.replay_windows() == {}

@@ -55,14 +55,58 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
     assert {row["incarnation"] for row in platforms.values()} == {0}
 
     # A daemon stopped cleanly and started again from its state directory comes back in a
-    # new incarnation, in the script it ran.
+    # new incarnation, in the script and the actor it ran.
     assert swarm.stop(3) == 0
     swarm.start(3)
     swarm.wait(
-        "platform 3 back in incarnation 1 with the script",
-        lambda: swarm.status(3).get("incarnation") == 1 and swarm.status(3).get("actors"),
+        "platform 3 back in incarnation 1, in B",
+        lambda: swarm.status(3).get("incarnation") == 1 and swarm.status(3).get("actors") == ["B"],
     )
     assert swarm.status(3)["script"] == json.loads((tmp_path / "gs.json").read_text())["sha256"]
+    assert swarm.events(3, "rejoined")[-1]["resumed"] is True
+    swarm.wait("platform 3 back in the swarm", lambda: swarm.agreed_master((1, 2, 3)) is not None)
+
+    # The operator's interventions, each answered per platform.
+    other = next(p for p in (1, 2, 3) if p != swarm.agreed_master((1, 2, 3)))
+    paused = swarm.gs("pause", "B", "--platforms", str(other))
+    assert paused.returncode == 0, paused.stdout + paused.stderr
+    assert paused.stdout.strip() == f"{other}: paused B"
+    swarm.wait(
+        "B paused",
+        lambda: swarm.status(other).get("loaded", {}).get("B") == "sleeping",
+        detail=lambda: str(swarm.status(other).get("loaded")),
+    )
+    assert swarm.status(other)["actors"] == []
+    assert swarm.gs("activate", "B", "--platforms", str(other)).returncode == 0
+    swarm.wait("B running again", lambda: swarm.status(other).get("actors") == ["B"])
+    forced = swarm.gs("force", "B", "--to", "A", "--param", "why=test")
+    assert forced.returncode == 0, forced.stdout + forced.stderr
+    assert sorted(forced.stdout.split("\n")[:3]) == [f"  {p}: B -> A" for p in (1, 2, 3)]
+    swarm.wait(
+        "every platform forced into A",
+        lambda: all(swarm.status(p).get("actors") == ["A"] for p in (1, 2, 3)),
+    )
+    refused = swarm.gs("pause", "B", "--platforms", str(other))
+    assert refused.returncode == 1 and f"{other}: FAILED: " in refused.stdout
+
+    # A backup, then kill -9: the restarted daemon resumes the actor it backed up.
+    backed_up = swarm.gs("backup")
+    assert backed_up.returncode == 0, backed_up.stdout + backed_up.stderr
+    assert backed_up.stdout.count("backup generation") == 3
+    swarm.kill(3)
+    swarm.start(3)
+    swarm.wait(
+        "platform 3 resumed in A from its backup",
+        lambda: swarm.status(3).get("incarnation") == 2 and swarm.status(3).get("actors") == ["A"],
+    )
+    assert swarm.events(3, "rejoined")[-1]["resumed"] is True
+    stopped = swarm.gs("stop", "A", "--platforms", str(other))
+    assert stopped.returncode == 0 and f"{other}: stopped A" in stopped.stdout
+    swarm.wait(
+        f"platform {other} without an actor",
+        lambda: swarm.status(other).get("actors") == [],
+        detail=lambda: str(swarm.status(other).get("loaded")),
+    )
 
 
 def test_start_is_refused_until_every_expected_platform_confirmed(

@@ -18,6 +18,15 @@ import typer
 from rich.console import Console
 
 from actorswarm import __version__
+from actorswarm.cli.web_cmd import (
+    DEFAULT_HOST,
+    DEFAULT_PORT,
+    HostOpt,
+    PortOpt,
+    ServeOpt,
+    SpeedOpt,
+    TokenOpt,
+)
 from actorswarm.dsl import DEFAULT_MAX_BYTES, TaskScript, check_file, to_dot, to_mermaid
 
 app = typer.Typer(
@@ -39,10 +48,16 @@ app.add_typer(task_app, name="task")
 def _register_real_swarm() -> None:
     """``daemon`` and ``gs``: imported here so the commands exist, their heavy imports
     (Zenoh) happen only when they run."""
-    from actorswarm.cli.gs import daemon, gs_app
+    from actorswarm.cli.daemon_cmd import daemon
+    from actorswarm.cli.gs import gs_app
+    from actorswarm.cli.gs_control import register
     from actorswarm.cli.keys import keys_app
 
     app.command("daemon")(daemon)
+    register(gs_app)
+    from actorswarm.cli.web_cmd import register as register_web
+
+    register_web(gs_app)
     app.add_typer(gs_app, name="gs")
     app.add_typer(keys_app, name="keys")
 
@@ -172,6 +187,81 @@ def bench_core(
         console.print(f"picture written to {plot}")
 
 
+@bench_app.command("daemons")
+def bench_daemons(
+    sizes: Annotated[
+        str | None, typer.Option(help="Comma-separated swarm sizes [default: 10,30].")
+    ] = None,
+    quick: Annotated[
+        bool,
+        typer.Option("--quick", help="Sizes 5,10, 2 failovers and 2 switches, 5 s CPU windows."),
+    ] = False,
+    failovers: Annotated[
+        int | None, typer.Option(min=0, help="Master kills per size [default: 10].")
+    ] = None,
+    switches: Annotated[
+        int | None, typer.Option(min=0, help="Collective switches per size [default: 10].")
+    ] = None,
+    window: Annotated[
+        float | None, typer.Option(min=0.5, help="CPU window, seconds [default: 20].")
+    ] = None,
+    directory: Annotated[
+        Path | None,
+        typer.Option(
+            "--dir", help="Keep the daemons' keys, state and logs here (default: a temp dir)."
+        ),
+    ] = None,
+    out: Annotated[Path | None, typer.Option(help="Write the Markdown report here.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write every run here.")] = None,
+) -> None:
+    """Real daemon processes on loopback: CPU and memory, master failover, collective
+    switch (DESIGN.md §8). Loads the machine: every daemon is a process on its cores."""
+    import signal
+    import tempfile
+
+    from actorswarm.bench.daemons import Settings, SizeResult, bench, markdown, to_json
+
+    size_list = _int_list(sizes or ("5,10" if quick else "10,30"), "--sizes", 2, 200)
+    settings = Settings(
+        window=window if window is not None else (5.0 if quick else 20.0),
+        failovers=failovers if failovers is not None else (2 if quick else 10),
+        switches=switches if switches is not None else (2 if quick else 10),
+    )
+    command = " ".join(["actorswarm bench daemons", *sys.argv[3:]])
+
+    def done(r: SizeResult) -> None:
+        problems = len(r.errors) + sum(1 for f in r.failover if f.error)
+        problems += sum(1 for w in r.switch if w.error)
+        console.print(
+            f"N={r.size}: done in {r.wall_s:.0f} s"
+            + (f", [red]{problems} problem(s)[/red]" if problems else "")
+        )
+
+    def terminated(signum: int, frame: object) -> None:
+        # Unwind like Ctrl-C, so the daemons started so far are killed on the way out.
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, terminated)
+    with tempfile.TemporaryDirectory(prefix="actorswarm-bench-") as scratch:
+        where = directory or Path(scratch)
+        with console.status("benchmarking real daemons") as status:
+            result = bench(
+                where, size_list, settings, command=command, progress=status.update, done=done
+            )
+    text = markdown(result)
+    typer.echo(text)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text)
+        console.print(f"written to {out}")
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(to_json(result), indent=2) + "\n")
+    failed = any(r.errors or any(f.error for f in r.failover) for r in result.sizes)
+    if failed or any(w.error for r in result.sizes for w in r.switch):
+        raise typer.Exit(1)
+
+
 @bench_app.command("switch")
 def bench_switch(
     plugins: Annotated[str, typer.Option(help="Comma-separated plugins per actor.")] = "1,5",
@@ -245,6 +335,11 @@ def sim(
         Path | None,
         typer.Option(help="Write trajectories and the actor timeline here (JSON Lines)."),
     ] = None,
+    serve: ServeOpt = False,
+    host: HostOpt = DEFAULT_HOST,
+    port: PortOpt = DEFAULT_PORT,
+    token: TokenOpt = None,
+    speed: SpeedOpt = 1.0,
 ) -> None:
     """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7)."""
     from actorswarm.core.config import CoreConfig
@@ -280,6 +375,20 @@ def sim(
             raise typer.Exit(2) from None
     try:
         run = TaskSim(script, seed=seed, link=link, config=CoreConfig(), world_config=world_config)
+        if serve:
+            from actorswarm.cli.web_cmd import serve_sim
+
+            serve_sim(
+                run,
+                file,
+                events=events,
+                faults=faults,
+                host=host,
+                port=port,
+                token=token,
+                speed=speed,
+            )
+            return
         if record is not None and run.world is not None:
             sample_world(run, 0.5)
         report = run.run(duration, events=events, faults=faults)
@@ -334,6 +443,11 @@ def demo(
         bool, typer.Option("--realtime", help="Pace the run to the wall clock.")
     ] = False,
     out: Annotated[Path, typer.Option(help="Directory for pictures and files.")] = Path("demo-out"),
+    serve: ServeOpt = False,
+    host: HostOpt = DEFAULT_HOST,
+    port: PortOpt = DEFAULT_PORT,
+    token: TokenOpt = None,
+    speed: SpeedOpt = 1.0,
 ) -> None:
     """The main job: a shipped mission in the simulator, with progress and pictures."""
     from actorswarm.cli.demo import run_demo
@@ -348,6 +462,21 @@ def demo(
     except (KeyError, ValueError) as exc:
         typer.echo(str(exc).strip('"'), err=True)
         raise typer.Exit(2) from None
+    if serve:
+        from actorswarm.cli.web_cmd import serve_mission
+
+        serve_mission(
+            chosen,
+            platforms=platforms,
+            seed=seed,
+            loss=loss,
+            kills=kills,
+            host=host,
+            port=port,
+            token=token,
+            speed=speed,
+        )
+        return
     report = run_demo(
         chosen,
         out=out,

@@ -1,117 +1,41 @@
-"""``actorswarm daemon`` and ``actorswarm gs ...``: a real swarm over Zenoh.
+"""``actorswarm gs ...``: the ground station over a real swarm (Zenoh).
 
-``daemon`` runs one platform (:mod:`actorswarm.daemon.run`). The ``gs`` commands each open
-a ground-station session (:class:`~actorswarm.daemon.ground.GroundSession`), act, wait for
-the swarm's answers and print them: ``deploy`` a script and wait for every expected
-platform to confirm its SHA-256, ``start`` it, inject an ``event``, read the swarm's
-``status``. ``deploy`` remembers what it deployed (in ``--state``, by default under the
-user's state directory) so a later ``start`` knows which script to start.
+Each command opens a ground-station session
+(:class:`~actorswarm.daemon.ground.GroundSession`), acts, waits for the swarm's answers
+and prints them: ``deploy`` a script and wait for every expected platform to confirm its
+SHA-256, ``start`` it, read the swarm's ``status``. ``deploy`` remembers what it deployed
+(in ``--state``, by default under the user's state directory) so a later ``start`` knows
+which script to start. The operator's interventions (``event``, ``force``, ``pause``...)
+are in :mod:`actorswarm.cli.gs_control`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import json
-import os
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import typer
 
 from actorswarm.cli.common import int_list_or_count
-from actorswarm.security.guard import PacketGuard
-from actorswarm.transport.zenoh_transport import ZenohSettings, key_prefix
-
-gs_app = typer.Typer(
-    help="The ground station over a real swarm: deploy, start, event, status.",
-    no_args_is_help=True,
+from actorswarm.cli.swarm_options import (
+    ConnectOpt,
+    InsecureOpt,
+    KeysOpt,
+    ListenOpt,
+    MulticastOpt,
+    SwarmOpt,
+    TimeoutOpt,
+    default_state_file,
+    link,
 )
 
-SwarmOpt = Annotated[str, typer.Option(help="The swarm's name (its Zenoh namespace).")]
-ConnectOpt = Annotated[
-    list[str] | None, typer.Option(help="Zenoh endpoint to connect to (repeatable).")
-]
-ListenOpt = Annotated[list[str] | None, typer.Option(help="Zenoh endpoint to listen on.")]
-MulticastOpt = Annotated[
-    bool, typer.Option("--multicast/--no-multicast", help="Multicast scouting of peers.")
-]
-TimeoutOpt = Annotated[float, typer.Option(min=0.1, help="Seconds to wait for the swarm.")]
-KeysOpt = Annotated[
-    Path | None,
-    typer.Option(help="The swarm's key directory (default: the user's; see `keys init`)."),
-]
-InsecureOpt = Annotated[
-    bool, typer.Option("--insecure", help="No packet authentication (trusted networks only).")
-]
-
-
-def _guard(keys: Path | None, insecure: bool, role: Literal["platform", "ground"]) -> PacketGuard:
-    """The packet guard for ``role``, or a clear error and exit 2 when the keys are not
-    usable."""
-    from actorswarm.security import KeyFileError, default_key_dir, load_keys
-
-    if insecure:
-        typer.echo("WARNING: --insecure: packets are not authenticated", err=True)
-        return PacketGuard.insecure()
-    directory = keys or default_key_dir()
-    try:
-        loaded = load_keys(directory, need_private=role == "ground")
-    except KeyFileError as exc:
-        typer.echo(
-            f"{exc}\ncreate keys with `actorswarm keys init --dir {directory}` and copy "
-            "swarm.key and ground_station.pub to every platform, or run with --insecure",
-            err=True,
-        )
-        raise typer.Exit(2) from None
-    return PacketGuard.from_keys(loaded, role=role)
-
-
-def _settings(
-    connect: list[str] | None, listen: list[str] | None, multicast: bool
-) -> ZenohSettings:
-    return ZenohSettings(
-        listen=tuple(listen or ()), connect=tuple(connect or ()), multicast=multicast
-    )
-
-
-def _check_swarm(swarm: str) -> None:
-    try:
-        key_prefix(swarm)
-    except ValueError as exc:
-        typer.echo(str(exc), err=True)
-        raise typer.Exit(2) from None
-
-
-def default_state_file(swarm: str) -> Path:
-    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
-    return Path(base) / "actorswarm" / f"gs-{swarm}.json"
-
-
-def daemon(
-    platform: Annotated[int, typer.Option(min=1, max=65535, help="This platform's ID.")],
-    swarm: SwarmOpt = "swarm",
-    listen: ListenOpt = None,
-    connect: ConnectOpt = None,
-    multicast: MulticastOpt = True,
-    state_dir: Annotated[
-        Path | None, typer.Option(help="Where the platform keeps its state (default: ./state-ID).")
-    ] = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
-) -> None:
-    """Run one platform of a real swarm over Zenoh until SIGTERM/SIGINT."""
-    from actorswarm.daemon.run import DaemonOptions, run_daemon
-
-    _check_swarm(swarm)
-    guard = _guard(keys, insecure, "platform")
-    options = DaemonOptions(
-        guard=guard,
-        platform=platform,
-        swarm=swarm,
-        state_dir=state_dir or Path(f"state-{platform}"),
-        zenoh=_settings(connect, listen, multicast),
-    )
-    raise typer.Exit(run_daemon(options))
+gs_app = typer.Typer(
+    help="The ground station over a real swarm: deploy, start, event, force, pause, "
+    "activate, stop, backup, status.",
+    no_args_is_help=True,
+)
 
 
 @gs_app.command("deploy")
@@ -128,11 +52,9 @@ def gs_deploy(
     insecure: InsecureOpt = False,
 ) -> None:
     """Send a script to the swarm and wait until every expected platform confirmed it."""
-    from actorswarm.daemon.ground import GroundSession
     from actorswarm.dsl import check_file
 
-    _check_swarm(swarm)
-    guard = _guard(keys, insecure, "ground")
+    ln = link(swarm, connect, listen, multicast, keys, insecure)
     platforms = int_list_or_count(expect, "--expect")
     result = check_file(file)
     if result.script is None or not result.ok:
@@ -142,7 +64,7 @@ def gs_deploy(
     data = file.read_bytes()
 
     async def go() -> tuple[str, list[int]]:
-        async with GroundSession(swarm, _settings(connect, listen, multicast), guard) as gs:
+        async with ln.session() as gs:
             sha = gs.do(lambda st, now: st.deploy(data, platforms, now))
             await gs.wait_for(lambda: not gs.station.missing(sha), timeout)
             return sha, gs.station.missing(sha)
@@ -173,12 +95,10 @@ def gs_start(
     insecure: InsecureOpt = False,
 ) -> None:
     """Start the script deployed last: refused unless every expected platform confirmed it."""
-    from actorswarm.daemon.ground import GroundSession
     from actorswarm.engine import commands as cmds
     from actorswarm.ground.station import NotConfirmed
 
-    _check_swarm(swarm)
-    guard = _guard(keys, insecure, "ground")
+    ln = link(swarm, connect, listen, multicast, keys, insecure)
     path = state or default_state_file(swarm)
     try:
         saved: dict[str, Any] = json.loads(path.read_text())
@@ -189,7 +109,7 @@ def gs_start(
         raise typer.Exit(2) from None
 
     async def go() -> tuple[list[int], list[int], str]:
-        async with GroundSession(swarm, _settings(connect, listen, multicast), guard) as gs:
+        async with ln.session() as gs:
             # Deploying again is idempotent (a platform that has the script confirms at
             # once): it tells this session who has it.
             sha = gs.do(lambda st, now: st.deploy(data, platforms, now))
@@ -220,55 +140,6 @@ def gs_start(
         raise typer.Exit(1)
 
 
-@gs_app.command("event")
-def gs_event(
-    name: Annotated[str, typer.Argument(help="The event to fire.")],
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
-    timeout: TimeoutOpt = 5.0,
-    platforms: Annotated[str | None, typer.Option(help="Only these platforms: IDS.")] = None,
-    actors: Annotated[str | None, typer.Option(help="Only platforms running these actors.")] = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
-) -> None:
-    """Fire an event: every platform heard (or the ones listed) gets it."""
-    from actorswarm.daemon.ground import GroundSession
-    from actorswarm.engine import commands as cmds
-
-    _check_swarm(swarm)
-    guard = _guard(keys, insecure, "ground")
-    targets = None if platforms is None else int_list_or_count(platforms, "--platforms")
-    names = [a.strip() for a in (actors or "").split(",") if a.strip()]
-
-    async def go() -> tuple[list[int], dict[int, str]]:
-        async with GroundSession(swarm, _settings(connect, listen, multicast), guard) as gs:
-            if targets is None:
-                await gs.listen(1.5)  # heartbeats say who is there
-            to = sorted(gs.station.heard) if targets is None else targets
-            gs.do(lambda st, now: st.event(name, now, platforms=to, actors=names))
-
-            def answers() -> dict[int, str]:
-                return {
-                    r.platform: r.reply.message
-                    for r in gs.station.replies
-                    if isinstance(r.reply, cmds.Result) and r.reply.command == "Inject"
-                }
-
-            await gs.wait_for(lambda: set(to) <= set(answers()), timeout)
-            return to, answers()
-
-    to, answers = asyncio.run(go())
-    for p in to:
-        typer.echo(f"  {p}: {answers.get(p, 'no answer')}")
-    if not to:
-        typer.echo("no platform heard", err=True)
-        raise typer.Exit(1)
-    if set(to) - set(answers):
-        raise typer.Exit(1)
-
-
 @gs_app.command("status")
 def gs_status(
     swarm: SwarmOpt = "swarm",
@@ -281,15 +152,13 @@ def gs_status(
     insecure: InsecureOpt = False,
 ) -> None:
     """Each platform heard: its actors, master flag, epoch, incarnation, last heard."""
-    from actorswarm.daemon.ground import GroundSession
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
 
-    _check_swarm(swarm)
-    guard = _guard(keys, insecure, "ground")
+    ln = link(swarm, connect, listen, multicast, keys, insecure)
 
     async def go() -> dict[str, Any]:
-        async with GroundSession(swarm, _settings(connect, listen, multicast), guard) as gs:
+        async with ln.session() as gs:
             await gs.listen(1.5)
             heard = sorted(gs.station.heard)
             gs.do(lambda st, now: st.send(cmds.Status(), heard, now))

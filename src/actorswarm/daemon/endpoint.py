@@ -115,6 +115,14 @@ class PlatformEndpoint:
         out, self._outgoing = self._outgoing, []
         return out
 
+    def backup(self) -> int | None:
+        """Save the actors and their plugins' state to the backup store now (what the
+        operator's ``gs backup`` does); returns the backup's generation, or None when no
+        script runs (there is nothing to resume)."""
+        if not self.engine.script_sha:
+            return None
+        return self.engine.store.write(self.runtime.snapshot())
+
     # --- between the pieces -------------------------------------------------------------
 
     def _service(self, now: float) -> None:

@@ -18,7 +18,7 @@ from types import TracebackType
 from typing import TypeVar
 
 from actorswarm.core.config import CoreConfig
-from actorswarm.daemon.loop import clock, flush, serve
+from actorswarm.daemon.loop import Inbox, clock, flush, serve
 from actorswarm.ground.station import GroundStation
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
@@ -48,20 +48,16 @@ class GroundSession:
         self.station = GroundStation(
             swarm=swarm, now=clock(), incarnation=int(time.time()), config=CoreConfig()
         )
-        self._inbox: asyncio.Queue[bytes] = asyncio.Queue()
+        self._inbox: Inbox | None = None
         self._stop = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
         self._transport: ZenohTransport | None = None
 
     async def __aenter__(self) -> GroundSession:
-        loop = asyncio.get_running_loop()
-
-        def arrived(data: bytes) -> None:
-            loop.call_soon_threadsafe(self._inbox.put_nowait, data)
-
-        self._transport = ZenohTransport(self.swarm, 0, arrived, self.settings)
+        inbox = self._inbox = Inbox(asyncio.get_running_loop())
+        self._transport = ZenohTransport(self.swarm, 0, inbox.put, self.settings)
         self._task = asyncio.create_task(
-            serve(self.station, self._transport, self._inbox, self._stop, guard=self.guard)
+            serve(self.station, self._transport, inbox, self._stop, guard=self.guard)
         )
         return self
 

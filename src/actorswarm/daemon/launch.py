@@ -163,6 +163,24 @@ class LocalSwarm:
         except (OSError, ValueError):
             return {}
 
+    def events(self, platform: int, event: str | None = None) -> list[dict[str, Any]]:
+        """The JSON lines the daemon logged (every life of it), or those of one ``event``
+        (``started``, ``master``, ``transition``, ``rejoined``...). Their ``t`` is the
+        host's monotonic clock, the same as :func:`time.monotonic` in this process."""
+        try:
+            lines = self.log(platform).read_text(errors="replace").splitlines()
+        except OSError:
+            return []
+        out = []
+        for line in lines:
+            try:
+                record = json.loads(line)
+            except ValueError:
+                continue  # a library's plain-text warning
+            if isinstance(record, dict) and (event is None or record.get("event") == event):
+                out.append(record)
+        return out
+
     def agreed_master(self, platforms: Sequence[int] | None = None) -> int | None:
         """The master every one of ``platforms`` (default: the running ones) follows, when
         they all follow the same one and it is one of them (None otherwise). Which one it

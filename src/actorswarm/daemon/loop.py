@@ -1,9 +1,10 @@
 """The asyncio host loop: one endpoint, one transport, the wall clock.
 
 :func:`serve` is the only place a daemon (or a ground-station command) meets time and the
-network. Packets arrive on the transport's threads and are queued into the loop with
-``call_soon_threadsafe``; the loop wakes for a packet or for the endpoint's next deadline,
-hands over the bytes or ticks it with the current time, and sends what it produced. The
+network. Packets arrive on the transport's threads and are queued in an :class:`Inbox`,
+which wakes the loop once per batch; the loop wakes for packets or for the endpoint's next
+deadline, hands over the bytes and ticks it with the current time, and sends what it
+produced. The
 endpoint itself never sees a clock or a socket, which is why the same objects run in the
 simulator.
 
@@ -14,7 +15,9 @@ corrections (NTP), and the swarm never compares clocks across platforms.
 from __future__ import annotations
 
 import asyncio
+import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Protocol
 
@@ -22,7 +25,7 @@ from actorswarm.core.wire import URGENT
 from actorswarm.daemon.endpoint import Endpoint
 from actorswarm.security.guard import PacketGuard
 
-__all__ = ["Transport", "clock", "flush", "serve"]
+__all__ = ["Inbox", "Transport", "clock", "flush", "serve"]
 
 #: Longest sleep between two looks at the endpoint (seconds), even with no deadline.
 _IDLE = 0.5
@@ -37,10 +40,75 @@ class Transport(Protocol):
     def send(self, dst: int | None, data: bytes, *, urgent: bool = False) -> None: ...
 
 
+class Inbox:
+    """Packets handed from the transport's threads to the loop.
+
+    :meth:`put` may be called from any thread; it wakes the loop once per batch, not once
+    per packet. :meth:`wait` is the loop's one way to sleep: one future and one timer per
+    wake, nothing else — with 30 peers heartbeating at 10 Hz the loop wakes hundreds of
+    times a second, and ``asyncio.wait`` over several tasks cost more than the protocol.
+    """
+
+    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
+        self._loop = loop
+        self._packets: deque[bytes] = deque()
+        self._lock = threading.Lock()
+        self._armed = False
+        self._poked = False
+        self._waiter: asyncio.Future[None] | None = None
+
+    def put(self, data: bytes) -> None:
+        """Queue ``data`` (thread-safe)."""
+        self._packets.append(data)
+        with self._lock:
+            if self._armed:
+                return  # a wake-up is already on its way
+            self._armed = True
+        self._loop.call_soon_threadsafe(self._wake)
+
+    def poke(self) -> None:
+        """End the current (or next) :meth:`wait` now (on the loop's thread)."""
+        self._poked = True
+        self._release()
+
+    def _wake(self) -> None:
+        with self._lock:
+            self._armed = False
+        self._release()
+
+    def _release(self) -> None:
+        waiter = self._waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    async def wait(self, timeout: float) -> None:
+        """Return when packets are queued, :meth:`poke` was called, or ``timeout`` seconds
+        passed, whichever comes first."""
+        if self._packets or self._poked:
+            self._poked = False
+            return
+        waiter = self._waiter = self._loop.create_future()
+        timer = self._loop.call_later(timeout, self._release)
+        try:
+            await waiter
+        finally:
+            timer.cancel()
+            self._waiter = None
+            self._poked = False
+
+    def take(self) -> list[bytes]:
+        """Every packet queued so far, oldest first (on the loop's thread)."""
+        out = []
+        packets = self._packets
+        while packets:
+            out.append(packets.popleft())
+        return out
+
+
 async def serve(
     endpoint: Endpoint,
     transport: Transport,
-    inbox: asyncio.Queue[bytes],
+    inbox: Inbox,
     stop: asyncio.Event,
     *,
     now: Callable[[], float] = clock,
@@ -56,28 +124,18 @@ async def serve(
     operator's signed — before the endpoint sees it; what fails is counted in
     ``guard.rejected`` and dropped."""
     stopping = asyncio.ensure_future(stop.wait())
+    stopping.add_done_callback(lambda _: inbox.poke())
     try:
         while not stop.is_set():
             t = now()
+            for data in inbox.take():
+                _receive(endpoint, data, t, guard)
             endpoint.tick(t)
             flush(endpoint, transport, guard)
             if on_wake is not None:
                 on_wake(t)
             deadline = endpoint.next_deadline()
-            wait = _IDLE if deadline is None else min(_IDLE, max(0.0, deadline - now()))
-            getting = asyncio.ensure_future(inbox.get())
-            done, _ = await asyncio.wait(
-                {getting, stopping}, timeout=wait, return_when=asyncio.FIRST_COMPLETED
-            )
-            if getting in done:
-                t = now()
-                _receive(endpoint, getting.result(), t, guard)
-                # Whatever else arrived meanwhile, in one go.
-                while not inbox.empty():
-                    _receive(endpoint, inbox.get_nowait(), t, guard)
-                flush(endpoint, transport, guard)
-            else:
-                getting.cancel()
+            await inbox.wait(_IDLE if deadline is None else min(_IDLE, max(0.0, deadline - now())))
     finally:
         stopping.cancel()
 

@@ -2,7 +2,10 @@
 
 Start-up: the state directory gives the incarnation of this start (one more than the last)
 and the scripts deployed before; when the platform was running a script it rejoins it,
-restoring the actors of its latest backup (or starting the initial ones). Then it serves:
+restoring the actors of its latest backup (or starting the initial ones). A backup is
+taken after every transition, on a clean stop and when the operator asks (``gs backup``),
+so a daemon killed in the middle of a mission comes back in the actors it was running,
+with their plugins' state as of the last backup. Then it serves:
 heartbeats go out, the swarm is joined, the ground station's commands are obeyed. Every
 second it writes ``status.json`` in the state directory (what ``gs status`` and the tests
 read locally), and it logs one JSON object per line on stderr for the things an operator
@@ -22,18 +25,25 @@ import signal
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.endpoint import PlatformEndpoint
-from actorswarm.daemon.loop import clock, serve
+from actorswarm.daemon.loop import Inbox, clock, serve
 from actorswarm.daemon.state import StateDir
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
 
+if TYPE_CHECKING:
+    from actorswarm.world.config import WorldConfig
+
 __all__ = ["DaemonOptions", "run_daemon"]
 
 log = logging.getLogger("actorswarm.daemon")
+
+#: Seconds between two saves of the replay windows (and at a clean stop). After a crash,
+#: packets of the last interval could be replayed once; each save is a file write.
+_REPLAY_EVERY = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,6 +55,9 @@ class DaemonOptions:
     config: CoreConfig = field(default_factory=CoreConfig)
     #: The packet guard (``PacketGuard.insecure()`` only with ``--insecure``).
     guard: PacketGuard = field(default_factory=PacketGuard.insecure)
+    #: ``--vehicle sim``: the world of the simulated vehicle this daemon flies (None: no
+    #: vehicle; actors whose plugins need one are refused, as on a robot without one).
+    world: WorldConfig | None = None
 
 
 def _log(event: str, **fields: Any) -> None:
@@ -63,6 +76,7 @@ def _write_status(path: Path, endpoint: PlatformEndpoint, now: float, guard: Pac
         "epoch": node.epoch,
         "members": sorted(node.members.peers),
         "actors": list(endpoint.runtime.running()),
+        "loaded": endpoint.runtime.loaded(),
         "script": engine.script_sha,
         "transitions": [
             {"t": r.t, "from": r.src, "to": r.dst, "event": r.event, "cause": r.cause}
@@ -72,6 +86,7 @@ def _write_status(path: Path, endpoint: PlatformEndpoint, now: float, guard: Pac
         "accepted": guard.accepted,
         "rejected": dict(guard.rejected),
         "dropped": dict(node.counters),
+        "position": endpoint.runtime.position(),
         "pid": os.getpid(),
         "t": now,
     }
@@ -83,7 +98,16 @@ def _write_status(path: Path, endpoint: PlatformEndpoint, now: float, guard: Pac
 async def _main(options: DaemonOptions) -> int:
     state = StateDir(options.state_dir)
     incarnation = state.next_incarnation()
-    now = clock()
+    guard = options.guard
+    # The replay windows of the last life: packets recorded before a crash are still
+    # replays after it (up to the last _REPLAY_EVERY seconds before a crash).
+    guard.restore_replay(state.replay_windows(), clock())
+    now = start = clock()
+    world = None
+    if options.world is not None:
+        from actorswarm.world.world import World  # NumPy: only with a simulated vehicle
+
+        world = World(options.world, [options.platform])
     endpoint = PlatformEndpoint(
         options.platform,
         swarm=options.swarm,
@@ -91,6 +115,9 @@ async def _main(options: DaemonOptions) -> int:
         now=now,
         config=options.config,
         store=state.backups,
+        vehicle=None if world is None else world.vehicle(options.platform),
+        camera=None if world is None else world.camera(options.platform),
+        areas=None if world is None else world.area_polygons(),
         seed=options.platform,
     )
     engine = endpoint.engine
@@ -111,43 +138,54 @@ async def _main(options: DaemonOptions) -> int:
             resumed = engine.rejoin(running, now)
             _log("rejoined", script=running[:12], resumed=resumed)
     loop = asyncio.get_running_loop()
-    inbox: asyncio.Queue[bytes] = asyncio.Queue()
+    inbox = Inbox(loop)
     stop = asyncio.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(sig, stop.set)
 
-    def arrived(data: bytes) -> None:  # on a Zenoh thread: hand over, nothing else
-        loop.call_soon_threadsafe(inbox.put_nowait, data)
-
-    transport = ZenohTransport(options.swarm, options.platform, arrived, options.zenoh)
+    transport = ZenohTransport(options.swarm, options.platform, inbox.put, options.zenoh)
     _log(
         "started",
         platform=options.platform,
         swarm=options.swarm,
         incarnation=incarnation,
-        secure=options.guard.secure,
+        secure=guard.secure,
+        vehicle="sim" if world is not None else "none",
+        position=endpoint.runtime.position(),
     )
     status_file = options.state_dir / "status.json"
-    last = {"status": 0.0, "master": None, "transitions": 0}
+    last = {"status": 0.0, "replay": 0.0, "master": None, "transitions": 0}
 
     def on_wake(t: float) -> None:
+        if world is not None:
+            # The simulated vehicle lives in this process's time: seconds since start.
+            world.step_to(t - start)
         if endpoint.node.master != last["master"]:
             last["master"] = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
         records = engine.transitions
-        for r in records[int(last["transitions"] or 0) :]:
+        fresh = records[int(last["transitions"] or 0) :]
+        for r in fresh:
             _log("transition", at=r.t, frm=r.src, to=r.dst, on=r.event, cause=r.cause)
         last["transitions"] = len(records)
+        if fresh:
+            # A crash from now on resumes these actors, not the ones before the switch.
+            endpoint.backup()
         if t - float(last["status"] or 0.0) >= 1.0:
             last["status"] = t
-            _write_status(status_file, endpoint, t, options.guard)
+            _write_status(status_file, endpoint, t, guard)
+        if t - float(last["replay"] or 0.0) >= _REPLAY_EVERY:
+            last["replay"] = t
+            state.save_replay_windows(guard.replay_snapshot())
 
     try:
         with transport:
-            await serve(endpoint, transport, inbox, stop, on_wake=on_wake, guard=options.guard)
+            await serve(endpoint, transport, inbox, stop, on_wake=on_wake, guard=guard)
     finally:
-        _write_status(status_file, endpoint, clock(), options.guard)
-        _log("stopped", platform=options.platform)
+        generation = endpoint.backup()  # a clean stop resumes where it stopped
+        _write_status(status_file, endpoint, clock(), guard)
+        state.save_replay_windows(guard.replay_snapshot())
+        _log("stopped", platform=options.platform, backup=generation)
     return 0
 
 

@@ -9,6 +9,9 @@ Layout (all written atomically: a temporary file, ``fsync``, then a rename):
     Every task script deployed to this platform, by content hash.
 ``running``
     The SHA-256 of the script the platform runs (absent: none started yet).
+``replay.json``
+    The packet guard's replay windows (per sender: incarnation, highest sequence number
+    accepted), so packets recorded before a restart are still refused after it.
 ``backups/``
     The runtime's backups (:class:`~actorswarm.runtime.storage.FileBackupStore`); a
     restarted daemon restores the latest.
@@ -17,6 +20,7 @@ Layout (all written atomically: a temporary file, ``fsync``, then a rename):
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 from pathlib import Path
 
@@ -25,12 +29,13 @@ from actorswarm.runtime.storage import FileBackupStore
 __all__ = ["StateDir"]
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
+def _write_atomic(path: Path, data: bytes, *, sync: bool = True) -> None:
     partial = path.with_name(path.name + ".partial")
     with partial.open("wb") as out:
         out.write(data)
         out.flush()
-        os.fsync(out.fileno())
+        if sync:
+            os.fsync(out.fileno())
     partial.replace(path)
 
 
@@ -83,3 +88,17 @@ class StateDir:
         except OSError:
             return None
         return sha or None
+
+    def save_replay_windows(self, windows: dict[int, tuple[int, int]]) -> None:
+        data = {str(sender): list(window) for sender, window in windows.items()}
+        # Written every second: no fsync (flash storage wears), a rename is still atomic.
+        _write_atomic(self.path / "replay.json", json.dumps(data).encode(), sync=False)
+
+    def replay_windows(self) -> dict[int, tuple[int, int]]:
+        """The saved replay windows ({} when none, or when the file is damaged: a damaged
+        file costs protection against replays from before the restart, not the start)."""
+        try:
+            raw = json.loads((self.path / "replay.json").read_bytes())
+            return {int(sender): (int(window[0]), int(window[1])) for sender, window in raw.items()}
+        except (OSError, ValueError, TypeError, IndexError, KeyError, AttributeError):
+            return {}

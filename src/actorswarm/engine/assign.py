@@ -15,9 +15,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
-from scipy.optimize import linear_sum_assignment
-
 __all__ = ["assign_slots"]
 
 
@@ -33,6 +30,11 @@ def assign_slots(
         raise ValueError(f"{n} members cannot share {m} slots")
     if n == 0:
         return []
+    # Imported here: NumPy and SciPy weigh ~85 MB in a daemon that, unless it is a master
+    # releasing a formation, never needs them.
+    import numpy as np
+    from scipy.optimize import linear_sum_assignment
+
     here = np.asarray([(float(p[0]), float(p[1])) for p in positions])
     there = np.asarray([(float(p[0]), float(p[1])) for p in points])
     cost = np.linalg.norm(here[:, None, :] - there[None, :, :], axis=-1)

@@ -73,7 +73,11 @@ class ZenohSettings:
         """The Zenoh configuration these settings stand for."""
         cfg = zenoh.Config()
         cfg.insert_json5("mode", json.dumps("peer"))
-        cfg.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+        if self.listen:
+            # Without endpoints Zenoh's default stays: a peer listens on an ephemeral TCP
+            # port of every interface, which multicast scouting then advertises. An empty
+            # list would leave the platform unreachable by the peers that scout it.
+            cfg.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         cfg.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
         cfg.insert_json5("transport/link/tx/lease", json.dumps(self.lease_ms))

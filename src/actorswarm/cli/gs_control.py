@@ -1,0 +1,219 @@
+"""The operator's interventions over a real swarm: ``gs event``, ``force``, ``pause``,
+``activate``, ``stop`` and ``backup``.
+
+Each sends one command to the platforms listed with ``--platforms`` (default: every
+platform heard within 1.5 s), waits for every one of them to answer, and prints one line
+per platform: what it did, why it refused, or that it did not answer. The exit status is
+0 when every platform answered and at least one carried the command out, 1 otherwise, 2
+for unusable options.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import Annotated
+
+import typer
+
+from actorswarm.cli.common import id_list
+from actorswarm.cli.swarm_options import (
+    ConnectOpt,
+    InsecureOpt,
+    KeysOpt,
+    Link,
+    ListenOpt,
+    MulticastOpt,
+    SwarmOpt,
+    TimeoutOpt,
+    link,
+)
+from actorswarm.engine import commands as cmds
+from actorswarm.ground.station import GroundStation
+
+__all__ = ["register"]
+
+PlatformsOpt = Annotated[
+    str | None, typer.Option(help="Only these platforms: IDS (1-4,7); default every one heard.")
+]
+ActorArg = Annotated[str, typer.Argument(help="The actor.")]
+
+#: Sends the command to the given platforms.
+Send = Callable[[GroundStation, list[int], float], None]
+
+
+def _outcome(reply: cmds.Reply, name: str) -> tuple[bool, str] | None:
+    """The ``(ok, message)`` of a reply to command ``name`` (None: a reply to another)."""
+    if isinstance(reply, cmds.Result) and reply.command == name:
+        return reply.ok, reply.message
+    if isinstance(reply, cmds.BackupReply) and name == "Backup":
+        return True, f"backup generation {reply.generation}, {reply.size} bytes"
+    return None
+
+
+async def _run(
+    ln: Link, name: str, send: Send, platforms: list[int] | None, timeout: float
+) -> tuple[list[int], dict[int, tuple[bool, str]]]:
+    async with ln.session() as gs:
+        if platforms is None:
+            await gs.listen(1.5)  # heartbeats say who is there
+        targets = sorted(gs.station.heard) if platforms is None else platforms
+        gs.do(lambda st, now: send(st, targets, now))
+
+        def answers() -> dict[int, tuple[bool, str]]:
+            out: dict[int, tuple[bool, str]] = {}
+            for record in gs.station.replies:
+                outcome = _outcome(record.reply, name)
+                if outcome is not None:
+                    out[record.platform] = outcome
+            return out
+
+        await gs.wait_for(lambda: set(targets) <= set(answers()), timeout)
+        return targets, answers()
+
+
+def _execute(ln: Link, name: str, send: Send, platforms: str | None, timeout: float) -> None:
+    """Send, wait, print the outcome per platform, exit with the status of the module
+    docstring."""
+    chosen = None if platforms is None else id_list(platforms, "--platforms")
+    targets, answers = asyncio.run(_run(ln, name, send, chosen, timeout))
+    if not targets:
+        typer.echo("no platform heard", err=True)
+        raise typer.Exit(1)
+    for p in targets:
+        ok, message = answers.get(p, (False, "no answer"))
+        typer.echo(f"  {p}: {message}" if ok else f"  {p}: FAILED: {message}")
+    if set(targets) - set(answers) or not any(ok for ok, _ in answers.values()):
+        raise typer.Exit(1)
+
+
+def _to(command: cmds.Command) -> Send:
+    return lambda st, targets, now: st.send(command, targets, now)
+
+
+def gs_event(
+    name: Annotated[str, typer.Argument(help="The event to fire.")],
+    swarm: SwarmOpt = "swarm",
+    connect: ConnectOpt = None,
+    listen: ListenOpt = None,
+    multicast: MulticastOpt = True,
+    timeout: TimeoutOpt = 5.0,
+    platforms: PlatformsOpt = None,
+    actors: Annotated[str | None, typer.Option(help="Only platforms running these actors.")] = None,
+    keys: KeysOpt = None,
+    insecure: InsecureOpt = False,
+) -> None:
+    """Fire an event: every platform heard (or the ones listed) gets it."""
+    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    names = [a.strip() for a in (actors or "").split(",") if a.strip()]
+
+    def send(st: GroundStation, targets: list[int], now: float) -> None:
+        st.event(name, now, platforms=targets, actors=names)
+
+    _execute(ln, "Inject", send, platforms, timeout)
+
+
+def _params(values: list[str] | None) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for value in values or ():
+        key, eq, text = value.partition("=")
+        if not eq or not key.strip():
+            typer.echo(f"--param {value!r}: write KEY=VALUE", err=True)
+            raise typer.Exit(2)
+        out[key.strip()] = text
+    return out
+
+
+def gs_force(
+    actor: Annotated[
+        str | None, typer.Argument(help="The actor to move away from (default: any running).")
+    ] = None,
+    to: Annotated[str, typer.Option("--to", help="The actor to switch to.")] = "",
+    param: Annotated[
+        list[str] | None, typer.Option(help="KEY=VALUE for the new actor (repeatable).")
+    ] = None,
+    swarm: SwarmOpt = "swarm",
+    connect: ConnectOpt = None,
+    listen: ListenOpt = None,
+    multicast: MulticastOpt = True,
+    timeout: TimeoutOpt = 5.0,
+    platforms: PlatformsOpt = None,
+    keys: KeysOpt = None,
+    insecure: InsecureOpt = False,
+) -> None:
+    """Forced transition to --to, now and without a barrier.
+
+    Who moves: the platforms running ACTOR, or the --platforms listed (whatever they run),
+    or the listed ones that run ACTOR when both are given."""
+    if not to:
+        typer.echo("say where to: --to ACTOR", err=True)
+        raise typer.Exit(2)
+    if actor is None and platforms is None:
+        typer.echo("say who moves: an ACTOR to move away from, or --platforms IDS", err=True)
+        raise typer.Exit(2)
+    command = cmds.Force(to=to, src=actor, params=_params(param))
+    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    _execute(ln, "Force", _to(command), platforms, timeout)
+
+
+def _actor_command(name: str, make: Callable[[str], cmds.Command], doc: str) -> Callable[..., None]:
+    def command(
+        actor: ActorArg,
+        swarm: SwarmOpt = "swarm",
+        connect: ConnectOpt = None,
+        listen: ListenOpt = None,
+        multicast: MulticastOpt = True,
+        timeout: TimeoutOpt = 5.0,
+        platforms: PlatformsOpt = None,
+        keys: KeysOpt = None,
+        insecure: InsecureOpt = False,
+    ) -> None:
+        ln = link(swarm, connect, listen, multicast, keys, insecure)
+        _execute(ln, name, _to(make(actor)), platforms, timeout)
+
+    command.__doc__ = doc
+    return command
+
+
+def gs_backup(
+    swarm: SwarmOpt = "swarm",
+    connect: ConnectOpt = None,
+    listen: ListenOpt = None,
+    multicast: MulticastOpt = True,
+    timeout: TimeoutOpt = 5.0,
+    platforms: PlatformsOpt = None,
+    keys: KeysOpt = None,
+    insecure: InsecureOpt = False,
+) -> None:
+    """Every platform saves its actors and their plugins' state now.
+
+    A restarted daemon resumes from its latest backup."""
+    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    _execute(ln, "Backup", _to(cmds.Backup()), platforms, timeout)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the commands of this module to the ``gs`` command group."""
+    app.command("event")(gs_event)
+    app.command("force")(gs_force)
+    app.command("pause")(
+        _actor_command(
+            "Pause",
+            lambda a: cmds.Pause(actor=a),
+            "Pause ACTOR where it runs: its steps stop and its hardware is given back; its "
+            "state is kept until `gs activate`.",
+        )
+    )
+    app.command("activate")(
+        _actor_command(
+            "Activate", lambda a: cmds.Activate(actor=a), "Resume ACTOR where it was paused."
+        )
+    )
+    app.command("stop")(
+        _actor_command(
+            "ForceStop",
+            lambda a: cmds.ForceStop(actor=a),
+            "Stop ACTOR where it runs (forced; the platform is left without it).",
+        )
+    )
+    app.command("backup")(gs_backup)

@@ -1,0 +1,96 @@
+"""The daemon's configuration file (``actorswarm daemon --config FILE``), TOML.
+
+Every command-line option of the daemon has a key of the same name (``-`` written ``_``);
+an option given on the command line wins over the file, the file over the defaults. A
+``[core]`` table tunes the collective core (:class:`~actorswarm.core.config.CoreConfig`:
+``heartbeat_interval``, ``t_leave``, ...). Relative paths are relative to the file's
+directory, so a robot's configuration can live beside its keys::
+
+    platform = 3
+    swarm = "field"
+    listen = ["tcp/0.0.0.0:7447"]
+    connect = ["tcp/192.168.1.10:7447"]
+    multicast = false
+    keys = "keys"
+    state_dir = "/var/lib/actorswarm"
+    vehicle = "sim"          # or "none"
+    world = "world.toml"     # the simulated vehicle's world (--vehicle sim)
+
+    [core]
+    t_leave = 0.5
+
+A wrong key, a wrong type or a value out of range is a :class:`DaemonConfigError` naming
+the file and the key; nothing starts.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import msgspec
+
+from actorswarm.core.config import ConfigError, CoreConfig
+
+__all__ = ["BOOT_WAIT", "DaemonConfigError", "DaemonFile", "daemon_core", "load_daemon_config"]
+
+#: How long a daemon listens before it may claim mastership, unless ``[core] boot_wait``
+#: says otherwise. The simulator's default (four heartbeat intervals) is too short for a
+#: real network: a restarted low-ID daemon would claim the role before its Zenoh links are
+#: up, then take it from the healthy master when they come up — a needless failover.
+BOOT_WAIT = 2.0
+
+Vehicle = Literal["none", "sim"]
+
+
+class DaemonConfigError(ValueError):
+    """The configuration file cannot be used; the message names the file and the key."""
+
+
+class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    """What a daemon configuration file may say (every key optional)."""
+
+    platform: Annotated[int, msgspec.Meta(ge=1, le=65535)] | None = None
+    swarm: str | None = None
+    listen: list[str] = []
+    connect: list[str] = []
+    multicast: bool | None = None
+    keys: str | None = None
+    insecure: bool = False
+    state_dir: str | None = None
+    vehicle: Vehicle | None = None
+    world: str | None = None
+    transport: Literal["zenoh"] | None = None
+    core: dict[str, Any] = {}
+
+    def path(self, value: str | None, base: Path) -> Path | None:
+        """``value`` as a path, relative to ``base`` (the file's directory)."""
+        if value is None:
+            return None
+        p = Path(value).expanduser()
+        return p if p.is_absolute() else base / p
+
+
+def daemon_core(core: CoreConfig) -> CoreConfig:
+    """``core`` with the daemon's :data:`BOOT_WAIT` when it sets no ``boot_wait``."""
+    return core if core.boot_wait is not None else core.replace(boot_wait=BOOT_WAIT)
+
+
+def load_daemon_config(path: Path) -> tuple[DaemonFile, CoreConfig]:
+    """The file at ``path`` and the core configuration its ``[core]`` table makes."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise DaemonConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    try:
+        parsed = msgspec.toml.decode(data, type=DaemonFile)
+    except msgspec.ValidationError as exc:
+        known = ", ".join(DaemonFile.__struct_fields__)
+        raise DaemonConfigError(f"{path}: {exc} (the keys are: {known})") from None
+    except msgspec.DecodeError as exc:
+        raise DaemonConfigError(f"{path}: not TOML: {exc}") from None
+    try:
+        core = CoreConfig.from_mapping(dict(parsed.core))
+    except ConfigError as exc:
+        raise DaemonConfigError(f"{path}: [core]: {exc}") from None
+    return parsed, core

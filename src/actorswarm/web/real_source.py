@@ -1,0 +1,155 @@
+"""A real swarm as a swarm source: a ground-station session over Zenoh that polls status.
+
+A :class:`RealSource` opens a :class:`~actorswarm.daemon.ground.GroundSession` (the same one
+the ``actorswarm gs`` commands use, with their keys and endpoints) and keeps it open: the
+platforms' heartbeats say who is there, which is master and in which epoch; every ``poll``
+seconds it asks every platform heard for its :class:`~actorswarm.engine.commands.Status`,
+whose reply carries the actors and their control blocks. Commands from the page go through
+the same session.
+
+What a real swarm does not tell: where its platforms are (a status reply carries no pose,
+so the map lays them out by actor instead), and when exactly each switch happened — the
+timeline's steps of a real swarm are the changes between two status replies (cause
+``observed``), so their times are as coarse as the polling.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
+
+from actorswarm.daemon.loop import clock
+from actorswarm.dsl.model import TaskScript
+from actorswarm.engine import commands as cmds
+from actorswarm.ground.station import GroundStation, ReplyRecord
+from actorswarm.web.operator import Timeouts
+from actorswarm.web.source import PlatformRow, SwarmSource
+
+if TYPE_CHECKING:
+    from actorswarm.daemon.ground import GroundSession
+
+__all__ = ["RealSource", "observed"]
+
+_T = TypeVar("_T")
+
+
+def observed(
+    t: float, platform: int, before: tuple[str, ...], after: tuple[str, ...]
+) -> list[dict[str, Any]]:
+    """Transition records for a platform whose running actors went from ``before`` to
+    ``after``: stopped actors paired with started ones in order (``A -> B``), the rest
+    from or to nothing."""
+    gone = [a for a in before if a not in after]
+    new = [a for a in after if a not in before]
+    out = []
+    for i in range(max(len(gone), len(new))):
+        out.append(
+            {
+                "t": t,
+                "platform": platform,
+                "from": gone[i] if i < len(gone) else "",
+                "to": new[i] if i < len(new) else "",
+                "event": "",
+                "cause": "observed",
+            }
+        )
+    return out
+
+
+class RealSource(SwarmSource):
+    """The swarm reached by ``session`` (entered and left by this source)."""
+
+    kind: Literal["sim", "real"] = "real"
+
+    def __init__(
+        self,
+        session: GroundSession,
+        *,
+        title: str = "",
+        script: TaskScript | None = None,
+        sha: str = "",
+        poll: float = 1.0,
+        timeouts: Timeouts | None = None,
+    ) -> None:
+        if poll <= 0:
+            raise ValueError(f"poll must be > 0 seconds, not {poll}")
+        self.session = session
+        self.poll = poll
+        #: When the session started, on the station's clock (what the page counts from).
+        self.t0 = clock()
+        self._status: dict[int, cmds.StatusReply] = {}
+        self._running: dict[int, tuple[str, ...]] = {}
+        super().__init__(
+            title=title or f"swarm {session.swarm!r} over Zenoh",
+            script=script,
+            sha=sha,
+            t_leave=session.station.config.t_leave,
+            timeouts=timeouts,
+        )
+
+    # --- hooks -------------------------------------------------------------------------
+
+    def now(self) -> float:
+        return clock()
+
+    def origin(self) -> float:
+        return self.t0
+
+    @property
+    def station(self) -> GroundStation:
+        return self.session.station
+
+    def act(self, action: Callable[[GroundStation, float], _T]) -> _T:
+        return self.session.do(action)
+
+    def rows(self) -> list[PlatformRow]:
+        self.membership.update(self.station, self.now(), self.expected())
+        rows = []
+        for p, member in self.membership.members.items():
+            status = self._status.get(p)
+            rows.append(
+                PlatformRow(
+                    platform=p,
+                    alive=member.state == "joined",
+                    actors={} if status is None else dict(status.actors),
+                )
+            )
+        return rows
+
+    def acbs(self, platform: int) -> dict[str, Any] | None:
+        status = self._status.get(platform)
+        return None if status is None else dict(status.acbs)
+
+    def script_of(self, platform: int) -> str:
+        status = self._status.get(platform)
+        return "" if status is None else status.script
+
+    def on_reply(self, record: ReplyRecord) -> None:
+        reply = record.reply
+        if not isinstance(reply, cmds.StatusReply):
+            return
+        p = record.platform
+        running = tuple(a for a, s in reply.actors.items() if s == "running")
+        before = self._running.get(p)
+        if before is not None and before != running:
+            self.record(observed(record.t, p, before, running))
+        self._running[p] = running
+        self._status[p] = reply
+
+    # --- polling -------------------------------------------------------------------------
+
+    def _ask_status(self, platforms: list[int]) -> None:
+        if platforms:
+            self.act(lambda st, now: st.send(cmds.Status(), platforms, now))
+
+    async def _run(self) -> None:
+        async with self.session:
+            next_poll = clock() + min(self.poll, 1.0)  # heartbeats first: who is there
+            while True:
+                self.pump()
+                self.look()
+                if clock() >= next_poll:
+                    self._ask_status(self._heard())
+                    next_poll = clock() + self.poll
+                await asyncio.sleep(0.05)

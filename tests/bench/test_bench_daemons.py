@@ -1,0 +1,88 @@
+"""``bench daemons`` on a small swarm of real daemon processes: the measurements run end to
+end and their results are well formed. No timing is asserted beyond generous plausibility
+bounds: the machine running the tests is shared and its load varies."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from actorswarm.bench.daemons import (
+    Settings,
+    bench,
+    from_json,
+    markdown,
+    read_cpu_seconds,
+    read_memory_kib,
+    switch_script,
+    to_json,
+)
+from actorswarm.cli.app import app
+from actorswarm.dsl import check_file
+
+
+def test_proc_readers_see_this_process() -> None:
+    rss, anon = read_memory_kib(os.getpid())
+    assert 0 < anon <= rss
+    assert read_cpu_seconds(os.getpid()) > 0
+
+
+def test_the_command_refuses_a_swarm_of_one_before_starting_anything() -> None:
+    result = CliRunner().invoke(app, ["bench", "daemons", "--sizes", "1,5"])
+    assert result.exit_code == 2
+    assert "--sizes" in result.output
+
+
+def test_the_switch_script_is_valid(tmp_path: Path) -> None:
+    path = tmp_path / "switch.xml"
+    path.write_text(switch_script(30))
+    result = check_file(path)
+    assert result.ok, [str(d) for d in result.diagnostics]
+
+
+def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
+    settings = Settings(
+        window=1.0, failovers=1, switches=2, settle=0.5, boot_timeout=60.0, run_timeout=10.0
+    )
+    result = bench(tmp_path, [3], settings, command="test")
+    (size,) = result.sizes
+    assert size.size == 3
+    assert size.errors == []
+    assert 0 < size.boot_s < 60
+
+    assert [r.phase for r in size.resources] == ["idle", "script"]
+    for res in size.resources:
+        assert res.platforms == [1, 2, 3]
+        assert res.peers == [2, 2, 2]
+        assert res.window_s >= 1.0
+        assert all(v >= 0 for v in res.cpu_pct)
+        # A Python process with Zenoh: more than a few MiB, less than a few GiB.
+        assert all(4 < v < 4096 for v in res.rss_mib)
+        assert all(0 < a <= r for a, r in zip(res.rss_anon_mib, res.rss_mib, strict=True))
+
+    (failover,) = size.failover
+    assert failover.error == ""
+    assert failover.survivors == failover.followed == 2
+    assert failover.new_master in {1, 2, 3} - {failover.killed}
+    assert 0 < failover.to_claim_s <= failover.to_all_s < 10.0
+
+    assert [(w.src, w.dst) for w in size.switch] == [("A", "B"), ("B", "A")]
+    for w in size.switch:
+        assert w.error == ""
+        assert w.switched == w.expected == 3
+        assert 0 < w.first_s <= w.last_s < 10.0
+        assert math.isclose(w.spread_s, w.last_s - w.first_s, abs_tol=1e-9)
+        assert sum(w.causes.values()) == 3
+
+    text = markdown(result)
+    assert "Command: `test`" in text
+    assert "## Against DESIGN.md §8" in text
+    assert "None: every run completed." in text
+    data = json.loads(json.dumps(to_json(result), allow_nan=False))
+    assert data["machine"]["cpus"] >= 1
+    assert data["sizes"][0]["failover"][0]["killed"] == failover.killed
+    assert markdown(from_json(data)) == text, "a saved run renders the same"

@@ -1,0 +1,39 @@
+"""The ground-station commands refuse unusable options with exit status 2 and a message,
+before they open a session."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from actorswarm.cli.app import app
+from actorswarm.cli.common import id_list, int_list_or_count
+
+runner = CliRunner()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("force", "A"), "say where to: --to ACTOR"),
+        (("force", "--to", "B"), "say who moves"),
+        (("force", "A", "--to", "B", "--param", "novalue"), "--param 'novalue': write KEY=VALUE"),
+        (("force", "A", "--to", "B", "--param", "=x"), "write KEY=VALUE"),
+        (("pause", "A", "--platforms", "x-y"), "--platforms"),
+        (("backup", "--platforms", "0"), "--platforms"),
+        (("event", "go", "--swarm", "a b"), "swarm name 'a b'"),
+        (("stop", "A", "--keys", "/nonexistent/keys"), "keys init"),
+    ],
+)
+def test_bad_ground_station_options_exit_2(args: tuple[str, ...], message: str) -> None:
+    extra = () if "--keys" in args else ("--insecure",)
+    result = runner.invoke(app, ["gs", *args, *extra])
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+
+
+def test_platforms_are_ids_and_expect_may_be_a_count() -> None:
+    assert id_list("4", "--platforms") == [4]
+    assert id_list("1-3, 7", "--platforms") == [1, 2, 3, 7]
+    assert int_list_or_count("4", "--expect") == [1, 2, 3, 4]
+    assert int_list_or_count("4,5", "--expect") == [4, 5]

@@ -1,0 +1,124 @@
+"""End to end, in a real browser: the page served by the web ground station against a
+simulated swarm, driven in headless Chromium. Each test asserts on what the page
+rendered — the map canvas's own count of what it drew, the timeline's and the state
+machine's elements — not on the server's state alone."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+from web_screenshot import formation, shoot
+
+from actorswarm.dsl import check
+from actorswarm.missions import mission
+from actorswarm.sim.mission import prepare
+from actorswarm.web import Server, SimSource
+
+pytestmark = pytest.mark.browser
+
+#: Where the screenshot goes (CI keeps it as an artifact).
+ARTIFACTS = Path(os.environ.get("ACTORSWARM_WEB_ARTIFACTS", Path(__file__).parent / "artifacts"))
+
+BROKEN = """<?xml version="1.0"?>
+<TaskScript name="broken" version="1">
+  <_ActorsConfig>
+    <Actor>
+      <_P_Name>A</_P_Name>
+      <OODAConfig><Bus><_P_Name>act_bus</_P_Name><Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig>
+    </Actor>
+  </_ActorsConfig>
+  <_TaskConfig>
+    <actor name="A">
+      <transition name="go" sysNum="3" barrierKey="99"><successor actor="A"/></transition>
+    </actor>
+  </_TaskConfig>
+  <_PlatformActorConfig><platform id="1-3" actor="A"/></_PlatformActorConfig>
+</TaskScript>
+"""
+
+
+def _wait(page: Any, script: str, timeout: float = 30_000) -> None:
+    page.wait_for_function(script, timeout=timeout)
+
+
+def test_map_counts_platforms_and_an_event_from_the_page_switches_the_swarm(
+    page: Any, branch_merge: Callable[..., SimSource]
+) -> None:
+    source = branch_merge(speed=4.0)
+    with Server(source) as server:
+        page.goto(server.url)
+        _wait(page, "document.querySelector('#map').dataset.platforms === '10'")
+        _wait(page, "document.querySelectorAll('#swarm-table tr[data-state=joined]').length === 10")
+        assert page.get_attribute("#map", "data-mode") == "schematic"
+        _wait(page, "document.querySelector('#graph .node[data-actor=A]').dataset.count === '10'")
+
+        page.fill("#event-name", "AtoBC_branch_event")
+        page.click("#event-send")
+
+        done = page.wait_for_selector("#log li[data-op=event][data-state=done]", timeout=30_000)
+        assert done.get_attribute("data-ok") == "true", done.inner_text()
+        assert "10 of 10: event AtoBC_branch_event delivered" in done.inner_text()
+        page.wait_for_selector(
+            "#timeline li[data-event=AtoBC_branch_event][data-to=C][data-count='8']", timeout=30_000
+        )
+        b = page.wait_for_selector("#timeline li[data-event=AtoBC_branch_event][data-to=B]")
+        assert "2 platforms" in b.inner_text() and "key 4" in b.inner_text()
+        _wait(page, "document.querySelector('#graph .node[data-actor=C]').dataset.count === '8'")
+        assert page.get_attribute("#graph .node[data-actor=B]", "data-count") == "2"
+        assert page.get_attribute("#map", "data-platforms") == "10"
+    assert source.frame()["counts"] == {"B": 2, "C": 8}
+
+
+def test_an_uploaded_broken_script_shows_its_line_and_column(
+    page: Any, branch_merge: Callable[..., SimSource], tmp_path: Path
+) -> None:
+    errors = check(BROKEN, path="broken.xml").errors
+    assert errors, "the fixture script must be broken"
+    script = tmp_path / "broken.xml"
+    script.write_text(BROKEN)
+    with Server(branch_merge()) as server:
+        page.goto(server.url)
+        page.click("button[data-tab=script]")
+        page.set_input_files("#script-file", str(script))
+        page.click("#script-deploy")
+        done = page.wait_for_selector("#log li[data-op=deploy][data-state=done]", timeout=30_000)
+        assert done.get_attribute("data-ok") == "false"
+        shown = page.query_selector_all("#script-errors li[data-line]")
+        texts = [item.inner_text() for item in shown]
+    first = errors[0]
+    assert len(shown) == len(errors)
+    assert texts[0].startswith(f"line {first.line}, column {first.col}: "), texts
+    assert first.message in texts[0]
+
+
+def test_a_mission_in_flight_is_drawn_and_saved_as_a_picture(page: Any) -> None:
+    source = formation(10, skip_to=86.0, until=97.0)
+    path = ARTIFACTS / "web-ground-station.png"
+    with Server(source) as server:
+        shoot(page, server.url, source, pace="10", path=path)
+        assert page.input_value("#speed") == "10"
+        assert page.get_attribute("#map", "data-platforms") == "10"
+        assert page.get_attribute("#map", "data-alive") == "10"
+        # The branch at 90 s split the swarm: both halves are on the page.
+        page.wait_for_selector("#timeline li[data-event=BtoBC_branching_event]")
+        assert int(page.get_attribute("#graph .node[data-actor=C]", "data-count") or 0) > 0
+    assert path.stat().st_size > 50_000
+
+
+def test_two_hundred_platforms_stay_usable(page: Any) -> None:
+    """The formation mission resized to 200 platforms, on the ground at time 0 (simulating
+    200 platforms is the simulator's cost, not the page's): every one is drawn and listed,
+    and a drawing of the map stays well within a frame's time."""
+    chosen = mission("formation")
+    source = SimSource(prepare(chosen, platforms=200), until=0.0)
+    with Server(source) as server:
+        page.goto(server.url)
+        _wait(page, "document.querySelector('#map').dataset.platforms === '200'")
+        _wait(page, "document.querySelectorAll('#swarm-table tbody tr').length === 200")
+        page.wait_for_timeout(1500)  # a second of frames and drawings
+        draw_ms = float(page.get_attribute("#map", "data-draw-ms") or "inf")
+    assert draw_ms < 50, f"a drawing of 200 platforms took {draw_ms} ms"

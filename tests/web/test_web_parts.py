@@ -1,0 +1,162 @@
+"""The web ground station's parts on their own: request codec, access rules, timeline,
+state-machine layout, membership."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from actorswarm.dsl import load
+from actorswarm.ground.station import GroundStation
+from actorswarm.web import protocol
+from actorswarm.web.access import Access, is_loopback, policy
+from actorswarm.web.graph_layout import layout
+from actorswarm.web.membership import Membership
+from actorswarm.web.real_source import observed
+from actorswarm.web.timeline import Timeline
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize(
+    ("text", "kind"),
+    [
+        ('{"op": "event", "name": "go", "platforms": "1-3"}', protocol.Event),
+        ('{"op": "force", "to": "B", "src": null, "params": {"k": "v"}}', protocol.Force),
+        ('{"op": "deploy", "script": "<x/>", "name": "a.xml"}', protocol.Deploy),
+        ('{"op": "start", "force": true, "id": "p-1"}', protocol.Start),
+        ('{"op": "inspect", "platform": 7}', protocol.Inspect),
+        ('{"op": "speed", "speed": 2.5}', protocol.Speed),
+        ('{"op": "stop_actor", "actor": "A"}', protocol.StopActor),
+    ],
+)
+def test_requests_decode(text: str, kind: type) -> None:
+    assert isinstance(protocol.decode(text), kind)
+
+
+@pytest.mark.parametrize(
+    ("text", "says"),
+    [
+        ("not json", "not a JSON request"),
+        ('{"op": "launch"}', "bad request"),
+        ('{"op": "event"}', "name"),
+        ('{"op": "event", "name": "x", "extra": 1}', "extra"),
+        ('{"op": "inspect", "platform": 0}', "platform"),
+        ('{"op": "speed", "speed": 0}', "speed"),
+        ("[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[", "request"),
+    ],
+)
+def test_bad_requests_say_what_is_wrong(text: str, says: str) -> None:
+    with pytest.raises(protocol.ProtocolError, match=says):
+        protocol.decode(text)
+
+
+@pytest.mark.parametrize(
+    ("host", "loopback"),
+    [
+        ("127.0.0.1", True),
+        ("localhost", True),
+        ("::1", True),
+        ("[::1]", True),
+        ("127.0.0.2", True),
+        ("0.0.0.0", False),
+        ("192.168.1.10", False),
+        ("evil.example", False),
+    ],
+)
+def test_loopback_names(host: str, loopback: bool) -> None:
+    assert is_loopback(host) is loopback
+
+
+def test_policy_asks_a_token_off_the_loopback() -> None:
+    assert policy("127.0.0.1", None) == Access(token=None, local_only=True)
+    remote = policy("0.0.0.0", None)
+    assert remote.token and len(remote.token) >= 16 and not remote.local_only
+    assert policy("0.0.0.0", "chosen-token-123").token == "chosen-token-123"
+
+
+def test_token_host_and_origin_checks() -> None:
+    access = Access(token="s3cret-token-x", local_only=True)
+    assert access.token_ok(query="s3cret-token-x", cookie=None, authorization=None)
+    assert access.token_ok(query=None, cookie="s3cret-token-x", authorization=None)
+    assert access.token_ok(query=None, cookie=None, authorization="Bearer s3cret-token-x")
+    assert not access.token_ok(query="wrong", cookie=None, authorization="Bearer nope")
+    assert not access.token_ok(query=None, cookie=None, authorization=None)
+    assert access.host_ok("127.0.0.1:8765") and access.host_ok("localhost")
+    assert not access.host_ok("evil.example:8765") and not access.host_ok(None)
+    assert Access.origin_ok(None, "127.0.0.1:8765")
+    assert Access.origin_ok("http://127.0.0.1:8765", "127.0.0.1:8765")
+    assert not Access.origin_ok("http://evil.example", "127.0.0.1:8765")
+
+
+def _rec(
+    t: float, p: int, src: str, dst: str, event: str = "go", cause: str = "barrier"
+) -> dict[str, Any]:
+    return {"t": t, "platform": p, "from": src, "to": dst, "event": event, "cause": cause}
+
+
+def test_timeline_groups_switches_and_grows_steps() -> None:
+    timeline = Timeline(load(ROOT / "examples" / "branch_merge.xml"))
+    first = timeline.add(
+        [_rec(0.0, 1, "", "A", "", "start"), _rec(5.0, 1, "A", "B", "AtoBC_branch_event")]
+    )
+    assert [s.platforms for s in first] == [[1]]
+    later = timeline.add(
+        [
+            _rec(5.02, 2, "A", "B", "AtoBC_branch_event"),
+            _rec(5.02, 3, "A", "C", "AtoBC_branch_event"),
+            _rec(7.5, 4, "A", "B", "AtoBC_branch_event"),  # beyond the window: a new step
+        ]
+    )
+    assert [(s.id, s.platforms) for s in later] == [(1, [1, 2]), (2, [3]), (3, [4])]
+    step = timeline.steps[0].to_json()
+    assert step["key"] == 4 and step["switch_ms"] == 20.0 and step["from"] == "A"
+
+
+def test_layout_draws_the_task_graph_edges() -> None:
+    script = load(ROOT / "examples" / "formation_30.xml")
+    drawn = layout(script)
+    nodes = {n["name"]: n for n in drawn["nodes"]}
+    assert set(nodes) == {a.name for a in script.actors}
+    assert nodes["Standby"]["initial"] == "1-30" and nodes["Standby"]["layer"] == 0
+    assert nodes["A"]["layer"] < nodes["B"]["layer"] < nodes["C"]["layer"] < nodes["D"]["layer"]
+    back = {(e["source"], e["target"]) for e in drawn["edges"] if e["back"]}
+    assert ("E", "A") in back and ("B", "B") in back
+    assert all(n["x"] >= 0 and n["x"] + n["w"] <= drawn["width"] for n in nodes.values())
+    assert all(n["y"] + n["h"] <= drawn["height"] for n in nodes.values())
+
+
+def test_membership_logs_joins_and_leaves() -> None:
+    station = GroundStation(swarm="s")
+    members = Membership(t_leave=0.5)
+    station.heard, station.state = {1: 0.0, 2: 0.0}, {1: (0, True, 3), 2: (0, False, 3)}
+    members.update(station, 0.1, expected=[1, 2, 3])
+    assert [m.state for m in members.members.values()] == ["joined", "joined", "unheard"]
+    assert members.master() == (1, 3)
+    members.update(station, 2.0, expected=[1, 2, 3])
+    assert members.alive() == [] and members.master() == (None, None)
+    assert [(e["platform"], e["what"]) for e in members.log] == [
+        (1, "joined"),
+        (2, "joined"),
+        (1, "left"),
+        (2, "left"),
+    ]
+
+
+def test_observed_switches_pair_old_and_new_actors() -> None:
+    assert observed(1.0, 4, ("A",), ("B",)) == [
+        {"t": 1.0, "platform": 4, "from": "A", "to": "B", "event": "", "cause": "observed"}
+    ]
+    assert [(r["from"], r["to"]) for r in observed(1.0, 4, ("A", "X"), ("B",))] == [
+        ("A", "B"),
+        ("X", ""),
+    ]
+
+
+def test_the_public_names_exist() -> None:
+    from actorswarm import web
+
+    assert sorted(web.__all__) == sorted(set(web.__all__))
+    assert not [name for name in web.__all__ if not hasattr(web, name)]
