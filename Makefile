@@ -35,7 +35,7 @@ sysdeps:
 	bash scripts/system-deps.sh
 
 unit: $(STAMP) sysdeps
-	$(BIN)/python -m pytest -n 2 --durations=10
+	$(BIN)/python -m pytest -n 2 --dist worksteal --durations=10
 
 ## Every check: linter, strict type checker, the whole test suite (with the seeded campaign).
 test: lint typecheck unit

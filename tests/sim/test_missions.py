@@ -9,6 +9,7 @@ run prints how to replay it with ``actorswarm demo``.
 from __future__ import annotations
 
 import math
+import os
 import re
 import shlex
 from collections import Counter
@@ -27,6 +28,10 @@ from actorswarm.sim.tasksim import TaskSim
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 #: The least 3-D distance between two airborne vehicles the shipped missions keep, metres.
 SAFETY_DISTANCE = 3.0
+#: Seeds of the "under other seeds" runs: 1-4 in every run of the suite (each formation
+#: run is ~45 s of CPU and the suite must stay under 15 minutes on two cores); set
+#: ACTORSWARM_MISSION_SEEDS=10 (or more) for the long sweep before a release.
+SEEDS = range(1, 1 + int(os.environ.get("ACTORSWARM_MISSION_SEEDS", "4")))
 
 
 class Run:
@@ -197,7 +202,7 @@ def test_formation_slots_are_the_master_s_least_distance_assignment(formation: R
     assert slots == list(range(1, 31))
 
 
-@pytest.mark.parametrize("seed", range(1, 11))
+@pytest.mark.parametrize("seed", SEEDS)
 def test_formation_completes_under_other_seeds(seed: int) -> None:
     run = Run("formation", seed=seed)
     run.clean()
@@ -258,7 +263,7 @@ def test_search_track_finds_and_follows_the_jeep(search_track: Run) -> None:
     assert search_track.least_separation() >= SAFETY_DISTANCE
 
 
-@pytest.mark.parametrize("seed", range(1, 11))
+@pytest.mark.parametrize("seed", SEEDS)
 def test_search_track_completes_under_other_seeds(seed: int) -> None:
     run = Run("search-track", seed=seed)
     run.clean()

@@ -124,6 +124,9 @@ class StatusReply(_Cmd, frozen=True):
     #: Every loaded actor's control block (name, ID, status, priority, plugins, hardware,
     #: permission, task context, relations, statistics).
     acbs: dict[Name, Any] = {}
+    #: Where the platform's vehicle is (x, y, z in metres, the mission frame), when it has
+    #: one: what puts a real swarm on the operator's map.
+    position: list[float] | None = None
 
 
 class BackupReply(_Cmd, frozen=True):

@@ -555,6 +555,7 @@ class TaskEngine:
         return None
 
     def _status(self, now: float | None = None) -> cmds.StatusReply:
+        position = self.runtime.position()
         return cmds.StatusReply(
             acbs=self.runtime.status(now),
             actors=self.runtime.loaded(),
@@ -562,6 +563,7 @@ class TaskEngine:
             epoch=self.node.epoch,
             incarnation=self.node.incarnation,
             script=self.script_sha,
+            position=None if position is None else [round(v, 3) for v in position],
         )
 
     def _deploy_chunk(self, chunk: cmds.DeployChunk, now: float) -> str | None:

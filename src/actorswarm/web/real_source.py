@@ -7,15 +7,16 @@ seconds it asks every platform heard for its :class:`~actorswarm.engine.commands
 whose reply carries the actors and their control blocks. Commands from the page go through
 the same session.
 
-What a real swarm does not tell: where its platforms are (a status reply carries no pose,
-so the map lays them out by actor instead), and when exactly each switch happened — the
-timeline's steps of a real swarm are the changes between two status replies (cause
-``observed``), so their times are as coarse as the polling.
+Where the platforms are comes with their status replies (position and velocity, for
+platforms with a vehicle; the map lays the others out by actor). What a real swarm does
+not tell is when exactly each switch happened: the timeline's steps of a real swarm are
+the changes between two status replies (cause ``observed``), as coarse as the polling.
 """
 
 from __future__ import annotations
 
 import asyncio
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
@@ -32,6 +33,10 @@ if TYPE_CHECKING:
 __all__ = ["RealSource", "observed"]
 
 _T = TypeVar("_T")
+
+#: A platform that moved less than this (m) between two status replies shows no heading
+#: (a hovering multicopter has none worth drawing).
+_MOVED = 0.3
 
 
 def observed(
@@ -57,6 +62,25 @@ def observed(
     return out
 
 
+def _pose(
+    status: cmds.StatusReply | None, before: list[float] | None
+) -> tuple[float | None, float | None, float | None]:
+    """x, y and heading (radians from east, counter-clockwise) from a status reply, the
+    heading from the move since the ``before`` position (None when it barely moved); all
+    None for a platform without a vehicle."""
+    if status is None or status.position is None or len(status.position) < 2:
+        return None, None, None
+    x, y = status.position[0], status.position[1]
+    heading = None
+    if (
+        before is not None
+        and len(before) >= 2
+        and math.hypot(x - before[0], y - before[1]) > _MOVED
+    ):
+        heading = math.atan2(y - before[1], x - before[0])
+    return x, y, heading
+
+
 class RealSource(SwarmSource):
     """The swarm reached by ``session`` (entered and left by this source)."""
 
@@ -79,6 +103,8 @@ class RealSource(SwarmSource):
         #: When the session started, on the station's clock (what the page counts from).
         self.t0 = clock()
         self._status: dict[int, cmds.StatusReply] = {}
+        #: Each platform's position before its latest one (its heading on the map).
+        self._before: dict[int, list[float] | None] = {}
         self._running: dict[int, tuple[str, ...]] = {}
         super().__init__(
             title=title or f"swarm {session.swarm!r} over Zenoh",
@@ -108,10 +134,14 @@ class RealSource(SwarmSource):
         rows = []
         for p, member in self.membership.members.items():
             status = self._status.get(p)
+            x, y, heading = _pose(status, self._before.get(p))
             rows.append(
                 PlatformRow(
                     platform=p,
                     alive=member.state == "joined",
+                    x=x,
+                    y=y,
+                    heading=heading,
                     actors={} if status is None else dict(status.actors),
                 )
             )
@@ -135,6 +165,9 @@ class RealSource(SwarmSource):
         if before is not None and before != running:
             self.record(observed(record.t, p, before, running))
         self._running[p] = running
+        previous = self._status.get(p)
+        if previous is not None and previous.position != reply.position:
+            self._before[p] = previous.position
         self._status[p] = reply
 
     # --- polling -------------------------------------------------------------------------
