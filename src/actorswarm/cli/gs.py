@@ -113,7 +113,7 @@ def gs_start(
             # Deploying again is idempotent (a platform that has the script confirms at
             # once): it tells this session who has it.
             sha = gs.do(lambda st, now: st.deploy(data, platforms, now))
-            await gs.wait_for(lambda: not gs.station.missing(sha), min(timeout, 5.0))
+            await gs.wait_for(lambda: not gs.station.missing(sha), timeout)
             try:
                 gs.do(lambda st, now: st.start(now, force=force))
             except NotConfirmed as exc:
