@@ -515,7 +515,6 @@ async def run_switches(
     the resources while it runs, then fire ``go`` and ``back`` in turn. Appends to
     ``result``; a deployment or start that fails is recorded in ``result.errors``."""
     from actorswarm.daemon.ground import GroundSession
-    from actorswarm.engine import commands as cmds
     from actorswarm.ground.station import GroundStation
     from actorswarm.security import PacketGuard, load_keys
     from actorswarm.transport.zenoh_transport import ZenohSettings
@@ -539,12 +538,7 @@ async def run_switches(
         gs.do(lambda st, now: st.start(now))
 
         def in_a() -> bool:
-            started = {
-                r.platform
-                for r in gs.station.replies
-                if isinstance(r.reply, cmds.Result) and r.reply.command == "Start"
-            }
-            return set(everyone) <= started and all(
+            return set(everyone) <= set(gs.station.outcomes("Start")) and all(
                 swarm.status(p).get("actors") == ["A"] for p in everyone
             )
 

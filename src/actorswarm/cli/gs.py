@@ -95,7 +95,6 @@ def gs_start(
     insecure: InsecureOpt = False,
 ) -> None:
     """Start the script deployed last: refused unless every expected platform confirmed it."""
-    from actorswarm.engine import commands as cmds
     from actorswarm.ground.station import NotConfirmed
 
     ln = link(swarm, connect, listen, multicast, keys, insecure)
@@ -119,15 +118,15 @@ def gs_start(
             except NotConfirmed as exc:
                 return [], exc.missing, str(exc)
 
-            def started() -> set[int]:
-                return {
-                    r.platform
-                    for r in gs.station.replies
-                    if isinstance(r.reply, cmds.Result) and r.reply.command == "Start"
-                }
+            def answered() -> dict[int, tuple[bool, str]]:
+                return gs.station.outcomes("Start")
 
-            await gs.wait_for(lambda: set(platforms) <= started(), timeout)
-            return sorted(started()), gs.station.missing(sha), ""
+            await gs.wait_for(lambda: set(platforms) <= set(answered()), timeout)
+            for p, (ok, message) in sorted(answered().items()):
+                if not ok:
+                    typer.echo(f"  {p}: FAILED: {message}", err=True)
+            started = [p for p, (ok, _) in answered().items() if ok]
+            return sorted(started), gs.station.missing(sha), ""
 
     started, missing, refused = asyncio.run(go())
     if refused:

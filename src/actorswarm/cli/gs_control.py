@@ -42,15 +42,6 @@ ActorArg = Annotated[str, typer.Argument(help="The actor.")]
 Send = Callable[[GroundStation, list[int], float], None]
 
 
-def _outcome(reply: cmds.Reply, name: str) -> tuple[bool, str] | None:
-    """The ``(ok, message)`` of a reply to command ``name`` (None: a reply to another)."""
-    if isinstance(reply, cmds.Result) and reply.command == name:
-        return reply.ok, reply.message
-    if isinstance(reply, cmds.BackupReply) and name == "Backup":
-        return True, f"backup generation {reply.generation}, {reply.size} bytes"
-    return None
-
-
 async def _run(
     ln: Link, name: str, send: Send, platforms: list[int] | None, timeout: float
 ) -> tuple[list[int], dict[int, tuple[bool, str]]]:
@@ -61,12 +52,7 @@ async def _run(
         gs.do(lambda st, now: send(st, targets, now))
 
         def answers() -> dict[int, tuple[bool, str]]:
-            out: dict[int, tuple[bool, str]] = {}
-            for record in gs.station.replies:
-                outcome = _outcome(record.reply, name)
-                if outcome is not None:
-                    out[record.platform] = outcome
-            return out
+            return gs.station.outcomes(name)
 
         await gs.wait_for(lambda: set(targets) <= set(answers()), timeout)
         return targets, answers()

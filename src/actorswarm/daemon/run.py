@@ -60,6 +60,17 @@ class DaemonOptions:
     world: WorldConfig | None = None
 
 
+@dataclass(slots=True)
+class _Seen:
+    """What the daemon's loop already reported: the master it logged, how many transitions
+    it logged, when it last wrote the status file and the replay windows."""
+
+    master: int | None = None
+    transitions: int = 0
+    status: float = float("-inf")
+    replay: float = float("-inf")
+
+
 def _log(event: str, **fields: Any) -> None:
     # ``t`` is the host's monotonic clock, the same clock as the transitions' times in
     # status.json: lines of several daemons on one machine can be compared.
@@ -154,28 +165,27 @@ async def _main(options: DaemonOptions) -> int:
         position=endpoint.runtime.position(),
     )
     status_file = options.state_dir / "status.json"
-    last = {"status": 0.0, "replay": 0.0, "master": None, "transitions": 0}
+    seen = _Seen()
 
     def on_wake(t: float) -> None:
         if world is not None:
             # The simulated vehicle lives in this process's time: seconds since start.
             world.step_to(t - start)
-        if endpoint.node.master != last["master"]:
-            last["master"] = endpoint.node.master
+        if endpoint.node.master != seen.master:
+            seen.master = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
-        records = engine.transitions
-        fresh = records[int(last["transitions"] or 0) :]
+        fresh = engine.transitions[seen.transitions :]
         for r in fresh:
             _log("transition", at=r.t, frm=r.src, to=r.dst, on=r.event, cause=r.cause)
-        last["transitions"] = len(records)
         if fresh:
+            seen.transitions += len(fresh)
             # A crash from now on resumes these actors, not the ones before the switch.
             endpoint.backup()
-        if t - float(last["status"] or 0.0) >= 1.0:
-            last["status"] = t
+        if t - seen.status >= 1.0:
+            seen.status = t
             _write_status(status_file, endpoint, t, guard)
-        if t - float(last["replay"] or 0.0) >= _REPLAY_EVERY:
-            last["replay"] = t
+        if t - seen.replay >= _REPLAY_EVERY:
+            seen.replay = t
             state.save_replay_windows(guard.replay_snapshot())
 
     try:

@@ -136,6 +136,17 @@ class BackupReply(_Cmd, frozen=True):
 
 Reply = DeployAck | Result | StatusReply | BackupReply
 
+
+def outcome(reply: Reply, command: str) -> tuple[bool, str] | None:
+    """What ``reply`` says of the platform's command named ``command`` (the command's class
+    name, as :class:`Result` names it): ``(ok, message)``, or None for a reply to another."""
+    if isinstance(reply, Result) and reply.command == command:
+        return reply.ok, reply.message
+    if isinstance(reply, BackupReply) and command == "Backup":
+        return True, f"backup generation {reply.generation}, {reply.size} bytes"
+    return None
+
+
 _ENCODER = msgspec.msgpack.Encoder()
 _COMMANDS: msgspec.msgpack.Decoder[Command] = msgspec.msgpack.Decoder(Command)
 _REPLIES: msgspec.msgpack.Decoder[Reply] = msgspec.msgpack.Decoder(Reply)

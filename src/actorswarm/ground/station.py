@@ -93,6 +93,16 @@ class GroundStation:
         self.deployed_sha = sha
         return sha
 
+    def outcomes(self, command: str) -> dict[int, tuple[bool, str]]:
+        """Per platform, the latest ``(ok, message)`` it answered to commands named
+        ``command`` (:func:`~actorswarm.engine.commands.outcome`)."""
+        out: dict[int, tuple[bool, str]] = {}
+        for record in self.replies:
+            said = cmds.outcome(record.reply, command)
+            if said is not None:
+                out[record.platform] = said
+        return out
+
     def missing(self, sha: str) -> list[int]:
         return sorted(self.expected.get(sha, set()) - self.confirmed.get(sha, set()))
 

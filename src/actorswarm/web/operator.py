@@ -109,11 +109,7 @@ class _Waiting:
 
 def _result_of(name: str) -> Match:
     def match(reply: cmds.Reply) -> tuple[bool, str] | None:
-        if isinstance(reply, cmds.Result) and reply.command == name:
-            return reply.ok, reply.message
-        if isinstance(reply, cmds.BackupReply) and name == "Backup":
-            return True, f"backup generation {reply.generation}, {reply.size} bytes"
-        return None
+        return cmds.outcome(reply, name)
 
     return match
 
