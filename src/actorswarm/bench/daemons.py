@@ -47,15 +47,19 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.launch import LocalSwarm
 from actorswarm.daemon.loop import clock
 
+if TYPE_CHECKING:
+    from actorswarm.daemon.ground import GroundSession
+
 __all__ = [
     "BenchResult",
     "FailoverRun",
+    "LogTail",
     "ResourceRun",
     "Settings",
     "SizeResult",
@@ -63,13 +67,19 @@ __all__ = [
     "bench",
     "bench_size",
     "cpu_fit",
+    "describe_swarm",
     "from_json",
+    "ground_session",
     "machine_info",
     "markdown",
+    "measure_failover",
+    "measure_resources",
     "read_cpu_seconds",
     "read_memory_kib",
+    "settled",
     "switch_script",
     "to_json",
+    "wait_stable",
 ]
 
 Progress = Callable[[str], None]
@@ -285,7 +295,7 @@ class LogTail:
 # --- one swarm ----------------------------------------------------------------------------
 
 
-def _settled(swarm: LocalSwarm, since: float) -> bool:
+def settled(swarm: LocalSwarm, since: float) -> bool:
     """Every running daemon wrote its status after ``since``, has every other running one
     in its view, and they all follow the same master."""
     running = swarm.running()
@@ -300,7 +310,7 @@ def _settled(swarm: LocalSwarm, since: float) -> bool:
     return swarm.agreed_master(running) is not None
 
 
-def _describe(swarm: LocalSwarm) -> str:
+def describe_swarm(swarm: LocalSwarm) -> str:
     """A swarm that does not settle, in a line: views, masters, epochs, master changes."""
     statuses = [swarm.status(p) for p in swarm.running()]
     views = [len(st.get("members", ())) for st in statuses]
@@ -329,19 +339,19 @@ def _picture(swarm: LocalSwarm) -> tuple[int | None, tuple[int, ...]]:
     return swarm.agreed_master(), epochs
 
 
-def _wait_stable(swarm: LocalSwarm, since: float, timeout: float, hold: float = 1.5) -> bool:
-    """Wait until the swarm is :func:`_settled` and stays so, with the same master and
+def wait_stable(swarm: LocalSwarm, since: float, timeout: float, hold: float = 1.5) -> bool:
+    """Wait until the swarm is :func:`settled` and stays so, with the same master and
     epochs, for ``hold`` seconds (longer than the status files' 1 s period, so every daemon
     wrote again meanwhile). A swarm that merely passes through agreement — a restarted
     platform that is about to take the role over — does not count."""
     end = clock() + timeout
     while clock() < end:
-        if not _settled(swarm, since):
+        if not settled(swarm, since):
             time.sleep(0.2)
             continue
         seen = _picture(swarm)
         time.sleep(hold)
-        if _settled(swarm, since) and _picture(swarm) == seen:
+        if settled(swarm, since) and _picture(swarm) == seen:
             return True
     return False
 
@@ -391,7 +401,7 @@ def measure_failover(
     wait until the swarm agrees again. Never raises for a swarm that misbehaves: problems
     go into ``error``."""
     # Only a steady swarm has a master worth killing (a restart may still be settling).
-    steady = _wait_stable(swarm, clock() - 1.5, settings.boot_timeout)
+    steady = wait_stable(swarm, clock() - 1.5, settings.boot_timeout)
     master = swarm.agreed_master() if steady else None
     if master is None:
         return FailoverRun(
@@ -466,7 +476,7 @@ def measure_failover(
         lambda: int(swarm.status(master).get("incarnation", -1)) > incarnation,
         settings.boot_timeout,
         poll=0.2,
-    ) and _wait_stable(swarm, restarted_at, settings.boot_timeout)
+    ) and wait_stable(swarm, restarted_at, settings.boot_timeout)
     run.master_after_restart = swarm.agreed_master() if back else None
     if not back:
         run.error += (" " if run.error else "") + (
@@ -474,6 +484,22 @@ def measure_failover(
             f"{settings.boot_timeout:.0f} s"
         )
     return run
+
+
+def ground_session(swarm: LocalSwarm) -> GroundSession:
+    """A ground station for ``swarm`` in this process (enter it in a running event loop),
+    connected to every daemon, with the swarm's keys when it is secure."""
+    from actorswarm.daemon.ground import GroundSession
+    from actorswarm.security import PacketGuard, load_keys
+    from actorswarm.transport.zenoh_transport import ZenohSettings
+
+    guard = (
+        PacketGuard.from_keys(load_keys(swarm.keys, need_private=True), role="ground")
+        if swarm.secure
+        else PacketGuard.insecure()
+    )
+    zenoh = ZenohSettings(connect=tuple(swarm.endpoints), multicast=False)
+    return GroundSession(swarm.swarm, zenoh, guard)
 
 
 def switch_script(size: int) -> str:
@@ -514,22 +540,13 @@ async def run_switches(
     """Deploy and start the switch script from a ground station in this process, measure
     the resources while it runs, then fire ``go`` and ``back`` in turn. Appends to
     ``result``; a deployment or start that fails is recorded in ``result.errors``."""
-    from actorswarm.daemon.ground import GroundSession
     from actorswarm.ground.station import GroundStation
-    from actorswarm.security import PacketGuard, load_keys
-    from actorswarm.transport.zenoh_transport import ZenohSettings
 
     size = swarm.size
     everyone = list(range(1, size + 1))
     data = switch_script(size).encode()
     (swarm.dir / "bench-switch.xml").write_bytes(data)
-    guard = (
-        PacketGuard.from_keys(load_keys(swarm.keys, need_private=True), role="ground")
-        if swarm.secure
-        else PacketGuard.insecure()
-    )
-    zenoh = ZenohSettings(connect=tuple(swarm.endpoints), multicast=False)
-    async with GroundSession(swarm.swarm, zenoh, guard) as gs:
+    async with ground_session(swarm) as gs:
         progress(f"N={size}: deploying the switch script")
         sha = gs.do(lambda st, now: st.deploy(data, everyone, now))
         if not await gs.wait_for(lambda: not gs.station.missing(sha), settings.boot_timeout):
@@ -620,12 +637,12 @@ def bench_size(
         say(f"N={size}: starting {size} daemons")
         booted_at = clock()
         swarm.start_all()
-        if not _wait_stable(swarm, booted_at, settings.boot_timeout):
+        if not wait_stable(swarm, booted_at, settings.boot_timeout):
             # What the daemons cost while they try is still worth knowing (a machine too
             # small for the swarm is one reason it never settles); nothing else is.
             result.errors.append(
                 f"boot: the swarm did not agree within {settings.boot_timeout:.0f} s: "
-                f"{_describe(swarm)} (`--dir` keeps the daemons' logs)"
+                f"{describe_swarm(swarm)} (`--dir` keeps the daemons' logs)"
             )
             say(f"N={size}: never agreed; CPU and memory anyway ({settings.window:.0f} s)")
             result.resources.append(
@@ -642,10 +659,10 @@ def bench_size(
             say(f"N={size}: master failover {i + 1}/{settings.failovers}")
             run = measure_failover(swarm, logs, settings, rng)
             result.failover.append(run)
-            if run.error and not _settled(swarm, clock() - 1.5):
+            if run.error and not settled(swarm, clock() - 1.5):
                 result.errors.append(f"failover {i + 1}: the swarm did not recover; stopped")
                 break
-        if _settled(swarm, clock() - 1.5):
+        if settled(swarm, clock() - 1.5):
             asyncio.run(run_switches(swarm, logs, settings, result, say))
         else:
             result.errors.append("switch: skipped, the swarm was not whole")

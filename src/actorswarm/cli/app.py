@@ -54,6 +54,9 @@ def _register_real_swarm() -> None:
     from actorswarm.cli.keys import keys_app
 
     app.command("daemon")(daemon)
+    from actorswarm.cli.bench_tables import register as register_tables
+
+    register_tables(bench_app)
     register(gs_app)
     from actorswarm.cli.web_cmd import register as register_web
 

@@ -11,6 +11,20 @@ second it writes ``status.json`` in the state directory (what ``gs status`` and 
 read locally), and it logs one JSON object per line on stderr for the things an operator
 wants to see: start, master changes, transitions, stop.
 
+The lines a benchmark reads (``t`` is when the line was written; ``at`` the loop's time
+when the thing happened; ``traffic`` the cumulative ``[sent packets, sent bytes, received
+packets, received bytes]`` on the wire, :class:`~actorswarm.daemon.loop.Traffic`):
+
+* ``command``: an operator command carried out (``command``, ``on``: the event of an
+  ``Inject``, ``ok``); ``traffic`` as it was when that wake began, before the command's
+  packet was taken in.
+* ``transition``: a switch (``frm``, ``to``, ``on``, ``cause``); ``traffic`` after the wake's
+  packets went out.
+* ``fired`` (master only): it released a transition group (``key``, ``generation``,
+  ``outcome``, ``chosen``); ``traffic`` after the wake's packets went out.
+* ``switched``: the single Actor switch time of a switch to ``actor`` (from ``frm``):
+  ``took_ms`` from the switch call to the end of the new actor's first OODA step.
+
 A signal stops it cleanly: the loop ends, the transport closes (the swarm notices the
 platform leave within its failure-detection time) and the process exits 0.
 """
@@ -29,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.endpoint import PlatformEndpoint
-from actorswarm.daemon.loop import Inbox, clock, serve
+from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
 from actorswarm.daemon.state import StateDir
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
@@ -77,7 +91,9 @@ def _log(event: str, **fields: Any) -> None:
     log.info(json.dumps({"t": round(clock(), 6), "event": event, **fields}, default=str))
 
 
-def _write_status(path: Path, endpoint: PlatformEndpoint, now: float, guard: PacketGuard) -> None:
+def _write_status(
+    path: Path, endpoint: PlatformEndpoint, now: float, guard: PacketGuard, traffic: Traffic
+) -> None:
     node, engine = endpoint.node, endpoint.engine
     status = {
         "platform": node.platform,
@@ -97,6 +113,7 @@ def _write_status(path: Path, endpoint: PlatformEndpoint, now: float, guard: Pac
         "accepted": guard.accepted,
         "rejected": dict(guard.rejected),
         "dropped": dict(node.counters),
+        "traffic": traffic.as_dict(),
         "position": endpoint.runtime.position(),
         "pid": os.getpid(),
         "t": now,
@@ -166,6 +183,7 @@ async def _main(options: DaemonOptions) -> int:
     )
     status_file = options.state_dir / "status.json"
     seen = _Seen()
+    traffic = Traffic()
 
     def on_wake(t: float) -> None:
         if world is not None:
@@ -174,26 +192,62 @@ async def _main(options: DaemonOptions) -> int:
         if endpoint.node.master != seen.master:
             seen.master = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
+        if engine.commands:
+            before = list(traffic.at_wake)
+            for c in engine.commands:
+                _log("command", at=c.t, command=c.command, on=c.event, ok=c.ok, traffic=before)
+            engine.commands.clear()
+        after = list(traffic.counters())
+        if engine.fired:
+            for f in engine.fired:
+                _log(
+                    "fired",
+                    at=f.t,
+                    key=f.key,
+                    generation=f.generation,
+                    outcome=f.outcome,
+                    chosen=list(f.chosen),
+                    traffic=after,
+                )
+            engine.fired.clear()
         fresh = engine.transitions[seen.transitions :]
         for r in fresh:
-            _log("transition", at=r.t, frm=r.src, to=r.dst, on=r.event, cause=r.cause)
+            _log(
+                "transition",
+                at=r.t,
+                frm=r.src,
+                to=r.dst,
+                on=r.event,
+                cause=r.cause,
+                traffic=after,
+            )
+        for timing in endpoint.runtime.drain_switches():
+            _log(
+                "switched",
+                at=timing.t,
+                frm=timing.src,
+                actor=timing.dst,
+                took_ms=round(timing.seconds * 1000, 3),
+            )
         if fresh:
             seen.transitions += len(fresh)
             # A crash from now on resumes these actors, not the ones before the switch.
             endpoint.backup()
         if t - seen.status >= 1.0:
             seen.status = t
-            _write_status(status_file, endpoint, t, guard)
+            _write_status(status_file, endpoint, t, guard, traffic)
         if t - seen.replay >= _REPLAY_EVERY:
             seen.replay = t
             state.save_replay_windows(guard.replay_snapshot())
 
     try:
         with transport:
-            await serve(endpoint, transport, inbox, stop, on_wake=on_wake, guard=guard)
+            await serve(
+                endpoint, transport, inbox, stop, on_wake=on_wake, guard=guard, traffic=traffic
+            )
     finally:
         generation = endpoint.backup()  # a clean stop resumes where it stopped
-        _write_status(status_file, endpoint, clock(), guard)
+        _write_status(status_file, endpoint, clock(), guard, traffic)
         state.save_replay_windows(guard.replay_snapshot())
         _log("stopped", platform=options.platform, backup=generation)
     return 0

@@ -5,14 +5,16 @@ barrier groups; :class:`ActorHost` is the narrow interface to the actor runtime
 (:mod:`actorswarm.runtime`).
 """
 
-from actorswarm.engine.engine import TaskEngine, TransitionRecord
+from actorswarm.engine.engine import CommandRecord, FiredRecord, TaskEngine, TransitionRecord
 from actorswarm.engine.plan import Group, Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
 
 __all__ = [
     "ActorContext",
     "ActorHost",
+    "CommandRecord",
     "Emitted",
+    "FiredRecord",
     "Group",
     "Plan",
     "TaskEngine",

@@ -28,6 +28,10 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
   deploy in chunks (answered with the script's SHA-256), start (the first script, or a new
   version while running), inject an event, forced transition, forced start / stop, pause /
   activate, backup and status. Each is answered with its outcome.
+* **Records.** What the host may want to report is kept in lists it drains:
+  :attr:`TaskEngine.transitions` (every switch), :attr:`TaskEngine.commands` (every operator
+  command carried out) and, on the master, :attr:`TaskEngine.fired` (every transition group
+  it released).
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ import msgspec
 
 from actorswarm.core.events import (
     AppReceived,
+    BarrierFired,
     BarrierReleased,
     BarrierStaleNotice,
     BecameMaster,
@@ -58,7 +63,7 @@ from actorswarm.engine import commands as cmds
 from actorswarm.engine.assign import assign_slots
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
-from actorswarm.runtime.collective import plugin_view
+from actorswarm.runtime.collective import PLUGIN_KEY_BASE, plugin_view
 from actorswarm.runtime.storage import BackupStore, MemoryBackupStore
 
 Cause = Literal["barrier", "timeout", "forced", "start"]
@@ -94,6 +99,29 @@ class TransitionRecord:
     cause: Cause
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
+class CommandRecord:
+    """One operator command this platform carried out at ``t``: its name (``Inject``,
+    ``Start``...), the event for an ``Inject`` ("" otherwise) and whether it succeeded."""
+
+    t: float
+    command: str
+    event: str
+    ok: bool
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FiredRecord:
+    """Master only: at ``t`` it released generation ``generation`` of the transition group
+    ``key`` to the platforms ``chosen`` (``outcome``: ``complete`` or ``timeout``)."""
+
+    t: float
+    key: int
+    generation: int
+    outcome: str
+    chosen: tuple[int, ...]
+
+
 @dataclass(slots=True)
 class _Candidacy:
     actor: str
@@ -121,6 +149,9 @@ class TaskEngine:
         self.grace = grace if grace is not None else cfg.t_leave + cfg.t_join
         self.transitions: list[TransitionRecord] = []
         self.ignored: list[tuple[float, str, str]] = []
+        #: Operator commands carried out, and (master) groups released; the host drains them.
+        self.commands: list[CommandRecord] = []
+        self.fired: list[FiredRecord] = []
         self._pending: dict[int, _Candidacy] = {}
         # Master side: who runs which actor (from the members' reports).
         self._table: dict[int, tuple[str, ...]] = {}
@@ -240,6 +271,17 @@ class TaskEngine:
             self._stale(event, now)
         elif isinstance(event, AppReceived):
             self._app(event, now)
+        elif isinstance(event, BarrierFired):
+            if event.key < PLUGIN_KEY_BASE:  # a transition group, not a plugin's barrier
+                self.fired.append(
+                    FiredRecord(
+                        t=now,
+                        key=event.key,
+                        generation=event.generation,
+                        outcome=event.outcome,
+                        chosen=tuple(sorted(event.chosen)),
+                    )
+                )
         elif isinstance(event, MasterChanged):
             if event.master is not None and event.master != self.node.platform:
                 self._announce(now)  # the new master must know what I run
@@ -506,13 +548,16 @@ class TaskEngine:
         self._reply(cmds.Result(command=command, ok=ok, message=message), now)
 
     def _command(self, command: cmds.Command, now: float) -> None:
-        """Carry out one operator command and report its outcome."""
+        """Carry out one operator command, record it and report its outcome."""
         name = type(command).__name__
+        event = command.event if isinstance(command, cmds.Inject) else ""
         try:
             message = self._execute(command, now)
         except (ValueError, KeyError) as exc:
+            self.commands.append(CommandRecord(t=now, command=name, event=event, ok=False))
             self._result(name, False, str(exc), now)
             return
+        self.commands.append(CommandRecord(t=now, command=name, event=event, ok=True))
         if message is not None:
             self._result(name, True, message, now)
 

@@ -67,6 +67,11 @@ class ActorHost(Protocol):
         ``params`` will go (slot 1 first), or None when its plugins give no places."""
         ...
 
+    def drain_switch_times(self) -> list[float]:
+        """Seconds each :meth:`switch` since the last call took, from the call to the end of
+        the new actor's first step (oldest first); a benchmark reads them."""
+        ...
+
     def restore(self, data: bytes, now: float) -> list[str]:
         """Bring back the actors of a :meth:`snapshot`; returns those running again."""
         ...

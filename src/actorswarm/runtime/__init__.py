@@ -6,7 +6,12 @@ actor's control block; :class:`Plugin` is what algorithm developers subclass (se
 """
 
 from actorswarm.runtime.acb import ACB, ActorStatus
-from actorswarm.runtime.actor_runtime import ActorRuntime, PluginFailure, UnsupportedPlugin
+from actorswarm.runtime.actor_runtime import (
+    ActorRuntime,
+    PluginFailure,
+    SwitchTiming,
+    UnsupportedPlugin,
+)
 from actorswarm.runtime.context import Camera, Detection, PluginContext, Vehicle
 from actorswarm.runtime.operations import IllegalOperation, Operation
 from actorswarm.runtime.plugin import LifecycleError, Param, ParamError, Plugin
@@ -32,6 +37,7 @@ __all__ = [
     "PluginFailure",
     "ResourceArbiter",
     "ResourceBusy",
+    "SwitchTiming",
     "UnsupportedPlugin",
     "Vehicle",
 ]

@@ -22,12 +22,16 @@ resources) and its priority.
   shared blackboard; what the plugins emit is returned to the engine. A plugin that raises is
   isolated: its actor goes to ``error`` (its hardware is released), the error is kept with the
   plugin's name, and the platform and the other actors go on.
+* **Switch times.** Each :meth:`ActorRuntime.switch` is timed from the call to the end of
+  the new actor's first OODA step (pausing the old actor, starting or re-activating the new
+  one, and whatever the host does before it steps it); the samples wait in a bounded buffer
+  for the host to drain (:meth:`ActorRuntime.drain_switches`).
 * **Snapshots.** :meth:`ActorRuntime.snapshot` captures every loaded actor's ACB and plugin
   states; :meth:`ActorRuntime.restore` brings them back (sleeping, then activated), so a
   restarted platform can resume from its latest backup.
 
 The runtime reads time only from the ``now`` it is given; it measures how long each plugin
-step takes with a performance counter, for the ACB statistics only.
+step and each switch takes with a performance counter, for statistics only.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from __future__ import annotations
 import dataclasses
 import random
 import time
+from collections import deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -98,6 +103,23 @@ class PluginFailure:
     message: str
 
 
+@dataclass(frozen=True, slots=True)
+class SwitchTiming:
+    """One :meth:`ActorRuntime.switch` from ``src`` to ``dst`` at ``t`` (the ``now`` it was
+    called with): ``seconds`` of wall time from the call to the end of ``dst``'s first
+    OODA step (a performance counter, not ``now``)."""
+
+    t: float
+    src: str
+    dst: str
+    seconds: float
+
+
+#: Switch timings a runtime keeps until its host drains them; older ones are dropped, so a
+#: host that never asks costs a bounded amount of memory.
+SWITCH_TIMINGS_KEPT = 256
+
+
 class ActorRuntime:
     """The actors of platform ``platform`` (see the module docstring)."""
 
@@ -125,6 +147,10 @@ class ActorRuntime:
         self._loaded: dict[str, _Loaded] = {}
         self._arbiter = ResourceArbiter()
         self.failures: list[PluginFailure] = []
+        #: Timed switches, oldest first (:meth:`drain_switches`).
+        self.switch_timings: deque[SwitchTiming] = deque(maxlen=SWITCH_TIMINGS_KEPT)
+        # Switched-to actors not stepped yet: actor -> (switched from, now, counter at call).
+        self._switching: dict[str, tuple[str, float, float]] = {}
         #: The time of the call in progress (what ``ctx.collective`` stamps requests with).
         self.now = 0.0
 
@@ -244,6 +270,7 @@ class ActorRuntime:
     def stop(self, actor: str, now: float) -> None:
         entry = self._require(actor)
         apply(entry.acb, Operation.STOP, now)
+        self._switching.pop(actor, None)
         for pdef, plugin, params in entry.plugins:
             if plugin.lifecycle in ("running", "sleeping"):
                 self._call(entry, pdef, plugin, "_drive_stop", now, params, fail=False)
@@ -253,6 +280,7 @@ class ActorRuntime:
     def pause(self, actor: str, now: float) -> None:
         entry = self._require(actor)
         apply(entry.acb, Operation.PAUSE, now)
+        self._switching.pop(actor, None)  # paused before its first step: no timing
         for pdef, plugin, params in entry.plugins:
             self._call(entry, pdef, plugin, "_drive_pause", now, params)
         self._release(actor, now)
@@ -272,13 +300,31 @@ class ActorRuntime:
                 return
 
     def switch(self, old: str, new: str, now: float, context: ActorContext) -> None:
-        """Pause ``old`` (state kept, hardware freed) and start or re-activate ``new``."""
+        """Pause ``old`` (state kept, hardware freed) and start or re-activate ``new``.
+
+        The switch is timed until ``new`` ends its first step (:class:`SwitchTiming`); a
+        switch whose new actor never steps (it failed, or was paused or stopped first)
+        leaves no timing."""
+        began = time.perf_counter()
         entry = self._loaded.get(old)
         if entry is not None and entry.acb.status is ActorStatus.RUNNING:
             self.pause(old, now)
             entry.acb.stats.switch_count += 1
         self.start(new, now, context)
         self._loaded[new].acb.stats.switch_count += 1
+        if self._loaded[new].acb.status is ActorStatus.RUNNING:
+            self._switching[new] = (old, now, began)
+
+    def drain_switches(self) -> list[SwitchTiming]:
+        """The switch timings recorded since the last drain, oldest first (at most
+        :data:`SWITCH_TIMINGS_KEPT`: older ones were dropped)."""
+        out = list(self.switch_timings)
+        self.switch_timings.clear()
+        return out
+
+    def drain_switch_times(self) -> list[float]:
+        """:meth:`drain_switches`, the seconds only."""
+        return [s.seconds for s in self.drain_switches()]
 
     def step(self, now: float) -> list[Emitted]:
         """Step every running actor that is due; return what the plugins emitted."""
@@ -295,9 +341,15 @@ class ActorRuntime:
                 timings[pdef.name] = time.perf_counter() - began
                 if not ok:
                     break
+            pending = self._switching.pop(name, None)
             if ok:
                 entry.acb.record_step(timings)
                 entry.next_step = now + self.period
+                if pending is not None:
+                    src, at, began = pending
+                    self.switch_timings.append(
+                        SwitchTiming(at, src, name, time.perf_counter() - began)
+                    )
             out.extend(e if e.actor else dataclasses.replace(e, actor=name) for e in emitted)
         return out
 
@@ -459,6 +511,7 @@ class ActorRuntime:
         if entry is None or entry.acb.status is not ActorStatus.RUNNING:
             return
         apply(entry.acb, Operation.PAUSE, now)
+        self._switching.pop(actor, None)
         for pdef, plugin, params in entry.plugins:
             self._call(entry, pdef, plugin, "_drive_pause", now, params)
 

@@ -191,6 +191,9 @@ class TaskSim:
                 {"t": round(t, 6), "platform": engine.node.platform, "event": event, "why": why}
             )
         engine.ignored.clear()
+        # Commands and releases are the daemon's to report; here they would only pile up.
+        engine.commands.clear()
+        engine.fired.clear()
         failures = getattr(engine.runtime, "failures", [])
         for f in failures:
             self.plugin_failures.append(

@@ -1,0 +1,255 @@
+"""The results of ``actorswarm bench table1|table2|table3|all``: the paper's Tables I–III.
+
+Every measured quantity is a list of samples, one per repetition (a switch time may hold
+many samples per repetition); ``NaN`` is a repetition that failed to produce it — kept, so
+a report says "9 of 10" rather than hiding the failure. :func:`summarize` turns a list into
+median, p95, p99 and range over the finite samples.
+
+Rows are tagged with ``mode``: ``"sim"`` (virtual time over the simulated radio; the radio
+model is in :attr:`TablesReport.radio`) or ``"real"`` (``actorswarm daemon`` processes over
+Zenoh on this machine, :attr:`TablesReport.machine`).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any, Protocol
+
+__all__ = [
+    "MODES",
+    "Progress",
+    "Summary",
+    "Table1Row",
+    "Table2Row",
+    "Table3Row",
+    "TablesReport",
+    "from_json",
+    "merge",
+    "percentile",
+    "quiet",
+    "summarize",
+    "to_json",
+]
+
+MODES = ("sim", "real")
+CASES = ("switch", "branch")
+
+
+def percentile(values: Sequence[float], q: float) -> float:
+    """The ``q`` quantile (0–1) of the finite ``values`` by nearest rank; NaN when none."""
+    clean = sorted(v for v in values if not math.isnan(v))
+    if not clean:
+        return math.nan
+    return clean[min(len(clean) - 1, max(0, math.ceil(q * len(clean)) - 1))]
+
+
+@dataclass(frozen=True, slots=True)
+class Summary:
+    """Median, p95, p99 and range of the finite samples; ``n`` of them, ``failed`` NaNs."""
+
+    median: float
+    p95: float
+    p99: float
+    lo: float
+    hi: float
+    n: int
+    failed: int
+
+    @property
+    def spread(self) -> float:
+        """``hi - lo``: how far apart the repetitions landed."""
+        return self.hi - self.lo
+
+
+def summarize(values: Sequence[float]) -> Summary:
+    clean = [v for v in values if not math.isnan(v)]
+    failed = len(values) - len(clean)
+    if not clean:
+        nan = math.nan
+        return Summary(nan, nan, nan, nan, nan, 0, failed)
+    return Summary(
+        median=statistics.median(clean),
+        p95=percentile(clean, 0.95),
+        p99=percentile(clean, 0.99),
+        lo=min(clean),
+        hi=max(clean),
+        n=len(clean),
+        failed=failed,
+    )
+
+
+@dataclass(slots=True)
+class Table1Row:
+    """Framework overhead on one platform while two actors alternate at 1 Hz, and the
+    single Actor switch time.
+
+    ``real``: one daemon of a swarm of ``peers + 1`` daemons, every platform alternating;
+    ``cpu_pct`` (of one core, all its threads) and ``rss_mib`` one sample per repetition
+    window; ``switch_ms`` every switch that daemon made (from the call that switches to the
+    end of the new actor's first OODA step).
+    ``sim``: ``cpu_pct`` is the simulator's CPU time per platform per second of virtual
+    time (an upper bound of the protocol + runtime cost: the simulated radio is included,
+    Zenoh is not); ``rss_mib`` is empty (one process hosts every platform); ``switch_ms``
+    the runtime's switch time, as in the daemon."""
+
+    mode: str
+    plugins: int
+    peers: int
+    cpu_pct: list[float] = field(default_factory=list)
+    rss_mib: list[float] = field(default_factory=list)
+    switch_ms: list[float] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class Table2Row:
+    """One collective transition case at one swarm size, plugin count and loss.
+
+    ``case``: ``"switch"`` — every platform switches A → B on one barrier (``sysNum="all"``);
+    ``"branch"`` — the event reaches two randomly chosen platforms, which branch together
+    (``sysNum="2"``). One sample per repetition:
+
+    * ``transition_ms``: the ground station sends the event → the last platform switched
+      (NaN: not every platform that should switch did, within the run's timeout);
+    * ``master_pps`` / ``member_pps``: packets sent + received per second during the
+      transition at the master / averaged over the non-masters (heartbeats included);
+    * ``bytes_per_packet``: the mean size of those packets on the wire;
+    * ``master_packets`` / ``member_packets``: the packets behind the two rates (a rate over
+      a short window says little without the count: a faster transition has a higher rate
+      for the same packets)."""
+
+    mode: str
+    case: str
+    size: int
+    plugins: int
+    loss: float = 0.0
+    transition_ms: list[float] = field(default_factory=list)
+    master_pps: list[float] = field(default_factory=list)
+    member_pps: list[float] = field(default_factory=list)
+    bytes_per_packet: list[float] = field(default_factory=list)
+    master_packets: list[float] = field(default_factory=list)
+    member_packets: list[float] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class Table3Row:
+    """The master's daemon killed → a new master acknowledged by every survivor; one
+    sample per repetition (NaN: not every survivor followed one new master in time)."""
+
+    mode: str
+    size: int
+    loss: float = 0.0
+    election_ms: list[float] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class TablesReport:
+    """One run of ``actorswarm bench table*``."""
+
+    command: str
+    started: str  # UTC, ISO 8601
+    machine: dict[str, Any]
+    #: The simulated radio and protocol timing the ``sim`` rows ran with.
+    radio: dict[str, Any]
+    settings: dict[str, Any]
+    table1: list[Table1Row] = field(default_factory=list)
+    table2: list[Table2Row] = field(default_factory=list)
+    table3: list[Table3Row] = field(default_factory=list)
+    wall_s: float = 0.0
+
+
+def _clean(value: Any) -> Any:
+    """NaN → None, for strict JSON."""
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    if isinstance(value, list):
+        return [_clean(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    return value
+
+
+def _restore(value: Any) -> Any:
+    if value is None:
+        return math.nan
+    if isinstance(value, list):
+        return [_restore(v) for v in value]
+    return value
+
+
+def to_json(report: TablesReport) -> dict[str, Any]:
+    """The report as strict JSON (NaN written as null), with each row's summaries."""
+    data: dict[str, Any] = _clean(asdict(report))
+    for table in ("table1", "table2", "table3"):
+        for row, out in zip(getattr(report, table), data[table], strict=True):
+            out["summary"] = {
+                f.name: _clean(asdict(summarize(getattr(row, f.name))))
+                for f in fields(row)
+                if f.name != "errors" and isinstance(getattr(row, f.name), list)
+            }
+    return data
+
+
+def from_json(data: dict[str, Any]) -> TablesReport:
+    """A report back from :func:`to_json`; KeyError/TypeError/ValueError when malformed."""
+
+    def rows(cls: Any, items: list[dict[str, Any]]) -> list[Any]:
+        names = {f.name for f in fields(cls)}
+        out = []
+        for item in items:
+            kwargs = {
+                k: (_restore(v) if k != "errors" else list(v))
+                for k, v in item.items()
+                if k in names
+            }
+            out.append(cls(**kwargs))
+        return out
+
+    return TablesReport(
+        command=str(data["command"]),
+        started=str(data["started"]),
+        machine=dict(data["machine"]),
+        radio=dict(data["radio"]),
+        settings=dict(data["settings"]),
+        table1=rows(Table1Row, data["table1"]),
+        table2=rows(Table2Row, data["table2"]),
+        table3=rows(Table3Row, data["table3"]),
+        wall_s=float(data["wall_s"]),
+    )
+
+
+class Progress(Protocol):
+    """What a long run tells its caller: a line of text, and ``advance`` repetitions done
+    since the last call (a failed repetition counts as done). The command line draws a
+    progress bar over the planned repetitions."""
+
+    def __call__(self, message: str, *, advance: int = 0) -> None: ...
+
+
+def quiet(message: str, *, advance: int = 0) -> None:
+    """A :class:`Progress` that says nothing."""
+
+
+def merge(reports: Sequence[TablesReport]) -> TablesReport:
+    """One report of several runs (say, the real daemons' and the simulator's at 1000
+    platforms, run apart): every row of each, their commands joined with ``;``, the
+    machine and radio of the first, the wall times added, the earliest start."""
+    if not reports:
+        raise ValueError("nothing to merge")
+    first = reports[0]
+    return TablesReport(
+        command="; ".join(r.command for r in reports),
+        started=min(r.started for r in reports),
+        machine=first.machine,
+        radio=first.radio,
+        settings={"runs": [r.settings for r in reports]} if len(reports) > 1 else first.settings,
+        table1=[row for r in reports for row in r.table1],
+        table2=[row for r in reports for row in r.table2],
+        table3=[row for r in reports for row in r.table3],
+        wall_s=sum(r.wall_s for r in reports),
+    )

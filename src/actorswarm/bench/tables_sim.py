@@ -1,0 +1,374 @@
+"""The paper's Tables I–III in the simulator: task engines, actor runtimes and core nodes of
+every platform in one process, over the simulated radio, in virtual time.
+
+Timings of Tables II and III are virtual: they depend on the protocol and the radio model
+(:func:`radio_model`), not on the machine, and a run is replayed exactly from its seed.
+Table I's CPU figure and switch times are wall-clock measurements of this process.
+
+* **Table I**: a swarm of ``peers + 1`` platforms alternating A ⇄ B at 1 Hz
+  (:func:`~actorswarm.bench.scripts.table1_script`); each repetition runs ``window``
+  virtual seconds and reports the process CPU time spent per platform per virtual second
+  (% of one core: an upper bound of one platform's protocol + runtime cost, the simulated
+  radio included) and the runtime's switch times (switch call → end of the new actor's
+  first OODA step, wall clock) of every platform.
+* **Table II**: one swarm per size, plugin count and loss; each repetition the ground
+  station (platform 0, over the radio) sends the event — ``go``/``back`` alternately to
+  every platform for ``switch``, ``split`` to two platforms drawn from the seeded generator
+  for ``branch`` (then ``rejoin``, unmeasured). Transition time: the event sent → the last
+  platform's transition. Traffic: every platform's packets sent + received over the same
+  window, at the master and averaged over every non-master; bytes per packet over every
+  packet sent in the window.
+* **Table III**: :func:`actorswarm.bench.core.run_failover` — the master crashes at a random
+  heartbeat phase; the time until the new master's handshake is complete, i.e. every
+  survivor acknowledged it.
+"""
+
+from __future__ import annotations
+
+import random
+import statistics
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from actorswarm.bench.core import run_failover
+from actorswarm.bench.scripts import (
+    BACK,
+    GO,
+    REJOIN,
+    SPLIT,
+    actor_names,
+    table1_script,
+    table2_script,
+)
+from actorswarm.bench.tables import Progress, Table1Row, Table2Row, Table3Row, quiet
+from actorswarm.core.config import CoreConfig
+from actorswarm.dsl import check
+from actorswarm.dsl.model import TaskScript
+from actorswarm.engine import commands as cmds
+from actorswarm.sim.radio import LinkModel
+from actorswarm.sim.tasksim import TaskSim
+
+__all__ = [
+    "SimSettings",
+    "radio_model",
+    "sim_table1",
+    "sim_table2",
+    "sim_table3",
+]
+
+NAN = float("nan")
+#: Virtual time after a transition before the next: its last acknowledgements land (an
+#: unacknowledged release is retransmitted within 200 ms).
+SETTLE = 0.3
+
+
+@dataclass(frozen=True, slots=True)
+class SimSettings:
+    """How the simulated tables run. Times are seconds (virtual unless said otherwise)."""
+
+    repeat: int = 10
+    #: Repetitions at the sizes beyond the paper's (≥ 100): a 1000-platform swarm costs
+    #: about a minute of wall time per repetition on a small machine.
+    big_repeat: int = 3
+    #: One-way radio latency of every link, and the extra delay drawn in [0, jitter] per
+    #: packet and receiver.
+    latency: float = 0.01
+    jitter: float = 0.005
+    #: Table I: a swarm of ``peers + 1`` platforms, ``window`` virtual seconds per repetition.
+    peers: int = 30
+    window: float = 10.0
+    #: A transition that has not reached every platform after this long failed.
+    run_timeout: float = 30.0
+    seed: int = 1
+
+    def repeats(self, size: int) -> int:
+        return self.big_repeat if size >= 100 else self.repeat
+
+
+def radio_model(settings: SimSettings, config: CoreConfig | None = None) -> dict[str, object]:
+    """What the simulated rows depend on, for the report."""
+    config = config or CoreConfig()
+    return {
+        "latency_ms": settings.latency * 1000,
+        "jitter_ms": settings.jitter * 1000,
+        "loss": "independent per packet and receiver, at the row's rate",
+        "heartbeat_ms": config.heartbeat_interval * 1000,
+        "t_leave_ms": config.t_leave * 1000,
+        "retransmit_ms": f"{config.retry_base * 1000:g} + k·{config.retry_step * 1000:g} "
+        f"(cap {config.retry_cap * 1000:g})",
+        "authentication": "none (packets in the simulator are not sealed)",
+    }
+
+
+def _script(text: str) -> TaskScript:
+    result = check(text, path="bench.xml")
+    if result.script is None:  # the generators are tested; this is a programming error
+        raise AssertionError("\n".join(str(d) for d in result.diagnostics))
+    return result.script
+
+
+def _settled(sim: TaskSim, size: int, limit: float = 30.0) -> bool:
+    """Run until one master has everyone in its view with its handshake done."""
+    swarm = sim.swarm
+    end = swarm.now + limit
+    while swarm.now < end:
+        sim.advance(swarm.now + 0.05)
+        masters = swarm.current_masters()
+        if len(masters) == 1:
+            node = swarm.node(masters[0])
+            if node.handshake_complete and len(node.members) == size - 1:
+                # Quiet for T_join: the master holds back stale notices that long after the
+                # swarm changed (a report on its way could still explain a request), which
+                # would delay the first transitions by up to a second.
+                sim.advance(swarm.now + sim.config.t_join + 0.3)
+                return True
+    return False
+
+
+# --- Table I -------------------------------------------------------------------------------
+
+
+def sim_table1(
+    plugins: Sequence[int], settings: SimSettings, progress: Progress = quiet
+) -> list[Table1Row]:
+    rows = []
+    size = settings.peers + 1
+    for count in plugins:
+        row = Table1Row(mode="sim", plugins=count, peers=settings.peers)
+        sim = TaskSim(
+            _script(table1_script(size, count)),
+            seed=settings.seed,
+            link=LinkModel(latency=settings.latency, jitter=settings.jitter),
+        )
+        progress(f"sim table I: {size} platforms, {count} plugin(s), starting")
+        sim.advance(3.0)  # boot: startup wait, joins, election
+        for host in sim.hosts.values():
+            host.engine.runtime.drain_switch_times()
+        for r in range(settings.repeat):
+            progress(f"sim table I: {count} plugin(s), window {r + 1}/{settings.repeat}")
+            began = time.process_time()
+            sim.advance(sim.swarm.now + settings.window)
+            used = time.process_time() - began
+            row.cpu_pct.append(100.0 * used / (size * settings.window))
+            for host in sim.hosts.values():
+                row.switch_ms += [s * 1000 for s in host.engine.runtime.drain_switch_times()]
+            progress(f"sim table I: {count} plugin(s), window {r + 1}", advance=1)
+        rows.append(row)
+    return rows
+
+
+def table1_units(plugins: Sequence[int], settings: SimSettings) -> int:
+    return len(plugins) * settings.repeat
+
+
+# --- Table II ------------------------------------------------------------------------------
+
+
+@dataclass(slots=True)
+class _Sample:
+    transition_ms: float
+    master_pps: float
+    member_pps: float
+    bytes_per_packet: float
+    master_packets: float
+    member_packets: float
+
+
+def _totals(sim: TaskSim) -> dict[int, tuple[int, int, int, int]]:
+    traffic = sim.swarm.radio.traffic
+    return {p: traffic.totals(p) for p in [0, *sim.swarm.nodes]}
+
+
+def _fire(
+    sim: TaskSim,
+    event: tuple[str, str, str],
+    targets: Iterable[int],
+    timeout: float,
+) -> tuple[_Sample | None, str]:
+    """Send ``event`` from the ground station to ``targets`` and run until each of them has
+    switched (or ``timeout``). The sample, or None and why not."""
+    name, _, dst = event
+    targets = sorted(targets)
+    swarm = sim.swarm
+    masters = swarm.current_masters()
+    if len(masters) != 1:
+        return None, f"not one master before {name}: {masters}"
+    master = masters[0]
+    before = _totals(sim)
+    sent_at = swarm.now
+    sim.operate(lambda gs, now: gs.event(name, now, platforms=targets))
+    switched: dict[int, float] = {}
+    end = sent_at + timeout
+    while len(switched) < len(targets) and swarm.now < end:
+        for rec in sim.advance(swarm.now + 0.002):
+            if rec["event"] == name and rec["to"] == dst and rec["platform"] in targets:
+                switched.setdefault(rec["platform"], rec["t"])
+    if len(switched) < len(targets):
+        missing = sorted(set(targets) - set(switched))
+        return None, f"{name}: {len(switched)} of {len(targets)} switched; missing {missing}"
+    last = max(switched.values())
+    after = _totals(sim)
+    window = max(swarm.now - sent_at, 1e-9)
+    moved = {p: [a - b for a, b in zip(after[p], before[p], strict=True)] for p in after}
+    members = [p for p in swarm.nodes if p != master]
+    master_packets = moved[master][0] + moved[master][2]
+    member_packets = (
+        statistics.fmean(moved[p][0] + moved[p][2] for p in members) if members else NAN
+    )
+    sent_packets = sum(d[0] for d in moved.values())
+    sent_bytes = sum(d[1] for d in moved.values())
+    return (
+        _Sample(
+            transition_ms=(last - sent_at) * 1000,
+            master_pps=master_packets / window,
+            member_pps=member_packets / window,
+            bytes_per_packet=sent_bytes / sent_packets if sent_packets else NAN,
+            master_packets=master_packets,
+            member_packets=member_packets,
+        ),
+        "",
+    )
+
+
+def _record(row: Table2Row, sample: _Sample | None, why: str, replay: str) -> None:
+    """Append one repetition to every sample list of ``row`` (NaN for a failed one)."""
+    for name in _Sample.__slots__:
+        getattr(row, name).append(NAN if sample is None else getattr(sample, name))
+    if sample is None:
+        row.errors.append(f"{why} (replay: {replay})")
+
+
+def _force(sim: TaskSim, platforms: list[int], actor: str, timeout: float) -> bool:
+    """The ground station forces ``platforms`` to ``actor``; run until each runs only it."""
+    sim.operate(lambda gs, now: gs.send(cmds.Force(to=actor), platforms, now))
+    end = sim.swarm.now + timeout
+    while sim.swarm.now < end:
+        sim.advance(sim.swarm.now + 0.05)
+        if all(list(sim.hosts[p].engine.runtime.running()) == [actor] for p in platforms):
+            sim.advance(sim.swarm.now + SETTLE)
+            return True
+    return False
+
+
+def sim_table2_cell(
+    case: str,
+    size: int,
+    plugins: int,
+    loss: float,
+    settings: SimSettings,
+    progress: Progress = quiet,
+) -> Table2Row:
+    """Every repetition of one (case, size, plugins, loss) on one simulated swarm."""
+    row = Table2Row(mode="sim", case=case, size=size, plugins=plugins, loss=loss)
+    repeats = settings.repeats(size)
+    seed = settings.seed * 1_000_003 + size * 101 + plugins * 7 + round(loss * 100)
+    replay = (
+        f"actorswarm bench table2 --mode sim --sizes {size} --plugins {plugins} "
+        f"--loss {loss:g} --seed {settings.seed}"
+    )
+    label = f"sim table II {case}: N={size}, {plugins} plugin(s), {loss:.0%} loss"
+    if case == "branch" and size < 2:
+        row.errors.append("branching needs two platforms")
+        progress(label, advance=repeats)
+        return row
+    sim = TaskSim(
+        _script(table2_script(size, plugins, timeout=settings.run_timeout)),
+        seed=seed,
+        link=LinkModel(latency=settings.latency, jitter=settings.jitter, loss=loss),
+    )
+    progress(f"{label}: booting")
+    if not _settled(sim, size):
+        for _ in range(repeats):
+            _record(row, None, "the swarm did not settle in 30 s", replay)
+        progress(label, advance=repeats)
+        return row
+    rng = random.Random(seed)
+    everyone = sorted(sim.swarm.nodes)
+    a, b, c = actor_names(plugins)
+    go, back, split, rejoin = (GO[0], a, b), (BACK[0], b, a), (SPLIT[0], a, c), (REJOIN[0], c, a)
+    at = a  # where every platform is
+    for r in range(repeats):
+        progress(f"{label}: {r + 1}/{repeats}")
+        if case == "switch":
+            event = go if at == a else back
+            targets = everyone
+            sample, why = _fire(sim, event, targets, settings.run_timeout)
+            at = event[2]
+            sim.advance(sim.swarm.now + SETTLE)
+        else:
+            targets = sorted(rng.sample(everyone, 2))
+            sample, why = _fire(sim, split, targets, settings.run_timeout)
+            if sample is not None:
+                sample_back, _ = _fire(sim, rejoin, targets, settings.run_timeout)
+                sim.advance(sim.swarm.now + SETTLE)
+                if sample_back is None:
+                    why = "rejoin did not bring both back"
+        _record(row, sample, why, replay)
+        if sample is not None and why:
+            row.errors.append(f"after repetition {r + 1}: {why} (replay: {replay})")
+        progress(label, advance=1)
+        # Some platforms left behind (one falsely declared gone misses the release and is
+        # then "not chosen"): the operator's forced transition brings them to where the
+        # next repetition starts.
+        if (sample is None or why) and not _force(sim, targets, at, settings.run_timeout):
+            for _ in range(r + 1, repeats):
+                _record(row, None, f"not run: platforms could not be forced to {at}", replay)
+            progress(label, advance=repeats - r - 1)
+            break
+    return row
+
+
+def sim_table2(
+    cells: Sequence[tuple[str, int, int, float]],
+    settings: SimSettings,
+    progress: Progress = quiet,
+) -> list[Table2Row]:
+    """:func:`sim_table2_cell` for every ``(case, size, plugins, loss)``."""
+    return [
+        sim_table2_cell(case, size, plugins, loss, settings, progress)
+        for case, size, plugins, loss in cells
+    ]
+
+
+def table2_units(cells: Sequence[tuple[str, int, int, float]], settings: SimSettings) -> int:
+    return sum(settings.repeats(size) for _, size, _, _ in cells)
+
+
+# --- Table III -----------------------------------------------------------------------------
+
+
+def sim_table3(
+    cells: Sequence[tuple[int, float]],
+    settings: SimSettings,
+    progress: Progress = quiet,
+) -> list[Table3Row]:
+    """For every ``(size, loss)``: the master crashes; the new master is acknowledged."""
+    config = CoreConfig()
+    rows = []
+    for size, loss in cells:
+        row = Table3Row(mode="sim", size=size, loss=loss)
+        link = LinkModel(latency=settings.latency, jitter=settings.jitter, loss=loss)
+        repeats = settings.repeats(size)
+        for r in range(repeats):
+            progress(f"sim table III: N={size}, {loss:.0%} loss, {r + 1}/{repeats}")
+            seed = settings.seed * 1_000_003 + size * 1000 + r
+            try:
+                run, _ = run_failover(size, seed, link, config)
+            except RuntimeError as exc:  # a swarm that never settled
+                row.election_ms.append(NAN)
+                row.errors.append(f"{exc} (seed {seed})")
+            else:
+                row.election_ms.append(run.to_acknowledged * 1000)
+                if run.new_master < 0:
+                    row.errors.append(
+                        f"no new master acknowledged by all in {10 * config.t_leave:g} s "
+                        f"(seed {seed})"
+                    )
+            progress(f"sim table III: N={size}", advance=1)
+        rows.append(row)
+    return rows
+
+
+def table3_units(cells: Sequence[tuple[int, float]], settings: SimSettings) -> int:
+    return sum(settings.repeats(size) for size, _ in cells)

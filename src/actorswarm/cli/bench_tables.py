@@ -1,0 +1,376 @@
+"""``actorswarm bench table1|table2|table3|all``: the paper's Tables I–III, reproduced in the
+simulator and with real daemons, reported next to the paper's figures.
+
+The plan of a run (which rows, how many repetitions) is built first and drawn as a progress
+bar over every repetition; the report goes to stdout, and with ``--out DIR`` to
+``DIR/tables.md``, ``DIR/tables.json`` and ``DIR/tables.png``.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import shlex
+import signal
+import sys
+import tempfile
+import time
+import typing
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+__all__ = ["Plan", "register"]
+
+console = Console(stderr=True)
+
+
+class Mode(StrEnum):
+    sim = "sim"
+    real = "real"
+    both = "both"
+
+
+TABLES = {"table1": ("1",), "table2": ("2",), "table3": ("3",), "all": ("1", "2", "3")}
+
+
+@dataclass(slots=True)
+class Plan:
+    """What one run measures. ``sizes`` are the paper's (both modes); ``big_sizes`` and
+    ``losses`` are beyond it (simulator only: Table II(a) and III)."""
+
+    tables: tuple[str, ...]
+    modes: tuple[str, ...]
+    sizes: list[int]
+    big_sizes: list[int]
+    plugins: list[int]
+    losses: list[float]
+    repeat: int
+    big_repeat: int
+    peers: int
+    window: float
+    seed: int
+    cells2: list[tuple[str, int, int, float]] = field(default_factory=list)
+    cells3: list[tuple[int, float]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        least = min(self.plugins)
+        cells2 = [
+            (case, size, plugins, 0.0)
+            for case in ("switch", "branch")
+            for size in self.sizes
+            for plugins in self.plugins
+        ]
+        everywhere = sorted(set(self.sizes) | set(self.big_sizes))
+        for loss in (0.0, *self.losses):
+            for size in everywhere:
+                cell = ("switch", size, least, loss)
+                if cell not in cells2:
+                    cells2.append(cell)
+        self.cells2 = cells2
+        self.cells3 = [(size, loss) for loss in (0.0, *self.losses) for size in everywhere]
+
+
+def _ints(text: str, flag: str, low: int, high: int, *, empty: bool = False) -> list[int]:
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    if not parts and empty:
+        return []
+    try:
+        values = sorted({int(p) for p in parts})
+    except ValueError:
+        raise typer.BadParameter(f"expected comma-separated integers, got {text!r}") from None
+    if not values or any(v < low or v > high for v in values):
+        raise typer.BadParameter(f"every value must be {low}..{high}, got {text!r}")
+    del flag
+    return values
+
+
+def _losses(text: str) -> list[float]:
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    try:
+        values = sorted({float(p.rstrip("%")) / (100 if p.endswith("%") else 1) for p in parts})
+    except ValueError:
+        raise typer.BadParameter(f"expected comma-separated loss rates, got {text!r}") from None
+    if any(not 0.0 < v < 1.0 for v in values):
+        raise typer.BadParameter(f"every loss rate must be above 0 and below 1, got {text!r}")
+    return values
+
+
+def bench_tables(
+    which: Annotated[str, typer.Argument(metavar="TABLE", help="table1, table2, table3 or all.")],
+    sizes: Annotated[
+        str | None,
+        typer.Option(help="Swarm sizes of Tables II and III (default 5,10,15,20,25,30)."),
+    ] = None,
+    plugins: Annotated[
+        str | None, typer.Option(help="Plugins per actor (Tables I, II) (default 1,5).")
+    ] = None,
+    repeat: Annotated[
+        int | None, typer.Option(min=1, max=1000, help="Repetitions of each test (default 10).")
+    ] = None,
+    mode: Annotated[
+        Mode, typer.Option(help="sim (virtual time), real (daemons over Zenoh) or both.")
+    ] = Mode.both,
+    big_sizes: Annotated[
+        str | None,
+        typer.Option(
+            help="Beyond the paper, simulator only: sizes of II(a) and III "
+            "(default 100,1000; '' for none)."
+        ),
+    ] = None,
+    big_repeat: Annotated[
+        int | None, typer.Option(min=1, help="Repetitions at sizes ≥ 100 (default 3).")
+    ] = None,
+    loss: Annotated[
+        str | None,
+        typer.Option(
+            help="Beyond the paper, simulator only: loss rates of II(a) and III at every "
+            "size (default 0.1,0.3; '' for none)."
+        ),
+    ] = None,
+    peers: Annotated[
+        int | None,
+        typer.Option(min=1, max=200, help="Table I: the platform's peers (default 30)."),
+    ] = None,
+    window: Annotated[
+        float | None, typer.Option(min=0.5, help="Table I: seconds per repetition (default 10).")
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of every random choice.")] = 1,
+    quick: Annotated[
+        bool,
+        typer.Option(
+            "--quick",
+            help="A smoke run in under two minutes: sizes 3,5, one plugin, 2 repetitions, "
+            "10 % loss only, no big sizes, Table I with 3 peers and 2 s windows.",
+        ),
+    ] = False,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Write tables.md, tables.json and tables.png into this directory."),
+    ] = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Write the results as JSON here ('-': stdout).")
+    ] = None,
+    directory: Annotated[
+        Path | None,
+        typer.Option("--dir", help="Real mode: keep the daemons' state and logs here."),
+    ] = None,
+) -> None:
+    """Reproduce the paper's Tables I–III next to its figures (median, p95 and range over
+    the repetitions; the paper's means and our ratio to them)."""
+    if which not in TABLES:
+        raise typer.BadParameter(f"expected one of {', '.join(TABLES)}, got {which!r}")
+    plan = Plan(
+        tables=TABLES[which],
+        modes=("sim", "real") if mode is Mode.both else (mode.value,),
+        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), "--sizes", 2, 1000),
+        big_sizes=_ints(
+            big_sizes if big_sizes is not None else ("" if quick else "100,1000"),
+            "--big-sizes",
+            2,
+            5000,
+            empty=True,
+        ),
+        plugins=_ints(plugins or ("1" if quick else "1,5"), "--plugins", 1, 20),
+        losses=_losses(loss if loss is not None else ("0.1" if quick else "0.1,0.3")),
+        repeat=repeat or (2 if quick else 10),
+        big_repeat=big_repeat or (1 if quick else 3),
+        peers=peers or (3 if quick else 30),
+        window=window or (2.0 if quick else 10.0),
+        seed=seed,
+    )
+    command = "actorswarm bench " + shlex.join(sys.argv[2:])  # '' stays visible
+
+    def terminated(signum: int, frame: object) -> None:
+        # Unwind like Ctrl-C, so the daemons started so far are killed on the way out.
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, terminated)
+    with tempfile.TemporaryDirectory(prefix="actorswarm-tables-") as scratch:
+        report = run(plan, command, directory or Path(scratch))
+    _write(report, out, json_out)
+
+
+def run(plan: Plan, command: str, directory: Path) -> object:
+    """Every measurement of ``plan``, with a progress bar; the :class:`TablesReport`."""
+    from actorswarm.bench import tables_real as real
+    from actorswarm.bench import tables_sim as sim
+    from actorswarm.bench.daemons import machine_info
+    from actorswarm.bench.tables import TablesReport
+
+    sim_settings = sim.SimSettings(
+        repeat=plan.repeat,
+        big_repeat=plan.big_repeat,
+        peers=plan.peers,
+        window=plan.window,
+        seed=plan.seed,
+    )
+    real_settings = real.RealSettings(
+        repeat=plan.repeat, peers=plan.peers, window=plan.window, seed=plan.seed
+    )
+    tables23 = frozenset(t for t in plan.tables if t in ("2", "3"))
+    units = 0
+    if "sim" in plan.modes:
+        units += sim.table1_units(plan.plugins, sim_settings) if "1" in plan.tables else 0
+        units += sim.table2_units(plan.cells2, sim_settings) if "2" in plan.tables else 0
+        units += sim.table3_units(plan.cells3, sim_settings) if "3" in plan.tables else 0
+    if "real" in plan.modes:
+        units += real.table1_units(plan.plugins, real_settings) if "1" in plan.tables else 0
+        if tables23:
+            units += real.table23_units(plan.sizes, plan.plugins, real_settings, tables23)
+    report = TablesReport(
+        command=command,
+        started=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        machine=machine_info(),
+        radio=sim.radio_model(sim_settings),
+        settings=asdict(plan),
+    )
+    began = time.perf_counter()
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )
+    with Progress(*columns, console=console, transient=True) as bar:
+        task = bar.add_task("starting", total=units)
+
+        said = [0.0]
+
+        def progress(message: str, *, advance: int = 0) -> None:
+            bar.update(task, description=message[:70], advance=advance)
+            # Not a terminal (a CI log, nohup): no bar is drawn, so a line every 10 s.
+            if not console.is_terminal and time.monotonic() - said[0] >= 10.0:
+                said[0] = time.monotonic()
+                done = int(bar.tasks[0].completed)
+                console.print(f"[{done}/{units}] {time.perf_counter() - began:.0f} s: {message}")
+
+        if "sim" in plan.modes:
+            if "1" in plan.tables:
+                report.table1 += sim.sim_table1(plan.plugins, sim_settings, progress)
+            if "2" in plan.tables:
+                report.table2 += sim.sim_table2(plan.cells2, sim_settings, progress)
+            if "3" in plan.tables:
+                report.table3 += sim.sim_table3(plan.cells3, sim_settings, progress)
+        if "real" in plan.modes:
+            if "1" in plan.tables:
+                report.table1 += real.real_table1(
+                    directory / "table1", plan.plugins, real_settings, progress
+                )
+            if tables23:
+                rows2, rows3 = real.real_table23(
+                    directory / "table23",
+                    plan.sizes,
+                    plan.plugins,
+                    real_settings,
+                    tables23,
+                    progress,
+                )
+                report.table2 += rows2
+                report.table3 += rows3
+    report.wall_s = time.perf_counter() - began
+    return report
+
+
+def bench_report(
+    results: Annotated[
+        list[Path],
+        typer.Argument(
+            help="JSON files written by bench table*/all (--json or --out); FILE:sim or "
+            "FILE:real takes only that mode's rows of FILE.",
+            metavar="RUN.json[:MODE]...",
+        ),
+    ],
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Write tables.md, tables.json and tables.png into this directory."),
+    ] = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Write the merged JSON here ('-': stdout).")
+    ] = None,
+) -> None:
+    """Report saved runs again, merged into one: every row of each (to put runs made apart —
+    real daemons, the simulator at 1000 platforms — in one report and one picture)."""
+    from actorswarm.bench.tables import MODES, from_json, merge
+
+    reports = []
+    for spec in results:
+        path, _, only = str(spec).rpartition(":")
+        if only not in MODES:  # no ":sim"/":real" suffix: every row of the file
+            path, only = str(spec), ""
+        try:
+            report = from_json(json.loads(Path(path).read_text()))
+        except OSError as exc:
+            raise typer.BadParameter(f"{path}: {exc.strerror or exc}") from None
+        except (ValueError, KeyError, TypeError, AttributeError) as exc:
+            raise typer.BadParameter(f"{path}: not a bench tables result ({exc!r})") from None
+        if only:
+            report.table1 = [r for r in report.table1 if r.mode == only]
+            report.table2 = [r for r in report.table2 if r.mode == only]
+            report.table3 = [r for r in report.table3 if r.mode == only]
+            report.command += f"  (its {only} rows)"
+        reports.append(report)
+    _write(merge(reports), out, json_out)
+
+
+def _write(report: object, out: Path | None, json_out: Path | None) -> None:
+    from actorswarm.bench.tables import TablesReport, to_json
+    from actorswarm.bench.tables_plot import plot_tables
+    from actorswarm.bench.tables_report import markdown, problems
+
+    assert isinstance(report, TablesReport)
+    text = markdown(report)
+    data = json.dumps(to_json(report), indent=1) + "\n"
+    if json_out is not None and str(json_out) == "-":
+        typer.echo(data, nl=False)
+    else:
+        typer.echo(text)
+    if json_out is not None and str(json_out) != "-":
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(data)
+        console.print(f"JSON written to {json_out}")
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "tables.md").write_text(text)
+        (out / "tables.json").write_text(data)
+        plot_tables(report, out / "tables.png")
+        console.print(f"report, JSON and picture written to {out}/tables.{{md,json,png}}")
+    failed = problems(report)
+    if failed:
+        console.print(f"[yellow]{len(failed)} problem(s); see “What did not work”.[/yellow]")
+
+
+def _command(which: str, help_text: str) -> Callable[..., None]:
+    """``bench_tables`` with ``which`` fixed: the options of every table command are the
+    same, declared once."""
+
+    def command(**kwargs: Any) -> None:
+        bench_tables(which, **kwargs)
+
+    # Evaluated annotations: the options' Annotated metadata is what typer reads.
+    signature = inspect.signature(bench_tables, eval_str=True)
+    command.__signature__ = signature.replace(  # type: ignore[attr-defined]
+        parameters=[p for name, p in signature.parameters.items() if name != "which"]
+    )
+    hints = typing.get_type_hints(bench_tables, include_extras=True)
+    command.__annotations__ = {k: v for k, v in hints.items() if k != "which"}
+    command.__doc__ = help_text
+    return command
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``table1``, ``table2``, ``table3`` and ``all`` to the ``bench`` command group."""
+    for name, what in (
+        ("table1", "Table I: one platform's CPU and memory, and the single Actor switch."),
+        ("table2", "Table II: collective switch and branch — time, packets/s, bytes/packet."),
+        ("table3", "Table III: the master's daemon killed → a new master acknowledged by all."),
+        ("all", "Tables I, II and III, next to the paper's figures."),
+    ):
+        app.command(name)(_command(name, what))
+    app.command("report")(bench_report)

@@ -1,0 +1,287 @@
+"""``actorswarm bench table1|table2|table3|all``: the simulated rows, the report, the JSON,
+the picture and the command line. Timings are reported, never asserted (shared machines
+are noisy); the smoke run asserts that every table is produced and well formed."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+from click.testing import Result
+from hypothesis import given
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from actorswarm.bench import paper
+from actorswarm.bench.scripts import table1_script, table2_script
+from actorswarm.bench.tables import (
+    Table1Row,
+    Table2Row,
+    Table3Row,
+    TablesReport,
+    from_json,
+    percentile,
+    summarize,
+    to_json,
+)
+from actorswarm.bench.tables_plot import plot_tables
+from actorswarm.bench.tables_report import markdown, problems
+from actorswarm.bench.tables_sim import SimSettings, sim_table1, sim_table2_cell, sim_table3
+from actorswarm.cli.app import app
+from actorswarm.cli.bench_tables import Plan
+from actorswarm.dsl import check
+
+NAN = math.nan
+
+
+# --- statistics ----------------------------------------------------------------------------
+
+
+@given(st.lists(st.floats(min_value=0, max_value=1e6), min_size=1, max_size=50))
+def test_a_summary_orders_its_figures(values: list[float]) -> None:
+    s = summarize([*values, NAN])
+    assert s.n == len(values) and s.failed == 1
+    assert s.lo <= s.median <= s.p95 <= s.p99 <= s.hi
+    assert s.spread == s.hi - s.lo
+
+
+def test_percentiles_by_nearest_rank() -> None:
+    values = [float(v) for v in range(1, 101)]
+    assert percentile(values, 0.95) == 95.0
+    assert percentile(values, 0.99) == 99.0
+    assert percentile([3.0], 0.95) == 3.0
+    assert math.isnan(percentile([NAN], 0.5))
+    assert summarize([NAN, NAN]).n == 0
+
+
+# --- scripts -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("plugins", [1, 5])
+def test_the_benchmark_scripts_pass_the_checker(plugins: int) -> None:
+    for text in (table1_script(31, plugins), table2_script(30, plugins)):
+        result = check(text, path="bench.xml")
+        assert result.ok, [str(d) for d in result.diagnostics]
+        for actor in result.script.actors if result.script else ():
+            assert len(list(actor.plugins())) == plugins
+
+
+def test_a_script_with_no_plugin_is_refused() -> None:
+    with pytest.raises(ValueError, match="at least one plugin"):
+        table2_script(5, 0)
+
+
+# --- the simulated rows --------------------------------------------------------------------
+
+
+def test_simulated_transitions_are_measured_and_replayable() -> None:
+    settings = SimSettings(repeat=3)
+    row = sim_table2_cell("switch", 6, 1, 0.0, settings)
+    again = sim_table2_cell("switch", 6, 1, 0.0, settings)
+    assert row == again  # virtual time: the same seed gives the same figures
+    assert row.errors == []
+    for values in (row.transition_ms, row.master_pps, row.member_pps, row.bytes_per_packet):
+        assert len(values) == 3 and all(v > 0 for v in values)
+    # Three hops at least (ground station → platforms → master → platforms), 10 ms each.
+    assert min(row.transition_ms) >= 30.0
+    # The master hears every request: more packets than an average member.
+    assert all(m > n for m, n in zip(row.master_packets, row.member_packets, strict=True))
+    branch = sim_table2_cell("branch", 6, 5, 0.1, settings)
+    assert branch.errors == [] and len(branch.transition_ms) == 3
+    assert all(not math.isnan(v) for v in branch.transition_ms)
+
+
+def test_a_transition_that_never_completes_is_a_failed_sample_with_a_replay_line() -> None:
+    # Nine of ten packets lost: a barrier of every platform cannot complete in 0.3 s.
+    settings = SimSettings(repeat=2, run_timeout=0.3)
+    row = sim_table2_cell("switch", 5, 1, 0.9, settings)
+    assert len(row.transition_ms) == 2
+    assert any(math.isnan(v) for v in row.transition_ms)
+    assert any("replay: actorswarm bench table2 --mode sim" in e for e in row.errors)
+
+
+def test_simulated_failover_and_overhead_rows() -> None:
+    settings = SimSettings(repeat=2, peers=4, window=3.0)
+    (iii,) = sim_table3([(5, 0.1)], settings)
+    assert iii.errors == [] and len(iii.election_ms) == 2
+    # A new master cannot be known before the old one is declared gone (T_leave 500 ms).
+    assert all(v >= 400 for v in iii.election_ms)
+    (i,) = sim_table1([1], settings)
+    assert i.peers == 4 and len(i.cpu_pct) == 2 and all(v > 0 for v in i.cpu_pct)
+    assert i.rss_mib == []  # one process hosts every simulated platform
+    # Five platforms alternating at 1 Hz for 6 s: each switched about six times.
+    assert len(i.switch_ms) >= 20 and all(v >= 0 for v in i.switch_ms)
+
+
+# --- report, JSON, picture -----------------------------------------------------------------
+
+
+def _report() -> TablesReport:
+    return TablesReport(
+        command="actorswarm bench all",
+        started="2026-11-22T00:00:00Z",
+        machine={"cpus": 2},
+        radio={"latency_ms": 10},
+        settings={},
+        table1=[Table1Row("real", 1, 30, [0.9, 1.1], [70.0, 71.0], [0.05, 0.07, 0.2])],
+        table2=[
+            Table2Row("sim", "switch", 30, 1, 0.0, [44.0, 46.0], [2000.0] * 2, [500.0] * 2,
+                      [50.0] * 2, [100.0] * 2, [20.0] * 2),
+            Table2Row("sim", "branch", 5, 1, 0.0, [40.0, NAN], [200.0, NAN], [150.0, NAN],
+                      [48.0, NAN], [9.0, NAN], [6.0, NAN], ["split: 1 of 2 switched"]),
+            Table2Row("sim", "switch", 1000, 1, 0.3, [500.0], [9e3], [800.0], [50.0],
+                      [3000.0], [400.0]),
+        ],
+        table3=[Table3Row("real", 30, 0.0, [450.0, 470.0]), Table3Row("sim", 7, 0.1, [NAN])],
+        wall_s=12.0,
+    )  # fmt: skip
+
+
+def test_the_report_puts_the_paper_next_to_ours() -> None:
+    text = markdown(_report())
+    for heading in ("## Table I", "## Table II(a)", "## Table II(b)", "## Table III"):
+        assert heading in text
+    # Table II(a), N=30, one plugin: ours 45 ms against the paper's 1332 ms.
+    assert "| sim | 30 | 1 | 0% | 2/2 | 45.0 (46.0; 44.0–46.0) | 1,332 | 0.0338 |" in text
+    assert "| real | 30 | 0% | 2/2 | 460 (470; 450–470) | 909 | 0.506 |" in text
+    # No paper figure for a lossy row or a size the paper did not measure.
+    assert "| sim | 1000 | 1 | 30% | 1/1 | 500.0 (500.0; 500.0–500.0) |  |  |" in text
+    assert "| sim | 5 | 1 | 0% | 1/2 |" in text  # the failed repetition is counted
+    assert "II branch sim N=5 plugins=1 loss=0%: split: 1 of 2 switched" in text
+    assert problems(_report()) == ["II branch sim N=5 plugins=1 loss=0%: split: 1 of 2 switched"]
+    assert f"{paper.TABLE1[1].switch_ms:g} ms" in text
+
+
+def test_the_json_is_strict_and_round_trips() -> None:
+    report = _report()
+    data = json.loads(json.dumps(to_json(report), allow_nan=False))
+    assert data["table2"][1]["transition_ms"] == [40.0, None]
+    assert data["table2"][0]["summary"]["transition_ms"]["median"] == 45.0
+    back = from_json(data)
+    assert back.table1 == report.table1 and back.table3[0] == report.table3[0]
+    assert math.isnan(back.table2[1].transition_ms[1])
+    assert markdown(back) == markdown(report)
+
+
+def test_the_picture_is_drawn(tmp_path: Path) -> None:
+    out = tmp_path / "tables.png"
+    plot_tables(_report(), out)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    empty = TablesReport("c", "s", {}, {}, {})
+    plot_tables(empty, tmp_path / "empty.png")  # nothing measured: panels say so
+    assert (tmp_path / "empty.png").stat().st_size > 0
+
+
+# --- the command line ----------------------------------------------------------------------
+
+
+def test_the_plan_adds_the_rows_beyond_the_paper() -> None:
+    plan = Plan(
+        tables=("2", "3"),
+        modes=("sim",),
+        sizes=[5, 30],
+        big_sizes=[1000],
+        plugins=[1, 5],
+        losses=[0.1],
+        repeat=10,
+        big_repeat=3,
+        peers=30,
+        window=10.0,
+        seed=1,
+    )
+    assert ("branch", 30, 5, 0.0) in plan.cells2
+    assert ("switch", 1000, 1, 0.0) in plan.cells2 and ("switch", 1000, 1, 0.1) in plan.cells2
+    assert ("switch", 5, 1, 0.1) in plan.cells2
+    assert ("branch", 1000, 1, 0.0) not in plan.cells2  # II(b) only at the paper's sizes
+    assert len(plan.cells2) == len(set(plan.cells2))
+    assert plan.cells3 == [(5, 0.0), (30, 0.0), (1000, 0.0), (5, 0.1), (30, 0.1), (1000, 0.1)]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["table2", "--sizes", "5,x"], "comma-separated integers"),
+        (["table2", "--sizes", "1"], "2..1000"),
+        (["table3", "--loss", "0.1,1.5"], "above 0 and below 1"),
+        (["table9"], "No such command"),
+        (["all", "--mode", "fast"], "fast"),
+    ],
+)
+def test_bad_arguments_get_a_clear_error(args: list[str], message: str) -> None:
+    result = CliRunner().invoke(app, ["bench", *args])
+    assert result.exit_code == 2
+    assert message in result.output
+
+
+def test_the_quick_run_produces_every_table_well_formed(tmp_path: Path) -> None:
+    """The CI smoke run: simulator and real daemons, every table, report, JSON, picture."""
+    result = CliRunner().invoke(app, ["bench", "all", "--quick", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    data = json.loads((tmp_path / "tables.json").read_text())
+    report = from_json(data)
+    assert {(r.mode, r.plugins) for r in report.table1} == {("sim", 1), ("real", 1)}
+    cases = {(r.mode, r.case, r.size) for r in report.table2 if r.loss == 0}
+    assert cases == {
+        (m, c, n) for m in ("sim", "real") for c in ("switch", "branch") for n in (3, 5)
+    }
+    assert {(r.size, r.loss) for r in report.table2 if r.mode == "sim" and r.loss} == {
+        (3, 0.1),
+        (5, 0.1),
+    }
+    assert {(r.mode, r.size, r.loss) for r in report.table3} == {
+        ("sim", 3, 0.0), ("sim", 5, 0.0), ("sim", 3, 0.1), ("sim", 5, 0.1),
+        ("real", 3, 0.0), ("real", 5, 0.0),
+    }  # fmt: skip
+    for row in report.table2:
+        lengths = {len(getattr(row, f)) for f in ("transition_ms", "master_pps", "member_pps")}
+        assert lengths == {2}, row
+    for row3 in report.table3:
+        assert len(row3.election_ms) == 2
+    for row1 in report.table1:
+        assert len(row1.cpu_pct) == 2
+    # The simulated rows are deterministic: they must have worked.
+    assert all(not r.errors for r in report.table2 + report.table3 if r.mode == "sim")  # type: ignore[operator]
+    text = (tmp_path / "tables.md").read_text()
+    assert text == markdown(report)
+    assert (tmp_path / "tables.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_saved_runs_are_reported_again_merged(tmp_path: Path) -> None:
+    first, second = _report(), _report()
+    second.command, second.table1, second.wall_s = "actorswarm bench table3", [], 3.0
+    paths = []
+    for i, report in enumerate((first, second)):
+        path = tmp_path / f"run{i}.json"
+        path.write_text(json.dumps(to_json(report)))
+        paths.append(str(path))
+    out = tmp_path / "merged"
+    result = CliRunner().invoke(app, ["bench", "report", *paths, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    merged = from_json(json.loads((out / "tables.json").read_text()))
+    assert merged.command == "actorswarm bench all; actorswarm bench table3"
+    assert len(merged.table2) == 6 and len(merged.table1) == 1 and merged.wall_s == 15.0
+    assert (out / "tables.png").exists() and "## Table III" in (out / "tables.md").read_text()
+    # FILE:MODE takes only that mode's rows of the file (a run redone in one mode).
+    picked_json = tmp_path / "picked.json"
+    args = ["bench", "report", paths[0], f"{paths[1]}:sim", "--json", str(picked_json)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    picked = from_json(json.loads(picked_json.read_text()))
+    assert [r.mode for r in picked.table3] == ["real", "sim", "sim"]
+    assert picked.command.endswith("actorswarm bench table3  (its sim rows)")
+
+
+def test_a_file_that_is_not_a_saved_run_is_refused(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"command": 1}')
+
+    def said(result: Result) -> str:
+        """The error as one line (the terminal box wraps long paths)."""
+        return " ".join(result.output.replace("│", " ").split())
+
+    result = CliRunner().invoke(app, ["bench", "report", str(bad)])
+    assert result.exit_code == 2 and "not a bench tables result" in said(result)
+    result = CliRunner().invoke(app, ["bench", "report", str(tmp_path / "missing.json")])
+    assert result.exit_code == 2 and "No such file" in said(result)
