@@ -100,17 +100,21 @@ def _panel1(ax: Any, report: TablesReport) -> None:
     for row in report.table1:
         s = summarize(row.switch_ms)
         if s.n:
-            labels.append(f"{row.mode}\n{row.plugins} plugin{'s' if row.plugins > 1 else ''}")
+            labels.append(f"{row.mode}, {row.plugins}p\n{row.peers} peers")
             values.append(s.median)
             errors.append(s.p99 - s.median)
     for board in paper.TABLE1:
-        labels.append(f"paper\n{board.board}")
+        labels.append(f"paper\n{board.board.replace(' ', chr(10))}")
         values.append(board.switch_ms)
         errors.append(0.0)
     colours = ["tab:blue"] * (len(labels) - len(paper.TABLE1)) + ["black"] * len(paper.TABLE1)
     ax.bar(range(len(labels)), values, yerr=errors, color=colours, capsize=3)
-    ax.set_xticks(range(len(labels)), labels, fontsize="small")
-    ax.set(yscale="log", ylabel="ms", title="Table I: single Actor switch (median, to p99)")
+    ax.set_xticks(range(len(labels)), labels, fontsize="x-small")
+    ax.set(
+        yscale="log",
+        ylabel="ms",
+        title="Table I: single Actor switch (median, to p99)",
+    )
 
 
 def plot_tables(report: TablesReport, out: Path) -> None:
