@@ -68,8 +68,9 @@ class SimSettings:
     """How the simulated tables run. Times are seconds (virtual unless said otherwise)."""
 
     repeat: int = 10
-    #: Repetitions at the sizes beyond the paper's (≥ 100): a 1000-platform swarm costs
-    #: about a minute of wall time per repetition on a small machine.
+    #: Repetitions at the sizes beyond the paper's (≥ 100): a 1000-platform swarm runs at
+    #: about 100 s of wall time per simulated second on a 2-core machine, so forming it
+    #: and one repetition take 5–10 minutes (much longer under heavy loss).
     big_repeat: int = 3
     #: One-way radio latency of every link, and the extra delay drawn in [0, jitter] per
     #: packet and receiver.
