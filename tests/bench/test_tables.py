@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import Result
@@ -22,6 +23,7 @@ from actorswarm.bench.tables import (
     Table3Row,
     TablesReport,
     from_json,
+    merge,
     percentile,
     summarize,
     to_json,
@@ -178,25 +180,33 @@ def test_the_picture_is_drawn(tmp_path: Path) -> None:
 
 
 def test_the_plan_adds_the_rows_beyond_the_paper() -> None:
-    plan = Plan(
-        tables=("2", "3"),
-        modes=("sim",),
-        sizes=[5, 30],
-        big_sizes=[1000],
-        plugins=[1, 5],
-        losses=[0.1],
-        repeat=10,
-        big_repeat=3,
-        peers=30,
-        window=10.0,
-        seed=1,
-    )
+    kwargs: dict[str, Any] = {
+        "tables": ("2", "3"),
+        "modes": ("sim",),
+        "sizes": [5, 30],
+        "big_sizes": [1000],
+        "plugins": [1, 5],
+        "losses": [0.1],
+        "repeat": 10,
+        "big_repeat": 3,
+        "peers": 30,
+        "window": 10.0,
+        "seed": 1,
+    }
+    plan = Plan(**kwargs)
     assert ("branch", 30, 5, 0.0) in plan.cells2
     assert ("switch", 1000, 1, 0.0) in plan.cells2 and ("switch", 1000, 1, 0.1) in plan.cells2
     assert ("switch", 5, 1, 0.1) in plan.cells2
     assert ("branch", 1000, 1, 0.0) not in plan.cells2  # II(b) only at the paper's sizes
     assert len(plan.cells2) == len(set(plan.cells2))
     assert plan.cells3 == [(5, 0.0), (30, 0.0), (1000, 0.0), (5, 0.1), (30, 0.1), (1000, 0.1)]
+    # One case only: a long run at 1000 platforms need not measure what it does not want.
+    switch = Plan(**{**kwargs, "cases": ("switch",)})
+    assert {c[0] for c in switch.cells2} == {"switch"}
+    assert switch.cells2 == [c for c in plan.cells2 if c[0] == "switch"]
+    branch = Plan(**{**kwargs, "cases": ("branch",)})
+    assert branch.cells2 == [c for c in plan.cells2 if c[0] == "branch"]
+    assert branch.cells3 == plan.cells3
 
 
 @pytest.mark.parametrize(
@@ -207,6 +217,7 @@ def test_the_plan_adds_the_rows_beyond_the_paper() -> None:
         (["table3", "--loss", "0.1,1.5"], "above 0 and below 1"),
         (["table9"], "No such command"),
         (["all", "--mode", "fast"], "fast"),
+        (["table2", "--cases", "switch,merge"], "expected switch, branch or both"),
     ],
 )
 def test_bad_arguments_get_a_clear_error(args: list[str], message: str) -> None:
@@ -285,3 +296,46 @@ def test_a_file_that_is_not_a_saved_run_is_refused(tmp_path: Path) -> None:
     assert result.exit_code == 2 and "not a bench tables result" in said(result)
     result = CliRunner().invoke(app, ["bench", "report", str(tmp_path / "missing.json")])
     assert result.exit_code == 2 and "No such file" in said(result)
+
+
+def test_a_long_run_saves_its_rows_as_it_goes_and_when_cut_short(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The JSON is rewritten after every row ("in progress"); a run stopped by a signal
+    writes its whole report so far, marked, and exits as the signal asked."""
+    from actorswarm.bench import tables_sim
+
+    cells: list[int] = []
+    seen: list[TablesReport] = []
+    measure = tables_sim.sim_table3
+
+    def second_cell_interrupted(cells3: Any, settings: Any, progress: Any) -> Any:
+        cells.append(cells3[0][0])
+        if len(cells) == 2:
+            # What has been saved is the first row, marked as a run in progress.
+            seen.append(from_json(json.loads((tmp_path / "tables.json").read_text())))
+            raise SystemExit(143)  # what the SIGTERM handler raises
+        return measure(cells3, settings, progress)
+
+    monkeypatch.setattr(tables_sim, "sim_table3", second_cell_interrupted)
+    args = ["bench", "table3", "--mode", "sim", "--sizes", "3,4", "--loss", "", "--repeat", "1"]
+    result = CliRunner().invoke(app, [*args, "--big-sizes", "", "--out", str(tmp_path)])
+    assert result.exit_code == 143, result.output
+    assert cells == [3, 4]
+    assert [r.size for r in seen[0].table3] == [3]
+    assert seen[0].cut_short == "in progress after 1 row(s)"
+    cut = from_json(json.loads((tmp_path / "tables.json").read_text()))
+    assert [r.size for r in cut.table3] == [3] and len(cut.table3[0].election_ms) == 1
+    assert cut.cut_short == "interrupted (exit 143) after 1 row(s)"
+    text = (tmp_path / "tables.md").read_text()
+    assert text == markdown(cut)
+    assert "**Not a complete run** (interrupted (exit 143) after 1 row(s))" in text
+    assert problems(cut)[0] == "the run was cut short: interrupted (exit 143) after 1 row(s)"
+    assert (tmp_path / "tables.png").exists()
+    # A finished run is not marked; merged with a cut one, the mark names the cut run.
+    whole = _report()
+    assert not whole.cut_short and not any("cut short" in p for p in problems(whole))
+    assert merge([whole, cut]).cut_short == f"{cut.command}: {cut.cut_short}"
+    data = to_json(whole)
+    del data["cut_short"]  # a run saved before runs could be cut short
+    assert from_json(data).cut_short == ""

@@ -37,3 +37,20 @@ def test_platforms_are_ids_and_expect_may_be_a_count() -> None:
     assert id_list("1-3, 7", "--platforms") == [1, 2, 3, 7]
     assert int_list_or_count("4", "--expect") == [1, 2, 3, 4]
     assert int_list_or_count("4,5", "--expect") == [4, 5]
+
+
+def test_sessions_opened_within_one_second_are_new_incarnations(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # ``gs deploy`` then ``gs start`` often run in one second; if both sessions had the same
+    # incarnation the platforms would drop the second one's packets as replays.
+    from actorswarm.daemon import ground
+
+    now = [1_790_000_000_000_000_000]
+    monkeypatch.setattr(ground.time, "time_ns", lambda: now[0])
+    first = ground.session_incarnation()
+    now[0] += 200_000_000  # 0.2 s later: the same second
+    second = ground.session_incarnation()
+    third = ground.session_incarnation()  # the same microsecond, in one process
+    assert first < second < third
+    assert second == now[0] // 1_000

@@ -161,6 +161,10 @@ class TablesReport:
     table2: list[Table2Row] = field(default_factory=list)
     table3: list[Table3Row] = field(default_factory=list)
     wall_s: float = 0.0
+    #: Empty for a finished run; otherwise why the rows stop where they do ("in progress",
+    #: "interrupted..."). A long run rewrites its JSON after every row, so a run that is cut
+    #: short keeps what it measured.
+    cut_short: str = ""
 
 
 def _clean(value: Any) -> Any:
@@ -220,6 +224,7 @@ def from_json(data: dict[str, Any]) -> TablesReport:
         table2=rows(Table2Row, data["table2"]),
         table3=rows(Table3Row, data["table3"]),
         wall_s=float(data["wall_s"]),
+        cut_short=str(data.get("cut_short", "")),
     )
 
 
@@ -252,4 +257,5 @@ def merge(reports: Sequence[TablesReport]) -> TablesReport:
         table2=[row for r in reports for row in r.table2],
         table3=[row for r in reports for row in r.table3],
         wall_s=sum(r.wall_s for r in reports),
+        cut_short="; ".join(f"{r.command}: {r.cut_short}" for r in reports if r.cut_short),
     )

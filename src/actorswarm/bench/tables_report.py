@@ -144,7 +144,7 @@ def _table3(rows: Sequence[Table3Row]) -> list[str]:
 
 def problems(report: TablesReport) -> list[str]:
     """Every error a row recorded, prefixed with the row: what did not work in the run."""
-    out: list[str] = []
+    out: list[str] = [f"the run was cut short: {report.cut_short}"] if report.cut_short else []
     rows: list[tuple[str, Sequence[str]]] = []
     rows += [(f"I {r.mode} plugins={r.plugins}", r.errors) for r in report.table1]
     rows += [
@@ -185,6 +185,8 @@ def markdown(report: TablesReport, *, title: str = "Benchmarks: the paper's Tabl
         "machine's loopback, packets authenticated, every daemon sharing its cores.",
         "",
     ]
+    if report.cut_short:
+        lines += [f"**Not a complete run** ({report.cut_short}): only the rows below.", ""]
     if report.table1:
         lines += [*_table1(report.table1), ""]
     for case in ("switch", "branch"):

@@ -3,7 +3,10 @@ simulator and with real daemons, reported next to the paper's figures.
 
 The plan of a run (which rows, how many repetitions) is built first and drawn as a progress
 bar over every repetition; the report goes to stdout, and with ``--out DIR`` to
-``DIR/tables.md``, ``DIR/tables.json`` and ``DIR/tables.png``.
+``DIR/tables.md``, ``DIR/tables.json`` and ``DIR/tables.png``. The JSON (``--json FILE``,
+``--out DIR``) is rewritten after every row, marked "in progress", so a run of hours that is
+cut short keeps what it measured; interrupted (Ctrl-C, SIGTERM), a run writes its whole
+report so far, marked as such, before it exits.
 """
 
 from __future__ import annotations
@@ -17,14 +20,17 @@ import tempfile
 import time
 import typing
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+if TYPE_CHECKING:
+    from actorswarm.bench.tables import TablesReport
 
 __all__ = ["Plan", "register"]
 
@@ -56,19 +62,23 @@ class Plan:
     peers: int
     window: float
     seed: int
+    #: Table II's cases: ``switch`` (II(a): also the big sizes and the loss rates) and
+    #: ``branch`` (II(b), at the paper's sizes).
+    cases: tuple[str, ...] = ("switch", "branch")
     cells2: list[tuple[str, int, int, float]] = field(default_factory=list)
     cells3: list[tuple[int, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         least = min(self.plugins)
-        cells2 = [
+        cells2: list[tuple[str, int, int, float]] = [
             (case, size, plugins, 0.0)
             for case in ("switch", "branch")
+            if case in self.cases
             for size in self.sizes
             for plugins in self.plugins
         ]
         everywhere = sorted(set(self.sizes) | set(self.big_sizes))
-        for loss in (0.0, *self.losses):
+        for loss in (0.0, *self.losses) if "switch" in self.cases else ():
             for size in everywhere:
                 cell = ("switch", size, least, loss)
                 if cell not in cells2:
@@ -142,6 +152,13 @@ def bench_tables(
         float | None, typer.Option(min=0.5, help="Table I: seconds per repetition (default 10).")
     ] = None,
     seed: Annotated[int, typer.Option(help="Seed of every random choice.")] = 1,
+    cases: Annotated[
+        str,
+        typer.Option(
+            help="Table II: switch (II(a), also at the big sizes and loss rates), branch "
+            "(II(b)) or both, comma-separated."
+        ),
+    ] = "switch,branch",
     quick: Annotated[
         bool,
         typer.Option(
@@ -184,6 +201,7 @@ def bench_tables(
         peers=peers or (3 if quick else 30),
         window=window or (2.0 if quick else 10.0),
         seed=seed,
+        cases=_cases(cases),
     )
     command = "actorswarm bench " + shlex.join(sys.argv[2:])  # '' stays visible
 
@@ -192,13 +210,65 @@ def bench_tables(
         raise SystemExit(128 + signum)
 
     signal.signal(signal.SIGTERM, terminated)
-    with tempfile.TemporaryDirectory(prefix="actorswarm-tables-") as scratch:
-        report = run(plan, command, directory or Path(scratch))
+    saved: list[TablesReport] = []
+
+    def checkpoint(report: TablesReport) -> None:
+        saved[:] = [report]
+        _save_json(report, out, json_out, "in progress")
+
+    try:
+        with tempfile.TemporaryDirectory(prefix="actorswarm-tables-") as scratch:
+            report = run(plan, command, directory or Path(scratch), checkpoint)
+    except (KeyboardInterrupt, SystemExit) as exc:
+        if saved:
+            why = "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else f"exit {exc.code}"
+            console.print(f"[yellow]interrupted ({why}): writing the rows so far[/yellow]")
+            _write(_cut(saved[0], f"interrupted ({why})"), out, json_out)
+        raise
     _write(report, out, json_out)
 
 
-def run(plan: Plan, command: str, directory: Path) -> object:
-    """Every measurement of ``plan``, with a progress bar; the :class:`TablesReport`."""
+def _cases(text: str) -> tuple[str, ...]:
+    cases = tuple(c.strip() for c in text.split(",") if c.strip())
+    wrong = [c for c in cases if c not in ("switch", "branch")]
+    if wrong or not cases:
+        raise typer.BadParameter(
+            f"--cases {text!r}: expected switch, branch or both (comma-separated)"
+        )
+    return cases
+
+
+def _cut(report: TablesReport, why: str) -> TablesReport:
+    """``report`` marked as not a finished run: why, and how many rows it has."""
+    rows = len(report.table1) + len(report.table2) + len(report.table3)
+    return replace(report, cut_short=f"{why} after {rows} row(s)")
+
+
+def _save_json(report: TablesReport, out: Path | None, json_out: Path | None, why: str) -> None:
+    """The rows so far as JSON where the run's JSON goes (not stdout), marked ``why``."""
+    from actorswarm.bench.tables import to_json
+
+    targets = [p for p in (json_out,) if p is not None and str(p) != "-"]
+    targets += [out / "tables.json"] if out is not None else []
+    if not targets:
+        return
+    data = json.dumps(to_json(_cut(report, why)), indent=1) + "\n"
+    for path in targets:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        # Written whole and renamed: a reader never sees half a file.
+        part = path.with_name(path.name + ".part")
+        part.write_text(data)
+        part.replace(path)
+
+
+def run(
+    plan: Plan,
+    command: str,
+    directory: Path,
+    checkpoint: Callable[[TablesReport], None] = lambda report: None,
+) -> TablesReport:
+    """Every measurement of ``plan``, with a progress bar; the :class:`TablesReport`.
+    ``checkpoint`` is called with the report so far after every row."""
     from actorswarm.bench import tables_real as real
     from actorswarm.bench import tables_sim as sim
     from actorswarm.bench.daemons import machine_info
@@ -251,18 +321,27 @@ def run(plan: Plan, command: str, directory: Path) -> object:
                 done = int(bar.tasks[0].completed)
                 console.print(f"[{done}/{units}] {time.perf_counter() - began:.0f} s: {message}")
 
+        def row_done() -> None:
+            report.wall_s = time.perf_counter() - began
+            checkpoint(report)
+
         if "sim" in plan.modes:
             if "1" in plan.tables:
                 report.table1 += sim.sim_table1(plan.plugins, sim_settings, progress)
-            if "2" in plan.tables:
-                report.table2 += sim.sim_table2(plan.cells2, sim_settings, progress)
-            if "3" in plan.tables:
-                report.table3 += sim.sim_table3(plan.cells3, sim_settings, progress)
+                row_done()
+            # One cell at a time (each is seeded by itself): the rows so far are saved.
+            for cell in plan.cells2 if "2" in plan.tables else []:
+                report.table2 += sim.sim_table2([cell], sim_settings, progress)
+                row_done()
+            for cell3 in plan.cells3 if "3" in plan.tables else []:
+                report.table3 += sim.sim_table3([cell3], sim_settings, progress)
+                row_done()
         if "real" in plan.modes:
             if "1" in plan.tables:
                 report.table1 += real.real_table1(
                     directory / "table1", plan.plugins, real_settings, progress
                 )
+                row_done()
             if tables23:
                 rows2, rows3 = real.real_table23(
                     directory / "table23",
@@ -274,6 +353,7 @@ def run(plan: Plan, command: str, directory: Path) -> object:
                 )
                 report.table2 += rows2
                 report.table3 += rows3
+                row_done()
     report.wall_s = time.perf_counter() - began
     return report
 
@@ -319,12 +399,11 @@ def bench_report(
     _write(merge(reports), out, json_out)
 
 
-def _write(report: object, out: Path | None, json_out: Path | None) -> None:
-    from actorswarm.bench.tables import TablesReport, to_json
+def _write(report: TablesReport, out: Path | None, json_out: Path | None) -> None:
+    from actorswarm.bench.tables import to_json
     from actorswarm.bench.tables_plot import plot_tables
     from actorswarm.bench.tables_report import markdown, problems
 
-    assert isinstance(report, TablesReport)
     text = markdown(report)
     data = json.dumps(to_json(report), indent=1) + "\n"
     if json_out is not None and str(json_out) == "-":

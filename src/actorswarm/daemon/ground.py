@@ -4,9 +4,10 @@ A :class:`GroundSession` opens the ground station's endpoint
 (:class:`~actorswarm.ground.station.GroundStation`, platform 0) on Zenoh and drives it with
 :func:`~actorswarm.daemon.loop.serve` in the background; a command calls :meth:`do` to act
 (deploy, start, inject...) and :meth:`wait_for` to wait for the swarm's answers. Each
-session is a new *incarnation* of the ground station (the wall clock's seconds), so the
-platforms never take a new session's messages for repeats of an old one's. The swarm does
-not depend on a ground station being there: sessions come and go.
+session is a new *incarnation* of the ground station (the wall clock in microseconds: two
+``gs`` commands run within one second, e.g. ``deploy`` then ``start`` from a script, must still
+differ), so the platforms never take a new session's messages for repeats of an old one's.
+The swarm does not depend on a ground station being there: sessions come and go.
 """
 
 from __future__ import annotations
@@ -31,6 +32,22 @@ _T = TypeVar("_T")
 _POLL = 0.05
 
 
+def session_incarnation() -> int:
+    """A new ground-station session's incarnation: the wall clock in microseconds.
+
+    It must exceed every earlier session's, or the platforms drop the new session's packets
+    as replays of the old one's (same sender, same incarnation, sequence numbers from 1
+    again). Seconds were not enough: ``gs deploy`` and ``gs start`` often run in one second.
+    Within one process (a program opening sessions back to back) it also never repeats.
+    """
+    _last[0] = max(time.time_ns() // 1_000, _last[0] + 1)
+    return _last[0]
+
+
+#: The incarnation this process gave its last session.
+_last = [0]
+
+
 class GroundSession:
     """``async with GroundSession(swarm, settings) as gs:`` — the ground station is
     ``gs.station``."""
@@ -46,7 +63,7 @@ class GroundSession:
         #: Seals the operator's packets (HMAC and Ed25519 signature) and checks the swarm's.
         self.guard = guard or PacketGuard.insecure()
         self.station = GroundStation(
-            swarm=swarm, now=clock(), incarnation=int(time.time()), config=CoreConfig()
+            swarm=swarm, now=clock(), incarnation=session_incarnation(), config=CoreConfig()
         )
         self._inbox: Inbox | None = None
         self._stop = asyncio.Event()
