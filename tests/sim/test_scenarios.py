@@ -69,10 +69,16 @@ def passed(swarm: SimSwarm, key: int, generation: int) -> dict[int, int]:
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_boot_elects_lowest_id_and_completes_handshake(seed: int) -> None:
     swarm = SimSwarm(10, seed=seed)
+    assert not swarm.formed(10)  # nobody has heard anybody yet
     swarm.run_until(1.5)
     assert_one_master(swarm, expected=1)
     assert swarm.node(1).handshake_complete
     assert all(len(n.view) == 10 for n in swarm.nodes.values())
+    assert swarm.formed(10) and not swarm.formed(11)
+    swarm.crash(1)  # no master until the survivors notice and elect platform 2
+    assert not swarm.formed(9)
+    swarm.run_until(3.0)
+    assert swarm.formed(9)
     assert_clean(swarm)
 
 

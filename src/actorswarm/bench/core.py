@@ -71,11 +71,8 @@ def _stable_swarm(size: int, seed: int, link: LinkModel, config: CoreConfig) -> 
     deadline = config.startup_wait + 10.0
     while swarm.now < deadline:
         swarm.run_until(swarm.now + 0.05)
-        masters = swarm.current_masters()
-        if len(masters) == 1:
-            master = swarm.node(masters[0])
-            if master.handshake_complete and len(master.members) == size - 1:
-                break
+        if swarm.formed(size):
+            break
     else:
         raise RuntimeError(f"a swarm of {size} (seed {seed}) did not settle in 10 s")
     # A few heartbeats more, so every member has everyone in its view as well.

@@ -115,15 +115,12 @@ def _settled(sim: TaskSim, size: int, limit: float = 30.0) -> bool:
     end = swarm.now + limit
     while swarm.now < end:
         sim.advance(swarm.now + 0.05)
-        masters = swarm.current_masters()
-        if len(masters) == 1:
-            node = swarm.node(masters[0])
-            if node.handshake_complete and len(node.members) == size - 1:
-                # Quiet for T_join: the master holds back stale notices that long after the
-                # swarm changed (a report on its way could still explain a request), which
-                # would delay the first transitions by up to a second.
-                sim.advance(swarm.now + sim.config.t_join + 0.3)
-                return True
+        if swarm.formed(size):
+            # Quiet for T_join: the master holds back stale notices that long after the
+            # swarm changed (a report on its way could still explain a request), which
+            # would delay the first transitions by up to a second.
+            sim.advance(swarm.now + sim.config.t_join + 0.3)
+            return True
     return False
 
 

@@ -323,6 +323,15 @@ class SimSwarm:
     def current_masters(self) -> list[int]:
         return sorted(p for p, n in self.nodes.items() if n.is_master)
 
+    def formed(self, size: int) -> bool:
+        """One master, with the other ``size - 1`` platforms in its view and its handshake
+        done (every member acknowledged it): the swarm a benchmark can start measuring."""
+        masters = self.current_masters()
+        if len(masters) != 1:
+            return False
+        master = self.node(masters[0])
+        return master.handshake_complete and len(master.members) == size - 1
+
     def finish(self) -> list[str]:
         """End-of-run invariant checks; every violation of the run, as readable lines."""
         return self.checker.finish(self.now, self.nodes, self.radio.components)
