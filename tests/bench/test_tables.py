@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +32,13 @@ from actorswarm.bench.tables import (
 )
 from actorswarm.bench.tables_plot import plot_tables
 from actorswarm.bench.tables_report import markdown, problems
-from actorswarm.bench.tables_sim import SimSettings, sim_table1, sim_table2_cell, sim_table3
+from actorswarm.bench.tables_sim import (
+    SimSettings,
+    replay_command,
+    sim_table1,
+    sim_table2_cell,
+    sim_table3,
+)
 from actorswarm.cli.app import app
 from actorswarm.cli.bench_tables import Plan
 from actorswarm.dsl import check
@@ -93,6 +101,29 @@ def test_simulated_transitions_are_measured_and_replayable() -> None:
     branch = sim_table2_cell("branch", 6, 5, 0.1, settings)
     assert branch.errors == [] and len(branch.transition_ms) == 3
     assert all(not math.isnan(v) for v in branch.transition_ms)
+
+
+@pytest.mark.parametrize("table", ["table2", "table3"])
+def test_a_rows_replay_command_measures_it_again_exactly(table: str) -> None:
+    settings = SimSettings(repeat=2, seed=5)
+    if table == "table2":
+        row: Table2Row | Table3Row = sim_table2_cell("switch", 3, 1, 0.1, settings)
+        command = replay_command(table, 3, 0.1, settings, cases="switch", plugins=1)
+    else:
+        row = sim_table3([(3, 0.1)], settings)[0]
+        command = replay_command(table, 3, 0.1, settings)
+    assert command.startswith(f"actorswarm bench {table} --mode sim --sizes 3 --big-sizes ''")
+    result = CliRunner().invoke(app, [*shlex.split(command)[1:], "--json", "-"])
+    assert result.exit_code == 0, result.output
+    again = from_json(json.loads(result.stdout[result.stdout.index("{") :]))
+    rows = again.table2 if table == "table2" else again.table3
+    assert [(r.size, r.loss) for r in rows] == [(3, 0.0), (3, 0.1)]  # the loss-free row first
+    # Every measured figure, the same (NaN written alike, so compared as JSON text).
+    assert json.dumps(asdict(rows[1])) == json.dumps(asdict(row))
+    assert replay_command("table3", 1000, 0.3, SimSettings(big_repeat=2)) == (
+        "actorswarm bench table3 --mode sim --sizes 1000 --big-sizes '' --loss 0.3 "
+        "--big-repeat 2 --seed 1"
+    )
 
 
 def test_a_transition_that_never_completes_is_a_failed_sample_with_a_replay_line() -> None:
@@ -213,7 +244,7 @@ def test_the_plan_adds_the_rows_beyond_the_paper() -> None:
     ("args", "message"),
     [
         (["table2", "--sizes", "5,x"], "comma-separated integers"),
-        (["table2", "--sizes", "1"], "2..1000"),
+        (["table2", "--sizes", "1"], "2..5000"),
         (["table3", "--loss", "0.1,1.5"], "above 0 and below 1"),
         (["table9"], "No such command"),
         (["all", "--mode", "fast"], "fast"),

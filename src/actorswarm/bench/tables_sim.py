@@ -61,6 +61,8 @@ NAN = float("nan")
 #: Virtual time after a transition before the next: its last acknowledgements land (an
 #: unacknowledged release is retransmitted within 200 ms).
 SETTLE = 0.3
+#: From this size on a row is repeated ``big_repeat`` times (beyond the paper's sizes).
+BIG = 100
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,7 +86,7 @@ class SimSettings:
     seed: int = 1
 
     def repeats(self, size: int) -> int:
-        return self.big_repeat if size >= 100 else self.repeat
+        return self.big_repeat if size >= BIG else self.repeat
 
 
 def radio_model(settings: SimSettings, config: CoreConfig | None = None) -> dict[str, object]:
@@ -100,6 +102,20 @@ def radio_model(settings: SimSettings, config: CoreConfig | None = None) -> dict
         f"(cap {config.retry_cap * 1000:g})",
         "authentication": "none (packets in the simulator are not sealed)",
     }
+
+
+def replay_command(
+    table: str, size: int, loss: float, settings: SimSettings, **only: object
+) -> str:
+    """The command that measures this row again, exactly (same seed, same repetitions);
+    ``only`` adds options (Table II's ``cases`` and ``plugins``). Nothing else is measured
+    but, for a lossy row, the loss-free row of the same size, which comes first."""
+    repeat = "--big-repeat" if size >= BIG else "--repeat"
+    parts = [f"actorswarm bench {table} --mode sim --sizes {size} --big-sizes ''"]
+    parts += [f"--{k} {v}" for k, v in only.items()]
+    parts += [f"--loss {loss:g}" if loss else "--loss ''"]
+    parts += [f"{repeat} {settings.repeats(size)} --seed {settings.seed}"]
+    return " ".join(parts)
 
 
 def _script(text: str) -> TaskScript:
@@ -261,10 +277,7 @@ def sim_table2_cell(
     row = Table2Row(mode="sim", case=case, size=size, plugins=plugins, loss=loss)
     repeats = settings.repeats(size)
     seed = settings.seed * 1_000_003 + size * 101 + plugins * 7 + round(loss * 100)
-    replay = (
-        f"actorswarm bench table2 --mode sim --sizes {size} --plugins {plugins} "
-        f"--loss {loss:g} --seed {settings.seed}"
-    )
+    replay = replay_command("table2", size, loss, settings, cases=case, plugins=plugins)
     label = f"sim table II {case}: N={size}, {plugins} plugin(s), {loss:.0%} loss"
     if case == "branch" and size < 2:
         row.errors.append("branching needs two platforms")
@@ -351,6 +364,7 @@ def sim_table3(
         row = Table3Row(mode="sim", size=size, loss=loss)
         link = LinkModel(latency=settings.latency, jitter=settings.jitter, loss=loss)
         repeats = settings.repeats(size)
+        replay = replay_command("table3", size, loss, settings)
         for r in range(repeats):
             progress(f"sim table III: N={size}, {loss:.0%} loss, {r + 1}/{repeats}")
             seed = settings.seed * 1_000_003 + size * 1000 + r
@@ -358,13 +372,13 @@ def sim_table3(
                 run, _ = run_failover(size, seed, link, config)
             except RuntimeError as exc:  # a swarm that never settled
                 row.election_ms.append(NAN)
-                row.errors.append(f"{exc} (seed {seed})")
+                row.errors.append(f"{exc} (replay: {replay})")
             else:
                 row.election_ms.append(run.to_acknowledged * 1000)
                 if run.new_master < 0:
                     row.errors.append(
                         f"no new master acknowledged by all in {10 * config.t_leave:g} s "
-                        f"(seed {seed})"
+                        f"(seed {seed}; replay: {replay})"
                     )
             progress(f"sim table III: N={size}", advance=1)
         rows.append(row)

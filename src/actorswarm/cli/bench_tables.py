@@ -186,7 +186,7 @@ def bench_tables(
     plan = Plan(
         tables=TABLES[which],
         modes=("sim", "real") if mode is Mode.both else (mode.value,),
-        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), "--sizes", 2, 1000),
+        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), "--sizes", 2, 5000),
         big_sizes=_ints(
             big_sizes if big_sizes is not None else ("" if quick else "100,1000"),
             "--big-sizes",
