@@ -34,6 +34,7 @@ from actorswarm.bench.tables_plot import plot_tables
 from actorswarm.bench.tables_report import markdown, problems
 from actorswarm.bench.tables_sim import (
     SimSettings,
+    _left_out,
     replay_command,
     sim_table1,
     sim_table2_cell,
@@ -42,6 +43,7 @@ from actorswarm.bench.tables_sim import (
 from actorswarm.cli.app import app
 from actorswarm.cli.bench_tables import Plan
 from actorswarm.dsl import check
+from actorswarm.engine.engine import FiredRecord
 
 NAN = math.nan
 
@@ -101,6 +103,24 @@ def test_simulated_transitions_are_measured_and_replayable() -> None:
     branch = sim_table2_cell("branch", 6, 5, 0.1, settings)
     assert branch.errors == [] and len(branch.transition_ms) == 3
     assert all(not math.isnan(v) for v in branch.transition_ms)
+
+
+def test_a_platform_left_out_of_a_release_fails_the_repetition_at_once() -> None:
+    # Under 30 % loss platform 3 is declared gone during the switch, misses the release and
+    # is "not chosen" when it asks again: the repetition fails then, not at the run timeout.
+    row = sim_table2_cell("switch", 8, 1, 0.3, SimSettings(repeat=1, seed=12))
+    assert math.isnan(row.transition_ms[0])
+    assert row.errors[0].startswith(
+        "go: released to 7 of 8; left out [3] (declared gone during the switch, then not "
+        "chosen) (replay: actorswarm bench table2"
+    )
+    fired = [FiredRecord(t=1.0, key=1, generation=1, outcome="complete", chosen=(1, 2))]
+    all_switched = {1: 1.01, 2: 1.02}
+    assert _left_out(fired, [1, 2, 3], all_switched, now=2.0) == [3]
+    assert _left_out(fired, [1, 2, 3], all_switched, now=1.5) == []  # not a second yet
+    assert _left_out(fired, [1, 2, 3], {1: 1.01}, now=2.0) == []  # 2 still on its way
+    assert _left_out(fired, [1, 2], all_switched, now=2.0) == []
+    assert _left_out([], [1, 2, 3], {}, now=9.0) == []  # not released yet
 
 
 @pytest.mark.parametrize("table", ["table2", "table3"])

@@ -20,7 +20,7 @@ from actorswarm.core.events import CoreEvent
 from actorswarm.core.node import Node
 from actorswarm.core.wire import Packet, WireError
 from actorswarm.dsl.model import TaskScript
-from actorswarm.engine.engine import TaskEngine
+from actorswarm.engine.engine import FiredRecord, TaskEngine
 from actorswarm.engine.plan import Plan
 from actorswarm.ground.station import GroundStation
 from actorswarm.runtime.actor_runtime import ActorRuntime
@@ -81,6 +81,9 @@ class TaskSim:
     hosts: dict[int, _Host] = field(default_factory=dict, init=False)
     records: list[dict[str, Any]] = field(default_factory=list, init=False)
     ignored: list[dict[str, Any]] = field(default_factory=list, init=False)
+    #: Every transition group the masters released, and to whom (the benchmarks tell a
+    #: platform left out of a release from one that is merely slow).
+    fired: list[FiredRecord] = field(default_factory=list, init=False)
     _sent: int = field(default=0, init=False)
     plugin_failures: list[dict[str, Any]] = field(default_factory=list, init=False)
     #: Platforms lost with their vehicle (battery empty, fallen): ``{"t", "platform"}``.
@@ -191,8 +194,9 @@ class TaskSim:
                 {"t": round(t, 6), "platform": engine.node.platform, "event": event, "why": why}
             )
         engine.ignored.clear()
-        # Commands and releases are the daemon's to report; here they would only pile up.
+        # Commands are the daemon's to report; here they would only pile up.
         engine.commands.clear()
+        self.fired += engine.fired
         engine.fired.clear()
         failures = getattr(engine.runtime, "failures", [])
         for f in failures:
