@@ -313,6 +313,9 @@ def test_the_quick_run_produces_every_table_well_formed(tmp_path: Path) -> None:
 def test_saved_runs_are_reported_again_merged(tmp_path: Path) -> None:
     first, second = _report(), _report()
     second.command, second.table1, second.wall_s = "actorswarm bench table3", [], 3.0
+    # The second run measured Table II(a) at 30 again, III at 7 again, and III at 100.
+    second.table2 = [Table2Row("sim", "switch", 30, 1, 0.0, [43.0])]
+    second.table3 = [Table3Row("sim", 7, 0.1, [480.0]), Table3Row("sim", 100, 0.0, [500.0])]
     paths = []
     for i, report in enumerate((first, second)):
         path = tmp_path / f"run{i}.json"
@@ -323,7 +326,21 @@ def test_saved_runs_are_reported_again_merged(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     merged = from_json(json.loads((out / "tables.json").read_text()))
     assert merged.command == "actorswarm bench all; actorswarm bench table3"
-    assert len(merged.table2) == 6 and len(merged.table1) == 1 and merged.wall_s == 15.0
+    assert len(merged.table1) == 1 and merged.wall_s == 15.0
+    # A row measured again replaces the earlier one, where the earlier one was.
+    assert [(r.case, r.size, r.transition_ms[0]) for r in merged.table2] == [
+        ("switch", 30, 43.0),
+        ("branch", 5, 40.0),
+        ("switch", 1000, 500.0),
+    ]
+    assert [(r.size, r.election_ms) for r in merged.table3] == [
+        (30, [450.0, 470.0]),
+        (7, [480.0]),
+        (100, [500.0]),
+    ]
+    assert "2 row(s) measured again in a later file replace the earlier" in result.output
+    # A merged report merged again keeps its runs' settings in one flat list.
+    assert len(merge([merged, first]).settings["runs"]) == 3
     assert (out / "tables.png").exists() and "## Table III" in (out / "tables.md").read_text()
     # FILE:MODE takes only that mode's rows of the file (a run redone in one mode).
     picked_json = tmp_path / "picked.json"

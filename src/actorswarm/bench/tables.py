@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, fields
-from typing import Any, Protocol
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, astuple, dataclass, field, fields
+from typing import Any, Protocol, TypeVar
 
 __all__ = [
     "MODES",
@@ -240,22 +240,46 @@ def quiet(message: str, *, advance: int = 0) -> None:
     """A :class:`Progress` that says nothing."""
 
 
+_Row = TypeVar("_Row", Table1Row, Table2Row, Table3Row)
+
+
+def row_key(row: Table1Row | Table2Row | Table3Row) -> tuple[object, ...]:
+    """What a row measures (its table, mode, size, plugins, loss...): every field that is
+    not a list of samples."""
+    return (type(row).__name__, *(v for v in astuple(row) if not isinstance(v, list)))
+
+
+def _latest(rows: Iterable[_Row]) -> list[_Row]:
+    """One row per :func:`row_key`: the last one given, where the first one was."""
+    out: dict[tuple[object, ...], _Row] = {}
+    for row in rows:
+        out[row_key(row)] = row
+    return list(out.values())
+
+
 def merge(reports: Sequence[TablesReport]) -> TablesReport:
     """One report of several runs (say, the real daemons' and the simulator's at 1000
-    platforms, run apart): every row of each, their commands joined with ``;``, the
-    machine and radio of the first, the wall times added, the earliest start."""
+    platforms, run apart): the rows of each — a row measured again in a later report
+    replaces the earlier one (:func:`row_key`) — their commands joined with ``;``, the
+    machine and radio of the first, the wall times added, the earliest start. A report
+    that is itself a merge keeps its runs' settings flat."""
     if not reports:
         raise ValueError("nothing to merge")
     first = reports[0]
+    runs = [
+        s
+        for r in reports
+        for s in (r.settings["runs"] if set(r.settings) == {"runs"} else [r.settings])
+    ]
     return TablesReport(
         command="; ".join(r.command for r in reports),
         started=min(r.started for r in reports),
         machine=first.machine,
         radio=first.radio,
-        settings={"runs": [r.settings for r in reports]} if len(reports) > 1 else first.settings,
-        table1=[row for r in reports for row in r.table1],
-        table2=[row for r in reports for row in r.table2],
-        table3=[row for r in reports for row in r.table3],
+        settings={"runs": runs} if len(runs) > 1 else first.settings,
+        table1=_latest(row for r in reports for row in r.table1),
+        table2=_latest(row for r in reports for row in r.table2),
+        table3=_latest(row for r in reports for row in r.table3),
         wall_s=sum(r.wall_s for r in reports),
         cut_short="; ".join(f"{r.command}: {r.cut_short}" for r in reports if r.cut_short),
     )

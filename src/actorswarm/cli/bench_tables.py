@@ -375,8 +375,9 @@ def bench_report(
         Path | None, typer.Option("--json", help="Write the merged JSON here ('-': stdout).")
     ] = None,
 ) -> None:
-    """Report saved runs again, merged into one: every row of each (to put runs made apart —
-    real daemons, the simulator at 1000 platforms — in one report and one picture)."""
+    """Report saved runs again, merged into one (to put runs made apart — real daemons, the
+    simulator at 1000 platforms — in one report and one picture). A row measured again in a
+    later file (same table, mode, size, plugins, loss) replaces the earlier one."""
     from actorswarm.bench.tables import MODES, from_json, merge
 
     reports = []
@@ -396,7 +397,13 @@ def bench_report(
             report.table3 = [r for r in report.table3 if r.mode == only]
             report.command += f"  (its {only} rows)"
         reports.append(report)
-    _write(merge(reports), out, json_out)
+    merged = merge(reports)
+    replaced = sum(len(r.table1) + len(r.table2) + len(r.table3) for r in reports) - (
+        len(merged.table1) + len(merged.table2) + len(merged.table3)
+    )
+    if replaced:
+        console.print(f"{replaced} row(s) measured again in a later file replace the earlier")
+    _write(merged, out, json_out)
 
 
 def _write(report: TablesReport, out: Path | None, json_out: Path | None) -> None:
