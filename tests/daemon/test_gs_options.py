@@ -48,6 +48,7 @@ def test_sessions_opened_within_one_second_are_new_incarnations(
 
     now = [1_790_000_000_000_000_000]
     monkeypatch.setattr(ground.time, "time_ns", lambda: now[0])
+    monkeypatch.setattr(ground, "_last", [0])  # as in a new process
     first = ground.session_incarnation()
     now[0] += 200_000_000  # 0.2 s later: the same second
     second = ground.session_incarnation()
