@@ -40,6 +40,15 @@ unit: $(STAMP) sysdeps
 ## Every check: linter, strict type checker, the whole test suite (with the seeded campaign).
 test: lint typecheck unit
 
+## A long seeded fault campaign, beyond the 200 seeds per mode of `make test`: COUNT seeds
+## from START, each in both membership modes (star and broadcast), on every CPU. Prints each
+## failure with the command that replays it; exit status 1 when any seed failed.
+## `make campaign START=0 COUNT=500` for other seeds, `WORKERS=N` for fewer processes.
+START ?= 100000
+COUNT ?= 10000
+campaign: $(STAMP)
+	$(BIN)/actorswarm swarm campaign --start $(START) --count $(COUNT) --membership both $(if $(WORKERS),--workers $(WORKERS))
+
 bench: $(STAMP)
 	$(BIN)/actorswarm bench core
 

@@ -35,9 +35,11 @@ def _req(
     timeout: float | None = None,
     age: float = 0.0,
     key: int = KEY,
+    epoch: int = 0,
 ) -> BarrierRequest:
     return BarrierRequest(
         key=key,
+        epoch=epoch,
         generation=generation,
         need={part: need} if isinstance(need, int) else need,
         part=part,
@@ -187,7 +189,8 @@ def _fire_once(h: Harness, platforms: tuple[int, ...] = (1, 2)) -> None:
 def test_stale_generation_gets_notice() -> None:
     h = Harness()
     _fire_once(h)
-    h.master.request(3, _req(2, generation=0), 0.1, EPOCH)
+    # (Asked in the master's own epoch: no firing of an older epoch can have chosen it.)
+    h.master.request(3, _req(2, generation=0, epoch=EPOCH), 0.1, EPOCH)
     assert h.notices() == [(3, BarrierStale(key=KEY, generation=0, current=1))]
     assert h.broadcasts() == [], "a stale request is neither released nor counted"
     h.master.request(3, _req(2, generation=1), 0.2, EPOCH)
@@ -203,7 +206,7 @@ def test_stale_notice_names_the_open_generation() -> None:
     for p in (1, 2):
         h.master.request(p, _req(2, generation=1), 0.1, EPOCH)
     h.broadcasts()
-    h.master.request(3, _req(2, generation=0), 0.2, EPOCH)
+    h.master.request(3, _req(2, generation=0, epoch=EPOCH), 0.2, EPOCH)
     assert h.notices() == [(3, BarrierStale(key=KEY, generation=0, current=2))]
 
 
@@ -273,7 +276,7 @@ def test_timeout_then_next_generation_opens() -> None:
     h.master.request(1, _req(5, timeout=1.0), 0.0, EPOCH)
     h.master.tick(1.0, EPOCH)
     h.broadcasts()
-    h.master.request(2, _req(5, generation=0), 1.1, EPOCH)
+    h.master.request(2, _req(5, generation=0, epoch=EPOCH), 1.1, EPOCH)
     assert h.notices() == [(2, BarrierStale(key=KEY, generation=0, current=1))]
 
 
@@ -603,3 +606,48 @@ def test_member_cancel() -> None:
     member.request(KEY, {0: 2}, 0.0)
     assert member.cancel(KEY) is True
     assert member.restated(1.0) == []
+
+
+def test_a_request_older_than_every_known_firing_waits_for_the_report_that_explains_it() -> None:
+    """Campaign seed 3 (star): a master fired generation 0 choosing a platform the instant a
+    partition cut it off; the other side's new master fired generation 0 without it. Told
+    "stale" there, it would move on and the first firing could never be completed after the
+    heal. Its request, made in an older epoch than every firing this master knows of, waits
+    ``doubt_timeout`` for a report of the firing that may have chosen it."""
+    h = Harness()
+    for p in (1, 2):
+        h.master.request(p, _req(2, epoch=EPOCH), 0.0, EPOCH)
+    h.broadcasts()
+    for p in (1, 2):
+        h.master.on_ack(p, KEY, 0)
+    late = _req(2, generation=0, epoch=EPOCH - 1)
+    h.master.request(3, late, 0.1, EPOCH)
+    assert h.notices() == [] and h.broadcasts() == [], "neither stale nor released yet"
+    deadline = h.master.next_deadline()
+    assert deadline == pytest.approx(0.1 + CoreConfig().doubt_timeout)
+    # The report of a member that passed the old epoch's firing arrives: it is completed.
+    record = ReleaseRecord(
+        key=KEY,
+        generation=0,
+        part=0,
+        index=1,
+        size=2,
+        outcome=COMPLETE,
+        origin=EPOCH - 1,
+        assignment={4: (0, 1), 3: (0, 2)},
+    )
+    h.master.record_released(4, record)
+    h.master.reported(0.5, EPOCH)
+    (rel,) = h.broadcasts()
+    assert [(e.platform, e.index) for e in rel.entries] == [(3, 2)], "its original entry"
+    assert rel.origin == EPOCH - 1
+
+
+def test_a_doubtful_request_is_stale_once_its_wait_is_over() -> None:
+    h = Harness()
+    for p in (1, 2):
+        h.master.request(p, _req(2, epoch=EPOCH), 0.0, EPOCH)
+    h.broadcasts()
+    h.master.request(3, _req(2, generation=0, epoch=EPOCH - 1), 0.1, EPOCH)
+    h.master.tick(0.1 + CoreConfig().doubt_timeout, EPOCH)
+    assert h.notices() == [(3, BarrierStale(key=KEY, generation=0, current=1))]

@@ -78,21 +78,40 @@ def test_self_excluded_and_len() -> None:
 
 
 @pytest.mark.parametrize(
-    ("expire_at", "left"),
-    [(0.69, False), (0.7, True), (0.71, True), (5.0, True)],
+    ("expire_at", "suspected", "left"),
+    [(0.69, False, False), (0.7, True, False), (0.759, True, False), (0.76, True, True)],
 )
-def test_leave_after_t_leave_of_silence(expire_at: float, left: bool) -> None:
-    members = _joined(Membership(1, CONFIG), [0.0, 0.1, 0.2])  # deadline 0.2 + 0.5
+def test_suspected_after_t_leave_and_gone_after_the_probe_window(
+    expire_at: float, suspected: bool, left: bool
+) -> None:
+    """Silent for t_leave (0.5 s): suspected; for t_leave + probe_window (0.56 s): gone."""
+    members = _joined(Membership(1, CONFIG), [0.0, 0.1, 0.2])  # suspect at 0.7, leave 0.76
     assert members.next_deadline() == pytest.approx(0.7)
     out: list[Change] = []
-    members.expire(expire_at, out)
+    fresh: list[int] = []
+    members.expire(0.7 if expire_at >= 0.7 else expire_at, out, fresh)
+    members.expire(expire_at, out, fresh)
+    assert fresh == ([PEER] if suspected else []), "suspected once, when its time came"
     if left:
         assert out == [MemberLeft(platform=PEER, incarnation=0, reason="timeout")], out
-        assert PEER not in members
+        assert PEER not in members and PEER not in members.suspects
         assert members.next_deadline() is None
     else:
-        assert out == [], f"expire({expire_at}) before the deadline 0.7 removed {out}"
+        assert out == [], f"expire({expire_at}) before the leave time 0.76 removed {out}"
         assert PEER in members
+        assert (PEER in members.suspects) is suspected
+
+
+def test_a_suspect_that_answers_is_cleared() -> None:
+    members = _joined(Membership(1, CONFIG), [0.0, 0.1, 0.2])
+    out: list[Change] = []
+    members.expire(0.72, out)
+    assert PEER in members.suspects
+    _beats(members, [0.73])  # the answer to a probe
+    assert PEER not in members.suspects
+    members.expire(0.9, out)
+    assert out == [] and PEER in members, "cleared: its old leave time no longer applies"
+    assert members.next_deadline() == pytest.approx(1.23)
 
 
 def test_heartbeat_just_before_deadline_keeps_member() -> None:
@@ -100,33 +119,45 @@ def test_heartbeat_just_before_deadline_keeps_member() -> None:
     _beats(members, [0.69])
     out: list[Change] = []
     members.expire(0.7, out)
-    assert out == [], "the heartbeat at 0.69 moved the deadline to 1.19"
+    assert out == [], "the heartbeat at 0.69 moved the suspicion to 1.19"
     assert members.next_deadline() == pytest.approx(1.19), "stale heap entries are skipped"
     members.expire(1.189, out)
-    assert out == []
+    assert out == [] and not members.suspects
     members.expire(1.19, out)
+    members.expire(1.25, out)
     assert out == [MemberLeft(platform=PEER, incarnation=0, reason="timeout")]
 
 
 def test_leave_reason_is_suspected_with_phi() -> None:
     members = Membership(1, CoreConfig(detector="phi"))
     _beats(members, [0.0, 0.1, 0.2])
-    deadline = members.next_deadline()
-    assert deadline is not None
     out: list[Change] = []
-    members.expire(deadline, out)
+    for _ in range(2):  # suspicion, then leave
+        deadline = members.next_deadline()
+        assert deadline is not None
+        members.expire(deadline, out)
     assert out == [MemberLeft(platform=PEER, incarnation=0, reason="suspected")]
+
+
+def test_phi_is_never_less_patient_than_the_fixed_timeout() -> None:
+    """Phi's normal model expects no long gaps and, alone, declares ~100x more live peers
+    gone under loss than the fixed timeout; its suspicion time is floored at t_leave."""
+    members = Membership(1, CoreConfig(detector="phi"))
+    _beats(members, [round(0.1 * i, 1) for i in range(50)])  # perfectly regular
+    assert members.next_deadline() == pytest.approx(4.9 + 0.5)
 
 
 def test_next_deadline_is_earliest_member() -> None:
     members = Membership(1, CONFIG)
-    _beats(members, [0.0, 0.1, 0.2], peer=2)  # deadline 0.7
-    _beats(members, [0.05, 0.1, 0.15], peer=3)  # deadline 0.65
+    _beats(members, [0.0, 0.1, 0.2], peer=2)  # suspect at 0.7
+    _beats(members, [0.05, 0.1, 0.15], peer=3)  # suspect at 0.65
     assert members.next_deadline() == pytest.approx(0.65)
     _beats(members, [0.6], peer=3)  # now 1.1
     assert members.next_deadline() == pytest.approx(0.7)
     out: list[Change] = []
     members.expire(0.7, out)
+    assert members.next_deadline() == pytest.approx(0.76), "2 is suspected: its leave time"
+    members.expire(0.76, out)
     assert out == [MemberLeft(platform=2, incarnation=0, reason="timeout")]
     assert members.next_deadline() == pytest.approx(1.1)
 

@@ -104,8 +104,9 @@ def _elected(ids: tuple[int, ...] = (1, 2, 3)) -> Net:
     return net
 
 
-def test_three_nodes_elect_node_one_in_epoch_one() -> None:
-    net = Net([1, 2, 3])
+@pytest.mark.parametrize("membership", ["star", "broadcast"])
+def test_three_nodes_elect_node_one_in_epoch_one(membership: str) -> None:
+    net = Net([1, 2, 3], config=CoreConfig(membership=membership))  # type: ignore[arg-type]
     net.run_until(2.0)
     startup = net.config.startup_wait
     for nid, node in net.nodes.items():
@@ -119,7 +120,10 @@ def test_three_nodes_elect_node_one_in_epoch_one() -> None:
     assert [e for _, e in claims] == [BecameMaster(epoch=1)], "one claim, epoch 1"
     assert claims[0][0] >= startup, f"claimed at {claims[0][0]}, before startup_wait {startup}"
     assert net.of_type(2, BecameMaster) == [] and net.of_type(3, BecameMaster) == []
-    assert net.of_type(1, HandshakeComplete) == [HandshakeComplete(epoch=1, members=2)]
+    # In a star, 2 and 3 keep quiet while they hear 1 (a lower ID), so 1 claims with an empty
+    # view and they join it by following; broadcasting, they were in its view before.
+    members = 2 if membership == "broadcast" else 0
+    assert net.of_type(1, HandshakeComplete) == [HandshakeComplete(epoch=1, members=members)]
     assert net.nodes[1].handshake_complete
 
 
@@ -216,10 +220,10 @@ def test_packet_from_old_incarnation_is_dropped() -> None:
     before = _state(node)
     stale = encode(
         swarm=SWARM,
-        sender=2,
+        sender=1,
         incarnation=INCARNATION - 1,
         seq=1,
-        body=Heartbeat(is_master=True, epoch=50, master=2),
+        body=Heartbeat(is_master=True, epoch=50, master=1),
     )
     node.receive(stale, net.now)
     assert node.counters["drop:old_incarnation"] == 1, dict(node.counters)

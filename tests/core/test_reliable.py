@@ -135,9 +135,22 @@ def test_new_sender_incarnation_resets_stream_older_ignored() -> None:
 def test_forget_sender_starts_fresh_stream() -> None:
     r = Reliable(CoreConfig())
     _on_data(r, SENDER, 0, _data(1))
-    r.forget_sender(SENDER)
+    r.forget_sender(SENDER, 0)
     delivered, _ = _on_data(r, SENDER, 0, _data(1, n=42))
     assert delivered == [_msg(42)]
+
+
+def test_forget_sender_keeps_the_stream_of_its_new_incarnation() -> None:
+    """Campaign seed 402238: a rebooted sender's first message arrived before its heartbeat
+    showed the reboot; forgetting its new stream then delivered the retransmission twice."""
+    r = Reliable(CoreConfig())
+    _on_data(r, SENDER, 0, _data(1))
+    delivered, _ = _on_data(r, SENDER, 1, _data(1, n=7))
+    assert delivered == [_msg(7)]
+    r.forget_sender(SENDER, 0)  # the reboot out of incarnation 0 is noticed now
+    delivered, ack = _on_data(r, SENDER, 1, _data(1, n=7))
+    assert delivered == [], "the retransmission of an already delivered message"
+    assert ack is not None and ack.seq == 1, "acknowledged again"
 
 
 def test_far_ahead_packets_are_not_buffered() -> None:

@@ -18,6 +18,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import asdict, astuple, dataclass, field, fields
 from typing import Any, Protocol, TypeVar
 
+from actorswarm.core.config import CoreConfig
+
 __all__ = [
     "MODES",
     "Progress",
@@ -36,6 +38,15 @@ __all__ = [
 
 MODES = ("sim", "real")
 CASES = ("switch", "branch")
+#: What a Table II or III row saved before rows recorded their membership scheme ran with:
+#: the core had only the everyone-to-everyone scheme then.
+LEGACY_MEMBERSHIP = "broadcast"
+
+
+def _default_membership() -> str:
+    """The collective core's default scheme: what a row that does not choose one (a real
+    daemon's) runs."""
+    return CoreConfig().membership
 
 
 def percentile(values: Sequence[float], q: float) -> float:
@@ -119,7 +130,11 @@ class Table2Row:
     * ``bytes_per_packet``: the mean size of those packets on the wire;
     * ``master_packets`` / ``member_packets``: the packets behind the two rates (a rate over
       a short window says little without the count: a faster transition has a higher rate
-      for the same packets)."""
+      for the same packets).
+
+    ``membership``: the collective core's membership scheme the row ran with
+    (``CoreConfig.membership``: ``"star"`` or ``"broadcast"``); a real row runs the
+    daemons' default. Last, so rows built positionally before it existed still are."""
 
     mode: str
     case: str
@@ -133,18 +148,21 @@ class Table2Row:
     master_packets: list[float] = field(default_factory=list)
     member_packets: list[float] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    membership: str = field(default_factory=_default_membership)
 
 
 @dataclass(slots=True)
 class Table3Row:
     """The master's daemon killed → a new master acknowledged by every survivor; one
-    sample per repetition (NaN: not every survivor followed one new master in time)."""
+    sample per repetition (NaN: not every survivor followed one new master in time).
+    ``membership`` as in :class:`Table2Row`."""
 
     mode: str
     size: int
     loss: float = 0.0
     election_ms: list[float] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    membership: str = field(default_factory=_default_membership)
 
 
 @dataclass(slots=True)
@@ -200,15 +218,18 @@ def to_json(report: TablesReport) -> dict[str, Any]:
 
 
 def from_json(data: dict[str, Any]) -> TablesReport:
-    """A report back from :func:`to_json`; KeyError/TypeError/ValueError when malformed."""
+    """A report back from :func:`to_json`; KeyError/TypeError/ValueError when malformed.
+    A Table II or III row saved without a ``membership`` comes back as
+    :data:`LEGACY_MEMBERSHIP` (what it was measured with), not as today's default."""
 
     def rows(cls: Any, items: list[dict[str, Any]]) -> list[Any]:
         names = {f.name for f in fields(cls)}
         out = []
+        legacy = {"membership": LEGACY_MEMBERSHIP} if "membership" in names else {}
         for item in items:
             kwargs = {
                 k: (_restore(v) if k != "errors" else list(v))
-                for k, v in item.items()
+                for k, v in {**legacy, **item}.items()
                 if k in names
             }
             out.append(cls(**kwargs))

@@ -3,7 +3,8 @@ swarm size (log scale, so 5–30 and 100–1000 fit on one axis).
 
 Six panels: Table II(a) and II(b) transition times, packets per second and packets per
 switch at the master during II(a), Table III time to a new master, and Table I's single
-Actor switch against the paper's boards (a bar chart). One line per mode and loss
+Actor switch against the paper's boards (a bar chart). One line per mode and loss — and per
+membership scheme when the report holds more than one (circles: star, squares: broadcast) —
 (one plugin, or the smallest plugin count measured); markers are medians, bars span p95
 down to the minimum; the paper's means are black triangles (Table III: its range as a band).
 """
@@ -21,6 +22,10 @@ from actorswarm.bench.tables import Table2Row, Table3Row, TablesReport, summariz
 __all__ = ["plot_tables"]
 
 _STYLE = {"sim": "-", "real": "--"}
+_MARKER = {"star": "o", "broadcast": "s"}
+
+#: A line's group: mode, membership scheme, loss.
+_Key = tuple[str, str, float]
 
 
 def _line(
@@ -29,6 +34,7 @@ def _line(
     label: str,
     style: str,
     scale: float = 1.0,
+    marker: str = "o",
 ) -> None:
     xs, med, lo, hi = [], [], [], []
     for size, values in sorted(points):
@@ -40,19 +46,46 @@ def _line(
         lo.append((s.median - s.lo) * scale)
         hi.append((s.p95 - s.median) * scale)
     if xs:
-        ax.errorbar(xs, med, yerr=[lo, hi], marker="o", ls=style, capsize=3, label=label)
+        ax.errorbar(xs, med, yerr=[lo, hi], marker=marker, ls=style, capsize=3, label=label)
 
 
-def _groups(rows: Sequence[Table2Row], case: str) -> dict[tuple[str, float], list[Table2Row]]:
-    """Rows of ``case`` by (mode, loss), only the smallest plugin count of each."""
-    out: dict[tuple[str, float], list[Table2Row]] = {}
+def _label(key: _Key, several: bool) -> str:
+    """``mode, loss`` and, when the report holds several schemes, the row's scheme."""
+    mode, scheme, loss = key
+    return f"{mode}, {loss:.0%} loss" + (f", {scheme}" if several else "")
+
+
+def _draw(
+    ax: Any,
+    groups: dict[_Key, list[Any]],
+    value: Callable[[Any], Sequence[float]],
+    several: bool,
+) -> None:
+    """One line per group: (size, ``value(row)``) of its rows."""
+    for key, group in sorted(groups.items()):
+        _line(
+            ax,
+            [(r.size, value(r)) for r in group],
+            _label(key, several),
+            _STYLE.get(key[0], "-"),
+            marker=_MARKER.get(key[1], "o") if several else "o",
+        )
+
+
+def _several(rows: Sequence[Table2Row | Table3Row]) -> bool:
+    return len({r.membership for r in rows}) > 1
+
+
+def _groups(rows: Sequence[Table2Row], case: str) -> dict[_Key, list[Table2Row]]:
+    """Rows of ``case`` by (mode, membership, loss), only the smallest plugin count."""
+    out: dict[_Key, list[Table2Row]] = {}
     chosen = [r for r in rows if r.case == case]
     if not chosen:
         return out
     least = min(r.plugins for r in chosen)
     for r in chosen:
         if r.plugins == least:
-            out.setdefault((r.mode, r.loss), []).append(r)
+            out.setdefault((r.mode, r.membership, r.loss), []).append(r)
     return out
 
 
@@ -63,13 +96,7 @@ def _panel2(
     value: Callable[[Table2Row], list[float]],
     paper_value: Callable[[paper.Paper2], float],
 ) -> None:
-    for (mode, loss), group in sorted(_groups(rows, case).items()):
-        _line(
-            ax,
-            [(r.size, value(r)) for r in group],
-            f"{mode}, {loss:.0%} loss",
-            _STYLE.get(mode, "-"),
-        )
+    _draw(ax, _groups(rows, case), value, _several(rows))
     refs = sorted(
         (size, paper_value(ref))
         for (c, size, plugins), ref in paper.TABLE2.items()
@@ -79,16 +106,10 @@ def _panel2(
 
 
 def _panel3(ax: Any, rows: Sequence[Table3Row]) -> None:
-    groups: dict[tuple[str, float], list[Table3Row]] = {}
+    groups: dict[_Key, list[Table3Row]] = {}
     for r in rows:
-        groups.setdefault((r.mode, r.loss), []).append(r)
-    for (mode, loss), group in sorted(groups.items()):
-        _line(
-            ax,
-            [(r.size, r.election_ms) for r in group],
-            f"{mode}, {loss:.0%} loss",
-            _STYLE.get(mode, "-"),
-        )
+        groups.setdefault((r.mode, r.membership, r.loss), []).append(r)
+    _draw(ax, groups, lambda r: r.election_ms, _several(rows))
     lo, hi = paper.TABLE3_RANGE_MS
     ends = sorted(paper.TABLE3_ENDS)
     ax.fill_between(ends, [lo, lo], [hi, hi], color="grey", alpha=0.2, label="paper range")
@@ -139,6 +160,7 @@ def plot_tables(report: TablesReport, out: Path) -> None:
     from matplotlib.ticker import NullFormatter, ScalarFormatter
 
     fig, axes = plt.subplots(2, 3, figsize=(18, 9), constrained_layout=True)
+    several2 = _several(report.table2)
     (a, b, e), (c, f, d) = axes
     _panel2(a, report.table2, "switch", lambda r: r.transition_ms, lambda p: p.transition_ms)
     a.set(title="Table II(a): every platform switches (event → last)", ylabel="ms")
@@ -146,13 +168,7 @@ def plot_tables(report: TablesReport, out: Path) -> None:
     b.set(title="Table II(b): two platforms branch (event → last)", ylabel="ms")
     _panel2(c, report.table2, "switch", lambda r: r.master_pps, lambda p: p.master_pps)
     c.set(title="Table II(a): packets/s at the master", ylabel="packets/s")
-    for (mode, loss), group in sorted(_groups(report.table2, "switch").items()):
-        _line(
-            f,
-            [(r.size, r.master_packets) for r in group],
-            f"{mode}, {loss:.0%} loss",
-            _STYLE.get(mode, "-"),
-        )
+    _draw(f, _groups(report.table2, "switch"), lambda r: r.master_packets, several2)
     f.set(title="Table II(a): packets at the master per switch", ylabel="packets")
     _panel3(d, report.table3)
     d.set(title="Table III: master killed → new master acknowledged by all", ylabel="ms")

@@ -21,6 +21,9 @@ Table I's CPU figure and switch times are wall-clock measurements of this proces
 * **Table III**: :func:`actorswarm.bench.core.run_failover` — the master crashes at a random
   heartbeat phase; the time until the new master's handshake is complete, i.e. every
   survivor acknowledged it.
+
+Tables II and III run the collective core with :attr:`SimSettings.membership` (the row
+records it); Table I with the core's default.
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ from actorswarm.bench.scripts import (
     table2_script,
 )
 from actorswarm.bench.tables import Progress, Table1Row, Table2Row, Table3Row, quiet
-from actorswarm.core.config import CoreConfig
+from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.dsl import check
 from actorswarm.dsl.model import TaskScript
 from actorswarm.engine import commands as cmds
@@ -89,6 +92,9 @@ class SimSettings:
     #: gone faster than they rejoin).
     settle_timeout: float = 15.0
     seed: int = 1
+    #: Tables II and III: the core's membership scheme (``CoreConfig.membership``): "star"
+    #: (members heartbeat to the master only) or "broadcast" (everyone to everyone).
+    membership: MembershipKind = "star"
 
     def repeats(self, size: int) -> int:
         return self.big_repeat if size >= BIG else self.repeat
@@ -112,7 +118,9 @@ def radio_model(settings: SimSettings, config: CoreConfig | None = None) -> dict
 def replay_command(
     table: str, size: int, loss: float, settings: SimSettings, **only: object
 ) -> str:
-    """The command that measures this row again, exactly (same seed, same repetitions);
+    """The command that measures this row again, exactly (same seed, same repetitions, same
+    membership scheme — named even when it is the default, so the command keeps its meaning
+    if the default changes);
     ``only`` adds options (Table II's ``cases`` and ``plugins``). Nothing else is measured
     but, for a lossy row, the loss-free row of the same size, which comes first."""
     repeat = "--big-repeat" if size >= BIG else "--repeat"
@@ -120,6 +128,7 @@ def replay_command(
     parts += [f"--{k} {v}" for k, v in only.items()]
     parts += [f"--loss {loss:g}" if loss else "--loss ''"]
     parts += [f"{repeat} {settings.repeats(size)} --seed {settings.seed}"]
+    parts += [f"--membership {settings.membership}"]
     return " ".join(parts)
 
 
@@ -302,11 +311,21 @@ def sim_table2_cell(
     progress: Progress = quiet,
 ) -> Table2Row:
     """Every repetition of one (case, size, plugins, loss) on one simulated swarm."""
-    row = Table2Row(mode="sim", case=case, size=size, plugins=plugins, loss=loss)
+    row = Table2Row(
+        mode="sim",
+        case=case,
+        size=size,
+        plugins=plugins,
+        loss=loss,
+        membership=settings.membership,
+    )
     repeats = settings.repeats(size)
+    # The same seed in either membership scheme: the two rows differ by the scheme only.
     seed = settings.seed * 1_000_003 + size * 101 + plugins * 7 + round(loss * 100)
     replay = replay_command("table2", size, loss, settings, cases=case, plugins=plugins)
-    label = f"sim table II {case}: N={size}, {plugins} plugin(s), {loss:.0%} loss"
+    label = (
+        f"sim table II {case} {settings.membership}: N={size}, {plugins} plugin(s), {loss:.0%} loss"
+    )
     if case == "branch" and size < 2:
         row.errors.append("branching needs two platforms")
         progress(label, advance=repeats)
@@ -315,6 +334,7 @@ def sim_table2_cell(
         _script(table2_script(size, plugins, timeout=settings.run_timeout)),
         seed=seed,
         link=LinkModel(latency=settings.latency, jitter=settings.jitter, loss=loss),
+        config=CoreConfig(membership=settings.membership),
     )
     progress(f"{label}: booting")
     if not _settled(sim, size, settings.settle_timeout):
@@ -387,15 +407,17 @@ def sim_table3(
     progress: Progress = quiet,
 ) -> list[Table3Row]:
     """For every ``(size, loss)``: the master crashes; the new master is acknowledged."""
-    config = CoreConfig()
+    config = CoreConfig(membership=settings.membership)
     rows = []
     for size, loss in cells:
-        row = Table3Row(mode="sim", size=size, loss=loss)
+        row = Table3Row(mode="sim", size=size, loss=loss, membership=settings.membership)
         link = LinkModel(latency=settings.latency, jitter=settings.jitter, loss=loss)
         repeats = settings.repeats(size)
         replay = replay_command("table3", size, loss, settings)
         for r in range(repeats):
-            progress(f"sim table III: N={size}, {loss:.0%} loss, {r + 1}/{repeats}")
+            progress(
+                f"sim table III {settings.membership}: N={size}, {loss:.0%} loss, {r + 1}/{repeats}"
+            )
             seed = settings.seed * 1_000_003 + size * 1000 + r
             try:
                 run, _ = run_failover(size, seed, link, config)

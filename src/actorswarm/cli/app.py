@@ -12,7 +12,7 @@ import json
 import sys
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -28,6 +28,9 @@ from actorswarm.cli.web_cmd import (
     TokenOpt,
 )
 from actorswarm.dsl import DEFAULT_MAX_BYTES, TaskScript, check_file, to_dot, to_mermaid
+
+if TYPE_CHECKING:
+    from actorswarm.core.config import MembershipKind
 
 app = typer.Typer(
     help="actorswarm: program robot swarms as Actors.",
@@ -57,6 +60,9 @@ def _register_real_swarm() -> None:
     from actorswarm.cli.bench_tables import register as register_tables
 
     register_tables(bench_app)
+    from actorswarm.cli.bench_scale import register as register_scale
+
+    register_scale(bench_app)
     register(gs_app)
     from actorswarm.cli.web_cmd import register as register_web
 
@@ -109,6 +115,14 @@ def swarm_demo(
         raise typer.Exit(1)
 
 
+class CampaignMembership(StrEnum):
+    """Membership modes of ``swarm campaign``: one of the core's, or both."""
+
+    star = "star"
+    broadcast = "broadcast"
+    both = "both"
+
+
 @swarm_app.command("campaign")
 def swarm_campaign(
     seed: Annotated[
@@ -116,25 +130,126 @@ def swarm_campaign(
     ] = None,
     start: Annotated[int, typer.Option(min=0, help="First seed of a campaign.")] = 0,
     count: Annotated[int, typer.Option(min=1, help="Number of seeds.")] = 200,
+    membership: Annotated[
+        CampaignMembership,
+        typer.Option(help="Membership mode of the core; both: every seed in each mode."),
+    ] = CampaignMembership.star,
+    workers: Annotated[
+        int | None,
+        typer.Option(min=1, help="Worker processes.", show_default="the number of CPUs"),
+    ] = None,
 ) -> None:
-    """Run seeded random fault schedules and check every invariant and the recovery."""
-    from actorswarm.sim.campaign import make_case, run_case
+    """Run seeded random fault schedules and check every invariant and the recovery.
 
-    seeds = [seed] if seed is not None else list(range(start, start + count))
-    failed = 0
-    with console.status("running fault schedules") as status:
-        for s in seeds:
-            status.update(f"seed {s} ({seeds.index(s) + 1}/{len(seeds)}), {failed} failed")
-            case = make_case(s)
-            if seed is not None:
-                console.print(case.describe())
-            result = run_case(case)
-            if not result.ok:
-                failed += 1
-                console.print(result.explain(), markup=False)
-    console.print(f"{len(seeds) - failed} passed, {failed} failed")
+    Each failure is printed as it comes, with the command that replays it;
+    the last line counts the cases that passed and failed, with the wall time.
+    Exit status 1 when any case failed.
+    """
+    import time
+
+    from actorswarm.sim.campaign import MEMBERSHIPS, check_membership
+
+    modes = (
+        MEMBERSHIPS
+        if membership is CampaignMembership.both
+        else (check_membership(membership.value),)
+    )
+    began = time.perf_counter()
+    if seed is not None:
+        failed = _replay_seed(seed, modes)
+        total = len(modes)
+    else:
+        from actorswarm.sim.campaign_runner import default_workers
+
+        total = count * len(modes)
+        failed = _run_campaign(start, count, modes, workers or default_workers(), began)
+    wall = time.perf_counter() - began
+    console.print(f"{total - failed} passed, {failed} failed in {wall:.1f} s")
     if failed:
         raise typer.Exit(1)
+
+
+def _replay_seed(seed: int, modes: tuple[MembershipKind, ...]) -> int:
+    """Run one seed in each of ``modes`` here, printing its schedule; the failures."""
+    from actorswarm.sim.campaign import make_case, run_case
+
+    failed = 0
+    for mode in modes:
+        case = make_case(seed, mode)
+        console.print(case.describe(), markup=False, soft_wrap=True)
+        with console.status(f"running seed {seed} ({mode})"):
+            result = run_case(case)
+        if not result.ok:
+            failed += 1
+            console.print(result.explain(), markup=False, soft_wrap=True)
+    return failed
+
+
+def _run_campaign(
+    start: int, count: int, modes: tuple[MembershipKind, ...], workers: int, began: float
+) -> int:
+    """Run seeds ``start..start+count-1`` in each of ``modes`` on ``workers`` processes,
+    printing failures as they come and the progress (a bar on a terminal, otherwise a line
+    every 10 s); the number of failures. Ctrl-C stops it with exit status 130 after saying
+    how far it got."""
+    import time
+
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from actorswarm.sim.campaign import CaseResult
+    from actorswarm.sim.campaign_runner import run_campaign
+
+    total = count * len(modes)
+    console.print(
+        f"{total} cases: seeds {start}..{start + count - 1} in {' and '.join(modes)} "
+        f"membership, {workers} worker(s)"
+    )
+    done = [0, 0]  # cases, failures
+    said = [time.monotonic()]
+    with Progress(
+        TextColumn("cases"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[failed]} failed"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+        # Not a terminal (a CI log, a pipe): no bar, the plain lines below instead.
+        disable=not console.is_terminal,
+    ) as bar:
+        task = bar.add_task("cases", total=total, failed=0)
+
+        def on_result(result: CaseResult) -> None:
+            done[0] += 1
+            if not result.ok:
+                done[1] += 1
+                console.print(result.explain(), markup=False, soft_wrap=True)
+            bar.update(task, advance=1, failed=done[1])
+            now = time.monotonic()
+            if not console.is_terminal and (now - said[0] >= 10.0 or done[0] == total):
+                said[0] = now
+                console.print(
+                    f"[{done[0]}/{total}] {done[1]} failed, {now - began:.0f} s", markup=False
+                )
+
+        try:
+            run_campaign(start, count, modes, workers=workers, on_result=on_result)
+        except KeyboardInterrupt:
+            bar.stop()
+            console.print(
+                f"interrupted: {done[0] - done[1]} passed, {done[1]} failed of {total} "
+                f"in {time.perf_counter() - began:.1f} s"
+            )
+            raise typer.Exit(130) from None
+    return done[1]
 
 
 @bench_app.command("core")
@@ -317,6 +432,13 @@ def sim(
     loss: Annotated[float, typer.Option(min=0.0, max=0.95, help="Packet loss probability.")] = 0.0,
     latency: Annotated[float, typer.Option(min=0.0, help="One-way latency, ms.")] = 10.0,
     jitter: Annotated[float, typer.Option(min=0.0, help="Extra random latency, ms.")] = 0.0,
+    channel_bitrate: Annotated[
+        float | None,
+        typer.Option(
+            metavar="BPS",
+            help="Model one shared radio channel of this many bit/s (default: no airtime).",
+        ),
+    ] = None,
     duration: Annotated[float, typer.Option(min=0.1, help="Virtual seconds to run.")] = 30.0,
     event: Annotated[
         list[str] | None, typer.Option(help="NAME@T[:IDS]: a ground-station event.")
@@ -348,7 +470,7 @@ def sim(
     from actorswarm.core.config import CoreConfig
     from actorswarm.runtime.actor_runtime import UnsupportedPlugin
     from actorswarm.runtime.registry import RegistryError
-    from actorswarm.sim.radio import LinkModel
+    from actorswarm.sim.radio import Airtime, LinkModel
     from actorswarm.sim.record import sample_world, write_record
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
     from actorswarm.world.config import WorldConfig, WorldError, load_world
@@ -368,6 +490,11 @@ def sim(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    try:
+        airtime = None if channel_bitrate is None else Airtime(bitrate=channel_bitrate)
+    except ValueError as exc:
+        typer.echo(f"--channel-bitrate: {exc}", err=True)
+        raise typer.Exit(2) from None
     link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
     world_config: WorldConfig | None = None
     if not no_world:
@@ -377,7 +504,16 @@ def sim(
             typer.echo(str(exc), err=True)
             raise typer.Exit(2) from None
     try:
-        run = TaskSim(script, seed=seed, link=link, config=CoreConfig(), world_config=world_config)
+        run = TaskSim(
+            script,
+            seed=seed,
+            link=link,
+            # The core knows the channel too: a star master then slows its members'
+            # heartbeats to fit their share of it.
+            config=CoreConfig(channel_bitrate=channel_bitrate),
+            world_config=world_config,
+            airtime=airtime,
+        )
         if serve:
             from actorswarm.cli.web_cmd import serve_sim
 

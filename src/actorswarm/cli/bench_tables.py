@@ -31,6 +31,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 if TYPE_CHECKING:
     from actorswarm.bench.tables import TablesReport
+    from actorswarm.core.config import MembershipKind
 
 __all__ = ["Plan", "register"]
 
@@ -41,6 +42,19 @@ class Mode(StrEnum):
     sim = "sim"
     real = "real"
     both = "both"
+
+
+class Membership(StrEnum):
+    star = "star"
+    broadcast = "broadcast"
+    both = "both"
+
+
+def memberships(choice: Membership) -> tuple[MembershipKind, ...]:
+    """The membership schemes ``--membership`` asks for, in the order they are measured."""
+    if choice is Membership.both:
+        return ("star", "broadcast")
+    return ("star",) if choice is Membership.star else ("broadcast",)
 
 
 TABLES = {"table1": ("1",), "table2": ("2",), "table3": ("3",), "all": ("1", "2", "3")}
@@ -65,6 +79,9 @@ class Plan:
     #: Table II's cases: ``switch`` (II(a): also the big sizes and the loss rates) and
     #: ``branch`` (II(b), at the paper's sizes).
     cases: tuple[str, ...] = ("switch", "branch")
+    #: The simulated rows of Tables II and III are measured once in each of these membership
+    #: schemes (``CoreConfig.membership``); Table I and the real rows run the default.
+    memberships: tuple[MembershipKind, ...] = ("star",)
     cells2: list[tuple[str, int, int, float]] = field(default_factory=list)
     cells3: list[tuple[int, float]] = field(default_factory=list)
 
@@ -159,6 +176,14 @@ def bench_tables(
             "(II(b)) or both, comma-separated."
         ),
     ] = "switch,branch",
+    membership: Annotated[
+        Membership,
+        typer.Option(
+            help="Simulated rows of Tables II and III: the core's membership scheme — star "
+            "(members heartbeat to the master only), broadcast (everyone to everyone) or "
+            "both (every row measured in each). Table I and real daemons run the default."
+        ),
+    ] = Membership.star,
     quick: Annotated[
         bool,
         typer.Option(
@@ -183,6 +208,11 @@ def bench_tables(
     the repetitions; the paper's means and our ratio to them)."""
     if which not in TABLES:
         raise typer.BadParameter(f"expected one of {', '.join(TABLES)}, got {which!r}")
+    if which == "table1" and membership is not Membership.star:
+        # Table I runs the core's default: say so rather than measure something else.
+        raise typer.BadParameter(
+            f"--membership {membership.value}: only Tables II and III choose the scheme"
+        )
     plan = Plan(
         tables=TABLES[which],
         modes=("sim", "real") if mode is Mode.both else (mode.value,),
@@ -202,6 +232,7 @@ def bench_tables(
         window=window or (2.0 if quick else 10.0),
         seed=seed,
         cases=_cases(cases),
+        memberships=memberships(membership),
     )
     command = "actorswarm bench " + shlex.join(sys.argv[2:])  # '' stays visible
 
@@ -286,10 +317,11 @@ def run(
     )
     tables23 = frozenset(t for t in plan.tables if t in ("2", "3"))
     units = 0
+    schemes = len(plan.memberships)
     if "sim" in plan.modes:
         units += sim.table1_units(plan.plugins, sim_settings) if "1" in plan.tables else 0
-        units += sim.table2_units(plan.cells2, sim_settings) if "2" in plan.tables else 0
-        units += sim.table3_units(plan.cells3, sim_settings) if "3" in plan.tables else 0
+        units += schemes * sim.table2_units(plan.cells2, sim_settings) if "2" in plan.tables else 0
+        units += schemes * sim.table3_units(plan.cells3, sim_settings) if "3" in plan.tables else 0
     if "real" in plan.modes:
         units += real.table1_units(plan.plugins, real_settings) if "1" in plan.tables else 0
         if tables23:
@@ -329,13 +361,18 @@ def run(
             if "1" in plan.tables:
                 report.table1 += sim.sim_table1(plan.plugins, sim_settings, progress)
                 row_done()
-            # One cell at a time (each is seeded by itself): the rows so far are saved.
+            # One cell at a time (each is seeded by itself): the rows so far are saved. The
+            # schemes of one cell run one after the other, so a run cut short has pairs.
             for cell in plan.cells2 if "2" in plan.tables else []:
-                report.table2 += sim.sim_table2([cell], sim_settings, progress)
-                row_done()
+                for scheme in plan.memberships:
+                    settings = replace(sim_settings, membership=scheme)
+                    report.table2 += sim.sim_table2([cell], settings, progress)
+                    row_done()
             for cell3 in plan.cells3 if "3" in plan.tables else []:
-                report.table3 += sim.sim_table3([cell3], sim_settings, progress)
-                row_done()
+                for scheme in plan.memberships:
+                    settings = replace(sim_settings, membership=scheme)
+                    report.table3 += sim.sim_table3([cell3], settings, progress)
+                    row_done()
         if "real" in plan.modes:
             if "1" in plan.tables:
                 report.table1 += real.real_table1(

@@ -169,6 +169,9 @@ class BarrierMaster:
         self._changed_at = -float("inf")
         # Requests received during the handshake, with their arrival time.
         self._staged: dict[tuple[int, int], tuple[BarrierRequest, float]] = {}
+        # Requests older than every firing known of their generation, with how long they
+        # wait for a report of the firing that may have chosen them (see _late_request).
+        self._parked: dict[tuple[int, int], tuple[BarrierRequest, float]] = {}
 
     def _instance(self, key: int) -> _Instance:
         inst = self.open.get(key)
@@ -220,7 +223,19 @@ class BarrierMaster:
                 return
         if all(f.complete_knowledge or f.origin < req.epoch for f in firings):
             # Every firing of that generation is fully known, or was decided before this
-            # request was even made: the request is simply late.
+            # request was even made: the request is simply late — unless it was made in an
+            # epoch older than every firing known of its generation. Then a firing decided
+            # in its own epoch, by a master on the other side of a partition, may have chosen
+            # it (that master fired before it knew of the cut); refused, it would move on and
+            # that firing could never be completed. So it waits, up to ``doubt_timeout``, for
+            # a report (after the heal) that shows such a firing.
+            ident = (platform, req.key)
+            if req.epoch < epoch and all(f.origin > req.epoch for f in firings):
+                until = self._parked.get(ident, (req, now + self._config.doubt_timeout))[1]
+                if now < until:
+                    self._parked[ident] = (req, until)
+                    return
+            self._parked.pop(ident, None)
             current = max(self._instance(req.key).generation, firings[0].generation + 1)
             self._refuse(platform, req, current, now, epoch)
             return
@@ -303,6 +318,10 @@ class BarrierMaster:
             if ident[1] == rec.key and req.generation == rec.generation:
                 del self._doubtful[ident]
                 self._completion_waiting.setdefault(rec.key, {})[ident[0]] = req
+        for ident, (req, _) in list(self._parked.items()):
+            if ident[1] == rec.key and req.generation == rec.generation:
+                del self._parked[ident]
+                self._completion_waiting.setdefault(rec.key, {})[ident[0]] = req
 
     def known_generation(self, key: int, generation: int, now: float, epoch: int) -> None:
         """A member reports it knows ``generation`` is the open one for ``key``.
@@ -330,6 +349,8 @@ class BarrierMaster:
             del self._staged[staged]
         for ident in [k for k in self._doubtful if k[0] == platform]:
             del self._doubtful[ident]
+        for ident in [k for k in self._parked if k[0] == platform]:
+            del self._parked[ident]
         for inst in self.open.values():
             inst.requests.pop(platform, None)
         for waiting in self._completion_waiting.values():
@@ -580,6 +601,9 @@ class BarrierMaster:
         """Fire timeouts; retransmit releases to whoever has not acknowledged."""
         if self.ready:
             self._recheck_doubtful(now, epoch)
+            for ident, (req, until) in list(self._parked.items()):
+                if now >= until:
+                    self.request(ident[0], req, now, epoch)  # refused now, its wait is over
             for key, inst in list(self.open.items()):
                 timeout = self._timeout(inst)
                 if (
@@ -622,6 +646,9 @@ class BarrierMaster:
             best = t if best is None or t < best else best
         if self._doubtful and self.ready:
             t = self._changed_at + self._config.t_join
+            best = t if best is None or t < best else best
+        if self._parked and self.ready:
+            t = min(until for _, until in self._parked.values())
             best = t if best is None or t < best else best
         return best
 

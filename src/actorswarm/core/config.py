@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 DetectorKind = Literal["timeout", "phi"]
+MembershipKind = Literal["star", "broadcast"]
 
 
 class ConfigError(ValueError):
@@ -28,10 +29,30 @@ class CoreConfig:
     (``detector="timeout"``) or when the phi accrual suspicion passes ``phi_threshold``
     (``detector="phi"``).
 
+    Topology (§3.1): ``membership="star"`` (the default) has a member that follows a live
+    master heartbeat to the master only, while the master broadcasts its heartbeat with the
+    roster version, its recent changes and a succession list of the next ``succession``
+    lowest IDs; a member that is behind fetches the roster in chunks of ``roster_chunk``
+    entries. ``"broadcast"`` is the paper's scheme: everyone broadcasts, everyone watches
+    everyone.
+
+    Suspicion (§3.1): a peer silent for its timeout is *suspected* and probed (listed in the
+    watcher's heartbeats and asked directly every ``probe_interval``); it leaves when the
+    probes have failed for at least ``probe_window`` and its silence exceeds what the view's
+    size and the measured loss make likely for a live peer: the timeout is chosen so that a
+    watcher declares a live peer gone at most ``false_leave_rate`` times a second.
+
+    Airtime (§3.1): with ``channel_bitrate`` (bit/s of the shared radio) set, the master
+    slows its members' heartbeats so that they use at most ``heartbeat_share`` of the channel
+    (``heartbeat_bits`` per heartbeat on the air), never faster than ``heartbeat_interval``.
+
     Election (§3.2): a platform that has been up for ``boot_wait`` and sees no live master
     claims the role when it has the lowest ID in its view. ``takeover_on_join`` restores the
     paper's behaviour: a lower ID that joins always takes the role over. A new master's
-    handshake ends when every member reported, or after ``handshake_timeout``.
+    handshake ends when every member reported, or after ``handshake_timeout``. A barrier
+    request made in an epoch older than every firing the master knows of its generation waits
+    up to ``doubt_timeout`` for a report of a firing (from the other side of a healed
+    partition) that may have chosen it, before it is called stale.
 
     Reliable delivery (§3.3): a message is retransmitted after ``base + k * retry_step``
     seconds (k = retries so far), capped at ``retry_cap``; a message not acknowledged within
@@ -44,6 +65,15 @@ class CoreConfig:
     """
 
     heartbeat_interval: float = 0.1
+    membership: MembershipKind = "star"
+    succession: int = 4
+    roster_chunk: int = 1024
+    probe_window: float = 0.06
+    probe_interval: float = 0.05
+    false_leave_rate: float = 1.0 / 3600.0
+    channel_bitrate: float | None = None
+    heartbeat_share: float = 0.5
+    heartbeat_bits: int = 800
     join_heartbeats: int = 3
     t_join: float = 1.0
     t_leave: float = 0.5
@@ -54,6 +84,7 @@ class CoreConfig:
     takeover_on_join: bool = False
     boot_wait: float | None = None
     handshake_timeout: float = 2.0
+    doubt_timeout: float = 3.0
     retry_base: float = 0.03
     retry_step: float = 0.01
     retry_cap: float = 0.2
@@ -77,6 +108,10 @@ class CoreConfig:
             "retry_min",
             "delivery_deadline",
             "handshake_timeout",
+            "doubt_timeout",
+            "probe_window",
+            "probe_interval",
+            "false_leave_rate",
         )
         for name in positive:
             value = getattr(self, name)
@@ -100,10 +135,24 @@ class CoreConfig:
             ("window", 1),
             ("max_packet_bytes", 512),
             ("release_chunk", 1),
+            ("succession", 1),
+            ("roster_chunk", 16),
+            ("heartbeat_bits", 64),
         ):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < low:
                 raise ConfigError(f"{name}: must be an integer >= {low}, got {value!r}")
+        if self.membership not in ("star", "broadcast"):
+            raise ConfigError(f"membership: must be 'star' or 'broadcast', got {self.membership!r}")
+        if self.channel_bitrate is not None and (
+            not math.isfinite(self.channel_bitrate) or self.channel_bitrate <= 0
+        ):
+            raise ConfigError(
+                "channel_bitrate: must be a positive bit rate or None, "
+                f"got {self.channel_bitrate!r}"
+            )
+        if not 0 < self.heartbeat_share <= 1:
+            raise ConfigError(f"heartbeat_share: must be in (0, 1], got {self.heartbeat_share!r}")
         if self.detector not in ("timeout", "phi"):
             raise ConfigError(f"detector: must be 'timeout' or 'phi', got {self.detector!r}")
         if self.t_leave <= self.heartbeat_interval:
@@ -129,7 +178,7 @@ class CoreConfig:
                 ok = isinstance(value, bool)
             elif kind == "int":
                 ok = isinstance(value, int) and not isinstance(value, bool)
-            elif kind == "DetectorKind":
+            elif kind in ("DetectorKind", "MembershipKind"):
                 ok = isinstance(value, str)
             else:  # float, optionally None
                 ok = (value is None and "None" in kind) or (

@@ -48,6 +48,7 @@ from actorswarm.core.events import (
 from actorswarm.core.membership import Membership
 from actorswarm.core.reliable import Reliable
 from actorswarm.core.roles import RoleMaster, RoleMember
+from actorswarm.core.roster import RosterLog, RosterView
 from actorswarm.core.wire import (
     NORMAL,
     URGENT,
@@ -67,6 +68,8 @@ from actorswarm.core.wire import (
     RoleGrant,
     RoleRelease,
     RoleRevoke,
+    RosterChunk,
+    RosterRequest,
     Sync,
     WireError,
 )
@@ -74,6 +77,12 @@ from actorswarm.core.wire import (
 _MASTER_BOUND = (BarrierRequest, RoleClaim, RoleRelease, Report)
 _MASTER_SENT = (BarrierStale, RoleGrant, RoleDeny, RoleRevoke)
 _KEEP_ERRORS = 20
+#: A master that has more members asking for the whole roster than this at one heartbeat
+#: broadcasts it once instead of sending it to each.
+_ROSTER_BROADCAST_FROM = 4
+#: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
+#: ticks late.
+_MAX_HEALTH = 8
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,6 +143,31 @@ class Node:
         # that left it and came back) has no leave detector of its own yet.
         self._master_heard = now
         self._next_heartbeat = now + self._rng.uniform(0.0, self.config.heartbeat_interval)
+        # Star topology (DESIGN.md §3.1): the roster as the master keeps it and as members
+        # copy it, the member heartbeat interval the master asks for, and the succession
+        # entries presumed alive after the master was lost (platform -> presumed until).
+        self._star = self.config.membership == "star"
+        self.roster = RosterView()
+        self._roster_log = RosterLog(self.config.succession)
+        self._roster_requests: set[int] = set()
+        self._roster_asked = -1e9
+        self._cadence = self.config.heartbeat_interval
+        self._presumed: dict[int, float] = {}
+        self._heard_lower: dict[int, float] = {}
+        #: Since when this platform has elected as in broadcast mode (no master, no
+        #: presumed successor): only then may a platform outside the succession list claim.
+        self._listening_since = now
+        self._hb_count = 0
+        # Suspicion: when each suspect is probed next, when each prober was last answered.
+        self._probe_due: dict[int, float] = {}
+        self._answered: dict[int, float] = {}
+        # Master: who reported in this epoch, and who did and was then declared gone.
+        self._reported: set[int] = set()
+        self._rejoining: set[int] = set()
+        # Local health: how late the host ticks, as a grace on every leave decision.
+        self._due = now
+        self._health = 0
+        self._health_decay_at = now
         self._outgoing: list[Outgoing] = []
         self._changes: list[MemberJoined | MemberLeft] = []
         self._events: list[CoreEvent] = []
@@ -152,8 +186,23 @@ class Node:
 
     @property
     def view(self) -> tuple[int, ...]:
-        """Live platforms in this platform's view, itself included, ascending."""
+        """Live platforms in this platform's view, itself included, ascending.
+
+        A star member that follows a master sees the swarm through its master: the master's
+        roster (as far as this member has it), the master and itself.
+        """
+        if self._following_star():
+            return tuple(sorted({*self.roster.members, self.master or 0, self.platform} - {0}))
         return tuple(sorted((*self.members.peers, self.platform)))
+
+    def _following_star(self) -> bool:
+        """A star member that follows a live remote master (heartbeats to it only)."""
+        return self._star and self.master is not None and not self.is_master
+
+    @property
+    def grace(self) -> float:
+        """Extra patience of every leave decision while this host ticks late."""
+        return self._health * self.config.heartbeat_interval
 
     def _all_live(self, key: int, part: int) -> int:
         return len(self.members) + 1
@@ -194,8 +243,11 @@ class Node:
     def next_deadline(self) -> float | None:
         """The latest time by which :meth:`tick` must be called next."""
         best = self._next_heartbeat
+        members_due = self.members.next_deadline()
         for t in (
-            self.members.next_deadline(),
+            None if members_due is None else members_due + self.grace,
+            min(self._probe_due.values(), default=None),
+            min(self._presumed.values(), default=None),
             self.reliable.next_deadline(),
             self._bmaster.next_deadline() if self.is_master else None,
             self._handshake_deadline,
@@ -206,7 +258,8 @@ class Node:
         if not self._awake:
             best = min(best, self._started + self.config.startup_wait)
         if self.master is not None and not self.is_master and self.master not in self.members:
-            best = min(best, self._master_heard + self.config.t_leave)
+            best = min(best, self._master_heard + self.members.silence())
+        self._due = best
         return best
 
     def _master_unheard_since(self, now: float) -> bool:
@@ -215,7 +268,7 @@ class Node:
             self.master is not None
             and not self.is_master
             and self.master not in self.members
-            and now - self._master_heard >= self.config.t_leave
+            and now - self._master_heard >= self.members.silence()
         )
 
     def receive(self, data: bytes, now: float) -> None:
@@ -264,12 +317,21 @@ class Node:
         """Advance timers to ``now``: leaves, elections, heartbeats, retransmissions."""
         if not self._awake and now >= self._started + self.config.startup_wait:
             self._awake = True  # listened long enough to know whether a master exists
+        self._check_health(now)
         joined_left: list[MemberJoined | MemberLeft] = []
-        self.members.expire(now, joined_left)
+        suspected: list[int] = []
+        self.members.expire(now, joined_left, suspected, self.grace)
+        for peer in suspected:
+            self.counters["suspected"] += 1
+            self._probe_due[peer] = now
         self._membership_changed(joined_left, now)
+        self._probe(now)
         if self._master_unheard_since(now):
             self._lose_master(now)
-            self._maybe_claim(now)
+        if self._presumed:
+            self._presumed = {p: t for p, t in self._presumed.items() if t > now}
+            if not self._presumed:
+                self._listening_since = now
         self._maybe_claim(now)
         if self.is_master:
             if self._sync_at is not None and now >= self._sync_at:
@@ -283,11 +345,45 @@ class Node:
         self.reliable.tick(now)
         self._report_failures()
         if now >= self._next_heartbeat:
-            self._send_heartbeat()
-            interval = self.config.heartbeat_interval
+            self._send_heartbeat(now)
+            interval = self._cadence if self._following_star() else self.config.heartbeat_interval
             self._next_heartbeat += interval
             if self._next_heartbeat <= now:  # the host fell behind: do not burst
                 self._next_heartbeat = now + interval
+
+    def _check_health(self, now: float) -> None:
+        """Local health (Lifeguard): a tick later than asked means this host was not
+        listening (a starved CPU, a paused process); each one adds a heartbeat interval of
+        grace to every leave decision, and every second of punctual ticks takes one away."""
+        late = now - self._due
+        if late > self.config.heartbeat_interval / 2:
+            if self._health < _MAX_HEALTH:
+                self._health += 1
+                self.counters["late_tick"] += 1
+            self._health_decay_at = now + 1.0
+        elif self._health and now >= self._health_decay_at:
+            self._health -= 1
+            self._health_decay_at = now + 1.0
+
+    def _probe(self, now: float) -> None:
+        """Probe the suspects directly (a heartbeat naming them, sent to each): at once on
+        suspicion, then every ``probe_interval`` while there are few; many suspects at once
+        (a master after a mass failure) are probed by the list in the heartbeats alone."""
+        if not self._probe_due:
+            return
+        suspects = self.members.suspects
+        for peer in [p for p in self._probe_due if p not in suspects]:
+            del self._probe_due[peer]
+        if len(self._probe_due) > wire.MAX_SUSPECTS // 4:
+            due = [p for p, t in self._probe_due.items() if t == now]  # fresh suspicions only
+            for peer in self._probe_due:
+                self._probe_due[peer] = now + self.config.heartbeat_interval
+        else:
+            due = [p for p, t in self._probe_due.items() if t <= now]
+        for peer in due:
+            self.counters["probe"] += 1
+            self._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL)
+            self._probe_due[peer] = now + self.config.probe_interval
 
     # --- application interface ------------------------------------------------------------
 
@@ -369,6 +465,13 @@ class Node:
             self.reliable.on_ack(packet.sender, body, now)
         elif isinstance(body, Release):
             self._on_release(packet.sender, body, now)
+        elif isinstance(body, RosterRequest):
+            if not (self._star and self.is_master and body.epoch == self.epoch):
+                self.counters["drop:roster"] += 1
+                return
+            self._roster_requests.add(packet.sender)
+        elif isinstance(body, RosterChunk):
+            self._on_roster_chunk(packet.sender, body, now)
         else:  # ReleaseAck
             if body.dst != self.platform or not self.is_master or body.epoch != self.epoch:
                 self.counters["drop:stale_epoch"] += 1
@@ -381,14 +484,26 @@ class Node:
         if sender == wire.GROUND_STATION:
             self.counters["drop:not_for_me"] += 1
             return
-        changes = self._changes  # reused: this runs for every heartbeat heard
-        self.members.heartbeat(sender, incarnation, now, changes, seq)
-        if changes:
-            self._changes = []
-            self._membership_changed(changes, now)
+        if hb.suspects and self.platform in hb.suspects:
+            self._answer_probe(sender, now)
         self._max_epoch = max(self._max_epoch, hb.epoch)
+        if sender < self.platform and self._star and self.master is None:
+            if hb.is_master:
+                self._heard_lower.pop(sender, None)
+            else:
+                self._heard_lower[sender] = now
+        # A star member that follows a master watches that master only: other platforms'
+        # heartbeats matter to it for the election alone (a master, or its own master's).
+        if not self._following_star() or sender == self.master:
+            changes = self._changes  # reused: this runs for every heartbeat heard
+            self.members.heartbeat(sender, incarnation, now, changes, seq, hb.count)
+            if changes:
+                self._changes = []
+                self._membership_changed(changes, now, hb)
         if sender == self.master:
             self._master_heard = now
+            if hb.is_master and hb.epoch == self.epoch and not self.is_master:
+                self._on_master_heartbeat(sender, hb, now)
         if not (hb.is_master or self.is_master or sender == self._epoch_master):
             return  # the common case at scale: an ordinary member's heartbeat
         action = on_heartbeat(
@@ -407,11 +522,73 @@ class Node:
                 self._best_claim = (hb.epoch, sender, now)
             return
         if self._apply(action, sender, hb.epoch, now):
+            if action is OnHeartbeat.FOLLOW and self.master == sender:
+                self._on_master_heartbeat(sender, hb, now)
             return
         if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any
             self._lose_master(now)
             if hb.master not in (0, self.platform, sender):
                 self._epoch_master = hb.master
+
+    def _on_master_heartbeat(self, sender: int, hb: Heartbeat, now: float) -> None:
+        """What a member takes from its master's heartbeat: the cadence it asks for, the
+        succession list, and the roster (asking for all of it when behind)."""
+        if not self._star:
+            return
+        self._cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
+        rejected = self.roster.rejected
+        behind = self.roster.on_heartbeat(hb.epoch, hb)
+        if self.roster.rejected != rejected:
+            self.counters["drop:roster"] += 1
+        self._roster_removed(now)
+        if behind and now - self._roster_asked >= self.config.retry_cap:
+            self._roster_asked = now
+            self.counters["roster_request"] += 1
+            self._emit(
+                sender,
+                RosterRequest(
+                    epoch=hb.epoch,
+                    version=self.roster.version if self.roster.epoch == hb.epoch else 0,
+                ),
+                NORMAL,
+            )
+
+    def _on_roster_chunk(self, sender: int, chunk: RosterChunk, now: float) -> None:
+        if not (
+            self._star
+            and sender == self.master
+            and not self.is_master
+            and chunk.epoch == self.epoch
+        ):
+            self.counters["drop:roster"] += 1
+            return
+        rejected = self.roster.rejected
+        self.roster.on_chunk(chunk)
+        if self.roster.rejected != rejected:
+            self.counters["drop:roster"] += 1
+        self._roster_removed(now)
+
+    def _roster_removed(self, now: float) -> None:
+        """Platforms that left the master's view left the swarm for this member too: its
+        queues to them are dropped and their messages reported failed."""
+        if not self.roster.removed:
+            return
+        for platform in self.roster.removed:
+            if platform != self.master:
+                self.reliable.drop_destination(platform, now)
+        self.roster.removed.clear()
+        self._report_failures()
+
+    def _answer_probe(self, prober: int, now: float) -> None:
+        """A peer suspects me: answer it directly (at most twice per probe interval)."""
+        if now - self._answered.get(prober, -1e9) < self.config.probe_interval / 2:
+            return
+        if len(self._answered) > 4 * wire.MAX_SUSPECTS:
+            horizon = now - self.config.probe_interval
+            self._answered = {p: t for p, t in self._answered.items() if t >= horizon}
+        self._answered[prober] = now
+        self.counters["probe_answered"] += 1
+        self._emit(prober, self._heartbeat(now), NORMAL)
 
     def _on_data(self, sender: int, incarnation: int, data: Data, now: float) -> None:
         if data.dst != self.platform:
@@ -501,32 +678,31 @@ class Node:
 
     # --- membership and election ------------------------------------------------------------
 
-    def _membership_changed(self, changes: list[MemberJoined | MemberLeft], now: float) -> None:
+    def _membership_changed(
+        self, changes: list[MemberJoined | MemberLeft], now: float, hb: Heartbeat | None = None
+    ) -> None:
         if not changes:
             return
         for change in changes:
             self._events.append(change)
             if isinstance(change, MemberLeft):
                 self.reliable.drop_destination(change.platform, now)
+                self._probe_due.pop(change.platform, None)
                 if change.reason == "restarted":
-                    self.reliable.forget_sender(change.platform)
+                    self.reliable.forget_sender(change.platform, change.incarnation)
                 if self.is_master:
                     self._handshake_waiting.discard(change.platform)
                     self._bmaster.member_left(change.platform, now, self.epoch)
                     self._rmaster.member_left(change.platform)
+                    self._roster_log.left(change.platform)
+                    if change.platform in self._reported and change.reason != "restarted":
+                        self._rejoining.add(change.platform)
+                    self._reported.discard(change.platform)
                 if change.platform == self.master:
                     self._lose_master(now)
             elif self.is_master:
-                # A newcomer (or a member back from a false alarm, or from the other side of
-                # a healed partition) must follow and report; until it has, the master decides
-                # nothing, since the report may show a firing to complete.
-                self.reliable.send(change.platform, Sync(epoch=self.epoch), now, self.epoch)
-                self._handshake_waiting.add(change.platform)
-                self._bmaster.topology_changed(now)
-                if self._handshake_deadline is None:
-                    self._handshake_deadline = now + self.config.handshake_timeout
-                self._bmaster.ready = False
-                self._rmaster.ready = False
+                self._roster_log.joined(change.platform, change.incarnation)
+                self._master_joined(change.platform, now, hb)
         self._update_lowest_peer(changes)
         self._report_failures()
         if self.is_master:
@@ -534,6 +710,34 @@ class Node:
                 self._finish_handshake(now)
             self._flush_master(now)
         self._maybe_claim(now)
+
+    def _master_joined(self, platform: int, now: float, hb: Heartbeat | None) -> None:
+        """A platform joined the master's view. One that already reported in this epoch
+        (it followed the claim before its heartbeats made it join) needs nothing more. One
+        that reported and was then declared gone (a false alarm) is asked to report again —
+        its pending requests were dropped with it — but holds nothing back: everything it
+        knows it learnt from this master. Anyone else (a newcomer, the other side of a healed
+        partition) must follow and report, and until it has, the master decides nothing,
+        since the report may show a firing to complete."""
+        if platform in self._reported:
+            return
+        rejoining = (
+            platform in self._rejoining
+            and hb is not None
+            and hb.epoch == self.epoch
+            and hb.master == self.platform
+        )
+        self._rejoining.discard(platform)
+        self.reliable.send(platform, Sync(epoch=self.epoch), now, self.epoch)
+        if rejoining:
+            self.counters["rejoined"] += 1
+            return
+        self._handshake_waiting.add(platform)
+        self._bmaster.topology_changed(now)
+        if self._handshake_deadline is None:
+            self._handshake_deadline = now + self.config.handshake_timeout
+        self._bmaster.ready = False
+        self._rmaster.ready = False
 
     def _update_lowest_peer(self, changes: list[MemberJoined | MemberLeft]) -> None:
         """Keep the lowest ID of the view in O(1) per join; only losing the lowest one costs
@@ -563,14 +767,27 @@ class Node:
         self.reliable.failures.clear()
 
     def _maybe_claim(self, now: float) -> None:
+        lowest = self._lowest_peer
+        listened = now - self._started
+        if self._star and self.master is None and not self.is_master:
+            # A star platform also counts the lower IDs it heard but that have not joined its
+            # view (they keep quiet only if they hear someone lower still) and the successors
+            # it presumes alive. The first live successor takes over at once; anyone else
+            # elects as in broadcast mode, having listened for ``startup_wait`` first.
+            lower = [p for p in self._presumed if p < self.platform]
+            lower += self._lower_heard(now)
+            if lower:
+                lowest = min(lower) if lowest is None else min(lowest, *lower)
+            if self.platform not in self.roster.succession:
+                listened = min(listened, now - self._listening_since)
         if should_claim(
             self_id=self.platform,
-            lowest_peer=self._lowest_peer,
+            lowest_peer=lowest,
             is_master=self.is_master,
             master=self.master,
             master_alive=self.master is not None,
             takeover_on_join=self.config.takeover_on_join,
-            listened=now - self._started,
+            listened=listened,
             startup_wait=self.config.startup_wait,
         ):
             self._claim(now)
@@ -578,15 +795,31 @@ class Node:
     def _claim(self, now: float) -> None:
         """Become master in a new epoch above every epoch seen; start the handshake."""
         self._max_epoch += 1
+        predecessor = self._epoch_master
         self._set_epoch(self._max_epoch, self.platform)
         self.master = self.platform
+        self._presumed.clear()
+        self._probe_due.clear()
+        self._reported.clear()
+        self._rejoining.clear()
         if not self.is_master:
             self.is_master = True
             self._bmaster = self._new_barrier_master()
             self._rmaster = RoleMaster()
+            if self._star:
+                # The predecessor's roster: those platforms were members a moment ago. They
+                # are watched from now on and waited for in the handshake, and those that do
+                # not answer leave like any silent member.
+                for peer, incarnation in self.roster.members.items():
+                    if peer != predecessor:
+                        self.members.admit(peer, incarnation, now)
+                self._lowest_peer = min(self.members.peers, default=None)
         else:  # a new epoch while master: everyone reports again, nothing fires meanwhile
             self._bmaster.ready = False
             self._rmaster.ready = False
+        self._roster_log.reset(self.epoch)
+        self._cadence = self._member_cadence()
+        self.members.cadence = self._cadence
         self.handshake_complete = False
         self._bmaster.topology_changed(now)
         self._events.append(BecameMaster(epoch=self.epoch))
@@ -597,7 +830,7 @@ class Node:
         # Members follow the claim heartbeat and report on their own; a Sync goes only to
         # those who have not reported after a round trip's worth of retry delay.
         self._sync_at = now + 2 * self.config.retry_base
-        self._send_heartbeat()
+        self._send_heartbeat(now)
         # The master's own state counts like any member's report.
         self._master_handle(self.platform, self._own_report(now), now)
         for payload in self.reliable.take_unrouted():
@@ -620,6 +853,9 @@ class Node:
 
     def _step_down(self, to: int, now: float) -> None:
         self.is_master = False
+        self._roster_requests.clear()
+        self._cadence = self.config.heartbeat_interval
+        self.members.cadence = self._cadence
         self.handshake_complete = False
         self._handshake_waiting.clear()
         self._handshake_deadline = None
@@ -636,6 +872,14 @@ class Node:
         self.master = master
         self._master_heard = now
         self._best_claim = None
+        self._presumed.clear()
+        if self._star:
+            # A star member watches its master only; the rest of the swarm it learns from
+            # the master's roster (fetched anew: it is the new master's, or newer).
+            for peer in [p for p in self.members.peers if p != master]:
+                self.members.forget(peer)
+            self._lowest_peer = master if master in self.members else None
+            self._probe_due = {p: t for p, t in self._probe_due.items() if p == master}
         self._events.append(MasterChanged(master=master, epoch=epoch))
         self.reliable.retarget(master, now)
         # Always report: requests and claims made while no master was followed were not sent
@@ -645,7 +889,20 @@ class Node:
     def _lose_master(self, now: float) -> None:
         if self.master is None:
             return
+        lost = self.master
         self.master = None
+        self._listening_since = now
+        if self._star:
+            # The master's succession list says who takes over: each successor is presumed
+            # alive for a while per rank, so the first live one claims without a round of
+            # broadcasts, and the others keep quiet meanwhile. The while covers how much
+            # later a successor may notice the loss (its last heartbeats from the master
+            # arrived, mine were lost); a successor slower than that claims beside the
+            # next one, and the lower of the two keeps the role.
+            step = 3 * self.config.heartbeat_interval + self.config.probe_window
+            for rank, peer in enumerate(p for p in self.roster.succession if p != lost):
+                if peer != self.platform:
+                    self._presumed[peer] = now + (rank + 1) * step
         self._events.append(MasterChanged(master=None, epoch=self.epoch))
         self.reliable.retarget(None, now)
         claim = self._best_claim
@@ -653,7 +910,7 @@ class Node:
             claim is not None
             and claim[0] > self.epoch
             and now - claim[2] <= self.config.t_leave
-            and claim[1] in self.members
+            and (claim[1] in self.members or self._star)
         ):
             # Someone already claimed while we still trusted the old master: follow at once.
             self._follow(claim[1], claim[0], now)
@@ -703,6 +960,7 @@ class Node:
                 bm.request(sender, req, now, self.epoch)
             bm.reported(now, self.epoch)
             rm.report(sender, payload.held, payload.claims)
+            self._reported.add(sender)
             if sender in self._handshake_waiting:
                 self._handshake_waiting.discard(sender)
                 if not self._handshake_waiting and self._handshake_deadline is not None:
@@ -766,13 +1024,107 @@ class Node:
 
     # --- output -----------------------------------------------------------------------------
 
-    def _send_heartbeat(self) -> None:
-        hb = Heartbeat(
-            is_master=self.is_master,
+    def _member_cadence(self) -> float:
+        """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or
+        slower when the members' heartbeats would take more than ``heartbeat_share`` of a
+        channel of ``channel_bitrate``."""
+        cfg = self.config
+        if not self._star or cfg.channel_bitrate is None:
+            return cfg.heartbeat_interval
+        load = max(len(self.members), 1) * cfg.heartbeat_bits
+        return max(cfg.heartbeat_interval, load / (cfg.heartbeat_share * cfg.channel_bitrate))
+
+    def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
+        """This platform's heartbeat; a star master's carries what its members need."""
+        if suspects is None:
+            suspects = self._suspect_list()
+        if not (self._star and self.is_master):
+            return Heartbeat(
+                is_master=self.is_master,
+                epoch=self.epoch,
+                master=self.master or 0,
+                count=self._hb_count,
+                suspects=suspects,
+            )
+        log = self._roster_log
+        return Heartbeat(
+            is_master=True,
             epoch=self.epoch,
-            master=self.master or 0,
+            master=self.platform,
+            count=self._hb_count,
+            suspects=suspects,
+            roster=log.version,
+            size=len(self.members),
+            changes=list(log.changes),
+            succession=log.succession(self.members.peers),
+            cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
         )
-        self._emit(None, hb, NORMAL)
+
+    def _suspect_list(self) -> list[int]:
+        """Up to MAX_SUSPECTS suspects, rotating through them when there are more."""
+        suspects = self.members.suspects
+        if not suspects:
+            return []
+        ordered = sorted(suspects)
+        if len(ordered) <= wire.MAX_SUSPECTS:
+            return ordered
+        start = (self._hb_count * wire.MAX_SUSPECTS) % len(ordered)
+        return (ordered[start:] + ordered[:start])[: wire.MAX_SUSPECTS]
+
+    def _send_heartbeat(self, now: float) -> None:
+        """The scheduled heartbeat: to the master alone when following one in a star, else
+        broadcast — except that a masterless star platform that hears a lower ID (or presumes
+        a lower successor alive) keeps quiet: it could not become master, and at boot this is
+        what keeps a thousand platforms from all broadcasting at once."""
+        self._hb_count += 1
+        if self.is_master and self._star:
+            self._cadence = self._member_cadence()
+            self.members.cadence = self._cadence
+            self._serve_roster_requests()
+        hb = self._heartbeat(now)
+        if self._following_star():
+            self._emit(self.master, hb, NORMAL)
+        elif self._quiet(now):
+            self.counters["heartbeat_quiet"] += 1
+        else:
+            self._emit(None, hb, NORMAL)
+
+    def _quiet(self, now: float) -> bool:
+        if not self._star or self.is_master or self.master is not None:
+            return False
+        if any(p < self.platform for p in self._presumed):
+            return True
+        return bool(self._lower_heard(now))
+
+    def _lower_heard(self, now: float) -> list[int]:
+        """Lower IDs heard lately without a master (they elect, so I need not be heard).
+
+        A lower ID that is a master does not count: if I do not follow it (its epoch is
+        below mine), it must hear me to claim again above my epoch. "Lately" is as long as
+        a member stays in a view, so a lost heartbeat or two change nothing."""
+        horizon = now - max(self.config.t_join, self.members.silence())
+        heard = self._heard_lower
+        for peer in [p for p, t in heard.items() if t < horizon]:
+            del heard[peer]
+        return list(heard)
+
+    def _serve_roster_requests(self) -> None:
+        """Send the whole roster to the members that asked since the last heartbeat: to each,
+        or once to everyone when many asked (after a failover every member does)."""
+        if not self._roster_requests:
+            return
+        requesters = sorted(self._roster_requests)
+        self._roster_requests.clear()
+        members = {p: m.incarnation for p, m in self.members.peers.items()}
+        chunks = RosterLog.chunks(
+            self.epoch, self._roster_log.version, members, self.config.roster_chunk
+        )
+        targets: list[int | None] = (
+            [None] if len(requesters) > _ROSTER_BROADCAST_FROM else list(requesters)
+        )
+        for dst in targets:
+            for chunk in chunks:
+                self._emit(dst, chunk, NORMAL)
 
     def _emit(self, dst: int | None, body: wire.Body, channel: int) -> None:
         self._flush_reliable()

@@ -234,12 +234,15 @@ class Reliable:
         if self._master_stream.dst == dst:
             self.retarget(None, now)
 
-    def forget_sender(self, sender: int) -> None:
-        """``sender`` rebooted: its next messages start a fresh stream."""
+    def forget_sender(self, sender: int, incarnation: int) -> None:
+        """``sender`` rebooted out of ``incarnation``: forget what it sent in that one (or
+        before). A stream of its new incarnation is kept: its first messages may have arrived
+        before its heartbeat showed the reboot, and forgetting them would deliver their
+        retransmissions twice."""
         for channel in (URGENT, NORMAL, TO_MASTER):
-            self._in.pop((sender, channel), None)
-
-    # --- receiving -------------------------------------------------------------------
+            stream = self._in.get((sender, channel))
+            if stream is not None and stream.incarnation <= incarnation:
+                del self._in[(sender, channel)]
 
     def on_ack(self, sender: int, ack: Ack, now: float) -> None:
         """Remove everything ``sender`` acknowledged cumulatively; fill the window."""

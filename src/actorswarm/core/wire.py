@@ -189,12 +189,62 @@ Payload = (
 # --- packet bodies ------------------------------------------------------------------------
 
 
+#: How many suspects a heartbeat names at most (a free probe for each), and how many roster
+#: changes and successors it carries: bounded, so a heartbeat stays small at any swarm size.
+MAX_SUSPECTS: Final = 32
+MAX_CHANGES: Final = 16
+MAX_SUCCESSION: Final = 16
+
+
 class Heartbeat(_Msg, frozen=True, tag=1):
-    """Broadcast every heartbeat interval: who I am, whether I am master, whom I follow."""
+    """Every heartbeat interval: who I am, whether I am master, whom I follow.
+
+    ``count`` numbers the sender's scheduled heartbeats (a probe or an answer to one repeats
+    the current count), so a receiver measures the loss from the gaps. ``suspects`` names
+    the peers the sender suspects: a peer that finds itself listed answers at once (a free
+    probe, DESIGN.md §3.1).
+
+    A star master's heartbeat also carries what its members need of its view: ``roster``,
+    the version of its roster in this epoch, and ``size``, its member count; ``changes``,
+    the last changes, the newest last (``(platform, incarnation)`` for a join,
+    ``(platform, -1)`` for a leave), so a member one or a few versions behind catches up
+    without asking; ``succession``, the next-lowest live IDs, in order, who take over
+    without an election round when the master is lost; ``cadence``, the member heartbeat
+    interval the master asks for (seconds, 0: ``heartbeat_interval``).
+    """
 
     is_master: bool
     epoch: Counter
     master: PlatformId
+    count: Counter = 0
+    suspects: Annotated[list[PlatformId], Meta(max_length=MAX_SUSPECTS)] = []
+    roster: Counter = 0
+    size: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)] = 0
+    changes: Annotated[
+        list[tuple[PlatformId, Annotated[int, Meta(ge=-1, le=2**63 - 1)]]],
+        Meta(max_length=MAX_CHANGES),
+    ] = []
+    succession: Annotated[list[PlatformId], Meta(max_length=MAX_SUCCESSION)] = []
+    cadence: Annotated[float, Meta(ge=0, le=3600)] = 0.0
+
+
+class RosterRequest(_Msg, frozen=True, tag=6):
+    """A star member whose roster is behind asks its master (unicast) for the whole roster
+    of ``epoch``; ``version`` is the one it has (0: none)."""
+
+    epoch: Counter
+    version: Counter
+
+
+class RosterChunk(_Msg, frozen=True, tag=7):
+    """Part ``index`` of ``count`` of the master's roster (``members``: platform,
+    incarnation) at ``version`` in ``epoch``; the master itself is not listed."""
+
+    epoch: Counter
+    version: Counter
+    index: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]
+    count: Annotated[int, Meta(ge=1, le=MAX_PLATFORM + 1)]
+    members: Annotated[list[tuple[PlatformId, Counter]], Meta(max_length=MAX_PLATFORM)]
 
 
 class Data(_Msg, frozen=True, tag=2):
@@ -260,7 +310,7 @@ class ReleaseAck(_Msg, frozen=True, tag=5):
     generation: Counter
 
 
-Body = Heartbeat | Data | Ack | Release | ReleaseAck
+Body = Heartbeat | Data | Ack | Release | ReleaseAck | RosterRequest | RosterChunk
 
 COMPLETE: Final = 1
 TIMEOUT: Final = 2
@@ -301,6 +351,8 @@ _BODY_TYPES: dict[int, type[Body]] = {
     3: Ack,
     4: Release,
     5: ReleaseAck,
+    6: RosterRequest,
+    7: RosterChunk,
 }
 _TYPE_OF: dict[type[Any], int] = {cls: tag for tag, cls in _BODY_TYPES.items()}
 _ENVELOPE = msgspec.msgpack.Decoder(Envelope)

@@ -101,7 +101,9 @@ def _write_status(
         "master": node.master,
         "is_master": node.is_master,
         "epoch": node.epoch,
-        "members": sorted(node.members.peers),
+        # The swarm as this platform sees it (a star member: its master's roster).
+        "members": [p for p in node.view if p != node.platform],
+        "membership": node.config.membership,
         "actors": list(endpoint.runtime.running()),
         "loaded": endpoint.runtime.loaded(),
         "script": engine.script_sha,

@@ -3,7 +3,9 @@
 Theory of operation
 -------------------
 The ground station is platform 0. It is not a member of the swarm (it sends no heartbeats
-and is never elected); it learns who is out there from the platforms' heartbeats, and talks
+and is never elected); it learns who is out there from the platforms' heartbeats — in a star
+swarm, where members heartbeat to their master only, from the master's roster, which it
+fetches like a member that is behind — and talks
 to each platform over the core's reliable streams on the *urgent* channel, so its commands
 are retransmitted until acknowledged and processed before swarm traffic. A host drives it
 exactly like a :class:`~actorswarm.core.Node`: ``receive``/``receive_packet``, ``tick`` at
@@ -24,7 +26,18 @@ from actorswarm.core import wire
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.node import Outgoing
 from actorswarm.core.reliable import Reliable
-from actorswarm.core.wire import URGENT, Ack, AppMessage, Data, Heartbeat, Packet, WireError
+from actorswarm.core.roster import RosterView
+from actorswarm.core.wire import (
+    URGENT,
+    Ack,
+    AppMessage,
+    Data,
+    Heartbeat,
+    Packet,
+    RosterChunk,
+    RosterRequest,
+    WireError,
+)
 from actorswarm.engine import commands as cmds
 
 
@@ -72,6 +85,10 @@ class GroundStation:
         self.replies: list[ReplyRecord] = []
         self.counters: dict[str, int] = {}
         self.deployed_sha = ""
+        # A star master's roster: the members the ground station does not hear directly.
+        self.roster = RosterView()
+        self._roster_master: int | None = None
+        self._roster_asked = -1e9
 
     # --- operator interface ------------------------------------------------------------
 
@@ -149,6 +166,11 @@ class GroundStation:
         if isinstance(body, Heartbeat):
             self.heard[sender] = now
             self.state[sender] = (packet.incarnation, body.is_master, body.epoch)
+            if body.is_master and body.roster:
+                self._on_master_heartbeat(sender, body, now)
+        elif isinstance(body, RosterChunk):
+            if sender == self._roster_master and self.roster.on_chunk(body):
+                self._learn_roster(now)
         elif isinstance(body, Ack):
             if body.dst == wire.GROUND_STATION and body.dst_incarnation == self.incarnation:
                 self.reliable.on_ack(sender, body, now)
@@ -159,6 +181,35 @@ class GroundStation:
             for _, payload in delivered:
                 if isinstance(payload, AppMessage) and payload.topic == cmds.TOPIC_REPLY:
                     self._on_reply(sender, payload.body, now)
+
+    def _on_master_heartbeat(self, master: int, hb: Heartbeat, now: float) -> None:
+        """A star master's heartbeat: its members count as heard while it lists them."""
+        if master != self._roster_master:
+            if (
+                self._roster_master is not None
+                and hb.epoch < self.state.get(self._roster_master, (0, False, 0))[2]
+            ):
+                return  # an older master's heartbeat: keep the newer roster
+            self._roster_master = master
+            self.roster = RosterView()
+        if self.roster.on_heartbeat(hb.epoch, hb):
+            if now - self._roster_asked >= self.config.retry_cap:
+                self._roster_asked = now
+                self._emit(master, RosterRequest(epoch=hb.epoch, version=0))
+            return
+        self._learn_roster(now)
+
+    def _learn_roster(self, now: float) -> None:
+        for platform in self.roster.removed:
+            if platform not in self.roster.members:
+                self.heard.pop(platform, None)
+                self.state.pop(platform, None)
+        self.roster.removed.clear()
+        epoch = self.roster.epoch
+        for platform, incarnation in self.roster.members.items():
+            self.heard[platform] = now
+            if self.state.get(platform, (-1, False, -1))[2] <= epoch:
+                self.state[platform] = (incarnation, False, epoch)
 
     def _on_reply(self, sender: int, body: bytes, now: float) -> None:
         try:

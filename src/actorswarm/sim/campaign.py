@@ -12,20 +12,36 @@ restarted, a clean radio — and checks
 * that the swarm recovered: one master, followed by every live platform in one epoch, whose
   view holds every live platform, and barriers firing again.
 
-A failing case prints the command that replays it: ``actorswarm swarm campaign --seed S``.
+Every case runs in one membership mode of the core (``CoreConfig.membership``: ``"star"``,
+the default, or ``"broadcast"``); the mode does not change the schedule, so seed S names the
+same faults in both modes. A failing case prints the command that replays it:
+``actorswarm swarm campaign --seed S --membership M``. Many seeds at once, on every core:
+:mod:`actorswarm.sim.campaign_runner`.
 """
 
 from __future__ import annotations
 
 import random
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Final
 
-from actorswarm.core.config import CoreConfig
+from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.core.events import BarrierFired
 from actorswarm.sim.radio import GilbertElliott, LinkModel
 from actorswarm.sim.swarm import SimSwarm
 from actorswarm.sim.workload import AppChatter, BarrierRounds, RoleChurn
+
+#: The membership modes a case can run in, in the order a campaign of both runs them.
+MEMBERSHIPS: Final[tuple[MembershipKind, ...]] = ("star", "broadcast")
+
+
+def check_membership(membership: str) -> MembershipKind:
+    """``membership`` as a mode of :data:`MEMBERSHIPS`; a :class:`ValueError` naming the
+    choices otherwise."""
+    for mode in MEMBERSHIPS:
+        if membership == mode:
+            return mode
+    raise ValueError(f"membership: expected one of {', '.join(MEMBERSHIPS)}, got {membership!r}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,12 +64,15 @@ class Case:
     actions: tuple[Action, ...]
     faults_until: float
     quiet: float
+    membership: MembershipKind = "star"
 
     def describe(self) -> str:
+        """One line: the seed, the membership mode, the swarm, the link and the schedule."""
         link = self.link
         burst = "bursty " if link.burst is not None else ""
         return (
-            f"seed {self.seed}: {self.size} platforms, {self.detector} detector"
+            f"seed {self.seed}: {self.membership} membership, {self.size} platforms, "
+            f"{self.detector} detector"
             f"{', takeover' if self.takeover else ''}, {burst}loss {link.loss:.2f}, "
             f"jitter {link.jitter * 1000:.0f} ms, dup {link.duplicate:.2f}, "
             f"reorder {link.reorder:.2f}; " + ", ".join(a.describe() for a in self.actions)
@@ -61,7 +80,8 @@ class Case:
 
     @property
     def replay(self) -> str:
-        return f"actorswarm swarm campaign --seed {self.seed}"
+        """The command that runs this case again, event for event."""
+        return f"actorswarm swarm campaign --seed {self.seed} --membership {self.membership}"
 
 
 @dataclass(slots=True)
@@ -82,8 +102,14 @@ class CaseResult:
         return "\n".join(lines)
 
 
-def make_case(seed: int) -> Case:
-    """The fault schedule of ``seed`` (deterministic)."""
+def make_case(seed: int, membership: MembershipKind = "star") -> Case:
+    """The fault schedule of ``seed`` (deterministic), to run in ``membership`` mode.
+
+    The schedule depends on ``seed`` only: both modes of a seed get the same swarm, link and
+    faults, and a seed keeps the schedule it has always had (the draws below must stay in
+    this order). A ``membership`` outside :data:`MEMBERSHIPS` raises :class:`ValueError`.
+    """
+    membership = check_membership(membership)
     rng = random.Random(f"campaign:{seed}")
     size = rng.randint(3, 12)
     burst = None
@@ -139,12 +165,20 @@ def make_case(seed: int) -> Case:
         actions=tuple(actions),
         faults_until=faults_until,
         quiet=6.0,
+        membership=membership,
     )
 
 
 def run_case(case: Case) -> CaseResult:
-    """Run ``case``; check the invariants and the recovery."""
-    config = CoreConfig(detector=case.detector, takeover_on_join=case.takeover)  # type: ignore[arg-type]
+    """Run ``case`` in its membership mode; check the invariants and the recovery.
+
+    Deterministic: the result depends on ``case`` only, never on the process it runs in.
+    """
+    config = CoreConfig(
+        detector=case.detector,  # type: ignore[arg-type]
+        takeover_on_join=case.takeover,
+        membership=case.membership,
+    )
     swarm = SimSwarm(case.size, seed=case.seed, config=config, link=case.link)
     end = case.faults_until + case.quiet
     BarrierRounds(swarm, key=1, every=0.25, start=1.0).install()

@@ -29,23 +29,42 @@ With a ``bandwidth``, each sender has one transmitter: a packet occupies it for
 its transmission ends. A platform detached while packets are still queued in its
 transmitter never puts them on the air.
 
+With an :class:`Airtime` (:attr:`SimRadio.airtime`), every platform shares one channel — one
+collision domain — of a given bitrate: each transmission, a broadcast once like a unicast,
+occupies it for :meth:`Airtime.seconds` of its size. The channel serves packets first come,
+first served, in the order they are sent: one "channel free at" time is all the state there
+is, so the model costs O(1) per packet. A packet starts when the channel is free, arrives
+its airtime plus the link's latency later, and is dropped instead if it would have to wait
+longer than :attr:`Airtime.max_queue_s` for the channel. It does not model collisions,
+hidden terminals, capture, carrier sensing or backoff: access is a perfect FIFO. With a
+``bandwidth`` as well, the channel's queue takes the place of each sender's transmitter (it
+serializes everything already) and a sender whose ``bandwidth`` is below the channel's
+bitrate holds the channel for ``len / bandwidth`` instead, as a slow station does. A platform
+that detaches loses the packets it still had queued, as without airtime, but the channel time
+they were given stays taken (freeing it would mean moving every packet queued behind them).
+
 Traffic is counted per platform and per packet kind (:class:`Traffic`): a transmission counts
 once at its sender, and once at each receiver when actually delivered. Packets that are not
-delivered are counted by cause in :attr:`SimRadio.drops`.
+delivered are counted by cause in :attr:`SimRadio.drops`. The load on the channel — packets
+and bits put on the air, airtime and waits, drops for want of airtime — is counted whether
+or not airtime is modelled, and read with :meth:`SimRadio.channel_stats`.
 """
 
 from __future__ import annotations
 
 import math
 import random
-from collections.abc import Callable, Iterable, KeysView
+from collections.abc import Callable, Iterable, KeysView, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, Final, Generic, TypeVar
 
 from actorswarm.sim.scheduler import Scheduler
 
 __all__ = [
     "DROP_CAUSES",
+    "Airtime",
+    "ChannelStats",
     "GilbertElliott",
     "LinkModel",
     "SimRadio",
@@ -56,7 +75,7 @@ __all__ = [
 P = TypeVar("P")
 
 #: Causes under which :attr:`SimRadio.drops` counts packets that were not delivered.
-DROP_CAUSES: Final = ("loss", "burst", "partition", "detached", "range")
+DROP_CAUSES: Final = ("loss", "burst", "partition", "detached", "range", "airtime")
 
 # Group of every platform that no partition group names (see SimRadio.partition).
 _REST: Final = -1
@@ -148,6 +167,100 @@ class LinkModel:
             and self.burst is None
             and self.corrupt == 0.0
         )
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Airtime:
+    """The shared channel every platform transmits on (see the module docstring).
+
+    ``bitrate``: bits per second of the channel, finite and > 0. ``overhead_bytes``: bytes
+    each packet carries on the air besides its payload (the default, 28, is the IPv4 and UDP
+    headers; add the link layer's framing and preamble to taste). ``max_queue_s``: the
+    longest a packet may wait for the channel before it starts; one that would wait longer
+    is dropped (``math.inf``: never drop, the queue grows without bound; 0: drop whatever
+    finds the channel busy). ``ValueError``, naming the field, for an invalid value.
+    """
+
+    bitrate: float
+    overhead_bytes: int = 28
+    max_queue_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.bitrate < math.inf:
+            raise ValueError(
+                f"Airtime.bitrate must be a finite number of bits/s > 0, got {self.bitrate!r}"
+            )
+        overhead = self.overhead_bytes
+        if isinstance(overhead, bool) or not isinstance(overhead, int) or overhead < 0:
+            raise ValueError(
+                f"Airtime.overhead_bytes must be an integer number of bytes >= 0, got {overhead!r}"
+            )
+        # Unlike the link model's durations, an infinite queue is allowed (nothing dropped).
+        if not 0.0 <= self.max_queue_s <= math.inf:
+            raise ValueError(
+                f"Airtime.max_queue_s must be a number of seconds >= 0 (inf allowed), "
+                f"got {self.max_queue_s!r}"
+            )
+
+    def seconds(self, size: int) -> float:
+        """How long a packet of ``size`` payload bytes occupies the channel."""
+        return (size + self.overhead_bytes) * 8 / self.bitrate
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ChannelStats:
+    """The load on the radio's channel over a window of virtual time (a snapshot).
+
+    The window runs from ``start_s`` (0, or the last :meth:`SimRadio.reset_channel_stats`)
+    to the snapshot, ``elapsed_s`` seconds. A packet counts when it is sent, and a broadcast
+    counts once, however many hear it; a packet from a platform that is not attached is not
+    sent and does not count.
+
+    ``packets`` and ``bits``: put on the air (a unicast to a platform that is not attached
+    too: the sender transmits all the same). ``bits`` is 8 × the payload bytes, plus
+    ``overhead_bytes`` per packet sent while airtime was modelled. ``packets_per_s`` and
+    ``bits_per_s``: those over ``elapsed_s`` (0 when no time elapsed). ``bitrate``: the
+    channel's while airtime is modelled, else None. ``busy_s``: time within the window the
+    channel was occupied (0 when airtime is not modelled). ``utilisation``: ``busy_s /
+    elapsed_s``, in [0, 1] (None when airtime is not modelled, 0 when no time elapsed).
+    ``drops``: packets never put on the air because they would have waited longer than
+    ``max_queue_s``, each counted once (:attr:`SimRadio.drops` counts them per receiver);
+    ``drops_by_kind``: the same per packet kind, kinds sorted (read-only).
+    ``max_queue_delay_s``: the longest a packet put on the air waited for the channel (0
+    when airtime is not modelled). Packets sent in the window
+    whose airtime falls after it count in ``packets``, ``bits`` and the queueing figures
+    but not in ``busy_s``.
+    """
+
+    start_s: float
+    elapsed_s: float
+    packets: int
+    bits: int
+    packets_per_s: float
+    bits_per_s: float
+    bitrate: float | None
+    busy_s: float
+    utilisation: float | None
+    drops: int
+    drops_by_kind: Mapping[str, int]
+    max_queue_delay_s: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain, JSON-ready data: every field under its own name (``drops_by_kind`` a dict)."""
+        return {
+            "start_s": self.start_s,
+            "elapsed_s": self.elapsed_s,
+            "packets": self.packets,
+            "bits": self.bits,
+            "packets_per_s": self.packets_per_s,
+            "bits_per_s": self.bits_per_s,
+            "bitrate": self.bitrate,
+            "busy_s": self.busy_s,
+            "utilisation": self.utilisation,
+            "drops": self.drops,
+            "drops_by_kind": dict(self.drops_by_kind),
+            "max_queue_delay_s": self.max_queue_delay_s,
+        }
 
 
 class Transmission(Generic[P]):
@@ -319,12 +432,21 @@ class SimRadio(Generic[P]):
     ``decoder`` turns the bytes of a :class:`Transmission` into its packet (for the core:
     ``actorswarm.core.wire.decode``). ``rng`` is used for every fault and nothing else should
     draw from it if runs are to be reproducible. ``tap``, when set, is called on every send
-    from an attached platform as ``tap(now, src, dst, kind, size)``.
+    from an attached platform as ``tap(now, src, dst, kind, size)``. ``airtime``: the
+    shared channel to model (:attr:`airtime`); None, the default, models none.
     """
 
     __slots__ = (
+        "_air_bytes",
+        "_air_drops",
+        "_air_packets",
+        "_air_since",
+        "_air_wait",
+        "_airtime",
         "_bad_links",
         "_burst",
+        "_busy",
+        "_chan_free",
         "_epochs",
         "_fast",
         "_group",
@@ -349,6 +471,7 @@ class SimRadio(Generic[P]):
         model: LinkModel,
         *,
         decoder: Callable[[bytes], P],
+        airtime: Airtime | None = None,
     ) -> None:
         self._sched = scheduler
         self.rng = rng
@@ -374,6 +497,18 @@ class SimRadio(Generic[P]):
         self._model = model
         self._burst = model.burst
         self._fast = model.faultless
+        # The shared channel: when it is next free, and the counters behind channel_stats().
+        # Packets and bytes on the air are counted even without airtime: that is the load.
+        self._airtime = airtime
+        self._chan_free = 0.0
+        self._air_since = scheduler.now
+        self._air_packets = 0
+        self._air_bytes = 0
+        self._air_wait = 0.0
+        self._air_drops: dict[str, int] = {}
+        # Channel time of the packets sent in the window, plus what was still reserved
+        # when it began (see reset_channel_stats).
+        self._busy = 0.0
 
     # --- configuration ------------------------------------------------------------------
 
@@ -389,8 +524,66 @@ class SimRadio(Generic[P]):
         self._fast = model.faultless
 
     @property
+    def airtime(self) -> Airtime | None:
+        """The shared channel modelled, or None (no airtime: packets never wait for one).
+
+        May be set mid-run; applies to packets sent from then on. Packets already queued
+        keep their place, and a channel set again later is busy until they are through.
+        """
+        return self._airtime
+
+    @airtime.setter
+    def airtime(self, airtime: Airtime | None) -> None:
+        self._airtime = airtime
+
+    @property
     def scheduler(self) -> Scheduler:
         return self._sched
+
+    # --- channel load -------------------------------------------------------------------
+
+    def channel_stats(self) -> ChannelStats:
+        """The channel's load since the window began (see :class:`ChannelStats`)."""
+        now = self._sched.now
+        elapsed = now - self._air_since
+        airtime = self._airtime
+        # Channel time reserved for packets sent in the window, less the part still ahead:
+        # every packet starting after now follows the one before it back to back, so the
+        # channel is busy without a gap from now to _chan_free.
+        busy = max(0.0, self._busy - max(0.0, self._chan_free - now))
+        bits = 8 * self._air_bytes
+        drops = dict(sorted(self._air_drops.items()))
+        # Capped: summing many airtimes can round a hair above the elapsed time.
+        share = min(1.0, busy / elapsed) if elapsed > 0 else 0.0
+        utilisation = None if airtime is None else share
+        return ChannelStats(
+            start_s=self._air_since,
+            elapsed_s=elapsed,
+            packets=self._air_packets,
+            bits=bits,
+            packets_per_s=self._air_packets / elapsed if elapsed > 0 else 0.0,
+            bits_per_s=bits / elapsed if elapsed > 0 else 0.0,
+            bitrate=None if airtime is None else airtime.bitrate,
+            busy_s=busy,
+            utilisation=utilisation,
+            drops=sum(drops.values()),
+            drops_by_kind=MappingProxyType(drops),
+            max_queue_delay_s=self._air_wait,
+        )
+
+    def reset_channel_stats(self) -> None:
+        """Start a new window of :meth:`channel_stats` now (every figure back to zero).
+
+        A benchmark calls it once the swarm has formed, to measure the steady state.
+        """
+        now = self._sched.now
+        self._air_since = now
+        self._air_packets = 0
+        self._air_bytes = 0
+        self._air_wait = 0.0
+        self._air_drops = {}
+        # Channel time already reserved beyond now belongs to the new window.
+        self._busy = max(0.0, self._chan_free - now)
 
     # --- platforms ----------------------------------------------------------------------
 
@@ -499,8 +692,9 @@ class SimRadio(Generic[P]):
         ``dst`` None broadcasts to every attached platform but ``src``. ``kind`` labels the
         packet in the traffic counters. A packet from a platform that is not attached is not
         sent (it counts as a ``detached`` drop). A unicast to a platform that is not attached
-        counts as sent and is dropped. ``ValueError`` if ``dst == src``: a radio does not
-        hear itself.
+        counts as sent and is dropped. With :attr:`airtime`, a packet that would wait longer
+        than ``max_queue_s`` for the channel counts as sent and is dropped (cause
+        ``airtime``). ``ValueError`` if ``dst == src``: a radio does not hear itself.
         """
         handlers = self._handlers
         if src not in handlers:
@@ -517,10 +711,18 @@ class SimRadio(Generic[P]):
 
         model = self._model
         end = now
-        if model.bandwidth is not None:
-            # One transmitter per sender: wait for the packets queued before this one.
-            end = max(now, self._tx_free.get(src, now)) + size / model.bandwidth
-            self._tx_free[src] = end
+        if self._airtime is not None:
+            on_air = self._channel(src, dst, size, kind, now)
+            if on_air is None:
+                return
+            end = on_air
+        else:
+            if model.bandwidth is not None:
+                # One transmitter per sender: wait for the packets queued before this one.
+                end = max(now, self._tx_free.get(src, now)) + size / model.bandwidth
+                self._tx_free[src] = end
+            self._air_packets += 1
+            self._air_bytes += size
         tx = Transmission(src, dst, kind, data, self.decoder, epoch=self._epochs[src], end=end)
         arrival = end + model.latency
 
@@ -539,6 +741,35 @@ class SimRadio(Generic[P]):
             sched.call_at(arrival, self._deliver, tx, receivers)
             return
         self._send_faulty(tx, receivers, arrival)
+
+    def _channel(self, src: int, dst: int | None, size: int, kind: str, now: float) -> float | None:
+        """Queue a packet for the shared channel: when its transmission ends, or None if it
+        is dropped because it would wait longer than ``max_queue_s`` (counted here)."""
+        airtime = self._airtime
+        assert airtime is not None
+        on_air = size + airtime.overhead_bytes
+        duration = on_air * 8 / airtime.bitrate
+        bandwidth = self._model.bandwidth
+        if bandwidth is not None:
+            # A sender slower than the channel holds it for as long as it takes to send.
+            duration = max(duration, size / bandwidth)
+        start = max(self._chan_free, now)
+        wait = start - now
+        if wait > airtime.max_queue_s:
+            drops = self._air_drops
+            drops[kind] = drops.get(kind, 0) + 1
+            # Every would-be receiver misses it: per receiver, as the other causes count.
+            self.drops["airtime"] += len(self._handlers) - 1 if dst is None else 1
+            return None
+        end = self._chan_free = start + duration
+        if bandwidth is not None:
+            # Keeps the sender's own queue right should airtime be switched off later.
+            self._tx_free[src] = end
+        self._busy += duration
+        self._air_packets += 1
+        self._air_bytes += on_air
+        self._air_wait = max(self._air_wait, wait)
+        return end
 
     def _send_faulty(self, tx: Transmission[P], receivers: tuple[int, ...], arrival: float) -> None:
         """Draw the faults of each receiver and schedule the deliveries (see module doc)."""

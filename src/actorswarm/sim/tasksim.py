@@ -6,7 +6,8 @@ actor runtime (plugins from the registry, no vehicle); the task starts at time 0
 Ground-station events, crashes, restarts, partitions and heals happen at the virtual times
 given. The report has the keys of
 DESIGN.md §7: ``completed``, ``sim_time_s``, ``final_actors``, ``transitions`` (with their
-``cause``), ``masters``, ``traffic`` and ``violations``.
+``cause``), ``masters``, ``traffic`` and ``violations``, and ``channel``: the load on the
+radio's channel (:meth:`~actorswarm.sim.radio.ChannelStats.as_dict`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from actorswarm.ground.station import GroundStation
 from actorswarm.runtime.actor_runtime import ActorRuntime
 from actorswarm.runtime.collective import NodeCollective
 from actorswarm.runtime.storage import MemoryBackupStore
-from actorswarm.sim.radio import LinkModel, Transmission
+from actorswarm.sim.radio import Airtime, LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
 from actorswarm.world.config import WorldConfig
@@ -72,6 +73,9 @@ class TaskSim:
     auto_start: bool = True
     #: The simulated world (vehicles, targets, position-driven radio); None: no vehicles.
     world_config: WorldConfig | None = None
+    #: The radio's shared channel (:attr:`~actorswarm.sim.radio.SimRadio.airtime`); None:
+    #: no airtime modelled, packets never wait for the channel.
+    airtime: Airtime | None = None
     world: World | None = field(default=None, init=False)
     ground: GroundStation | None = field(default=None, init=False)
     _gs_timer: Timer | None = field(default=None, init=False)
@@ -98,6 +102,7 @@ class TaskSim:
             raise ValueError("the script starts no platform")
         self.swarm = SimSwarm(platforms, seed=self.seed, config=self.config, link=self.link)
         self.swarm.listeners.append(self._on_core_event)
+        self.swarm.radio.airtime = self.airtime
         if self.world_config is not None:
             self.world = World(self.world_config, platforms)
             self.swarm.radio.link_fn = self._link
@@ -371,6 +376,7 @@ class TaskSim:
             "wrecks": list(self.wrecks),
             "violations": self.swarm.finish(),
             "seed": self.seed,
+            "channel": self.swarm.radio.channel_stats().as_dict(),
         }
 
 
@@ -454,6 +460,13 @@ def summary(report: dict[str, Any]) -> list[str]:
         lines.append(
             f"  {first:7.2f} s{spread}  {len(who):3d} × {src or '-'} → {dst or '-'}"
             f" ({cause}{on}): {sorted(who)}"
+        )
+    channel = report.get("channel")
+    if channel is not None and channel["bitrate"] is not None:
+        lines.append(
+            f"channel: {channel['utilisation']:.0%} busy at {channel['bitrate']:,.0f} bit/s, "
+            f"{channel['packets_per_s']:,.0f} packets/s, {channel['drops']} dropped, "
+            f"longest wait {channel['max_queue_delay_s'] * 1000:.0f} ms"
         )
     masters = ", ".join(f"{m['platform']}@{m['t']:.2f}s" for m in report["masters"])
     lines.append(f"masters: {masters or 'none'}")

@@ -1,0 +1,217 @@
+"""``actorswarm bench scale``: what the swarm size costs, in each membership scheme
+(:mod:`actorswarm.bench.scale`).
+
+A line per cell as it completes; the report to stdout, and to ``--out`` (Markdown),
+``--json`` and ``--plot`` (PNG). The JSON is rewritten after every cell, marked "in
+progress", so a run of hours that is cut short keeps what it measured; interrupted (Ctrl-C,
+SIGTERM), a run writes its report so far, marked as such, before it exits.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shlex
+import signal
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from actorswarm.cli.bench_tables import Membership, memberships
+
+if TYPE_CHECKING:
+    from actorswarm.bench.scale import ScaleCell, ScaleReport
+
+__all__ = ["bench_scale", "register"]
+
+# No wrapping: a line per row stays one line in a log file.
+console = Console(stderr=True, soft_wrap=True)
+
+
+def parse_sizes(text: str, high: int) -> list[int]:
+    """``--sizes``: comma-separated integers in 2..``high``, ascending, without repeats;
+    ``typer.BadParameter`` naming the option and the value otherwise."""
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    try:
+        values = sorted({int(p) for p in parts})
+    except ValueError:
+        raise typer.BadParameter(
+            f"--sizes {text!r}: expected comma-separated integers, e.g. 10,100,1000"
+        ) from None
+    if not values or any(v < 2 or v > high for v in values):
+        raise typer.BadParameter(f"--sizes {text!r}: every size must be 2..{high}")
+    return values
+
+
+def parse_losses(text: str) -> list[float]:
+    """``--loss``: comma-separated rates in [0, 1) (``0.1`` or ``10%``), ascending."""
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    try:
+        values = sorted({float(p.rstrip("%")) / (100 if p.endswith("%") else 1) for p in parts})
+    except ValueError:
+        raise typer.BadParameter(
+            f"--loss {text!r}: expected comma-separated loss rates, e.g. 0,0.1"
+        ) from None
+    if not values or any(not 0.0 <= v < 1.0 for v in values):
+        raise typer.BadParameter(f"--loss {text!r}: every rate must be at least 0 and below 1")
+    return values
+
+
+def bench_scale(
+    sizes: Annotated[
+        str, typer.Option(help="Comma-separated swarm sizes, 2..10000.")
+    ] = "10,100,1000",
+    membership: Annotated[
+        Membership,
+        typer.Option(
+            help="The core's membership scheme: star (members heartbeat to the master only), "
+            "broadcast (everyone to everyone) or both (every size in each)."
+        ),
+    ] = Membership.both,
+    loss: Annotated[
+        str, typer.Option(help="Comma-separated loss rates (0.1 or 10%), each a row.")
+    ] = "0",
+    seed: Annotated[int, typer.Option(help="Seed of every row (the same in either scheme).")] = 1,
+    max_wall: Annotated[
+        float,
+        typer.Option(
+            min=1.0,
+            help="Wall-clock seconds a row may take; past it the row is abandoned and "
+            "reported as over budget, with the virtual time it reached.",
+        ),
+    ] = 600.0,
+    quiet_from: Annotated[
+        float, typer.Option(help="Virtual s: the quiet window (traffic, false leaves) begins.")
+    ] = 2.0,
+    barrier_at: Annotated[
+        float,
+        typer.Option(help="Virtual s: the quiet window ends; every platform asks for a barrier."),
+    ] = 4.0,
+    crash_at: Annotated[float, typer.Option(help="Virtual s: the master crashes.")] = 6.0,
+    end: Annotated[float, typer.Option(help="Virtual s: the run ends.")] = 8.0,
+    out: Annotated[Path | None, typer.Option(help="Write the Markdown report here.")] = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Write every figure as JSON here.")
+    ] = None,
+    plot: Annotated[Path | None, typer.Option(help="Draw the results as a PNG here.")] = None,
+) -> None:
+    """What the swarm size costs in each membership scheme (simulated, virtual time).
+
+    N platforms form a swarm, pass one barrier of all and lose their master: wall time,
+    formation, release, failover, packets per second in a quiet steady state and false
+    leaves, per scheme, size and loss rate."""
+    from actorswarm.bench.scale import MAX_SIZE, Scenario, run_scale
+
+    size_list = parse_sizes(sizes, MAX_SIZE)
+    losses = parse_losses(loss)
+    try:
+        scenario = Scenario(
+            quiet_from=quiet_from,
+            barrier_at=barrier_at,
+            crash_at=crash_at,
+            end=end,
+            max_wall=max_wall,
+        )
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from None
+    schemes = memberships(membership)
+    # Every option spelled out, defaults included: the report names exactly what it ran.
+    args = ["--sizes", ",".join(map(str, size_list)), "--membership", membership.value]
+    args += ["--loss", ",".join(f"{v:g}" for v in losses), "--seed", str(seed)]
+    args += ["--max-wall", f"{max_wall:g}", "--quiet-from", f"{quiet_from:g}"]
+    args += ["--barrier-at", f"{barrier_at:g}", "--crash-at", f"{crash_at:g}", "--end", f"{end:g}"]
+    for flag, path in (("--out", out), ("--json", json_out), ("--plot", plot)):
+        args += [flag, str(path)] if path is not None else []
+    command = "actorswarm bench scale " + shlex.join(args)
+    total = len(size_list) * len(losses) * len(schemes)
+    saved: list[ScaleReport] = []
+
+    def done(report: ScaleReport, cell: ScaleCell) -> None:
+        saved[:] = [report]
+        console.print(f"[{len(report.cells)}/{total}] {_line(cell)}")
+        if json_out is not None:
+            _save_json(replace(report, cut_short="in progress"), json_out)
+
+    def terminated(signum: int, frame: object) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, terminated)
+    try:
+        with console.status("starting") as status:
+            report = run_scale(
+                schemes,
+                size_list,
+                losses,
+                seed=seed,
+                scenario=scenario,
+                command=command,
+                progress=status.update,
+                done=done,
+            )
+    except (KeyboardInterrupt, SystemExit) as exc:
+        if saved:
+            why = "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else f"exit {exc.code}"
+            console.print(f"[yellow]interrupted ({why}): writing the rows so far[/yellow]")
+            cut = saved[0]
+            cut.cut_short = f"interrupted ({why}) after {len(cut.cells)} row(s)"
+            _write(cut, out, json_out, plot)
+        raise
+    _write(report, out, json_out, plot)
+
+
+def _line(cell: ScaleCell) -> str:
+    """One cell, as the console line printed when it completes."""
+
+    def fig(value: float, unit: str, digits: int = 0) -> str:
+        return "—" if math.isnan(value) else f"{value:,.{digits}f}{unit}"
+
+    text = (
+        f"{escape(cell.label)}: {cell.wall_s:.1f} s wall ({cell.sim_per_wall:.3g} sim s/wall s); "
+        f"formed at {fig(cell.formed_at_s, ' s', 2)}; released {cell.released}/{cell.expected}; "
+        f"failover {fig(cell.failover_ms, ' ms')}; rx pkt/s: non-master "
+        f"{fig(cell.member_recv_pps, '', 1)}, master {fig(cell.master_recv_pps, '')}"
+    )
+    if cell.over_budget:
+        return f"{text} [yellow]over budget at t = {cell.reached_s:.2f} s[/yellow]"
+    if cell.errors:
+        return f"{text} [yellow]{len(cell.errors)} problem(s)[/yellow]"
+    return text
+
+
+def _save_json(report: ScaleReport, path: Path) -> None:
+    """Written whole and renamed: a reader never sees half a file."""
+    from actorswarm.bench.scale import to_json
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    part = path.with_name(path.name + ".part")
+    part.write_text(json.dumps(to_json(report), indent=1, allow_nan=False) + "\n")
+    part.replace(path)
+
+
+def _write(report: ScaleReport, out: Path | None, json_out: Path | None, plot: Path | None) -> None:
+    from actorswarm.bench.scale import markdown, plot_scale, problems
+
+    text = markdown(report)
+    typer.echo(text)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text)
+        console.print(f"report written to {out}")
+    if json_out is not None:
+        _save_json(report, json_out)
+        console.print(f"JSON written to {json_out}")
+    if plot is not None:
+        plot_scale(report, plot)
+        console.print(f"picture written to {plot}")
+    issues = problems(report)
+    if issues:
+        console.print(f"[yellow]{len(issues)} problem(s); see “What did not work”.[/yellow]")
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``scale`` to the ``bench`` command group."""
+    app.command("scale")(bench_scale)

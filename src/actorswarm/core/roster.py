@@ -1,0 +1,175 @@
+"""The star master's roster and its copy at the members (DESIGN.md §3.1, ``membership="star"``).
+
+Theory of operation
+-------------------
+In a star, members do not hear each other; they learn the swarm from their master. The
+master keeps a :class:`RosterLog`: a *version* that grows with every join and leave in its
+view (per epoch: a new master starts at 1), the last :data:`~actorswarm.core.wire.MAX_CHANGES`
+changes, and the *succession list* — the next-lowest IDs of its view, who take over in that
+order if the master is lost, without an election round or a broadcast storm.
+
+Every master heartbeat carries the version, the member count, the recent changes and the
+succession list. A member's :class:`RosterView` applies the changes when it is only a few
+versions behind; when it is further behind (a new master, a lost run of heartbeats) it asks
+for the whole roster, which comes in chunks of ``roster_chunk`` entries (a packet each, even
+at 10 000 platforms). Until then it keeps acting on what it has and asks again — it never
+applies changes that do not chain onto its own version, and a roster whose size disagrees
+with the master's count is thrown away and fetched again. Nothing here is trusted beyond
+being internally consistent: a forged or garbled roster makes a member ask again, never act
+on a view the master did not send.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections import deque
+from collections.abc import Iterable
+
+from actorswarm.core.wire import MAX_CHANGES, Heartbeat, RosterChunk
+
+#: A change as heartbeats carry it: (platform, incarnation), incarnation -1 for a leave.
+Change = tuple[int, int]
+
+
+class RosterLog:
+    """The master's roster: version, recent changes, succession list."""
+
+    def __init__(self, succession: int) -> None:
+        self._succession_len = succession
+        self.epoch = 0
+        self.version = 0
+        self.changes: deque[Change] = deque(maxlen=MAX_CHANGES)
+        self._succession: list[int] | None = []
+
+    def reset(self, epoch: int) -> None:
+        """A new epoch: version 1, no changes to tell (members fetch the whole roster)."""
+        self.epoch = epoch
+        self.version = 1
+        self.changes.clear()
+        self._succession = None
+
+    def joined(self, platform: int, incarnation: int) -> None:
+        self.version += 1
+        self.changes.append((platform, incarnation))
+        self._succession = None
+
+    def left(self, platform: int) -> None:
+        self.version += 1
+        self.changes.append((platform, -1))
+        self._succession = None
+
+    def succession(self, peers: Iterable[int]) -> list[int]:
+        """The next-lowest IDs of the view (``peers``: the master's members), cached until
+        the roster changes."""
+        if self._succession is None:
+            self._succession = heapq.nsmallest(self._succession_len, peers)
+        return self._succession
+
+    @staticmethod
+    def chunks(epoch: int, version: int, members: dict[int, int], size: int) -> list[RosterChunk]:
+        """The whole roster (``members``: platform -> incarnation) as packets of at most
+        ``size`` entries, in ascending platform order."""
+        entries = sorted(members.items())
+        count = max(1, -(-len(entries) // size))
+        return [
+            RosterChunk(
+                epoch=epoch,
+                version=version,
+                index=i,
+                count=count,
+                members=entries[i * size : (i + 1) * size],
+            )
+            for i in range(count)
+        ]
+
+
+class RosterView:
+    """A star member's copy of its master's roster.
+
+    ``members`` maps platform to incarnation and is valid for ``epoch``/``version``;
+    ``succession`` and ``size`` are the master's latest word, whatever the version.
+    """
+
+    def __init__(self) -> None:
+        self.epoch = -1
+        self.version = 0
+        self.members: dict[int, int] = {}
+        self.succession: list[int] = []
+        self.size = 0
+        self.rejected = 0  # heartbeats or chunks that did not fit (counted by the node)
+        #: Platforms the master's roster lost since the owner last looked (it drops its
+        #: queues to them, as it would for a peer that left its own view).
+        self.removed: list[int] = []
+        self._pending: tuple[int, int, int] | None = None  # (epoch, version, count)
+        self._parts: dict[int, list[tuple[int, int]]] = {}
+
+    @property
+    def current(self) -> bool:
+        """Whether the copy matches the master's last heartbeat."""
+        return self.epoch >= 0 and self.version > 0
+
+    def on_heartbeat(self, epoch: int, hb: Heartbeat) -> bool:
+        """Apply a master heartbeat of ``epoch``; True when the member is behind and should
+        ask for the whole roster."""
+        self.succession = list(hb.succession)
+        self.size = hb.size
+        if hb.roster == 0:
+            return False  # a master that keeps no roster (broadcast mode)
+        if epoch != self.epoch:
+            return True
+        if hb.roster == self.version:
+            return len(self.members) != hb.size
+        missing = hb.roster - self.version
+        if missing < 0:
+            self.rejected += 1  # an older version than ours: a late or forged packet
+            return False
+        if missing > len(hb.changes):
+            return True
+        for platform, incarnation in hb.changes[len(hb.changes) - missing :]:
+            if incarnation < 0:
+                if self.members.pop(platform, None) is not None:
+                    self.removed.append(platform)
+            else:
+                self.members[platform] = incarnation
+        self.version = hb.roster
+        if len(self.members) != hb.size:
+            # The changes did not lead where the master is: start again from a full copy.
+            self.rejected += 1
+            self.version = 0
+            return True
+        return False
+
+    def on_chunk(self, chunk: RosterChunk) -> bool:
+        """Take one chunk of a full roster; True when the roster is complete and adopted."""
+        key = (chunk.epoch, chunk.version, chunk.count)
+        if chunk.index >= chunk.count:
+            self.rejected += 1
+            return False
+        if self._pending != key:
+            if self._pending is not None and (chunk.epoch, chunk.version) < self._pending[:2]:
+                self.rejected += 1  # older than a roster already on its way
+                return False
+            self._pending = key
+            self._parts = {}
+        self._parts[chunk.index] = list(chunk.members)
+        if len(self._parts) < chunk.count:
+            return False
+        members: dict[int, int] = {}
+        for i in range(chunk.count):
+            for platform, incarnation in self._parts[i]:
+                members[platform] = incarnation
+        self.epoch, self.version = chunk.epoch, chunk.version
+        self.removed.extend(p for p in self.members if p not in members)
+        self.members = members
+        self._pending = None
+        self._parts = {}
+        return True
+
+    def forget(self) -> None:
+        """Drop the copy (a member that follows no master any more keeps the succession list
+        only, to know who takes over)."""
+        self.epoch = -1
+        self.version = 0
+        self.members = {}
+        self._pending = None
+        self._parts = {}
