@@ -222,14 +222,14 @@ def test_candidate_repeating_fired_request_gets_its_entry_again() -> None:
 
 def test_newer_generation_moves_master_on() -> None:
     h = Harness()
-    h.master.request(1, _req(2, generation=0), 0.0, EPOCH)
-    h.master.request(2, _req(2, generation=3), 0.1, EPOCH)
+    h.master.request(1, _req(2, generation=0, epoch=EPOCH), 0.0, EPOCH)
+    h.master.request(2, _req(2, generation=3, epoch=EPOCH), 0.1, EPOCH)
     assert h.notices() == [(1, BarrierStale(key=KEY, generation=0, current=3))]
     assert h.broadcasts() == [], "the generation-0 request no longer counts"
     h.master.request(1, _req(2, generation=3), 0.2, EPOCH)
     (rel,) = h.broadcasts()
     assert rel.generation == 3
-    h.master.request(4, _req(2, generation=2), 0.3, EPOCH)
+    h.master.request(4, _req(2, generation=2, epoch=EPOCH), 0.3, EPOCH)
     assert h.notices() == [(4, BarrierStale(key=KEY, generation=2, current=4))]
 
 
@@ -465,6 +465,11 @@ def test_handshake_report_of_stale_request_still_gets_notice() -> None:
     _report(h, 1, 6, None, None)  # 1 knows generation 6 is open
     _report(h, 2, 5, None, _req(2, generation=5))
     h.master.become_ready(0.5, EPOCH)
+    # Asked under the previous master, for a generation nobody reported a firing of: that
+    # firing (someone knows generation 6 is open) may have chosen it, so the request waits
+    # ``doubt_timeout`` for a report that shows it, and is stale only then.
+    assert h.notices() == [] and h.broadcasts() == []
+    h.master.tick(0.5 + CoreConfig().doubt_timeout, EPOCH)
     assert h.notices() == [(2, BarrierStale(key=KEY, generation=5, current=6))]
     assert h.broadcasts() == []
 

@@ -223,19 +223,7 @@ class BarrierMaster:
                 return
         if all(f.complete_knowledge or f.origin < req.epoch for f in firings):
             # Every firing of that generation is fully known, or was decided before this
-            # request was even made: the request is simply late — unless it was made in an
-            # epoch older than every firing known of its generation. Then a firing decided
-            # in its own epoch, by a master on the other side of a partition, may have chosen
-            # it (that master fired before it knew of the cut); refused, it would move on and
-            # that firing could never be completed. So it waits, up to ``doubt_timeout``, for
-            # a report (after the heal) that shows such a firing.
-            ident = (platform, req.key)
-            if req.epoch < epoch and all(f.origin > req.epoch for f in firings):
-                until = self._parked.get(ident, (req, now + self._config.doubt_timeout))[1]
-                if now < until:
-                    self._parked[ident] = (req, until)
-                    return
-            self._parked.pop(ident, None)
+            # request was even made: the request is simply late (but see _refuse).
             current = max(self._instance(req.key).generation, firings[0].generation + 1)
             self._refuse(platform, req, current, now, epoch)
             return
@@ -268,12 +256,34 @@ class BarrierMaster:
                         )
                         self._launch(req.key, fired, {platform}, now, epoch)
                         return
+        if self._park(platform, req, now, epoch):
+            return
         if now < self._changed_at + self._config.t_join:
             self._doubtful[(platform, req.key)] = req
             return
         self.notices.append(
             (platform, BarrierStale(key=req.key, generation=req.generation, current=current))
         )
+
+    def _park(self, platform: int, req: BarrierRequest, now: float, epoch: int) -> bool:
+        """Hold a request back instead of calling it stale, when it was made in an older
+        epoch than this master's and no firing of its own epoch is known in full.
+
+        Then a master of that epoch, on the other side of a partition, may have fired the
+        generation with it just before the cut, and the release never reached it: refused
+        here, it would move on, and that firing could never be completed. So it waits, up to
+        ``doubt_timeout``, for a report (after the heal) that shows such a firing; one that
+        does (:meth:`record_released`) completes it with its original entry."""
+        ident = (platform, req.key)
+        known = self.fired.get(req.key, {}).get(req.generation, [])
+        if req.epoch >= epoch or any(f.origin == req.epoch and f.complete_knowledge for f in known):
+            return False
+        until = self._parked.get(ident, (req, now + self._config.doubt_timeout))[1]
+        if now >= until:
+            del self._parked[ident]
+            return False
+        self._parked[ident] = (req, until)
+        return True
 
     def _recheck_doubtful(self, now: float, epoch: int) -> None:
         if not self._doubtful or now < self._changed_at + self._config.t_join:
@@ -307,7 +317,10 @@ class BarrierMaster:
             )
             firings.append(fired)
         fired.sizes[rec.part] = max(fired.sizes.get(rec.part, 0), rec.size)
-        fired.assigned[platform] = (rec.part, rec.index)
+        if not rec.assignment or platform in rec.assignment:
+            # (A former master reports the firings it decided, in which it may have had no
+            # part: that does not make it a candidate of them.)
+            fired.assigned[platform] = (rec.part, rec.index)
         if rec.assignment:
             # The reporter saw the whole firing: every candidate and its index is known.
             for other, (part, index) in rec.assignment.items():
@@ -651,6 +664,32 @@ class BarrierMaster:
             t = min(until for _, until in self._parked.values())
             best = t if best is None or t < best else best
         return best
+
+    def decided(self, platform: int) -> list[ReleaseRecord]:
+        """The firings this master decided or knows in full, as records for a report to its
+        successor: a master that steps down right after a firing may be the only one that
+        knows it (its release may not have reached anyone yet), and without this record its
+        successor could fire the generation again without the first firing's candidates."""
+        out = []
+        for key, gens in self.fired.items():
+            for generation in sorted(gens)[-RECENT_ASSIGNMENTS:]:
+                for fired in gens[generation]:
+                    if not fired.complete_knowledge or not fired.assigned:
+                        continue
+                    part, index = fired.assigned.get(platform, (min(fired.sizes, default=0), 0))
+                    out.append(
+                        ReleaseRecord(
+                            key=key,
+                            generation=generation,
+                            part=part,
+                            index=index,
+                            size=fired.sizes.get(part, 0),
+                            outcome=fired.outcome,
+                            origin=fired.origin,
+                            assignment=dict(fired.assigned),
+                        )
+                    )
+        return out
 
     def _prune_inflight(self) -> None:
         for k in [k for k, r in self.inflight.items() if not r.unacked]:

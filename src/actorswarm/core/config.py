@@ -50,9 +50,9 @@ class CoreConfig:
     claims the role when it has the lowest ID in its view. ``takeover_on_join`` restores the
     paper's behaviour: a lower ID that joins always takes the role over. A new master's
     handshake ends when every member reported, or after ``handshake_timeout``. A barrier
-    request made in an epoch older than every firing the master knows of its generation waits
-    up to ``doubt_timeout`` for a report of a firing (from the other side of a healed
-    partition) that may have chosen it, before it is called stale.
+    request made in an older epoch than the master's, for a generation no firing of its own
+    epoch is known of, waits up to ``doubt_timeout`` for a report of a firing (from the other
+    side of a healed partition) that may have chosen it, before it is called stale.
 
     Reliable delivery (§3.3): a message is retransmitted after ``base + k * retry_step``
     seconds (k = retries so far), capped at ``retry_cap``; a message not acknowledged within
@@ -84,7 +84,7 @@ class CoreConfig:
     takeover_on_join: bool = False
     boot_wait: float | None = None
     handshake_timeout: float = 2.0
-    doubt_timeout: float = 3.0
+    doubt_timeout: float = 5.0
     retry_base: float = 0.03
     retry_step: float = 0.01
     retry_cap: float = 0.2

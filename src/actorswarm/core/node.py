@@ -488,7 +488,10 @@ class Node:
             self._answer_probe(sender, now)
         self._max_epoch = max(self._max_epoch, hb.epoch)
         if sender < self.platform and self._star and self.master is None:
-            if hb.is_master:
+            # Only a lower ID that follows no master either keeps this one quiet: one that
+            # follows a master this platform does not (its probe answers reach me) or is a
+            # master itself cannot stand in for me in an election.
+            if hb.is_master or hb.master:
                 self._heard_lower.pop(sender, None)
             else:
                 self._heard_lower[sender] = now
@@ -930,7 +933,10 @@ class Node:
             epoch=self.epoch,
             generations=dict(self.barriers.known),
             pending=self.barriers.restated(now),
-            released=self.barriers.records(),
+            # A former master also reports the firings it decided (its barrier table is
+            # kept until it claims again).
+            released=self.barriers.records()
+            + ([] if self.is_master else self._bmaster.decided(self.platform)),
             held=list(self.roles.held.values()),
             claims=list(self.roles.claims.values()),
         )

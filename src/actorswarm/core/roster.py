@@ -125,18 +125,23 @@ class RosterView:
             return False
         if missing > len(hb.changes):
             return True
+        members = dict(self.members)
+        removed = []
         for platform, incarnation in hb.changes[len(hb.changes) - missing :]:
             if incarnation < 0:
-                if self.members.pop(platform, None) is not None:
-                    self.removed.append(platform)
+                if members.pop(platform, None) is not None:
+                    removed.append(platform)
             else:
-                self.members[platform] = incarnation
-        self.version = hb.roster
-        if len(self.members) != hb.size:
-            # The changes did not lead where the master is: start again from a full copy.
+                members[platform] = incarnation
+        if len(members) != hb.size:
+            # The changes do not lead where the master is: keep the copy as it was (acting
+            # on it would drop queues to live platforms) and fetch a full one.
             self.rejected += 1
             self.version = 0
             return True
+        self.members = members
+        self.removed.extend(removed)
+        self.version = hb.roster
         return False
 
     def on_chunk(self, chunk: RosterChunk) -> bool:
@@ -153,6 +158,12 @@ class RosterView:
             self._parts = {}
         self._parts[chunk.index] = list(chunk.members)
         if len(self._parts) < chunk.count:
+            return False
+        if (chunk.epoch, chunk.version) < (self.epoch, self.version):
+            # A complete roster older than the one adopted (a late copy): never go back.
+            self.rejected += 1
+            self._pending = None
+            self._parts = {}
             return False
         members: dict[int, int] = {}
         for i in range(chunk.count):
