@@ -25,6 +25,7 @@ platform nor change its state.
 
 from __future__ import annotations
 
+import math
 import random
 from collections import Counter
 from dataclasses import dataclass
@@ -142,7 +143,18 @@ class Node:
         # When the master was last heard: a master followed before it joined the view (or
         # that left it and came back) has no leave detector of its own yet.
         self._master_heard = now
-        self._next_heartbeat = now + self._rng.uniform(0.0, self.config.heartbeat_interval)
+        interval = self.config.heartbeat_interval
+        if self.config.membership == "star":
+            # Lower IDs speak first at boot (up to one interval later for the highest ID), so
+            # a booting swarm hears its lowest IDs before the others would broadcast, and
+            # they keep quiet. The phase is drawn afresh after this first heartbeat.
+            self._next_heartbeat = now + interval * (
+                math.log2(platform) / 16 + self._rng.uniform(0.0, 0.05)
+            )
+            self._rephase = True
+        else:
+            self._next_heartbeat = now + self._rng.uniform(0.0, interval)
+            self._rephase = False
         # Star topology (DESIGN.md §3.1): the roster as the master keeps it and as members
         # copy it, the member heartbeat interval the master asks for, and the succession
         # entries presumed alive after the master was lost (platform -> presumed until).
@@ -151,6 +163,7 @@ class Node:
         self._roster_log = RosterLog(self.config.succession)
         self._roster_requests: set[int] = set()
         self._roster_asked = -1e9
+        self._roster_broadcast_at = -1e9
         self._cadence = self.config.heartbeat_interval
         self._presumed: dict[int, float] = {}
         self._heard_lower: dict[int, float] = {}
@@ -347,6 +360,9 @@ class Node:
         if now >= self._next_heartbeat:
             self._send_heartbeat(now)
             interval = self._cadence if self._following_star() else self.config.heartbeat_interval
+            if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
+                self._rephase = False
+                interval *= self._rng.uniform(0.5, 1.5)
             self._next_heartbeat += interval
             if self._next_heartbeat <= now:  # the host fell behind: do not burst
                 self._next_heartbeat = now + interval
@@ -1086,7 +1102,7 @@ class Node:
         if self.is_master and self._star:
             self._cadence = self._member_cadence()
             self.members.cadence = self._cadence
-            self._serve_roster_requests()
+            self._serve_roster_requests(now)
         hb = self._heartbeat(now)
         if self._following_star():
             self._emit(self.master, hb, NORMAL)
@@ -1114,7 +1130,7 @@ class Node:
             del heard[peer]
         return list(heard)
 
-    def _serve_roster_requests(self) -> None:
+    def _serve_roster_requests(self, now: float) -> None:
         """Send the whole roster to the members that asked since the last heartbeat: to each,
         or once to everyone when many asked (after a failover every member does)."""
         if not self._roster_requests:
@@ -1125,6 +1141,13 @@ class Node:
         chunks = RosterLog.chunks(
             self.epoch, self._roster_log.version, members, self.config.roster_chunk
         )
+        if len(requesters) > _ROSTER_BROADCAST_FROM:
+            if now < self._roster_broadcast_at:
+                # A roster that changes fast (a swarm booting) is broadcast once per t_join
+                # at most: the members ask again meanwhile, at no cost to anyone else.
+                self._roster_requests.update(requesters)
+                return
+            self._roster_broadcast_at = now + self.config.t_join
         targets: list[int | None] = (
             [None] if len(requesters) > _ROSTER_BROADCAST_FROM else list(requesters)
         )

@@ -147,6 +147,8 @@ class RosterView:
     def on_chunk(self, chunk: RosterChunk) -> bool:
         """Take one chunk of a full roster; True when the roster is complete and adopted."""
         key = (chunk.epoch, chunk.version, chunk.count)
+        if (chunk.epoch, chunk.version) <= (self.epoch, self.version):
+            return False  # a roster this member has (a broadcast meant for others), or older
         if chunk.index >= chunk.count:
             self.rejected += 1
             return False
