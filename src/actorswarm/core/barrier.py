@@ -267,17 +267,18 @@ class BarrierMaster:
 
     def _park(self, platform: int, req: BarrierRequest, now: float, epoch: int) -> bool:
         """Hold a request back instead of calling it stale, when it was made in an older
-        epoch than this master's and no firing of its own epoch is known in full.
+        epoch than this master's.
 
         Then a master of that epoch, on the other side of a partition, may have fired the
         generation with it just before the cut, and the release never reached it: refused
         here, it would move on, and that firing could never be completed. So it waits, up to
         ``doubt_timeout``, for a report (after the heal) that shows such a firing; one that
-        does (:meth:`record_released`) completes it with its original entry."""
-        ident = (platform, req.key)
-        known = self.fired.get(req.key, {}).get(req.generation, [])
-        if req.epoch >= epoch or any(f.origin == req.epoch and f.complete_knowledge for f in known):
+        does (:meth:`record_released`) completes it with its original entry. A firing of
+        that epoch known in full does not settle it: two sides of a partition may each have
+        had a master claim the same epoch number, and each fired its own."""
+        if req.epoch >= epoch:
             return False
+        ident = (platform, req.key)
         until = self._parked.get(ident, (req, now + self._config.doubt_timeout))[1]
         if now >= until:
             del self._parked[ident]
