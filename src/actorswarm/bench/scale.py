@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from actorswarm.bench.tables import strict_json
 from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.core.events import (
     BarrierReleased,
@@ -487,23 +488,12 @@ def run_scale(
 # --- JSON ----------------------------------------------------------------------------------
 
 
-def _clean(value: Any) -> Any:
-    """NaN → None, for strict JSON."""
-    if isinstance(value, float) and math.isnan(value):
-        return None
-    if isinstance(value, list):
-        return [_clean(v) for v in value]
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    return value
-
-
 def cell_json(cell: ScaleCell) -> dict[str, Any]:
     """One cell as strict JSON: every field, and the derived ``all_released`` and
     ``sim_s_per_wall_s``."""
-    data: dict[str, Any] = _clean(asdict(cell))
+    data: dict[str, Any] = strict_json(asdict(cell))
     data["all_released"] = cell.all_released
-    data["sim_s_per_wall_s"] = _clean(cell.sim_per_wall)
+    data["sim_s_per_wall_s"] = strict_json(cell.sim_per_wall)
     return data
 
 
@@ -512,7 +502,7 @@ def to_json(report: ScaleReport) -> dict[str, Any]:
     return {
         "command": report.command,
         "started": report.started,
-        "machine": _clean(report.machine),
+        "machine": strict_json(report.machine),
         "scenario": asdict(report.scenario),
         "protocol": _protocol(),
         "wall_s": report.wall_s,

@@ -185,14 +185,14 @@ class TablesReport:
     cut_short: str = ""
 
 
-def _clean(value: Any) -> Any:
-    """NaN → None, for strict JSON."""
+def strict_json(value: Any) -> Any:
+    """``value`` with every NaN replaced by None, for strict JSON."""
     if isinstance(value, float) and math.isnan(value):
         return None
     if isinstance(value, list):
-        return [_clean(v) for v in value]
+        return [strict_json(v) for v in value]
     if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
+        return {k: strict_json(v) for k, v in value.items()}
     return value
 
 
@@ -206,11 +206,11 @@ def _restore(value: Any) -> Any:
 
 def to_json(report: TablesReport) -> dict[str, Any]:
     """The report as strict JSON (NaN written as null), with each row's summaries."""
-    data: dict[str, Any] = _clean(asdict(report))
+    data: dict[str, Any] = strict_json(asdict(report))
     for table in ("table1", "table2", "table3"):
         for row, out in zip(getattr(report, table), data[table], strict=True):
             out["summary"] = {
-                f.name: _clean(asdict(summarize(getattr(row, f.name))))
+                f.name: strict_json(asdict(summarize(getattr(row, f.name))))
                 for f in fields(row)
                 if f.name != "errors" and isinstance(getattr(row, f.name), list)
             }
