@@ -301,3 +301,30 @@ def test_new_claim_after_withdrawal_reports_denial_again() -> None:
     member.release(LEADER)
     member.claim(LEADER, 1, 0.0)
     assert member.on_reply(_deny([1])) == RoleDenied(role=LEADER, holders=(1,))
+
+
+def test_a_report_that_crossed_a_grant_keeps_the_slot() -> None:
+    """A member reports a role as claimed while the grant is on its way to it: the slot
+    stays its own (granted again, harmlessly) instead of going to a second claimant."""
+    master = RoleMaster()
+    master.become_ready()
+    leader = RoleClaim(role="leader", quota=1, bid=4.0)
+    master.claim(4, leader)
+    assert master.holders("leader") == (4,)
+    master.replies.clear()
+    master.claim(1, RoleClaim(role="leader", quota=1, bid=1.0))  # denied: 4 holds it
+    master.report(4, held=[], claims=[leader])  # written before the grant arrived
+    assert master.holders("leader") == (4,)
+    assert (4, RoleGrant(role="leader")) in master.replies
+    assert not any(p == 1 and isinstance(r, RoleGrant) for p, r in master.replies)
+
+
+def test_a_report_without_the_role_frees_the_slot() -> None:
+    master = RoleMaster()
+    master.become_ready()
+    master.claim(4, RoleClaim(role="leader", quota=1, bid=4.0))
+    master.claim(1, RoleClaim(role="leader", quota=1, bid=1.0))
+    master.replies.clear()
+    master.report(4, held=[], claims=[])
+    assert master.holders("leader") == (1,)
+    assert (1, RoleGrant(role="leader")) in master.replies

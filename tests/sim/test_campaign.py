@@ -17,27 +17,9 @@ from actorswarm.sim.campaign import MEMBERSHIPS, Case, make_case, run_case
 
 SEEDS = range(200)
 
-#: A known defect, open: both sides of a partition had a master claim the same epoch number
-#: (2), each fired generation 7 of a key, and after the heal their firings are taken for one
-#: (a firing is told apart by its epoch alone), so a candidate of the first whose release was
-#: lost is never completed. Strict: the day it passes, this marker must go.
-KNOWN = {
-    ("star", 110): "two partitions' masters claimed the same epoch; their firings merge",
-}
-
 
 def _cases() -> list[object]:
-    return [
-        pytest.param(
-            membership,
-            seed,
-            marks=[pytest.mark.xfail(strict=True, reason=KNOWN[(membership, seed)])]
-            if (membership, seed) in KNOWN
-            else [],
-        )
-        for membership in MEMBERSHIPS
-        for seed in SEEDS
-    ]
+    return [(membership, seed) for membership in MEMBERSHIPS for seed in SEEDS]
 
 
 @pytest.mark.campaign
@@ -47,15 +29,19 @@ def test_fault_schedule(membership: MembershipKind, seed: int) -> None:
     assert result.ok, "\n" + result.explain()
 
 
-#: Held-out seeds whose failures found a bug, each fixed: a firing across a fresh partition
-#: (500583, 501090), a rebooted sender's first message delivered twice (402238), a quiet star
-#: platform silenced by a lower ID that follows another master (500159).
+#: Seeds whose failures found a bug, each fixed: a firing across a fresh partition (500583,
+#: 501090), a rebooted sender's first message delivered twice (402238), a quiet star platform
+#: silenced by a lower ID that follows another master (500159), two partitions' masters that
+#: claimed the same epoch number and whose firings of one generation were taken for one (110),
+#: a handshake report that crossed a role grant and freed the granted slot (700921).
 REGRESSIONS = [
     (500583, "star"),
     (501090, "broadcast"),
     (402238, "star"),
     (402238, "broadcast"),
     (500159, "star"),
+    (110, "star"),
+    (700921, "broadcast"),
 ]
 
 

@@ -79,6 +79,7 @@ class _Fired:
 
     generation: int
     origin: int  # epoch of the master that decided it
+    master: int  # ID of that master: two partitions' masters may claim one epoch number
     outcome: int
     sizes: dict[int, int]
     assigned: dict[int, tuple[int, int]]  # platform -> (part, index); index 0 = not chosen
@@ -95,6 +96,7 @@ class OutgoingRelease:
     key: int
     generation: int
     origin: int
+    master: int
     epoch: int
     outcome: int
     sizes: dict[int, int]
@@ -122,6 +124,7 @@ class OutgoingRelease:
                     gathered=self.gathered,
                     origin=self.origin,
                     total=len(self.entries),
+                    origin_master=self.master,
                 )
             )
         return out
@@ -141,8 +144,11 @@ class BarrierMaster:
         *,
         resolve_all: AllResolver,
         scatter: Scatter | None = None,
+        platform: int = 0,
     ) -> None:
         self._config = config
+        #: This master's ID: with the epoch, the name of the firings it decides.
+        self.platform = platform
         self._resolve_all = resolve_all
         #: First retransmission delay of a release (the node plugs in its measured RTT).
         self.first_retry: Callable[[], float] = lambda: config.retry_base
@@ -151,7 +157,7 @@ class BarrierMaster:
         # Known firings per key and generation (a generation may have two: partitions that
         # each fired it). Only the last few generations are kept.
         self.fired: dict[int, dict[int, list[_Fired]]] = {}
-        self.inflight: dict[tuple[int, int, int], OutgoingRelease] = {}
+        self.inflight: dict[tuple[int, int, int, int], OutgoingRelease] = {}
         self.ready = False
         #: (platform, notice) stale notices to send; drained by the node.
         self.notices: list[tuple[int, BarrierStale]] = []
@@ -306,11 +312,14 @@ class BarrierMaster:
                 del self.open[rec.key]
                 for p, r in moved.items():
                     self._completion_waiting.setdefault(rec.key, {})[p] = r
-        fired = next((f for f in firings if f.origin == rec.origin), None)
+        fired = next(
+            (f for f in firings if (f.origin, f.master) == (rec.origin, rec.origin_master)), None
+        )
         if fired is None:
             fired = _Fired(
                 generation=rec.generation,
                 origin=rec.origin,
+                master=rec.origin_master,
                 outcome=rec.outcome,
                 sizes={},
                 assigned={},
@@ -463,6 +472,7 @@ class BarrierMaster:
         fired = _Fired(
             generation=inst.generation,
             origin=epoch,
+            master=self.platform,
             outcome=outcome,
             sizes=sizes,
             assigned=assigned,
@@ -488,13 +498,14 @@ class BarrierMaster:
         )
 
     def _launch(self, key: int, fired: _Fired, targets: set[int], now: float, epoch: int) -> None:
-        ident = (key, fired.generation, fired.origin)
+        ident = (key, fired.generation, fired.origin, fired.master)
         rel = self.inflight.get(ident)
         if rel is None:
             rel = OutgoingRelease(
                 key=key,
                 generation=fired.generation,
                 origin=fired.origin,
+                master=fired.master,
                 epoch=epoch,
                 outcome=fired.outcome,
                 sizes=fired.sizes,
@@ -635,7 +646,7 @@ class BarrierMaster:
         for rel in list(self.inflight.values()):
             if now >= rel.deadline:
                 self.failed.append((rel.key, rel.generation, set(rel.unacked)))
-                del self.inflight[(rel.key, rel.generation, rel.origin)]
+                del self.inflight[(rel.key, rel.generation, rel.origin, rel.master)]
             elif now >= rel.due and rel.unacked:
                 rel.retries += 1
                 rel.due = now + self._config.retry_delay(rel.retries, self.first_retry())
@@ -688,6 +699,7 @@ class BarrierMaster:
                             outcome=fired.outcome,
                             origin=fired.origin,
                             assignment=dict(fired.assigned),
+                            origin_master=fired.master,
                         )
                     )
         return out
@@ -799,6 +811,7 @@ class BarrierMember:
                 size=size,
                 outcome=rel.outcome,
                 origin=rel.origin,
+                origin_master=rel.origin_master,
                 assignment=(
                     {e.platform: (e.part, e.index) for e in rel.entries}
                     if rel.total and len(rel.entries) == rel.total

@@ -222,7 +222,11 @@ class Node:
 
     def _new_barrier_master(self) -> BarrierMaster:
         # Late-bound, so the engine may replace ``resolve_all`` after construction.
-        master = BarrierMaster(self.config, resolve_all=lambda k, p: self.resolve_all(k, p))  # noqa: PLW0108
+        master = BarrierMaster(
+            self.config,
+            resolve_all=lambda k, p: self.resolve_all(k, p),  # noqa: PLW0108
+            platform=self.platform,
+        )
         master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
         master.first_retry = lambda: self.reliable.timeout(None)
         return master

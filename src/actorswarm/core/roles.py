@@ -67,16 +67,28 @@ class RoleMaster:
             self._settle(name)
 
     def report(self, platform: int, held: list[RoleClaim], claims: list[RoleClaim]) -> None:
-        """A member's handshake report replaces what the master knew of it."""
+        """A member's handshake report replaces what the master knew of it — except a
+        grant this master made that the report shows as still claimed: the grant and the
+        report crossed (the grant is on its way, in order, on the member's reliable stream),
+        so the member will hold it; freeing the slot would grant it twice."""
         touched = set()
+        claimed = {c.role for c in claims}
+        crossed = set()
         for name, role in self.roles.items():
+            if platform in role.holders and name in claimed:
+                crossed.add(name)
+                # Granted again in case the first grant was given up (a member ignores
+                # a grant of a role it already holds).
+                self.replies.append((platform, RoleGrant(role=name)))
+                continue
             if role.holders.pop(platform, None) is not None:
                 touched.add(name)  # a slot it no longer holds may go to someone waiting
             role.waiting.pop(platform, None)
         for claim in held:
             self._role(claim).holders[platform] = claim.bid
         for claim in claims:
-            self._role(claim).waiting[platform] = claim.bid
+            if claim.role not in crossed:
+                self._role(claim).waiting[platform] = claim.bid
         if self.ready:
             for name in sorted(touched | {c.role for c in (*held, *claims)}):
                 self._settle(name)

@@ -113,6 +113,8 @@ class ReleaseRecord(_Msg, frozen=True):
     origin: Counter = 0
     #: The whole firing (platform -> (part, index)) when this member saw every entry of it.
     assignment: dict[PlatformId, tuple[Key, Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]]] = {}
+    #: The master that decided the firing (with ``origin``, its epoch, the firing's name).
+    origin_master: PlatformId = 0
 
 
 class RoleClaim(_Msg, frozen=True, tag=4):
@@ -286,8 +288,9 @@ class Release(_Msg, frozen=True, tag=4):
     Retransmissions carry only the entries of candidates that have not acknowledged.
     ``outcome`` is :data:`COMPLETE` or :data:`TIMEOUT`; ``sizes`` maps part to the number
     chosen; ``gathered`` is the data every chosen participant attached to its request.
-    ``origin`` is the epoch of the master that decided the firing (a later master that
-    completes it keeps it), so two partitions' firings of one generation stay apart.
+    ``origin`` is the epoch and ``origin_master`` the ID of the master that decided the
+    firing (a later master that completes it keeps both), so two partitions' firings of one
+    generation stay apart, even when both sides' masters claimed the same epoch number.
     ``total`` is the number of entries of the whole firing: a member that finds them all in
     one packet knows the complete assignment and reports it to any later master.
     """
@@ -301,6 +304,7 @@ class Release(_Msg, frozen=True, tag=4):
     gathered: list[tuple[PlatformId, Any]] = []
     origin: Counter = 0
     total: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)] = 0
+    origin_master: PlatformId = 0
 
 
 class ReleaseAck(_Msg, frozen=True, tag=5):
