@@ -2,11 +2,27 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import itertools
+from typing import Any, NamedTuple
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from actorswarm.core.election import OnHeartbeat, on_heartbeat, should_claim
+from actorswarm.core.election import (
+    CLAIM_RULES,
+    HEARTBEAT_RULES,
+    Claimant,
+    Hearing,
+    OnHeartbeat,
+    Role,
+    Rule,
+    by_role,
+    first_match,
+    on_heartbeat,
+    role_of,
+    should_claim,
+)
 
 IGNORE, FOLLOW, STEP_DOWN, RECLAIM, DEMOTED = (
     OnHeartbeat.IGNORE,
@@ -148,3 +164,149 @@ def test_should_claim_decision_table(row: Claim) -> None:
         startup_wait=STARTUP,
     )
     assert got is row.expected, f"{row.name}: should_claim -> {got}, want {row.expected}"
+
+
+# --- The rule tables against the same decisions written as plain conditionals ---------------
+
+
+def on_heartbeat_plain(
+    *,
+    self_id: int,
+    is_master: bool,
+    epoch: int,
+    master: int | None,
+    master_alive: bool,
+    sender: int,
+    sender_is_master: bool,
+    sender_epoch: int,
+) -> OnHeartbeat:
+    """``on_heartbeat`` as nested conditionals: an independent statement of the rules."""
+    if is_master:
+        if sender_is_master and sender < self_id:
+            return OnHeartbeat.STEP_DOWN
+        if sender_epoch > epoch or (sender_is_master and sender_epoch == epoch):
+            return OnHeartbeat.RECLAIM
+        return OnHeartbeat.IGNORE
+    if not sender_is_master:
+        if sender == master and sender_epoch >= epoch:
+            # (A heartbeat of an older epoch is a late packet from before its claim.)
+            return OnHeartbeat.DEMOTED
+        return OnHeartbeat.IGNORE
+    if sender_epoch > epoch:
+        if master is not None and master_alive and master < sender:
+            # My master is alive and outranks the sender: it will claim above this epoch.
+            return OnHeartbeat.IGNORE
+        return OnHeartbeat.FOLLOW
+    if sender_epoch == epoch and not master_alive:
+        # I lost my master (or it came back after a false alarm): a master of my own epoch
+        # is as good as any; following it keeps epochs monotonic.
+        return OnHeartbeat.FOLLOW
+    return OnHeartbeat.IGNORE
+
+
+def should_claim_plain(
+    *,
+    self_id: int,
+    lowest_peer: int | None,
+    is_master: bool,
+    master: int | None,
+    master_alive: bool,
+    takeover_on_join: bool,
+    listened: float,
+    startup_wait: float,
+) -> bool:
+    """``should_claim`` as plain conditionals: an independent statement of the rules."""
+    if is_master or listened < startup_wait:
+        return False
+    if lowest_peer is not None and lowest_peer < self_id:
+        return False
+    if master is None or not master_alive:
+        return True
+    return takeover_on_join and self_id < master
+
+
+# Four values order up to three IDs (or two epochs) every way, ties included.
+SMALL = range(4)
+BOOLS = (False, True)
+ids = st.integers(0, 3)
+maybe_id = st.none() | ids
+
+hearings = st.builds(
+    Hearing,
+    self_id=ids,
+    is_master=st.booleans(),
+    epoch=ids,
+    master=maybe_id,
+    master_alive=st.booleans(),
+    sender=ids,
+    sender_is_master=st.booleans(),
+    sender_epoch=ids,
+)
+claimants = st.builds(
+    Claimant,
+    self_id=ids,
+    lowest_peer=maybe_id,
+    is_master=st.booleans(),
+    master=maybe_id,
+    master_alive=st.booleans(),
+    takeover_on_join=st.booleans(),
+    listened=st.sampled_from([0.0, STARTUP / 2, STARTUP, 2 * STARTUP]),
+    startup_wait=st.just(STARTUP),
+)
+
+
+@settings(max_examples=2000)
+@given(hearings)
+def test_heartbeat_table_matches_plain_conditionals(h: Hearing) -> None:
+    assert on_heartbeat(**h._asdict()) is on_heartbeat_plain(**h._asdict())
+
+
+@settings(max_examples=2000)
+@given(claimants)
+def test_claim_table_matches_plain_conditionals(c: Claimant) -> None:
+    assert should_claim(**c._asdict()) is should_claim_plain(**c._asdict())
+
+
+def all_hearings() -> list[Hearing]:
+    """Every combination of small inputs (10 240 of them)."""
+    maybe = (None, *SMALL)
+    grid = itertools.product(SMALL, BOOLS, SMALL, maybe, BOOLS, SMALL, BOOLS, SMALL)
+    return [Hearing(*values) for values in grid]
+
+
+def all_claimants() -> list[Claimant]:
+    """Every combination of small inputs, listening just short of and just at the wait."""
+    maybe = (None, *SMALL)
+    grid = itertools.product(SMALL, maybe, BOOLS, maybe, BOOLS, BOOLS, (STARTUP / 2, STARTUP))
+    return [Claimant(*values, startup_wait=STARTUP) for values in grid]
+
+
+def test_heartbeat_table_matches_plain_conditionals_everywhere() -> None:
+    for h in all_hearings():
+        assert on_heartbeat(**h._asdict()) is on_heartbeat_plain(**h._asdict()), h
+
+
+def test_claim_table_matches_plain_conditionals_everywhere() -> None:
+    for c in all_claimants():
+        assert should_claim(**c._asdict()) is should_claim_plain(**c._asdict()), c
+
+
+def check_rows(rules: tuple[Rule[Any, Any], ...], inputs: list[Hearing] | list[Claimant]) -> None:
+    """Every row decides some input (none is shadowed by the rows above it), and every role's
+    last row matches whatever reaches it."""
+    table = by_role(rules)
+    used: set[str] = set()
+    for given_ in inputs:
+        rows = table[role_of(given_.is_master, given_.master, given_.master_alive)]
+        used.add(first_match(rows, given_).name)
+        assert rows[-1].test(given_), (rows[-1].name, given_)
+    assert [rule.name for rule in rules if rule.name not in used] == []
+    assert all(table[role] for role in Role)
+
+
+def test_every_heartbeat_row_decides_some_case() -> None:
+    check_rows(HEARTBEAT_RULES, all_hearings())
+
+
+def test_every_claim_row_decides_some_case() -> None:
+    check_rows(CLAIM_RULES, all_claimants())

@@ -33,6 +33,7 @@ from typing import Any
 
 from actorswarm.core import wire
 from actorswarm.core.barrier import BarrierMaster, BarrierMember, Scatter
+from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.election import OnHeartbeat, on_heartbeat, should_claim
 from actorswarm.core.events import (
@@ -51,12 +52,15 @@ from actorswarm.core.reliable import Reliable
 from actorswarm.core.roles import RoleMaster, RoleMember
 from actorswarm.core.roster import RosterLog, RosterView
 from actorswarm.core.wire import (
+    BULLETIN_STREAM,
     NORMAL,
     URGENT,
     Ack,
     AppMessage,
     BarrierRequest,
     BarrierStale,
+    Bulletin,
+    BulletinAck,
     Data,
     Heartbeat,
     Packet,
@@ -122,6 +126,10 @@ class Node:
         self._seq = 0
         self.members = Membership(platform, self.config)
         self.reliable = Reliable(self.config)
+        # Master to every member as one broadcast (event relays, what the master runs).
+        self._board = BulletinBoard(self.config)
+        self._claim_bulletin = 0  # the first bulletin of the members of the claim
+        self._inbox = BulletinInbox(platform)
         self.barriers = BarrierMember(platform)
         self.roles = RoleMember()
         self._bmaster = self._new_barrier_master()
@@ -267,6 +275,7 @@ class Node:
             min(self._presumed.values(), default=None),
             self.reliable.next_deadline(),
             self._bmaster.next_deadline() if self.is_master else None,
+            self._board.next_deadline() if self.is_master else None,
             self._handshake_deadline,
             self._sync_at,
         ):
@@ -354,11 +363,14 @@ class Node:
             if self._sync_at is not None and now >= self._sync_at:
                 self._sync_at = None
                 for peer in sorted(self._handshake_waiting):
-                    self.reliable.send(peer, Sync(epoch=self.epoch), now, self.epoch)
+                    sync = Sync(epoch=self.epoch, bulletin=self._claim_bulletin)
+                    self.reliable.send(peer, sync, now, self.epoch)
             if self._handshake_deadline is not None and now >= self._handshake_deadline:
                 self._finish_handshake(now)
             self._bmaster.tick(now, self.epoch)
             self._flush_master(now)
+            self._board.tick(now, self.epoch, self.reliable.timeout(None))
+            self._flush_bulletins()
         self.reliable.tick(now)
         self._report_failures()
         if now >= self._next_heartbeat:
@@ -466,6 +478,26 @@ class Node:
         else:
             self.reliable.send(dst, msg, now, self.epoch, channel=channel)
 
+    def post_bulletin(
+        self, topic: str, body: bytes, now: float, *, skip: tuple[int, ...] = ()
+    ) -> None:
+        """Master: send an application message to every member of the view but ``skip``,
+        as one broadcast, retransmitted only to those that do not acknowledge (delivered in
+        order, exactly once, as :class:`AppReceived`; not to this platform itself). A
+        platform that is not master sends nothing."""
+        if not self.is_master:
+            self.counters["bulletin_not_master"] += 1
+            return
+        self._board.post(
+            AppMessage(topic=topic, body=body),
+            set(self.members.peers),
+            now,
+            self.epoch,
+            self.reliable.timeout(None),
+            skip=skip,
+        )
+        self._flush_bulletins()
+
     def role_holders(self, role: str) -> tuple[int, ...]:
         """Master only: who holds ``role`` according to the master's table."""
         return self._rmaster.holders(role)
@@ -492,6 +524,13 @@ class Node:
             self._roster_requests.add(packet.sender)
         elif isinstance(body, RosterChunk):
             self._on_roster_chunk(packet.sender, body, now)
+        elif isinstance(body, Bulletin):
+            self._on_bulletin(packet.sender, packet.incarnation, body, now)
+        elif isinstance(body, BulletinAck):
+            if body.dst != self.platform or body.dst_incarnation != self.incarnation:
+                self.counters["drop:not_for_me"] += 1
+                return
+            self._board.on_ack(packet.sender, body)
         else:  # ReleaseAck
             if body.dst != self.platform or not self.is_master or body.epoch != self.epoch:
                 self.counters["drop:stale_epoch"] += 1
@@ -613,6 +652,25 @@ class Node:
         self.counters["probe_answered"] += 1
         self._emit(prober, self._heartbeat(now), NORMAL)
 
+    def _on_bulletin(self, sender: int, incarnation: int, bulletin: Bulletin, now: float) -> None:
+        delivered, ack = self._inbox.on_bulletin(sender, incarnation, bulletin)
+        if ack is None:
+            self.counters["drop:bulletin"] += 1
+            return
+        self._emit(sender, ack, NORMAL)
+        self._deliver_bulletins(sender, incarnation, delivered)
+
+    def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
+        for item in items:
+            self._events.append(
+                AppReceived(
+                    sender=sender,
+                    topic=item.message.topic,
+                    body=item.message.body,
+                    stream=(incarnation, BULLETIN_STREAM, item.seq),
+                )
+            )
+
     def _on_data(self, sender: int, incarnation: int, data: Data, now: float) -> None:
         if data.dst != self.platform:
             self.counters["drop:not_for_me"] += 1
@@ -654,6 +712,7 @@ class Node:
 
     def _on_sync(self, sender: int, sync: Sync, now: float) -> None:
         self._max_epoch = max(self._max_epoch, sync.epoch)
+        self._sync_bulletins(sender, sync)
         if sender == self.master and sync.epoch == self.epoch:
             self._report(now)
             return
@@ -669,6 +728,13 @@ class Node:
         )
         if not self._apply(action, sender, sync.epoch, now):
             self.counters["drop:stale_epoch"] += 1
+        self._sync_bulletins(sender, sync)
+
+    def _sync_bulletins(self, sender: int, sync: Sync) -> None:
+        """The master's handshake says where this platform's part of its bulletins begins."""
+        if sender != self.master or not sync.bulletin:
+            return
+        self._deliver_bulletins(sender, self._inbox.incarnation, self._inbox.start(sync.bulletin))
 
     def _apply(self, action: OnHeartbeat, sender: int, epoch: int, now: float) -> bool:
         """Carry out an election decision about ``sender``'s claim of ``epoch``; False when
@@ -717,6 +783,7 @@ class Node:
                     self._handshake_waiting.discard(change.platform)
                     self._bmaster.member_left(change.platform, now, self.epoch)
                     self._rmaster.member_left(change.platform)
+                    self._board.member_left(change.platform)
                     self._roster_log.left(change.platform)
                     if change.platform in self._reported and change.reason != "restarted":
                         self._rejoining.add(change.platform)
@@ -751,7 +818,8 @@ class Node:
             and hb.master == self.platform
         )
         self._rejoining.discard(platform)
-        self.reliable.send(platform, Sync(epoch=self.epoch), now, self.epoch)
+        sync = Sync(epoch=self.epoch, bulletin=self._board.next_seq)
+        self.reliable.send(platform, sync, now, self.epoch)
         if rejoining:
             self.counters["rejoined"] += 1
             return
@@ -777,7 +845,11 @@ class Node:
         self._lowest_peer = lowest
 
     def _report_failures(self) -> None:
-        """Every message the reliable layer gave up on becomes a DeliveryFailed event."""
+        """Every message the reliable layer (or the bulletin board) gave up on becomes a
+        DeliveryFailed event."""
+        if self._board.failures:
+            self.reliable.failures.extend(self._board.failures)
+            self._board.failures.clear()
         for failure in self.reliable.failures:
             reason = (
                 "the destination left the swarm"
@@ -821,6 +893,8 @@ class Node:
         predecessor = self._epoch_master
         self._set_epoch(self._max_epoch, self.platform)
         self.master = self.platform
+        self._inbox.follow(None)
+        self._claim_bulletin = self._board.next_seq
         self._presumed.clear()
         self._probe_due.clear()
         self._reported.clear()
@@ -876,6 +950,7 @@ class Node:
 
     def _step_down(self, to: int, now: float) -> None:
         self.is_master = False
+        self._board.clear("left")
         self._roster_requests.clear()
         self._cadence = self.config.heartbeat_interval
         self.members.cadence = self._cadence
@@ -905,6 +980,7 @@ class Node:
             self._probe_due = {p: t for p, t in self._probe_due.items() if p == master}
         self._events.append(MasterChanged(master=master, epoch=epoch))
         self.reliable.retarget(master, now)
+        self._inbox.follow(master)
         # Always report: requests and claims made while no master was followed were not sent
         # (the report states them), and a resumed master may have dropped us meanwhile.
         self._report(now)
@@ -928,6 +1004,7 @@ class Node:
                     self._presumed[peer] = now + (rank + 1) * step
         self._events.append(MasterChanged(master=None, epoch=self.epoch))
         self.reliable.retarget(None, now)
+        self._inbox.follow(None)
         claim = self._best_claim
         if (
             claim is not None
@@ -1170,6 +1247,13 @@ class Node:
             body=body,
         )
         self._outgoing.append(Outgoing(dst, data, type(body).__name__, channel))
+
+    def _flush_bulletins(self) -> None:
+        box = self._board.outbox
+        if box:
+            self._board.outbox = []
+            for dst, bulletin in box:
+                self._emit(dst, bulletin, NORMAL)
 
     def _flush_reliable(self) -> None:
         box = self.reliable.outbox

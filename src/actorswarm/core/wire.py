@@ -47,6 +47,8 @@ Finite = Annotated[float, Meta(ge=-1e300, le=1e300)]
 URGENT: Final = 0
 NORMAL: Final = 1
 TO_MASTER: Final = 2
+#: Not a channel of :class:`Data`: the stream label of bulletins in ``AppReceived.stream``.
+BULLETIN_STREAM: Final = 3
 
 
 class WireError(ValueError):
@@ -149,9 +151,11 @@ class RoleRevoke(_Msg, frozen=True, tag=8):
 
 
 class Sync(_Msg, frozen=True, tag=9):
-    """Master handshake: follow epoch ``epoch`` and report your state."""
+    """Master handshake: follow epoch ``epoch`` and report your state. ``bulletin`` is the
+    first of the master's bulletins this member is a target of (0: unknown)."""
 
     epoch: Counter
+    bulletin: Counter = 0
 
 
 class Report(_Msg, frozen=True, tag=10):
@@ -249,6 +253,30 @@ class RosterChunk(_Msg, frozen=True, tag=7):
     members: Annotated[list[tuple[PlatformId, Counter]], Meta(max_length=MAX_PLATFORM)]
 
 
+class Bulletin(_Msg, frozen=True, tag=8):
+    """One message from the master to every member, broadcast once (see core/bulletin.py).
+
+    ``seq`` numbers the master's bulletins (per incarnation); ``floor`` is the lowest it
+    still holds. ``skip`` names members it is not for (an event's origin); ``to``, on a
+    retransmission, names the members still missing it (None on the first broadcast).
+    """
+
+    epoch: Counter
+    seq: Annotated[int, Meta(ge=1, le=2**63 - 1)]
+    floor: Annotated[int, Meta(ge=1, le=2**63 - 1)]
+    message: AppMessage
+    skip: Annotated[list[PlatformId], Meta(max_length=MAX_SUSPECTS)] = []
+    to: Annotated[list[PlatformId], Meta(max_length=MAX_PLATFORM)] | None = None
+
+
+class BulletinAck(_Msg, frozen=True, tag=9):
+    """A member has every bulletin of ``dst`` (in ``dst_incarnation``) up to ``seq``."""
+
+    dst: PlatformId
+    dst_incarnation: Counter
+    seq: Counter
+
+
 class Data(_Msg, frozen=True, tag=2):
     """One reliable message on the stream (sender, sender incarnation, ``dst``, ``channel``).
 
@@ -314,7 +342,17 @@ class ReleaseAck(_Msg, frozen=True, tag=5):
     generation: Counter
 
 
-Body = Heartbeat | Data | Ack | Release | ReleaseAck | RosterRequest | RosterChunk
+Body = (
+    Heartbeat
+    | Data
+    | Ack
+    | Release
+    | ReleaseAck
+    | RosterRequest
+    | RosterChunk
+    | Bulletin
+    | BulletinAck
+)
 
 COMPLETE: Final = 1
 TIMEOUT: Final = 2
@@ -357,6 +395,8 @@ _BODY_TYPES: dict[int, type[Body]] = {
     5: ReleaseAck,
     6: RosterRequest,
     7: RosterChunk,
+    8: Bulletin,
+    9: BulletinAck,
 }
 _TYPE_OF: dict[type[Any], int] = {cls: tag for tag, cls in _BODY_TYPES.items()}
 _ENVELOPE = msgspec.msgpack.Decoder(Envelope)

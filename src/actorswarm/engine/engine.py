@@ -15,9 +15,12 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
   is ignored and logged.
 * **Firing.** The master fires a group once every part has its ``sysNum`` candidates
   (``all``: every holder of the part's actor in the master's view, from the actor table the
-  members keep it informed of); the release gives each chosen candidate its index, from which
-  :meth:`Plan.successor` picks its branch — the master also scatters the successor and the
-  transition's params. Candidates not chosen stay where they are.
+  members keep it informed of); the release gives each chosen candidate its index and
+  scatters its successor and slot (the master sees every part of a group); a member uses
+  them, and computes the branch with :meth:`Plan.successor` only when a release carries
+  none. Candidates not chosen stay where they are.
+* **Relays.** The master relays an event (and tells what it runs) to every member as one
+  broadcast bulletin, resent only to the members that do not acknowledge it.
 * **Timeouts.** The master releases the waiting candidates of an overdue group with outcome
   ``timeout``; they go to ``timeoutBranch`` (or stay, when there is none). A candidate that
   hears no release by ``timeout`` plus a grace period falls back to ``timeoutBranch`` on its
@@ -376,7 +379,9 @@ class TaskEngine:
             return
         if not event.chosen:
             return
-        target = self.plan.successor(transition, event.index)
+        target = _scattered_successor(event.data, transition) or self.plan.successor(
+            transition, event.index
+        )
         slot, slots = _scattered_slot(event.data) or self.plan.placement(
             transition, event.index, event.size
         )
@@ -440,9 +445,8 @@ class TaskEngine:
         running = self.runtime.running()
         if self.node.is_master:
             self._table[self.node.platform] = running
-            body = _ENCODE.encode(list(running))
-            for peer in sorted(self.node.members.peers):
-                self.node.send_app(peer, TOPIC_MASTER_ACTORS, body, now)
+            # One broadcast to every member, not one message each: O(1) packets per switch.
+            self.node.post_bulletin(TOPIC_MASTER_ACTORS, _ENCODE.encode(list(running)), now)
         else:
             self.node.send_app(None, TOPIC_ACTORS, _ENCODE.encode(list(running)), now)
 
@@ -466,12 +470,11 @@ class TaskEngine:
             self.ignored.append((now, msg.topic, f"undecodable message from {msg.sender}"))
 
     def _relay(self, event: str, data: Any, *, origin: int, now: float, occasion: str = "") -> None:
-        """Master: send ``event`` to every member but its origin, and handle it here."""
+        """Master: send ``event`` to every member but its origin (one broadcast, resent only
+        to those that do not acknowledge), and handle it here."""
         occasion = occasion or self._new_occasion()
         body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
-        for peer in sorted(self.node.members.peers):
-            if peer != origin:
-                self.node.send_app(peer, TOPIC_EVENT, body, now)
+        self.node.post_bulletin(TOPIC_EVENT, body, now, skip=(origin,) if origin else ())
         if origin != self.node.platform:
             self._on_event(event, now, bid=None, data=data, occasion=occasion)
 
@@ -713,6 +716,16 @@ class TaskEngine:
             )
         )
         self._announce(now)
+
+
+def _scattered_successor(data: Any, transition: Transition) -> str | None:
+    """The successor the master scattered for this participant (it sees every part of a
+    group), or None when the data names none of the transition's successors (a release
+    from an older master, or a damaged one): the member then computes it itself."""
+    if not isinstance(data, dict):
+        return None
+    to = data.get("to")
+    return to if isinstance(to, str) and to in transition.successors else None
 
 
 def _scattered_slot(data: Any) -> tuple[int, int] | None:

@@ -1,0 +1,1 @@
+"""Data-driven scenario files of the collective core (see README.md)."""
