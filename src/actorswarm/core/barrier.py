@@ -308,9 +308,11 @@ class BarrierMaster:
             self._prune(rec.key)
             inst = self.open.get(rec.key)
             if inst is not None and inst.generation <= rec.generation:
-                moved = {p: r for p, r in inst.requests.items() if r.generation == rec.generation}
+                # That generation was fired elsewhere, so was every open one below it: each
+                # waiting request waits for completion (a report may show its firing) or, if
+                # none is ever known, is routed again then (refused or parked), never dropped.
                 del self.open[rec.key]
-                for p, r in moved.items():
+                for p, r in inst.requests.items():
                     self._completion_waiting.setdefault(rec.key, {})[p] = r
         fired = next(
             (f for f in firings if (f.origin, f.master) == (rec.origin, rec.origin_master)), None
@@ -541,14 +543,21 @@ class BarrierMaster:
         by_generation: dict[int, list[tuple[int, BarrierRequest]]] = {}
         for platform, req in waiting.items():
             by_generation.setdefault(req.generation, []).append((platform, req))
+        unknown: list[tuple[int, BarrierRequest]] = []
         for generation, items in sorted(by_generation.items()):
             firings = self.fired.get(key, {}).get(generation)
             if firings:
                 self._complete_generation(key, generation, firings, items, now, epoch)
+            else:
+                unknown.extend(items)
         gens = self.fired.get(key)
         inst = self.open.get(key)
         if gens and (inst is None or inst.generation <= max(gens)):
             self.open[key] = _Instance(max(gens) + 1)
+        for platform, req in unknown:
+            # No firing of its generation is known (yet): the open generation, a refusal or
+            # a wait for the report of that firing (_refuse) — as if it came now.
+            self.request(platform, req, now, epoch)
 
     def _complete_generation(
         self,

@@ -1,0 +1,454 @@
+"""A platform's collective core, the layer every other builds on: its state, what it sends
+(heartbeats, reliable streams, bulletins, reports) and how packets leave it.
+
+The node is built in layers, each a class of its own module: :class:`NodeBase` (state and
+output), :class:`~actorswarm.core.node_membership.NodeMembership` (who is alive),
+:class:`~actorswarm.core.node_election.NodeElection` (who is master, the handshake) and
+:class:`~actorswarm.core.node.Node` (the host interface, packet dispatch, the master's and
+members' handling of coordination messages). A lower layer that needs a decision of an
+upper one calls a method declared here and defined there.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from collections import Counter
+from dataclasses import dataclass
+
+from actorswarm.core import wire
+from actorswarm.core.barrier import BarrierMaster, BarrierMember, Scatter
+from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.election import OnHeartbeat
+from actorswarm.core.events import (
+    AppReceived,
+    CoreEvent,
+    DeliveryFailed,
+    MemberJoined,
+    MemberLeft,
+)
+from actorswarm.core.membership import Membership
+from actorswarm.core.reliable import Reliable
+from actorswarm.core.roles import RoleMaster, RoleMember
+from actorswarm.core.roster import RosterLog, RosterView
+from actorswarm.core.wire import (
+    BULLETIN_STREAM,
+    NORMAL,
+    BarrierRequest,
+    BarrierStale,
+    Bulletin,
+    Heartbeat,
+    Payload,
+    Report,
+    RoleClaim,
+    RoleDeny,
+    RoleGrant,
+    RoleRelease,
+    RoleRevoke,
+)
+
+MASTER_BOUND = (BarrierRequest, RoleClaim, RoleRelease, Report)
+MASTER_SENT = (BarrierStale, RoleGrant, RoleDeny, RoleRevoke)
+KEEP_ERRORS = 20
+#: A master that has more members asking for the whole roster than this at one heartbeat
+#: broadcasts it once instead of sending it to each.
+ROSTER_BROADCAST_FROM = 4
+#: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
+#: ticks late.
+MAX_HEALTH = 8
+
+
+@dataclass(frozen=True, slots=True)
+class Outgoing:
+    """A packet to transmit: ``dst`` None is a broadcast; ``kind`` names the body type."""
+
+    dst: int | None
+    data: bytes
+    kind: str
+    channel: int
+
+
+class NodeBase:
+    """State of one platform's core and its output; see the module docstring."""
+
+    def __init__(
+        self,
+        platform: int,
+        *,
+        swarm: str = "swarm",
+        incarnation: int = 0,
+        config: CoreConfig | None = None,
+        now: float = 0.0,
+        rng: random.Random | None = None,
+    ) -> None:
+        if not 1 <= platform <= wire.MAX_PLATFORM:
+            raise ValueError(f"platform ID must be 1..{wire.MAX_PLATFORM}, got {platform}")
+        if incarnation < 0:
+            raise ValueError(f"incarnation must be >= 0, got {incarnation}")
+        self.platform = platform
+        self.swarm = swarm
+        self.incarnation = incarnation
+        self.config = config or CoreConfig()
+        self._rng = rng if rng is not None else random.Random(platform)
+        self._started = now
+        self._seq = 0
+        self.members = Membership(platform, self.config)
+        self.reliable = Reliable(self.config)
+        # Master to every member as one broadcast (event relays, what the master runs).
+        self._board = BulletinBoard(self.config)
+        self._claim_bulletin = 0  # the first bulletin of the members of the claim
+        self._inbox = BulletinInbox(platform)
+        self.barriers = BarrierMember(platform)
+        self.roles = RoleMember()
+        self._bmaster = self._new_barrier_master()
+        self._rmaster = RoleMaster()
+        # Election state: ``_epoch_master`` claimed ``epoch``; ``master`` is whom we follow
+        # now (None while we have lost it).
+        self.epoch = 0
+        self.master: int | None = None
+        self._epoch_master: int | None = None
+        self.is_master = False
+        self._max_epoch = 0
+        self._best_claim: tuple[int, int, float] | None = None  # (epoch, sender, heard at)
+        self._handshake_waiting: set[int] = set()
+        self._handshake_deadline: float | None = None
+        self._sync_at: float | None = None
+        self.handshake_complete = False
+        self._lowest_peer: int | None = None
+        self._awake = False
+        # When the master was last heard: a master followed before it joined the view (or
+        # that left it and came back) has no leave detector of its own yet.
+        self._master_heard = now
+        interval = self.config.heartbeat_interval
+        if self.config.membership == "star":
+            # Lower IDs speak first at boot (up to one interval later for the highest ID), so
+            # a booting swarm hears its lowest IDs before the others would broadcast, and
+            # they keep quiet. The phase is drawn afresh after this first heartbeat.
+            self._next_heartbeat = now + interval * (
+                math.log2(platform) / 16 + self._rng.uniform(0.0, 0.05)
+            )
+            self._rephase = True
+        else:
+            self._next_heartbeat = now + self._rng.uniform(0.0, interval)
+            self._rephase = False
+        # Star topology (DESIGN.md §3.1): the roster as the master keeps it and as members
+        # copy it, the member heartbeat interval the master asks for, and the succession
+        # entries presumed alive after the master was lost (platform -> presumed until).
+        self._star = self.config.membership == "star"
+        self.roster = RosterView()
+        self._roster_log = RosterLog(self.config.succession)
+        self._roster_requests: set[int] = set()
+        self._roster_asked = -1e9
+        self._roster_broadcast_at = -1e9
+        self._cadence = self.config.heartbeat_interval
+        self._presumed: dict[int, float] = {}
+        self._heard_lower: dict[int, float] = {}
+        #: Since when this platform has elected as in broadcast mode (no master, no
+        #: presumed successor): only then may a platform outside the succession list claim.
+        self._listening_since = now
+        self._hb_count = 0
+        # Suspicion: when each suspect is probed next, when each prober was last answered.
+        self._probe_due: dict[int, float] = {}
+        self._answered: dict[int, float] = {}
+        # Master: who reported in this epoch, and who did and was then declared gone.
+        self._reported: set[int] = set()
+        self._rejoining: set[int] = set()
+        # Local health: how late the host ticks, as a grace on every leave decision.
+        self._due = now
+        self._health = 0
+        self._health_decay_at = now
+        self._outgoing: list[Outgoing] = []
+        self._changes: list[MemberJoined | MemberLeft] = []
+        self._events: list[CoreEvent] = []
+        self.counters: Counter[str] = Counter()
+        #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
+        #: tests require it to stay empty).
+        self.errors: list[str] = []
+        #: Hook for the task engine: resolves a barrier need of NEED_ALL (default: every
+        #: live platform in the master's view).
+        self.resolve_all = self._all_live
+        #: Hook for the task engine: per-participant data a release scatters (default: none,
+        #: each participant learns only its index). Used whenever this platform is master.
+        self.scatter: Scatter | None = None
+
+    @property
+    def view(self) -> tuple[int, ...]:
+        """Live platforms in this platform's view, itself included, ascending.
+
+        A star member that follows a master sees the swarm through its master: the master's
+        roster (as far as this member has it), the master and itself.
+        """
+        if self._following_star():
+            return tuple(sorted({*self.roster.members, self.master or 0, self.platform} - {0}))
+        return tuple(sorted((*self.members.peers, self.platform)))
+
+    def _following_star(self) -> bool:
+        """A star member that follows a live remote master (heartbeats to it only)."""
+        return self._star and self.master is not None and not self.is_master
+
+    @property
+    def grace(self) -> float:
+        """Extra patience of every leave decision while this host ticks late."""
+        return self._health * self.config.heartbeat_interval
+
+    def _all_live(self, key: int, part: int) -> int:
+        return len(self.members) + 1
+
+    def _new_barrier_master(self) -> BarrierMaster:
+        # Late-bound, so the engine may replace ``resolve_all`` after construction.
+        master = BarrierMaster(
+            self.config,
+            resolve_all=lambda k, p: self.resolve_all(k, p),  # noqa: PLW0108
+            platform=self.platform,
+        )
+        master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
+        master.first_retry = lambda: self.reliable.timeout(None)
+        return master
+
+    def _set_epoch(self, epoch: int, master: int) -> None:
+        if epoch < self.epoch:
+            raise AssertionError(f"epoch would go back from {self.epoch} to {epoch}")
+        self.epoch = epoch
+        self._epoch_master = master
+        self.barriers.adopt_epoch(epoch)
+        self._max_epoch = max(self._max_epoch, epoch)
+
+    def _report_failures(self) -> None:
+        """Every message the reliable layer (or the bulletin board) gave up on becomes a
+        DeliveryFailed event."""
+        if self._board.failures:
+            self.reliable.failures.extend(self._board.failures)
+            self._board.failures.clear()
+        for failure in self.reliable.failures:
+            reason = (
+                "the destination left the swarm"
+                if failure.reason == "left"
+                else f"not acknowledged within {self.config.delivery_deadline} s"
+            )
+            self._events.append(
+                DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
+            )
+        self.reliable.failures.clear()
+
+    def _emit(self, dst: int | None, body: wire.Body, channel: int) -> None:
+        self._flush_reliable()
+        self._seq += 1
+        data = wire.encode(
+            swarm=self.swarm,
+            sender=self.platform,
+            incarnation=self.incarnation,
+            seq=self._seq,
+            body=body,
+        )
+        self._outgoing.append(Outgoing(dst, data, type(body).__name__, channel))
+
+    def _flush_bulletins(self) -> None:
+        box = self._board.outbox
+        if box:
+            self._board.outbox = []
+            for dst, bulletin in box:
+                self._emit(dst, bulletin, NORMAL)
+
+    def _flush_reliable(self) -> None:
+        box = self.reliable.outbox
+        if not box:
+            return
+        self.reliable.outbox = []
+        for dst, body in box:
+            self._seq += 1
+            data = wire.encode(
+                swarm=self.swarm,
+                sender=self.platform,
+                incarnation=self.incarnation,
+                seq=self._seq,
+                body=body,
+            )
+            channel = body.channel
+            self._outgoing.append(Outgoing(dst, data, type(body).__name__, channel))
+
+    def _member_cadence(self) -> float:
+        """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or
+        slower when the members' heartbeats would take more than ``heartbeat_share`` of a
+        channel of ``channel_bitrate``."""
+        cfg = self.config
+        if not self._star or cfg.channel_bitrate is None:
+            return cfg.heartbeat_interval
+        load = max(len(self.members), 1) * cfg.heartbeat_bits
+        return max(cfg.heartbeat_interval, load / (cfg.heartbeat_share * cfg.channel_bitrate))
+
+    def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
+        """This platform's heartbeat; a star master's carries what its members need."""
+        if suspects is None:
+            suspects = self._suspect_list()
+        if not (self._star and self.is_master):
+            return Heartbeat(
+                is_master=self.is_master,
+                epoch=self.epoch,
+                master=self.master or 0,
+                count=self._hb_count,
+                suspects=suspects,
+            )
+        log = self._roster_log
+        return Heartbeat(
+            is_master=True,
+            epoch=self.epoch,
+            master=self.platform,
+            count=self._hb_count,
+            suspects=suspects,
+            roster=log.version,
+            size=len(self.members),
+            changes=list(log.changes),
+            succession=log.succession(self.members.peers),
+            cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
+        )
+
+    def _suspect_list(self) -> list[int]:
+        """Up to MAX_SUSPECTS suspects, rotating through them when there are more."""
+        suspects = self.members.suspects
+        if not suspects:
+            return []
+        ordered = sorted(suspects)
+        if len(ordered) <= wire.MAX_SUSPECTS:
+            return ordered
+        start = (self._hb_count * wire.MAX_SUSPECTS) % len(ordered)
+        return (ordered[start:] + ordered[:start])[: wire.MAX_SUSPECTS]
+
+    def _send_heartbeat(self, now: float) -> None:
+        """The scheduled heartbeat: to the master alone when following one in a star, else
+        broadcast — except that a masterless star platform that hears a lower ID (or presumes
+        a lower successor alive) keeps quiet: it could not become master, and at boot this is
+        what keeps a thousand platforms from all broadcasting at once."""
+        self._hb_count += 1
+        if self.is_master and self._star:
+            self._cadence = self._member_cadence()
+            self.members.cadence = self._cadence
+            self._serve_roster_requests(now)
+        hb = self._heartbeat(now)
+        if self._following_star():
+            self._emit(self.master, hb, NORMAL)
+        elif self._quiet(now):
+            self.counters["heartbeat_quiet"] += 1
+        else:
+            self._emit(None, hb, NORMAL)
+
+    def _quiet(self, now: float) -> bool:
+        if not self._star or self.is_master or self.master is not None:
+            return False
+        if any(p < self.platform for p in self._presumed):
+            return True
+        return bool(self._lower_heard(now))
+
+    def _lower_heard(self, now: float) -> list[int]:
+        """Lower IDs heard lately without a master (they elect, so I need not be heard).
+
+        A lower ID that is a master does not count: if I do not follow it (its epoch is
+        below mine), it must hear me to claim again above my epoch. "Lately" is as long as
+        a member stays in a view, so a lost heartbeat or two change nothing."""
+        horizon = now - max(self.config.t_join, self.members.silence())
+        heard = self._heard_lower
+        for peer in [p for p, t in heard.items() if t < horizon]:
+            del heard[peer]
+        return list(heard)
+
+    def _serve_roster_requests(self, now: float) -> None:
+        """Send the whole roster to the members that asked since the last heartbeat: to each,
+        or once to everyone when many asked (after a failover every member does)."""
+        if not self._roster_requests:
+            return
+        requesters = sorted(self._roster_requests)
+        self._roster_requests.clear()
+        members = {p: m.incarnation for p, m in self.members.peers.items()}
+        chunks = RosterLog.chunks(
+            self.epoch, self._roster_log.version, members, self.config.roster_chunk
+        )
+        if len(requesters) > ROSTER_BROADCAST_FROM:
+            if now < self._roster_broadcast_at:
+                # A roster that changes fast (a swarm booting) is broadcast once per t_join
+                # at most: the members ask again meanwhile, at no cost to anyone else.
+                self._roster_requests.update(requesters)
+                return
+            self._roster_broadcast_at = now + self.config.t_join
+        targets: list[int | None] = (
+            [None] if len(requesters) > ROSTER_BROADCAST_FROM else list(requesters)
+        )
+        for dst in targets:
+            for chunk in chunks:
+                self._emit(dst, chunk, NORMAL)
+
+    def _to_master(self, payload: Payload, now: float) -> None:
+        """Barrier and role traffic for the master. Without a master nothing is queued: the
+        report sent on following the next master states every pending request and claim."""
+        if self.is_master:
+            self._master_handle(self.platform, payload, now)
+        elif self.master is not None:
+            self.reliable.send_to_master(payload, now, self.epoch)
+
+    def _to_member(self, platform: int, payload: Payload, now: float) -> None:
+        if platform == self.platform:
+            self._member_handle(payload, now)
+        else:
+            self.reliable.send(platform, payload, now, self.epoch)
+
+    def _own_report(self, now: float) -> Report:
+        return Report(
+            epoch=self.epoch,
+            generations=dict(self.barriers.known),
+            pending=self.barriers.restated(now),
+            # A former master also reports the firings it decided (its barrier table is
+            # kept until it claims again).
+            released=self.barriers.records()
+            + ([] if self.is_master else self._bmaster.decided(self.platform)),
+            held=list(self.roles.held.values()),
+            claims=list(self.roles.claims.values()),
+        )
+
+    def _report(self, now: float) -> None:
+        if self.master is None or self.master == self.platform:
+            return
+        self.reliable.send(self.master, self._own_report(now), now, self.epoch)
+
+    def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
+        for item in items:
+            self._events.append(
+                AppReceived(
+                    sender=sender,
+                    topic=item.message.topic,
+                    body=item.message.body,
+                    stream=(incarnation, BULLETIN_STREAM, item.seq),
+                )
+            )
+
+    # --- what the upper layers decide (NodeElection, Node) --------------------------------
+
+    def _apply(self, action: OnHeartbeat, sender: int, epoch: int, now: float) -> bool:
+        """Carry out an election decision (:class:`NodeElection`)."""
+        raise NotImplementedError
+
+    def _lose_master(self, now: float) -> None:
+        """The followed master is gone (:class:`NodeElection`)."""
+        raise NotImplementedError
+
+    def _maybe_claim(self, now: float) -> None:
+        """Claim the master role if the rules say so (:class:`NodeElection`)."""
+        raise NotImplementedError
+
+    def _master_joined(self, platform: int, now: float, hb: Heartbeat | None) -> None:
+        """Master: a platform joined the view (:class:`NodeElection`)."""
+        raise NotImplementedError
+
+    def _finish_handshake(self, now: float) -> None:
+        """Master: every member reported, or the wait is over (:class:`NodeElection`)."""
+        raise NotImplementedError
+
+    def _master_handle(self, sender: int, payload: Payload, now: float) -> None:
+        """Master: a master-bound message (:class:`Node`)."""
+        raise NotImplementedError
+
+    def _member_handle(self, payload: Payload, now: float) -> None:
+        """Member: a message from its master (:class:`Node`)."""
+        raise NotImplementedError
+
+    def _flush_master(self, now: float) -> None:
+        """Master: send what the barrier and role tables decided (:class:`Node`)."""
+        raise NotImplementedError

@@ -1,0 +1,232 @@
+"""The membership layer of a node: heartbeats heard, the master's roster, probes of suspects,
+local health, and what a change of the view sets off (see :mod:`.membership`, :mod:`.roster`).
+"""
+
+from __future__ import annotations
+
+from actorswarm.core import wire
+from actorswarm.core.election import OnHeartbeat, on_heartbeat
+from actorswarm.core.events import (
+    MemberJoined,
+    MemberLeft,
+)
+from actorswarm.core.node_base import (
+    MAX_HEALTH,
+    NodeBase,
+)
+from actorswarm.core.wire import (
+    NORMAL,
+    Heartbeat,
+    RosterChunk,
+    RosterRequest,
+)
+
+
+class NodeMembership(NodeBase):
+    """See the module docstring."""
+
+    def _master_unheard_since(self, now: float) -> bool:
+        """The followed master is outside the view and silent for ``t_leave``."""
+        return (
+            self.master is not None
+            and not self.is_master
+            and self.master not in self.members
+            and now - self._master_heard >= self.members.silence()
+        )
+
+    def _check_health(self, now: float) -> None:
+        """Local health (Lifeguard): a tick later than asked means this host was not
+        listening (a starved CPU, a paused process); each one adds a heartbeat interval of
+        grace to every leave decision, and every second of punctual ticks takes one away."""
+        late = now - self._due
+        if late > self.config.heartbeat_interval / 2:
+            if self._health < MAX_HEALTH:
+                self._health += 1
+                self.counters["late_tick"] += 1
+            self._health_decay_at = now + 1.0
+        elif self._health and now >= self._health_decay_at:
+            self._health -= 1
+            self._health_decay_at = now + 1.0
+
+    def _probe(self, now: float) -> None:
+        """Probe the suspects directly (a heartbeat naming them, sent to each): at once on
+        suspicion, then every ``probe_interval`` while there are few; many suspects at once
+        (a master after a mass failure) are probed by the list in the heartbeats alone."""
+        if not self._probe_due:
+            return
+        suspects = self.members.suspects
+        for peer in [p for p in self._probe_due if p not in suspects]:
+            del self._probe_due[peer]
+        if len(self._probe_due) > wire.MAX_SUSPECTS // 4:
+            due = [p for p, t in self._probe_due.items() if t == now]  # fresh suspicions only
+            for peer in self._probe_due:
+                self._probe_due[peer] = now + self.config.heartbeat_interval
+        else:
+            due = [p for p, t in self._probe_due.items() if t <= now]
+        for peer in due:
+            self.counters["probe"] += 1
+            self._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL)
+            self._probe_due[peer] = now + self.config.probe_interval
+
+    def _on_heartbeat(
+        self, sender: int, incarnation: int, hb: Heartbeat, now: float, seq: int
+    ) -> None:
+        if sender == wire.GROUND_STATION:
+            self.counters["drop:not_for_me"] += 1
+            return
+        if hb.suspects and self.platform in hb.suspects:
+            self._answer_probe(sender, now)
+        self._max_epoch = max(self._max_epoch, hb.epoch)
+        if sender < self.platform and self._star and self.master is None:
+            # Only a lower ID that follows no master either keeps this one quiet: one that
+            # follows a master this platform does not (its probe answers reach me) or is a
+            # master itself cannot stand in for me in an election.
+            if hb.is_master or hb.master:
+                self._heard_lower.pop(sender, None)
+            else:
+                self._heard_lower[sender] = now
+        # A star member that follows a master watches that master only: other platforms'
+        # heartbeats matter to it for the election alone (a master, or its own master's).
+        if not self._following_star() or sender == self.master:
+            changes = self._changes  # reused: this runs for every heartbeat heard
+            self.members.heartbeat(sender, incarnation, now, changes, seq, hb.count)
+            if changes:
+                self._changes = []
+                self._membership_changed(changes, now, hb)
+        if sender == self.master:
+            self._master_heard = now
+            if hb.is_master and hb.epoch == self.epoch and not self.is_master:
+                self._on_master_heartbeat(sender, hb, now)
+        if not (hb.is_master or self.is_master or sender == self._epoch_master):
+            return  # the common case at scale: an ordinary member's heartbeat
+        action = on_heartbeat(
+            self_id=self.platform,
+            is_master=self.is_master,
+            epoch=self.epoch,
+            master=self._epoch_master,
+            master_alive=self.master is not None,
+            sender=sender,
+            sender_is_master=hb.is_master,
+            sender_epoch=hb.epoch,
+        )
+        if action is OnHeartbeat.IGNORE:
+            better = self._best_claim is None or hb.epoch > self._best_claim[0]
+            if hb.is_master and hb.epoch > self.epoch and better:
+                self._best_claim = (hb.epoch, sender, now)
+            return
+        if self._apply(action, sender, hb.epoch, now):
+            if action is OnHeartbeat.FOLLOW and self.master == sender:
+                self._on_master_heartbeat(sender, hb, now)
+            return
+        if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any
+            self._lose_master(now)
+            if hb.master not in (0, self.platform, sender):
+                self._epoch_master = hb.master
+
+    def _on_master_heartbeat(self, sender: int, hb: Heartbeat, now: float) -> None:
+        """What a member takes from its master's heartbeat: the cadence it asks for, the
+        succession list, and the roster (asking for all of it when behind)."""
+        if not self._star:
+            return
+        self._cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
+        rejected = self.roster.rejected
+        behind = self.roster.on_heartbeat(hb.epoch, hb)
+        if self.roster.rejected != rejected:
+            self.counters["drop:roster"] += 1
+        self._roster_removed(now)
+        if behind and now - self._roster_asked >= self.config.retry_cap:
+            self._roster_asked = now
+            self.counters["roster_request"] += 1
+            self._emit(
+                sender,
+                RosterRequest(
+                    epoch=hb.epoch,
+                    version=self.roster.version if self.roster.epoch == hb.epoch else 0,
+                ),
+                NORMAL,
+            )
+
+    def _on_roster_chunk(self, sender: int, chunk: RosterChunk, now: float) -> None:
+        if not (
+            self._star
+            and sender == self.master
+            and not self.is_master
+            and chunk.epoch == self.epoch
+        ):
+            self.counters["drop:roster"] += 1
+            return
+        rejected = self.roster.rejected
+        self.roster.on_chunk(chunk)
+        if self.roster.rejected != rejected:
+            self.counters["drop:roster"] += 1
+        self._roster_removed(now)
+
+    def _roster_removed(self, now: float) -> None:
+        """Platforms that left the master's view left the swarm for this member too: its
+        queues to them are dropped and their messages reported failed."""
+        if not self.roster.removed:
+            return
+        for platform in self.roster.removed:
+            if platform != self.master:
+                self.reliable.drop_destination(platform, now)
+        self.roster.removed.clear()
+        self._report_failures()
+
+    def _answer_probe(self, prober: int, now: float) -> None:
+        """A peer suspects me: answer it directly (at most twice per probe interval)."""
+        if now - self._answered.get(prober, -1e9) < self.config.probe_interval / 2:
+            return
+        if len(self._answered) > 4 * wire.MAX_SUSPECTS:
+            horizon = now - self.config.probe_interval
+            self._answered = {p: t for p, t in self._answered.items() if t >= horizon}
+        self._answered[prober] = now
+        self.counters["probe_answered"] += 1
+        self._emit(prober, self._heartbeat(now), NORMAL)
+
+    def _membership_changed(
+        self, changes: list[MemberJoined | MemberLeft], now: float, hb: Heartbeat | None = None
+    ) -> None:
+        if not changes:
+            return
+        for change in changes:
+            self._events.append(change)
+            if isinstance(change, MemberLeft):
+                self.reliable.drop_destination(change.platform, now)
+                self._probe_due.pop(change.platform, None)
+                if change.reason == "restarted":
+                    self.reliable.forget_sender(change.platform, change.incarnation)
+                if self.is_master:
+                    self._handshake_waiting.discard(change.platform)
+                    self._bmaster.member_left(change.platform, now, self.epoch)
+                    self._rmaster.member_left(change.platform)
+                    self._board.member_left(change.platform)
+                    self._roster_log.left(change.platform)
+                    if change.platform in self._reported and change.reason != "restarted":
+                        self._rejoining.add(change.platform)
+                    self._reported.discard(change.platform)
+                if change.platform == self.master:
+                    self._lose_master(now)
+            elif self.is_master:
+                self._roster_log.joined(change.platform, change.incarnation)
+                self._master_joined(change.platform, now, hb)
+        self._update_lowest_peer(changes)
+        self._report_failures()
+        if self.is_master:
+            if self._handshake_deadline is not None and not self._handshake_waiting:
+                self._finish_handshake(now)
+            self._flush_master(now)
+        self._maybe_claim(now)
+
+    def _update_lowest_peer(self, changes: list[MemberJoined | MemberLeft]) -> None:
+        """Keep the lowest ID of the view in O(1) per join; only losing the lowest one costs
+        a scan (at boot a platform sees N joins: a scan per join would be O(N²))."""
+        lowest = self._lowest_peer
+        for change in changes:
+            if isinstance(change, MemberJoined):
+                if lowest is None or change.platform < lowest:
+                    lowest = change.platform
+            elif change.platform == lowest:
+                lowest = None if not self.members.peers else -1
+        if lowest == -1:
+            lowest = min(self.members.peers)
+        self._lowest_peer = lowest
