@@ -34,7 +34,9 @@ def test_fault_schedule(membership: MembershipKind, seed: int) -> None:
 #: silenced by a lower ID that follows another master (500159), two partitions' masters that
 #: claimed the same epoch number and whose firings of one generation were taken for one (110),
 #: a handshake report that crossed a role grant and freed the granted slot (700921), a
-#: reported firing of a later generation that dropped the open generation's requests (901605).
+#: reported firing of a later generation that dropped the open generation's requests (901605),
+#: a request made under one master called stale by another that claimed the same epoch
+#: number (902146).
 REGRESSIONS = [
     (500583, "star"),
     (501090, "broadcast"),
@@ -44,6 +46,7 @@ REGRESSIONS = [
     (110, "star"),
     (700921, "broadcast"),
     (901605, "star"),
+    (902146, "star"),
 ]
 
 

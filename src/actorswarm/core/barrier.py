@@ -272,8 +272,9 @@ class BarrierMaster:
         )
 
     def _park(self, platform: int, req: BarrierRequest, now: float, epoch: int) -> bool:
-        """Hold a request back instead of calling it stale, when it was made in an older
-        epoch than this master's.
+        """Hold a request back instead of calling it stale, when it was made under another
+        master: in an older epoch than this master's, or in the same epoch number claimed by
+        another platform (a rebooted one that heard nobody's epoch may claim it again).
 
         Then a master of that epoch, on the other side of a partition, may have fired the
         generation with it just before the cut, and the release never reached it: refused
@@ -282,8 +283,8 @@ class BarrierMaster:
         does (:meth:`record_released`) completes it with its original entry. A firing of
         that epoch known in full does not settle it: two sides of a partition may each have
         had a master claim the same epoch number, and each fired its own."""
-        if req.epoch >= epoch:
-            return False
+        if req.epoch > epoch or (req.epoch == epoch and req.master in (0, self.platform)):
+            return False  # made under this master (or a later one): nothing to wait for
         ident = (platform, req.key)
         until = self._parked.get(ident, (req, now + self._config.doubt_timeout))[1]
         if now >= until:
@@ -742,10 +743,11 @@ class BarrierMember:
         timeout: float | None = None,
         epoch: int = 0,
         occasion: str = "",
+        master: int = 0,
     ) -> BarrierRequest:
         """Record a request for the open generation of ``key`` and return it (to send).
 
-        ``epoch`` is the master epoch this platform follows now."""
+        ``epoch`` is the master epoch this platform follows now, ``master`` its master."""
         if key in self.pending:
             raise ValueError(
                 f"platform {self.platform} already waits on barrier key {key} "
@@ -766,6 +768,7 @@ class BarrierMember:
             timeout=timeout,
             epoch=epoch,
             occasion=occasion,
+            master=master,
         )
         self.pending[key] = (req, now)
         return req
@@ -786,6 +789,7 @@ class BarrierMember:
                     age=max(0.0, now - since),
                     epoch=req.epoch,
                     occasion=req.occasion,
+                    master=req.master,
                 )
             )
         return out
@@ -841,11 +845,12 @@ class BarrierMember:
         )
         return event, True
 
-    def adopt_epoch(self, epoch: int) -> None:
+    def adopt_epoch(self, epoch: int, master: int = 0) -> None:
         """Requests made while no master was known belong to the first epoch followed."""
         for key, (req, since) in list(self.pending.items()):
             if req.epoch == 0:
-                self.pending[key] = (msgspec.structs.replace(req, epoch=epoch), since)
+                adopted = msgspec.structs.replace(req, epoch=epoch, master=master)
+                self.pending[key] = (adopted, since)
 
     def records(self) -> list[ReleaseRecord]:
         """Every recent release this platform passed, for a handshake report (only the newest

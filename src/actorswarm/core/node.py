@@ -238,6 +238,7 @@ class Node(NodeElection):
             timeout=timeout,
             epoch=self.epoch,
             occasion=occasion,
+            master=self._epoch_master or 0,
         )
         self._to_master(req, now)
         return req.generation

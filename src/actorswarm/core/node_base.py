@@ -211,7 +211,7 @@ class NodeBase:
             raise AssertionError(f"epoch would go back from {self.epoch} to {epoch}")
         self.epoch = epoch
         self._epoch_master = master
-        self.barriers.adopt_epoch(epoch)
+        self.barriers.adopt_epoch(epoch, master)
         self._max_epoch = max(self._max_epoch, epoch)
 
     def _report_failures(self) -> None:

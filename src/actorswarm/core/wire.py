@@ -93,6 +93,10 @@ class BarrierRequest(_Msg, frozen=True, tag=1):
     #: What the request was made for (e.g. one event occurrence). A late request for an
     #: occasion a firing already served is released as not chosen rather than left stale.
     occasion: Annotated[str, Meta(max_length=64)] = ""
+    #: The master of ``epoch`` (0: unknown). Two masters may claim one epoch number (a
+    #: rebooted platform that heard nobody's epoch): a master of the same epoch but another
+    #: ID is another regime, whose firing this request may belong to.
+    master: PlatformId = 0
 
 
 class BarrierStale(_Msg, frozen=True, tag=2):
