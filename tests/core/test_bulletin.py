@@ -175,8 +175,8 @@ def test_deadline_and_leaving_members() -> None:
     assert sorted(f.dst for f in board.failures if f.dst is not None) == [2, 3]
     assert not board.posted
     board = board_with("a", targets={2})
-    board.clear("left")
-    assert [(f.dst, f.reason) for f in board.failures] == [(2, "left")]
+    board.clear("stepped_down")
+    assert [(f.dst, f.reason) for f in board.failures] == [(2, "stepped_down")]
 
 
 def _relay_swarm(loss: float, seed: int) -> SimSwarm:

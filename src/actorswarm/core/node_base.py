@@ -20,7 +20,7 @@ from actorswarm.core import wire
 from actorswarm.core.barrier import BarrierMaster, BarrierMember, Scatter
 from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.election import OnHeartbeat
+from actorswarm.core.election import OnHeartbeat, on_heartbeat
 from actorswarm.core.events import (
     AppReceived,
     CoreEvent,
@@ -214,6 +214,19 @@ class NodeBase:
         self.barriers.adopt_epoch(epoch, master)
         self._max_epoch = max(self._max_epoch, epoch)
 
+    def _decide(self, sender: int, sender_is_master: bool, sender_epoch: int) -> OnHeartbeat:
+        """The election rules' answer to ``sender``'s word (a heartbeat, a Sync)."""
+        return on_heartbeat(
+            self_id=self.platform,
+            is_master=self.is_master,
+            epoch=self.epoch,
+            master=self._epoch_master,
+            master_alive=self.master is not None,
+            sender=sender,
+            sender_is_master=sender_is_master,
+            sender_epoch=sender_epoch,
+        )
+
     def _report_failures(self) -> None:
         """Every message the reliable layer (or the bulletin board) gave up on becomes a
         DeliveryFailed event."""
@@ -221,18 +234,21 @@ class NodeBase:
             self.reliable.failures.extend(self._board.failures)
             self._board.failures.clear()
         for failure in self.reliable.failures:
-            reason = (
-                "the destination left the swarm"
-                if failure.reason == "left"
-                else f"not acknowledged within {self.config.delivery_deadline} s"
-            )
+            reason = {
+                "left": "the destination left the swarm",
+                "stepped_down": "this platform stepped down as master before it was delivered",
+            }.get(failure.reason, f"not acknowledged within {self.config.delivery_deadline} s")
             self._events.append(
                 DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
             )
         self.reliable.failures.clear()
 
     def _emit(self, dst: int | None, body: wire.Body, channel: int) -> None:
-        self._flush_reliable()
+        self._flush_reliable()  # what the streams queued first keeps its place
+        self._encode(dst, body, channel)
+
+    def _encode(self, dst: int | None, body: wire.Body, channel: int) -> None:
+        """Number ``body`` with this platform's next packet sequence and queue it."""
         self._seq += 1
         data = wire.encode(
             swarm=self.swarm,
@@ -256,16 +272,7 @@ class NodeBase:
             return
         self.reliable.outbox = []
         for dst, body in box:
-            self._seq += 1
-            data = wire.encode(
-                swarm=self.swarm,
-                sender=self.platform,
-                incarnation=self.incarnation,
-                seq=self._seq,
-                body=body,
-            )
-            channel = body.channel
-            self._outgoing.append(Outgoing(dst, data, type(body).__name__, channel))
+            self._encode(dst, body, body.channel)
 
     def _member_cadence(self) -> float:
         """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or

@@ -4,7 +4,7 @@ master and its succession, the handshake (decisions in :mod:`.election`).
 
 from __future__ import annotations
 
-from actorswarm.core.election import OnHeartbeat, on_heartbeat, should_claim
+from actorswarm.core.election import OnHeartbeat, should_claim
 from actorswarm.core.events import (
     BecameMaster,
     HandshakeComplete,
@@ -28,16 +28,7 @@ class NodeElection(NodeMembership):
         if sender == self.master and sync.epoch == self.epoch:
             self._report(now)
             return
-        action = on_heartbeat(
-            self_id=self.platform,
-            is_master=self.is_master,
-            epoch=self.epoch,
-            master=self._epoch_master,
-            master_alive=self.master is not None,
-            sender=sender,
-            sender_is_master=True,
-            sender_epoch=sync.epoch,
-        )
+        action = self._decide(sender, True, sync.epoch)
         if not self._apply(action, sender, sync.epoch, now):
             self.counters["drop:stale_epoch"] += 1
         self._sync_bulletins(sender, sync)
@@ -181,7 +172,7 @@ class NodeElection(NodeMembership):
 
     def _step_down(self, to: int, now: float) -> None:
         self.is_master = False
-        self._board.clear("left")
+        self._board.clear("stepped_down")
         self._roster_requests.clear()
         self._cadence = self.config.heartbeat_interval
         self.members.cadence = self._cadence

@@ -5,7 +5,7 @@ local health, and what a change of the view sets off (see :mod:`.membership`, :m
 from __future__ import annotations
 
 from actorswarm.core import wire
-from actorswarm.core.election import OnHeartbeat, on_heartbeat
+from actorswarm.core.election import OnHeartbeat
 from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
@@ -99,16 +99,7 @@ class NodeMembership(NodeBase):
                 self._on_master_heartbeat(sender, hb, now)
         if not (hb.is_master or self.is_master or sender == self._epoch_master):
             return  # the common case at scale: an ordinary member's heartbeat
-        action = on_heartbeat(
-            self_id=self.platform,
-            is_master=self.is_master,
-            epoch=self.epoch,
-            master=self._epoch_master,
-            master_alive=self.master is not None,
-            sender=sender,
-            sender_is_master=hb.is_master,
-            sender_epoch=hb.epoch,
-        )
+        action = self._decide(sender, hb.is_master, hb.epoch)
         if action is OnHeartbeat.IGNORE:
             better = self._best_claim is None or hb.epoch > self._best_claim[0]
             if hb.is_master and hb.epoch > self.epoch and better:
