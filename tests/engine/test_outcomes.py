@@ -24,3 +24,22 @@ def test_the_station_keeps_each_platform_s_latest_answer() -> None:
     ]
     assert station.outcomes("Start") == {2: (True, "started")}
     assert station.outcomes("Inject") == {3: (True, "delivered")}
+
+
+def test_a_command_nobody_acknowledges_is_retransmitted_until_its_deadline_then_named() -> None:
+    """A platform that never acknowledges is retried until ``delivery_deadline`` (not
+    dropped silently) and then listed as unreachable, so the operator is told which."""
+    from actorswarm.core.config import CoreConfig
+
+    station = GroundStation(swarm="t", config=CoreConfig(delivery_deadline=30.0))
+    station.send(cmds.Pause(actor="A"), [4], 0.0)
+    sent = len(station.drain_outgoing())
+    now = 0.0
+    while now < 29.0:
+        now = station.next_deadline() or now + 1.0
+        station.tick(now)
+        sent += len(station.drain_outgoing())
+    assert sent > 100, "retransmitted the whole time"
+    assert station.unreachable == {}
+    station.tick(31.0)
+    assert set(station.unreachable) == {4}

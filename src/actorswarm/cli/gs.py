@@ -63,13 +63,14 @@ def gs_deploy(
         raise typer.Exit(1)
     data = file.read_bytes()
 
-    async def go() -> tuple[str, list[int]]:
-        async with ln.session() as gs:
+    async def go() -> tuple[str, list[int], list[int]]:
+        async with ln.session(timeout) as gs:
             sha = gs.do(lambda st, now: st.deploy(data, platforms, now))
             await gs.wait_for(lambda: not gs.station.missing(sha), timeout)
-            return sha, gs.station.missing(sha)
+            missing = gs.station.missing(sha)
+            return sha, missing, sorted(set(missing) & set(gs.station.unreachable))
 
-    sha, missing = asyncio.run(go())
+    sha, missing, unreachable = asyncio.run(go())
     confirmed = sorted(set(platforms) - set(missing))
     path = state or default_state_file(swarm)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -77,6 +78,8 @@ def gs_deploy(
     typer.echo(f"script {sha[:12]}: confirmed by {len(confirmed)} of {len(platforms)}: {confirmed}")
     if missing:
         typer.echo(f"not confirmed by: {missing}", err=True)
+        if unreachable:
+            typer.echo(f"never acknowledged a chunk (unreachable?): {unreachable}", err=True)
         raise typer.Exit(1)
 
 
@@ -108,7 +111,7 @@ def gs_start(
         raise typer.Exit(2) from None
 
     async def go() -> tuple[list[int], list[int], str]:
-        async with ln.session() as gs:
+        async with ln.session(timeout) as gs:
             # Deploying again is idempotent (a platform that has the script confirms at
             # once): it tells this session who has it.
             sha = gs.do(lambda st, now: st.deploy(data, platforms, now))
@@ -157,7 +160,7 @@ def gs_status(
     ln = link(swarm, connect, listen, multicast, keys, insecure)
 
     async def go() -> dict[str, Any]:
-        async with ln.session() as gs:
+        async with ln.session(timeout) as gs:
             await gs.listen(1.5)
             heard = sorted(gs.station.heard)
             gs.do(lambda st, now: st.send(cmds.Status(), heard, now))

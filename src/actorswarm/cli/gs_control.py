@@ -44,8 +44,10 @@ Send = Callable[[GroundStation, list[int], float], None]
 
 async def _run(
     ln: Link, name: str, send: Send, platforms: list[int] | None, timeout: float
-) -> tuple[list[int], dict[int, tuple[bool, str]]]:
-    async with ln.session() as gs:
+) -> tuple[list[int], dict[int, tuple[bool, str]], set[int]]:
+    """The targets, the answers per platform, and the platforms the command was given up
+    on (never acknowledged within ``timeout``)."""
+    async with ln.session(timeout) as gs:
         if platforms is None:
             await gs.listen(1.5)  # heartbeats say who is there
         targets = sorted(gs.station.heard) if platforms is None else platforms
@@ -55,19 +57,22 @@ async def _run(
             return gs.station.outcomes(name)
 
         await gs.wait_for(lambda: set(targets) <= set(answers()), timeout)
-        return targets, answers()
+        return targets, answers(), set(gs.station.unreachable) - set(answers())
 
 
 def _execute(ln: Link, name: str, send: Send, platforms: str | None, timeout: float) -> None:
     """Send, wait, print the outcome per platform, exit with the status of the module
     docstring."""
     chosen = None if platforms is None else id_list(platforms, "--platforms")
-    targets, answers = asyncio.run(_run(ln, name, send, chosen, timeout))
+    targets, answers, unreachable = asyncio.run(_run(ln, name, send, chosen, timeout))
     if not targets:
         typer.echo("no platform heard", err=True)
         raise typer.Exit(1)
     for p in targets:
-        ok, message = answers.get(p, (False, "no answer"))
+        silent = "no answer"
+        if p in unreachable:
+            silent = f"unreachable: nothing acknowledged in {timeout:g} s"
+        ok, message = answers.get(p, (False, silent))
         typer.echo(f"  {p}: {message}" if ok else f"  {p}: FAILED: {message}")
     if set(targets) - set(answers) or not any(ok for ok, _ in answers.values()):
         raise typer.Exit(1)

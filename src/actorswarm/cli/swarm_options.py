@@ -98,11 +98,12 @@ class Link:
     settings: ZenohSettings
     guard: PacketGuard
 
-    def session(self) -> GroundSession:
-        """A new ground-station session over this link (``async with``)."""
+    def session(self, patience: float | None = None) -> GroundSession:
+        """A new ground-station session over this link (``async with``) whose commands are
+        retransmitted for ``patience`` seconds (a command's ``--timeout``)."""
         from actorswarm.daemon.ground import GroundSession
 
-        return GroundSession(self.swarm, self.settings, self.guard)
+        return GroundSession(self.swarm, self.settings, self.guard, patience=patience)
 
 
 def link(

@@ -50,20 +50,30 @@ _last = [0]
 
 class GroundSession:
     """``async with GroundSession(swarm, settings) as gs:`` — the ground station is
-    ``gs.station``."""
+    ``gs.station``. ``patience`` (seconds) is how long its commands are retransmitted before
+    a platform is given up on (:attr:`GroundStation.unreachable`); at least the core's
+    ``delivery_deadline``."""
 
     def __init__(
         self,
         swarm: str,
         settings: ZenohSettings | None = None,
         guard: PacketGuard | None = None,
+        *,
+        patience: float | None = None,
     ) -> None:
         self.swarm = swarm
         self.settings = settings or ZenohSettings()
         #: Seals the operator's packets (HMAC and Ed25519 signature) and checks the swarm's.
         self.guard = guard or PacketGuard.insecure()
+        # A command that waits ``patience`` seconds for its answers keeps retransmitting that
+        # long: with the core's default deadline (10 s) a platform whose link came up late
+        # would be given up on while the operator is still told to wait.
+        config = CoreConfig()
+        if patience is not None and patience > config.delivery_deadline:
+            config = config.replace(delivery_deadline=patience)
         self.station = GroundStation(
-            swarm=swarm, now=clock(), incarnation=session_incarnation(), config=CoreConfig()
+            swarm=swarm, now=clock(), incarnation=session_incarnation(), config=config
         )
         self._inbox: Inbox | None = None
         self._stop = asyncio.Event()

@@ -83,6 +83,9 @@ class GroundStation:
         self.confirmed: dict[str, set[int]] = {}
         self.expected: dict[str, set[int]] = {}
         self.replies: list[ReplyRecord] = []
+        #: Platforms a command was given up on (no acknowledgement by ``delivery_deadline``),
+        #: with when: a command's outcome for them is "unreachable", not "no answer yet".
+        self.unreachable: dict[int, float] = {}
         self.counters: dict[str, int] = {}
         self.deployed_sha = ""
         # A star master's roster: the members the ground station does not hear directly.
@@ -223,6 +226,9 @@ class GroundStation:
 
     def tick(self, now: float) -> None:
         self.reliable.tick(now)
+        for failure in self.reliable.failures:
+            if failure.dst is not None:
+                self.unreachable[failure.dst] = now
         self.reliable.failures.clear()
 
     def next_deadline(self) -> float | None:
