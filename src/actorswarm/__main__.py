@@ -1,6 +1,6 @@
 """``python -m actorswarm`` runs the command line."""
 
-from actorswarm.cli.app import main
+from actorswarm.cli import main
 
 if __name__ == "__main__":
     main()

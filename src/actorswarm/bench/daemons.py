@@ -295,15 +295,17 @@ class LogTail:
 # --- one swarm ----------------------------------------------------------------------------
 
 
-def settled(swarm: LocalSwarm, since: float) -> bool:
-    """Every running daemon wrote its status after ``since``, has every other running one
-    in its view, and they all follow the same master."""
+def settled(swarm: LocalSwarm) -> bool:
+    """Every running daemon's status was written by the process running now, has every
+    other running one in its view, and they all follow the same master. (A daemon rewrites
+    its status within a second of a change, and not when nothing changed: the status of a
+    running daemon is current however old it is.)"""
     running = swarm.running()
     if len(running) != swarm.size:
         return False
     for p in running:
         status = swarm.status(p)
-        if float(status.get("t", -math.inf)) < since:
+        if status.get("pid") != swarm.procs[p].pid:
             return False
         if len(status.get("members", ())) != swarm.size - 1:
             return False
@@ -339,19 +341,20 @@ def _picture(swarm: LocalSwarm) -> tuple[int | None, tuple[int, ...]]:
     return swarm.agreed_master(), epochs
 
 
-def wait_stable(swarm: LocalSwarm, since: float, timeout: float, hold: float = 1.5) -> bool:
+def wait_stable(swarm: LocalSwarm, timeout: float, hold: float = 1.5) -> bool:
     """Wait until the swarm is :func:`settled` and stays so, with the same master and
-    epochs, for ``hold`` seconds (longer than the status files' 1 s period, so every daemon
-    wrote again meanwhile). A swarm that merely passes through agreement — a restarted
-    platform that is about to take the role over — does not count."""
+    epochs, for ``hold`` seconds (longer than the second within which a daemon writes a
+    change to its status, so a change under way shows). A swarm that merely passes through
+    agreement — a restarted platform that is about to take the role over — does not
+    count."""
     end = clock() + timeout
     while clock() < end:
-        if not settled(swarm, since):
+        if not settled(swarm):
             time.sleep(0.2)
             continue
         seen = _picture(swarm)
         time.sleep(hold)
-        if settled(swarm, since) and _picture(swarm) == seen:
+        if settled(swarm) and _picture(swarm) == seen:
             return True
     return False
 
@@ -401,7 +404,7 @@ def measure_failover(
     wait until the swarm agrees again. Never raises for a swarm that misbehaves: problems
     go into ``error``."""
     # Only a steady swarm has a master worth killing (a restart may still be settling).
-    steady = wait_stable(swarm, clock() - 1.5, settings.boot_timeout)
+    steady = wait_stable(swarm, settings.boot_timeout)
     master = swarm.agreed_master() if steady else None
     if master is None:
         return FailoverRun(
@@ -470,13 +473,12 @@ def measure_failover(
         )
     # Back to a full swarm for the next repetition: the killed platform restarts from its
     # state directory (a new incarnation) and everyone must see everyone again.
-    restarted_at = clock()
     swarm.start(master)
     back = _wait(
         lambda: int(swarm.status(master).get("incarnation", -1)) > incarnation,
         settings.boot_timeout,
         poll=0.2,
-    ) and wait_stable(swarm, restarted_at, settings.boot_timeout)
+    ) and wait_stable(swarm, settings.boot_timeout)
     run.master_after_restart = swarm.agreed_master() if back else None
     if not back:
         run.error += (" " if run.error else "") + (
@@ -637,7 +639,7 @@ def bench_size(
         say(f"N={size}: starting {size} daemons")
         booted_at = clock()
         swarm.start_all()
-        if not wait_stable(swarm, booted_at, settings.boot_timeout):
+        if not wait_stable(swarm, settings.boot_timeout):
             # What the daemons cost while they try is still worth knowing (a machine too
             # small for the swarm is one reason it never settles); nothing else is.
             result.errors.append(
@@ -659,10 +661,10 @@ def bench_size(
             say(f"N={size}: master failover {i + 1}/{settings.failovers}")
             run = measure_failover(swarm, logs, settings, rng)
             result.failover.append(run)
-            if run.error and not settled(swarm, clock() - 1.5):
+            if run.error and not settled(swarm):
                 result.errors.append(f"failover {i + 1}: the swarm did not recover; stopped")
                 break
-        if settled(swarm, clock() - 1.5):
+        if settled(swarm):
             asyncio.run(run_switches(swarm, logs, settings, result, say))
         else:
             result.errors.append("switch: skipped, the swarm was not whole")

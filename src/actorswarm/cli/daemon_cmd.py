@@ -2,7 +2,10 @@
 
 Options come from the command line, then the ``--config`` file
 (:mod:`actorswarm.daemon.config`), then the defaults. Every problem with them is reported
-before anything starts, with exit status 2.
+before anything starts, with exit status 2. What the command does is in
+:mod:`actorswarm.cli.daemon_start`, which :func:`actorswarm.cli.main` also calls directly for
+a well-formed command line (without loading typer); the options declared here are the
+reference that module's reader follows.
 """
 
 from __future__ import annotations
@@ -12,22 +15,10 @@ from typing import Annotated
 
 import typer
 
-from actorswarm.cli.swarm_options import (
-    ConnectOpt,
-    InsecureOpt,
-    KeysOpt,
-    ListenOpt,
-    check_swarm,
-    packet_guard,
-    zenoh_settings,
-)
+from actorswarm.cli.daemon_start import start_daemon
+from actorswarm.cli.swarm_options import ConnectOpt, InsecureOpt, KeysOpt, ListenOpt
 
 __all__ = ["daemon"]
-
-
-def _fail(message: str) -> typer.Exit:
-    typer.echo(message, err=True)
-    return typer.Exit(2)
 
 
 def daemon(
@@ -65,60 +56,19 @@ def daemon(
     ] = None,
 ) -> None:
     """Run one platform of a real swarm over Zenoh until SIGTERM/SIGINT."""
-    from actorswarm.core.config import CoreConfig
-    from actorswarm.daemon.config import (
-        DaemonConfigError,
-        DaemonFile,
-        daemon_core,
-        load_daemon_config,
+    raise typer.Exit(
+        start_daemon(
+            platform=platform,
+            swarm=swarm,
+            transport=transport,
+            listen=listen,
+            connect=connect,
+            multicast=multicast,
+            state_dir=state_dir,
+            keys=keys,
+            insecure=insecure,
+            vehicle=vehicle,
+            world=world,
+            config=config,
+        )
     )
-    from actorswarm.daemon.run import DaemonOptions, run_daemon
-
-    file, core = DaemonFile(), CoreConfig()
-    base = Path.cwd()
-    if config is not None:
-        try:
-            file, core = load_daemon_config(config)
-        except DaemonConfigError as exc:
-            raise _fail(str(exc)) from None
-        base = config.resolve().parent
-    platform = platform if platform is not None else file.platform
-    if platform is None:
-        raise _fail("which platform is this? give --platform ID (or platform = ID in --config)")
-    swarm = swarm or file.swarm or "swarm"
-    check_swarm(swarm)
-    chosen_transport = transport or file.transport or "zenoh"
-    if chosen_transport != "zenoh":
-        raise _fail(f"--transport {chosen_transport!r}: the transports are: zenoh")
-    chosen_vehicle = vehicle or file.vehicle or "none"
-    if chosen_vehicle not in ("none", "sim"):
-        raise _fail(f"--vehicle {chosen_vehicle!r}: the vehicles are: none, sim")
-    world_file = world or file.path(file.world, base)
-    if world_file is not None and chosen_vehicle != "sim":
-        raise _fail("--world describes a simulated vehicle's world: give --vehicle sim too")
-    if world_file is not None and not world_file.is_file():
-        raise _fail(f"--world {world_file}: no such file")
-    world_config = None
-    if chosen_vehicle == "sim":
-        from actorswarm.world.config import WorldError, load_world
-
-        try:
-            world_config = load_world(world_file)
-        except WorldError as exc:
-            raise _fail(str(exc)) from None
-    guard = packet_guard(keys or file.path(file.keys, base), insecure or file.insecure, "platform")
-    settings = zenoh_settings(
-        list(connect or file.connect) or None,
-        list(listen or file.listen) or None,
-        multicast if multicast is not None else file.multicast is not False,
-    )
-    options = DaemonOptions(
-        guard=guard,
-        platform=platform,
-        swarm=swarm,
-        state_dir=state_dir or file.path(file.state_dir, base) or Path(f"state-{platform}"),
-        zenoh=settings,
-        config=daemon_core(core),
-        world=world_config,
-    )
-    raise typer.Exit(run_daemon(options))

@@ -1,18 +1,19 @@
 """What every command that talks to a real swarm shares: its options (swarm name, Zenoh
 endpoints, keys) and turning them into a transport configuration and a packet guard, with
-a clear error and exit status 2 when they are not usable."""
+a clear error and exit status 2 when they are not usable (:mod:`.swarm_setup`)."""
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from actorswarm.cli.swarm_setup import check_swarm, packet_guard, zenoh_settings
 from actorswarm.security.guard import PacketGuard
-from actorswarm.transport.zenoh_transport import ZenohSettings, key_prefix
+from actorswarm.transport.zenoh_transport import ZenohSettings
 
 if TYPE_CHECKING:
     from actorswarm.daemon.ground import GroundSession
@@ -26,6 +27,7 @@ __all__ = [
     "MulticastOpt",
     "SwarmOpt",
     "TimeoutOpt",
+    "check_swarm",
     "default_state_file",
     "link",
     "packet_guard",
@@ -48,46 +50,6 @@ KeysOpt = Annotated[
 InsecureOpt = Annotated[
     bool, typer.Option("--insecure", help="No packet authentication (trusted networks only).")
 ]
-
-
-def packet_guard(
-    keys: Path | None, insecure: bool, role: Literal["platform", "ground"]
-) -> PacketGuard:
-    """The packet guard for ``role``, or a clear error and exit 2 when the keys are not
-    usable."""
-    from actorswarm.security import KeyFileError, default_key_dir, load_keys
-
-    if insecure:
-        typer.echo("WARNING: --insecure: packets are not authenticated", err=True)
-        return PacketGuard.insecure()
-    directory = keys or default_key_dir()
-    try:
-        loaded = load_keys(directory, need_private=role == "ground")
-    except KeyFileError as exc:
-        typer.echo(
-            f"{exc}\ncreate keys with `actorswarm keys init --dir {directory}` and copy "
-            "swarm.key and ground_station.pub to every platform, or run with --insecure",
-            err=True,
-        )
-        raise typer.Exit(2) from None
-    return PacketGuard.from_keys(loaded, role=role)
-
-
-def zenoh_settings(
-    connect: list[str] | None, listen: list[str] | None, multicast: bool
-) -> ZenohSettings:
-    return ZenohSettings(
-        listen=tuple(listen or ()), connect=tuple(connect or ()), multicast=multicast
-    )
-
-
-def check_swarm(swarm: str) -> None:
-    """Exit 2 with the reason when ``swarm`` cannot be a swarm's name."""
-    try:
-        key_prefix(swarm)
-    except ValueError as exc:
-        typer.echo(str(exc), err=True)
-        raise typer.Exit(2) from None
 
 
 @dataclass(frozen=True, slots=True)

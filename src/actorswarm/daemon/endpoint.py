@@ -115,13 +115,17 @@ class PlatformEndpoint:
         out, self._outgoing = self._outgoing, []
         return out
 
-    def backup(self) -> int | None:
+    def backup(self, *, changed_only: bool = False) -> int | None:
         """Save the actors and their plugins' state to the backup store now (what the
         operator's ``gs backup`` does); returns the backup's generation, or None when no
-        script runs (there is nothing to resume)."""
+        script runs (there is nothing to resume). ``changed_only``: nothing is written (and
+        None returned) when the newest backup already holds this very state."""
         if not self.engine.script_sha:
             return None
-        return self.engine.store.write(self.runtime.snapshot())
+        snapshot = self.runtime.snapshot()
+        if changed_only and self.engine.store.latest() == snapshot:
+            return None
+        return self.engine.store.write(snapshot)
 
     # --- between the pieces -------------------------------------------------------------
 

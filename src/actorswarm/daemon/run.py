@@ -3,13 +3,22 @@
 Start-up: the state directory gives the incarnation of this start (one more than the last)
 and the scripts deployed before; when the platform was running a script it rejoins it,
 restoring the actors of its latest backup (or starting the initial ones). A backup is
-taken after every transition, on a clean stop and when the operator asks (``gs backup``),
-so a daemon killed in the middle of a mission comes back in the actors it was running,
-with their plugins' state as of the last backup. Then it serves:
-heartbeats go out, the swarm is joined, the ground station's commands are obeyed. Every
-second it writes ``status.json`` in the state directory (what ``gs status`` and the tests
-read locally), and it logs one JSON object per line on stderr for the things an operator
-wants to see: start, master changes, transitions, stop.
+taken after every transition and when the operator asks (``gs backup``), and on a clean
+stop when the actors' state changed since the last one, so a daemon killed in the middle
+of a mission comes back in the actors it was running, with their plugins' state as of the
+last backup. Then it serves: heartbeats go out, the swarm is joined, the ground station's
+commands are obeyed. It keeps ``status.json`` in the state directory (what the tests and
+an operator on the robot read) and logs one JSON object per line on stderr for the things
+an operator wants to see: start, master changes, transitions, stop.
+
+Files are written only when what they say changed
+(:class:`~actorswarm.daemon.state.WritePacer`): ``status.json`` within a second of a change
+of the platform's state (master, members, actors, transitions, packets rejected...), but
+when only the packet counters moved (``traffic``, ``accepted``, ``dropped``) at most every
+:data:`_METERS_EVERY` seconds; its ``t`` is when it was written. The replay windows are
+saved at most every :data:`_REPLAY_EVERY` seconds, when a packet was accepted since. A
+platform alone rewrites only its status, every :data:`_METERS_EVERY` seconds (the heartbeats
+it sent).
 
 The lines a benchmark reads (``t`` is when the line was written; ``at`` the loop's time
 when the thing happened; ``traffic`` the cumulative ``[sent packets, sent bytes, received
@@ -44,20 +53,25 @@ from typing import TYPE_CHECKING, Any
 from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.endpoint import PlatformEndpoint
 from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
-from actorswarm.daemon.state import StateDir
+from actorswarm.daemon.state import StateDir, WritePacer
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
 
 if TYPE_CHECKING:
     from actorswarm.world.config import WorldConfig
 
-__all__ = ["DaemonOptions", "run_daemon"]
+__all__ = ["DaemonFiles", "DaemonOptions", "run_daemon"]
 
 log = logging.getLogger("actorswarm.daemon")
 
-#: Seconds between two saves of the replay windows (and at a clean stop). After a crash,
-#: packets of the last interval could be replayed once; each save is a file write.
+#: Seconds between two saves of the replay windows (and at a clean stop), when they changed.
+#: After a crash, packets of the last interval could be replayed once; each save is a file
+#: write.
 _REPLAY_EVERY = 5.0
+#: ``status.json``: a changed state is written within this many seconds.
+_STATUS_EVERY = 1.0
+#: ``status.json``: when only the packet counters moved, rewritten at most this often.
+_METERS_EVERY = 10.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,12 +91,10 @@ class DaemonOptions:
 @dataclass(slots=True)
 class _Seen:
     """What the daemon's loop already reported: the master it logged, how many transitions
-    it logged, when it last wrote the status file and the replay windows."""
+    it logged."""
 
     master: int | None = None
     transitions: int = 0
-    status: float = float("-inf")
-    replay: float = float("-inf")
 
 
 def _log(event: str, **fields: Any) -> None:
@@ -91,11 +103,13 @@ def _log(event: str, **fields: Any) -> None:
     log.info(json.dumps({"t": round(clock(), 6), "event": event, **fields}, default=str))
 
 
-def _write_status(
-    path: Path, endpoint: PlatformEndpoint, now: float, guard: PacketGuard, traffic: Traffic
-) -> None:
+def _status(
+    endpoint: PlatformEndpoint, guard: PacketGuard, traffic: Traffic
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """What ``status.json`` says: the platform's state, and the packet counters that move
+    all the time (written less often when nothing else changed)."""
     node, engine = endpoint.node, endpoint.engine
-    status = {
+    state = {
         "platform": node.platform,
         "incarnation": node.incarnation,
         "master": node.master,
@@ -112,17 +126,63 @@ def _write_status(
             for r in engine.transitions[-200:]
         ],
         "secure": guard.secure,
-        "accepted": guard.accepted,
         "rejected": dict(guard.rejected),
-        "dropped": dict(node.counters),
-        "traffic": traffic.as_dict(),
         "position": endpoint.runtime.position(),
         "pid": os.getpid(),
-        "t": now,
     }
+    meters = {
+        "accepted": guard.accepted,
+        "dropped": dict(node.counters),
+        "traffic": traffic.as_dict(),
+    }
+    return state, meters
+
+
+def _write_status(path: Path, state: dict[str, Any], meters: dict[str, Any], now: float) -> None:
     partial = path.with_name(path.name + ".partial")
-    partial.write_text(json.dumps(status))
+    partial.write_text(json.dumps({**state, **meters, "t": now}))
     partial.replace(path)
+
+
+class DaemonFiles:
+    """The files a running daemon rewrites, ``status.json`` and the replay windows, each
+    written when what it says changed (:class:`~actorswarm.daemon.state.WritePacer`). Made
+    once the replay windows of the last life are restored into ``guard``: they are on disk
+    already."""
+
+    def __init__(
+        self, state: StateDir, endpoint: PlatformEndpoint, guard: PacketGuard, traffic: Traffic
+    ) -> None:
+        self.state = state
+        self.status_file = state.path / "status.json"
+        self.endpoint = endpoint
+        self.guard = guard
+        self.traffic = traffic
+        self.status = WritePacer(_STATUS_EVERY, _METERS_EVERY)
+        self.replay = WritePacer(_REPLAY_EVERY, seen=guard.replay_snapshot())
+
+    def wake(self, now: float) -> None:
+        """After a wake of the loop: look at what is due (building the status costs, so at
+        most once per period), write what changed."""
+        if self.status.due(now):
+            self._save_status(now)
+        if self.replay.due(now):
+            self._save_replay(now)
+
+    def close(self, now: float) -> None:
+        """At a clean stop: write whatever differs from what was last written."""
+        self._save_status(now, closing=True)
+        self._save_replay(now, closing=True)
+
+    def _save_status(self, now: float, *, closing: bool = False) -> None:
+        content, meters = _status(self.endpoint, self.guard, self.traffic)
+        if self.status.changed(now, content, meters, closing=closing):
+            _write_status(self.status_file, content, meters, now)
+
+    def _save_replay(self, now: float, *, closing: bool = False) -> None:
+        windows = self.guard.replay_snapshot()
+        if self.replay.changed(now, windows, closing=closing):
+            self.state.save_replay_windows(windows)
 
 
 async def _main(options: DaemonOptions) -> int:
@@ -183,9 +243,9 @@ async def _main(options: DaemonOptions) -> int:
         vehicle="sim" if world is not None else "none",
         position=endpoint.runtime.position(),
     )
-    status_file = options.state_dir / "status.json"
     seen = _Seen()
     traffic = Traffic()
+    files = DaemonFiles(state, endpoint, guard, traffic)
 
     def on_wake(t: float) -> None:
         if world is not None:
@@ -235,12 +295,7 @@ async def _main(options: DaemonOptions) -> int:
             seen.transitions += len(fresh)
             # A crash from now on resumes these actors, not the ones before the switch.
             endpoint.backup()
-        if t - seen.status >= 1.0:
-            seen.status = t
-            _write_status(status_file, endpoint, t, guard, traffic)
-        if t - seen.replay >= _REPLAY_EVERY:
-            seen.replay = t
-            state.save_replay_windows(guard.replay_snapshot())
+        files.wake(t)
 
     try:
         with transport:
@@ -248,9 +303,9 @@ async def _main(options: DaemonOptions) -> int:
                 endpoint, transport, inbox, stop, on_wake=on_wake, guard=guard, traffic=traffic
             )
     finally:
-        generation = endpoint.backup()  # a clean stop resumes where it stopped
-        _write_status(status_file, endpoint, clock(), guard, traffic)
-        state.save_replay_windows(guard.replay_snapshot())
+        # A clean stop resumes where it stopped (nothing written if the last backup says it).
+        generation = endpoint.backup(changed_only=True)
+        files.close(clock())
         _log("stopped", platform=options.platform, backup=generation)
     return 0
 

@@ -15,6 +15,10 @@ Layout (all written atomically: a temporary file, ``fsync``, then a rename):
 ``backups/``
     The runtime's backups (:class:`~actorswarm.runtime.storage.FileBackupStore`); a
     restarted daemon restores the latest.
+
+The files a running daemon rewrites (``status.json``, ``replay.json``) go through a
+:class:`WritePacer`: written when their content changed, never more often than their
+period (flash storage wears, and every write costs the robot time).
 """
 
 from __future__ import annotations
@@ -26,7 +30,55 @@ from pathlib import Path
 
 from actorswarm.runtime.storage import FileBackupStore
 
-__all__ = ["StateDir"]
+__all__ = ["StateDir", "WritePacer"]
+
+
+class WritePacer:
+    """When to rewrite a file whose content is made again and again: only when it changed,
+    and at most once per ``every`` seconds.
+
+    The caller asks :meth:`due` (cheap) before it builds the content, then :meth:`changed`
+    with it: ``content`` is what matters, compared with what was last written; ``meters``
+    are counters that move all the time (packets sent and accepted): when only they
+    moved, the file is rewritten at most once per ``meters_every`` seconds, so the counters
+    it shows are never older than that. ``seen`` is the content already on disk (a file
+    restored at start that need not be written back)."""
+
+    def __init__(
+        self, every: float, meters_every: float | None = None, *, seen: object = None
+    ) -> None:
+        self.every = every
+        self.meters_every = every if meters_every is None else meters_every
+        self._checked = float("-inf")
+        self._written = float("-inf")
+        self._content: object = seen
+        self._meters: object = None
+        self.writes = 0
+
+    def due(self, now: float) -> bool:
+        """Whether a check is due: ``every`` seconds since the last one."""
+        return now - self._checked >= self.every
+
+    def changed(
+        self, now: float, content: object, meters: object = None, *, closing: bool = False
+    ) -> bool:
+        """Record a check at ``now``; True when the file must be written with this content
+        (the caller writes it), False when what is on disk still says it or the last check
+        was less than ``every`` seconds ago. ``closing`` (the daemon stops): the periods do
+        not apply, any difference from what was written is written."""
+        same = content == self._content
+        if closing:
+            if same and meters == self._meters:
+                return False
+        else:
+            if not self.due(now):
+                return False
+            self._checked = now
+            if same and (meters == self._meters or now - self._written < self.meters_every):
+                return False
+        self._content, self._meters, self._written = content, meters, now
+        self.writes += 1
+        return True
 
 
 def _write_atomic(path: Path, data: bytes, *, sync: bool = True) -> None:
@@ -91,7 +143,8 @@ class StateDir:
 
     def save_replay_windows(self, windows: dict[int, tuple[int, int]]) -> None:
         data = {str(sender): list(window) for sender, window in windows.items()}
-        # Written every second: no fsync (flash storage wears), a rename is still atomic.
+        # Rewritten while the daemon runs: no fsync (flash storage wears), a rename is still
+        # atomic.
         _write_atomic(self.path / "replay.json", json.dumps(data).encode(), sync=False)
 
     def replay_windows(self) -> dict[int, tuple[int, int]]:

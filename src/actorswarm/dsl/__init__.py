@@ -14,28 +14,76 @@ back in the canonical form; :func:`schema_path` is the XSD for editors. The form
 check are described in ``docs/task-scripts.md``.
 """
 
-from pathlib import Path
+from __future__ import annotations
 
-from actorswarm.dsl.checker import CheckResult, check, check_file, load
-from actorswarm.dsl.diagnostics import Diagnostic, ScriptError
-from actorswarm.dsl.graph import Edge, state_edges, to_dot, to_mermaid
-from actorswarm.dsl.model import (
-    BUSES,
-    Actor,
-    Branch,
-    BusName,
-    Count,
-    Param,
-    PlatformLine,
-    PluginSpec,
-    Position,
-    SysNum,
-    TaskScript,
-    Transition,
-)
-from actorswarm.dsl.parser import DEFAULT_MAX_BYTES
-from actorswarm.dsl.plugins import BUILTIN_PLUGINS, ENTRY_POINT_GROUP, installed_plugins
-from actorswarm.dsl.writer import to_xml
+import importlib
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from actorswarm.dsl.checker import CheckResult, check, check_file, load
+    from actorswarm.dsl.diagnostics import Diagnostic, ScriptError
+    from actorswarm.dsl.graph import Edge, state_edges, to_dot, to_mermaid
+    from actorswarm.dsl.model import (
+        BUSES,
+        Actor,
+        Branch,
+        BusName,
+        Count,
+        Param,
+        PlatformLine,
+        PluginSpec,
+        Position,
+        SysNum,
+        TaskScript,
+        Transition,
+    )
+    from actorswarm.dsl.parser import DEFAULT_MAX_BYTES
+    from actorswarm.dsl.plugins import BUILTIN_PLUGINS, ENTRY_POINT_GROUP, installed_plugins
+    from actorswarm.dsl.writer import to_xml
+
+#: Where each name of ``__all__`` lives. They are imported on first use (PEP 562), not with
+#: the package: the daemon needs only :mod:`.model` until a script is deployed, and the
+#: checker, the writer (``xml.sax.saxutils`` pulls in ``urllib``, ``http`` and ``ssl``) and
+#: the plugin listing would otherwise load with any ``actorswarm.dsl.*`` module.
+_WHERE = {
+    **dict.fromkeys(("CheckResult", "check", "check_file", "load"), "checker"),
+    **dict.fromkeys(("Diagnostic", "ScriptError"), "diagnostics"),
+    **dict.fromkeys(("Edge", "state_edges", "to_dot", "to_mermaid"), "graph"),
+    **dict.fromkeys(
+        (
+            "BUSES",
+            "Actor",
+            "Branch",
+            "BusName",
+            "Count",
+            "Param",
+            "PlatformLine",
+            "PluginSpec",
+            "Position",
+            "SysNum",
+            "TaskScript",
+            "Transition",
+        ),
+        "model",
+    ),
+    "DEFAULT_MAX_BYTES": "parser",
+    **dict.fromkeys(("BUILTIN_PLUGINS", "ENTRY_POINT_GROUP", "installed_plugins"), "plugins"),
+    "to_xml": "writer",
+}
+
+
+def __getattr__(name: str) -> object:
+    where = _WHERE.get(name)
+    if where is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{where}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_WHERE})
 
 
 def schema_path() -> Path:

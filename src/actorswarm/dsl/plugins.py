@@ -23,12 +23,14 @@ classes cannot be loaded, and is tested to read values as the classes do.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from importlib.metadata import entry_points
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from actorswarm.dsl import syntax
+
+if TYPE_CHECKING:
+    from importlib.metadata import EntryPoint
 
 #: The entry-point group plugins register under.
 ENTRY_POINT_GROUP = "actorswarm.plugins"
@@ -99,6 +101,15 @@ def param_rules(name: str) -> Mapping[str, _ParamLike] | None:
         return param_schema(name)
     except RegistryError:
         return BUILTIN_PLUGINS.get(name)
+
+
+def entry_points(*, group: str) -> Iterable[EntryPoint]:
+    """The installed entry points of ``group``. :mod:`importlib.metadata` (zipfile, email,
+    csv...) is imported on the first call, not with this module: the checker lists plugins
+    only when a script is checked, and a daemon without a script never does."""
+    from importlib.metadata import entry_points as listed
+
+    return listed(group=group)
 
 
 def installed_plugins() -> frozenset[str]:

@@ -43,7 +43,7 @@ import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
 
@@ -60,7 +60,6 @@ from actorswarm.core.events import (
 )
 from actorswarm.core.node import Node
 from actorswarm.core.wire import GROUND_STATION, BarrierRequest
-from actorswarm.dsl.checker import check
 from actorswarm.dsl.model import Transition
 from actorswarm.engine import commands as cmds
 from actorswarm.engine.assign import assign_slots
@@ -68,6 +67,9 @@ from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
 from actorswarm.runtime.collective import PLUGIN_KEY_BASE, plugin_view
 from actorswarm.runtime.storage import BackupStore, MemoryBackupStore
+
+if TYPE_CHECKING:
+    from actorswarm.dsl.checker import CheckResult
 
 Cause = Literal["barrier", "timeout", "forced", "start"]
 
@@ -626,7 +628,7 @@ class TaskEngine:
         text = b"".join(parts[i] for i in range(chunk.total))
         if hashlib.sha256(text).hexdigest() != chunk.sha256:
             raise ValueError("the script does not hash to the SHA-256 it was sent with")
-        result = check(text.decode("utf-8", errors="replace"), path=f"deploy:{chunk.sha256[:12]}")
+        result = _check(text.decode("utf-8", errors="replace"), f"deploy:{chunk.sha256[:12]}")
         if result.script is None or not result.ok:
             first = next((str(d) for d in result.diagnostics), "the script is invalid")
             raise ValueError(f"script refused: {first}")
@@ -640,7 +642,7 @@ class TaskEngine:
         """Register ``script`` as deployed (a daemon restarting with the scripts of its state
         directory); returns its SHA-256. ValueError when the script is invalid."""
         sha = hashlib.sha256(script).hexdigest()
-        result = check(script.decode("utf-8", errors="replace"), path=f"kept:{sha[:12]}")
+        result = _check(script.decode("utf-8", errors="replace"), f"kept:{sha[:12]}")
         if result.script is None or not result.ok:
             first = next((str(d) for d in result.diagnostics), "the script is invalid")
             raise ValueError(f"script {sha[:12]} refused: {first}")
@@ -716,6 +718,15 @@ class TaskEngine:
             )
         )
         self._announce(now)
+
+
+def _check(text: str, path: str) -> CheckResult:
+    """The DSL checker on a script deployed or kept. Imported here, not with the module: the
+    checker (parser, rules, plugin discovery through the installed entry points) costs
+    memory and start-up time a platform without a script does not need."""
+    from actorswarm.dsl.checker import check
+
+    return check(text, path=path)
 
 
 def _scattered_successor(data: Any, transition: Transition) -> str | None:

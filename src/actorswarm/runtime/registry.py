@@ -30,11 +30,13 @@ import importlib
 import inspect
 import re
 from collections.abc import Mapping
-from importlib import metadata
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
 from actorswarm.runtime.plugin import Param, Plugin
 from actorswarm.suggest import did_you_mean as _did_you_mean
+
+if TYPE_CHECKING:
+    from importlib import metadata
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -88,6 +90,10 @@ class _Cache:
 
     def entry_points(self) -> dict[str, list[metadata.EntryPoint]]:
         if self.listing is None:
+            # importlib.metadata (zipfile, email, csv...) is imported here, when a plugin is
+            # first looked up, not with the module: a daemon without a script never needs it.
+            from importlib import metadata
+
             listing: dict[str, list[metadata.EntryPoint]] = {}
             for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
                 same = listing.setdefault(ep.name, [])

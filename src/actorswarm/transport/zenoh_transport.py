@@ -24,6 +24,10 @@ Discovery: multicast scouting is on by default (peers find each other on the LAN
 keep-alives per lease) so a dead peer's session is torn down quickly and Zenoh does not
 keep buffering for it; failure detection itself stays the core's (heartbeats, 500 ms).
 
+Memory: Zenoh's buffers are sized for a small robot (:data:`SMALL_ROBOT`, the figures in
+``docs/deploying.md``): no shared-memory transport, 8 KiB batches instead of 64 KiB, and a
+1 MiB cap on a reassembled message.
+
 Threads: Zenoh calls the receive callback on its own threads. The callback given here must
 be thread-safe; the daemon's passes the bytes to its asyncio loop with
 ``call_soon_threadsafe`` and nothing else.
@@ -40,9 +44,35 @@ from typing import Any
 
 import zenoh
 
-__all__ = ["ZenohSettings", "ZenohTransport", "key_prefix"]
+__all__ = ["SMALL_ROBOT", "ZenohSettings", "ZenohTransport", "key_prefix"]
 
 log = logging.getLogger("actorswarm.transport")
+
+#: Zenoh configuration for a robot's one daemon (``ZenohSettings.extra`` overrides any).
+#:
+#: * ``shared_memory``: off. It only helps processes on one host, and Zenoh maps a 16 MiB
+#:   pool per process as soon as a message over 3 KiB goes to a local peer: 30 Zenoh
+#:   peers on one host putting a 16 KB message every 5 s reached 622 MiB RSS each with it,
+#:   34 MiB without it.
+#: * ``batch_size`` and ``rx/buffer_size``: 8 KiB. A link's transmit queues hold two batches
+#:   per priority in use (this transport uses two, Zenoh its control one) and its receiver
+#:   a pool of batch-sized buffers, so their memory scales with the batch size times the
+#:   number of peers. Heartbeats and the core's control packets are a few hundred bytes; a
+#:   larger packet (a 16 KB deploy chunk) is fragmented by Zenoh and reassembled, also
+#:   to and from a peer left at Zenoh's 64 KiB default (tested).
+#: * ``rx/max_message_size``: 1 MiB instead of 1 GiB: the most a peer can make this process
+#:   hold for one fragmented message (Zenoh sits below the packet guard: the peer need not
+#:   be authenticated). The core refuses packets over ``max_packet_bytes`` (60 000 by
+#:   default) anyway.
+#:
+#: Zenoh's queue lengths stay at its default (two batches per priority, allocated when a
+#: priority is first used): shorter queues would drop a burst of packets to a busy peer.
+SMALL_ROBOT: dict[str, Any] = {
+    "transport/shared_memory/enabled": False,
+    "transport/link/tx/batch_size": 8192,
+    "transport/link/rx/buffer_size": 8192,
+    "transport/link/rx/max_message_size": 1 << 20,
+}
 
 
 def key_prefix(swarm: str) -> str:
@@ -85,7 +115,7 @@ class ZenohSettings:
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
         cfg.insert_json5("transport/link/tx/lease", json.dumps(self.lease_ms))
         cfg.insert_json5("transport/link/tx/keep_alive", json.dumps(4))
-        for key, value in self.extra.items():
+        for key, value in {**SMALL_ROBOT, **self.extra}.items():
             cfg.insert_json5(key, json.dumps(value))
         return cfg
 

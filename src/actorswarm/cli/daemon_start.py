@@ -1,0 +1,179 @@
+"""``actorswarm daemon`` without typer: what the command does once its options are known
+(:func:`start_daemon`), and a strict reader of its command line (:func:`parse_daemon_args`).
+
+A robot's daemon runs for hours in its own process: everything imported before it starts
+stays in its memory. :func:`actorswarm.cli.main` therefore reads a well-formed ``daemon``
+command line here and starts the daemon without loading typer, rich or the other commands'
+modules. The reader accepts only what the typer command
+(:func:`actorswarm.cli.daemon_cmd.daemon`) accepts, with the same meaning; for anything else
+— ``--help``, an unknown option, a missing or malformed value, a repeated option — it
+answers None and the full command line handles the arguments, so the help and every usage
+error are typer's own. The checks after parsing (:func:`start_daemon`) are shared by both
+paths.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["OPTIONS", "parse_daemon_args", "start_daemon"]
+
+#: The daemon's options: command-line name -> (parameter, kind). ``value``: one string;
+#: ``int``: a platform ID; ``path``: a file or directory; ``list``: repeatable; ``flag``:
+#: True when given; ``on``/``off``: the two sides of a boolean switch.
+OPTIONS: dict[str, tuple[str, str]] = {
+    "--platform": ("platform", "int"),
+    "--swarm": ("swarm", "value"),
+    "--transport": ("transport", "value"),
+    "--listen": ("listen", "list"),
+    "--connect": ("connect", "list"),
+    "--multicast": ("multicast", "on"),
+    "--no-multicast": ("multicast", "off"),
+    "--state-dir": ("state_dir", "path"),
+    "--keys": ("keys", "path"),
+    "--insecure": ("insecure", "flag"),
+    "--vehicle": ("vehicle", "value"),
+    "--world": ("world", "path"),
+    "--config": ("config", "path"),
+}
+
+#: The values the typer command checks itself (``min=1, max=65535``).
+_PLATFORM_RANGE = range(1, 65536)
+
+
+def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
+    """The keyword arguments of :func:`start_daemon` for the daemon's command line ``args``
+    (what follows ``daemon``), or None when the full command line must handle them."""
+    values: dict[str, Any] = {
+        "platform": None,
+        "swarm": None,
+        "transport": None,
+        "listen": None,
+        "connect": None,
+        "multicast": None,
+        "state_dir": None,
+        "keys": None,
+        "insecure": False,
+        "vehicle": None,
+        "world": None,
+        "config": None,
+    }
+    given: set[str] = set()
+    i = 0
+    while i < len(args):
+        name, eq, inline = args[i].partition("=")
+        i += 1
+        spec = OPTIONS.get(name)
+        if spec is None:
+            return None  # --help, a positional argument, an unknown option, "--"
+        param, kind = spec
+        if kind in ("flag", "on", "off"):
+            if eq or param in given:
+                return None
+            given.add(param)
+            values[param] = kind != "off"
+            continue
+        if eq:
+            text = inline
+        elif i < len(args):
+            text = args[i]
+            i += 1
+        else:
+            return None  # the option's value is missing
+        if not text or text.startswith("-"):
+            return None
+        if kind == "list":
+            values[param] = [*(values[param] or []), text]
+            continue
+        if param in given:
+            return None
+        given.add(param)
+        if kind == "int":
+            if not (text.isascii() and text.isdigit()) or int(text) not in _PLATFORM_RANGE:
+                return None
+            values[param] = int(text)
+        elif kind == "path":
+            values[param] = Path(text)
+        else:
+            values[param] = text
+    return values
+
+
+def start_daemon(
+    *,
+    platform: int | None,
+    swarm: str | None,
+    transport: str | None,
+    listen: list[str] | None,
+    connect: list[str] | None,
+    multicast: bool | None,
+    state_dir: Path | None,
+    keys: Path | None,
+    insecure: bool,
+    vehicle: str | None,
+    world: Path | None,
+    config: Path | None,
+) -> int:
+    """Check the options (the command line, then the ``--config`` file, then the defaults)
+    and run the daemon until a signal; returns its exit status. A problem with the options
+    is printed on stderr and raises SystemExit(2) before anything starts."""
+    from actorswarm.cli.swarm_setup import check_swarm, packet_guard, refuse, zenoh_settings
+    from actorswarm.core.config import CoreConfig
+    from actorswarm.daemon.config import (
+        DaemonConfigError,
+        DaemonFile,
+        daemon_core,
+        load_daemon_config,
+    )
+    from actorswarm.daemon.run import DaemonOptions, run_daemon
+
+    file, core = DaemonFile(), CoreConfig()
+    base = Path.cwd()
+    if config is not None:
+        try:
+            file, core = load_daemon_config(config)
+        except DaemonConfigError as exc:
+            raise refuse(str(exc)) from None
+        base = config.resolve().parent
+    platform = platform if platform is not None else file.platform
+    if platform is None:
+        raise refuse("which platform is this? give --platform ID (or platform = ID in --config)")
+    swarm = swarm or file.swarm or "swarm"
+    check_swarm(swarm)
+    chosen_transport = transport or file.transport or "zenoh"
+    if chosen_transport != "zenoh":
+        raise refuse(f"--transport {chosen_transport!r}: the transports are: zenoh")
+    chosen_vehicle = vehicle or file.vehicle or "none"
+    if chosen_vehicle not in ("none", "sim"):
+        raise refuse(f"--vehicle {chosen_vehicle!r}: the vehicles are: none, sim")
+    world_file = world or file.path(file.world, base)
+    if world_file is not None and chosen_vehicle != "sim":
+        raise refuse("--world describes a simulated vehicle's world: give --vehicle sim too")
+    if world_file is not None and not world_file.is_file():
+        raise refuse(f"--world {world_file}: no such file")
+    world_config = None
+    if chosen_vehicle == "sim":
+        from actorswarm.world.config import WorldError, load_world
+
+        try:
+            world_config = load_world(world_file)
+        except WorldError as exc:
+            raise refuse(str(exc)) from None
+    guard = packet_guard(keys or file.path(file.keys, base), insecure or file.insecure, "platform")
+    settings = zenoh_settings(
+        list(connect or file.connect) or None,
+        list(listen or file.listen) or None,
+        multicast if multicast is not None else file.multicast is not False,
+    )
+    options = DaemonOptions(
+        guard=guard,
+        platform=platform,
+        swarm=swarm,
+        state_dir=state_dir or file.path(file.state_dir, base) or Path(f"state-{platform}"),
+        zenoh=settings,
+        config=daemon_core(core),
+        world=world_config,
+    )
+    return run_daemon(options)

@@ -1,0 +1,59 @@
+"""Turning the options of a command that talks to a real swarm into a packet guard and a
+Zenoh configuration, with a clear error on stderr and exit status 2 when they are not
+usable. Free of typer, so ``actorswarm daemon`` can use it without loading the rest of the
+command line (:mod:`actorswarm.cli.daemon_start`); the typer options themselves are in
+:mod:`actorswarm.cli.swarm_options`."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Literal
+
+from actorswarm.security.guard import PacketGuard
+from actorswarm.transport.zenoh_transport import ZenohSettings, key_prefix
+
+__all__ = ["check_swarm", "packet_guard", "refuse", "zenoh_settings"]
+
+
+def refuse(message: str) -> SystemExit:
+    """Print ``message`` on stderr; the exit (status 2) for the caller to raise."""
+    print(message, file=sys.stderr, flush=True)
+    return SystemExit(2)
+
+
+def packet_guard(
+    keys: Path | None, insecure: bool, role: Literal["platform", "ground"]
+) -> PacketGuard:
+    """The packet guard for ``role``, or a clear error and exit 2 when the keys are not
+    usable."""
+    from actorswarm.security import KeyFileError, default_key_dir, load_keys
+
+    if insecure:
+        print("WARNING: --insecure: packets are not authenticated", file=sys.stderr, flush=True)
+        return PacketGuard.insecure()
+    directory = keys or default_key_dir()
+    try:
+        loaded = load_keys(directory, need_private=role == "ground")
+    except KeyFileError as exc:
+        raise refuse(
+            f"{exc}\ncreate keys with `actorswarm keys init --dir {directory}` and copy "
+            "swarm.key and ground_station.pub to every platform, or run with --insecure"
+        ) from None
+    return PacketGuard.from_keys(loaded, role=role)
+
+
+def zenoh_settings(
+    connect: list[str] | None, listen: list[str] | None, multicast: bool
+) -> ZenohSettings:
+    return ZenohSettings(
+        listen=tuple(listen or ()), connect=tuple(connect or ()), multicast=multicast
+    )
+
+
+def check_swarm(swarm: str) -> None:
+    """Exit 2 with the reason when ``swarm`` cannot be a swarm's name."""
+    try:
+        key_prefix(swarm)
+    except ValueError as exc:
+        raise refuse(str(exc)) from None
