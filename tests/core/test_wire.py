@@ -46,9 +46,13 @@ from actorswarm.core.wire import (
     Sync,
     WireError,
     decode,
+    decode_body,
     encode,
+    open_frame,
+    seal,
     signed_part,
 )
+from actorswarm.core.wire import covered as covered_part
 
 SWARM = "alpha"
 
@@ -603,3 +607,38 @@ def test_signed_part_of_garbage_is_wire_error(data: bytes, reason: str) -> None:
     with pytest.raises(WireError) as info:
         signed_part(data)
     assert info.value.reason == reason, f"{info.value}, want {reason}"
+
+
+# --- sealing by slicing -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("auth", [b"t" * 32, b"s" * 96, b"x"], ids=["tag", "tag+signature", "one"])
+def test_seal_puts_the_tag_in_the_empty_slot_and_covered_takes_it_out(auth: bytes) -> None:
+    data = _encode(BODIES[0])
+    covered, _ = seal(data, b"")
+    assert covered == data[:-4], "what a tag covers is the frame as the core made it"
+    again, sealed = seal(data, auth)
+    assert again == covered
+    assert sealed == _encode(BODIES[0], auth=auth), "the same bytes the encoder would write"
+    env = open_frame(sealed)
+    assert env.auth == auth and covered_part(sealed, env) == covered
+    assert decode_body(env).body == BODIES[0]
+
+
+def test_seal_refuses_bytes_the_core_never_produces() -> None:
+    with pytest.raises(ValueError, match="not empty"):
+        seal(_encode(BODIES[0], auth=b"x"), b"y")
+    with pytest.raises(ValueError, match="frame check"):
+        seal(_flip(_encode(BODIES[0]), 3), b"y")
+    with pytest.raises(ValueError, match="at most 128"):
+        seal(_encode(BODIES[0]), b"z" * 129)
+
+
+@given(st.binary(max_size=120).map(frame))
+def test_open_frame_and_covered_are_total(data: bytes) -> None:
+    try:
+        env = open_frame(data)
+    except WireError as exc:
+        assert exc.reason in {"checksum", "malformed", "version", "type", "oversized"}
+        return
+    assert isinstance(covered_part(data, env), bytes)

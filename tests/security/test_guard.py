@@ -170,7 +170,7 @@ def test_seal_refuses_what_the_core_never_produces() -> None:
     guard = platform_guard()
     with pytest.raises(ValueError, match="not a packet"):
         guard.seal(b"\x00" * 20)
-    with pytest.raises(ValueError, match="already sealed"):
+    with pytest.raises(ValueError, match="auth slot is not empty"):
         guard.seal(guard.seal(raw()))
 
 
@@ -273,6 +273,15 @@ def _signature_on_another_packet() -> bytes:
     return with_auth(genuine, decode(genuine).auth[:32] + sig)
 
 
+def _wide_slot(data: bytes) -> bytes:
+    """The genuine tag, written as msgpack ``bin16`` instead of ``bin8``: the same values,
+    other bytes, which the tag does not cover."""
+    frame = data[:-4]
+    tag = frame[-32:]
+    assert frame[-34:-32] == b"\xc4\x20"
+    return reframe(frame[:-34] + b"\xc5\x00\x20" + tag)
+
+
 FORGERIES = [
     ("no tag", raw, "unauthenticated"),
     ("random tag", lambda: with_auth(raw(), secrets.token_bytes(32)), "bad_tag"),
@@ -291,6 +300,7 @@ FORGERIES = [
         lambda: with_auth(operator(), decode(operator()).auth[:50]),
         "bad_signature",
     ),
+    ("tag in a 16-bit length slot", lambda: _wide_slot(sealed()), "bad_tag"),
     ("truncated", lambda: sealed()[:-1], "malformed"),
     ("header only", lambda: sealed()[:10], "malformed"),
     ("empty", lambda: b"", "malformed"),
@@ -307,6 +317,32 @@ def test_forgeries_are_refused_under_their_reason(make: object, reason: str) -> 
     refused(guard, data, reason)
     assert guard.rejected == Counter({reason: 1})
     assert reason in REASONS
+
+
+@pytest.mark.parametrize(
+    "make",
+    [f[1] for f in FORGERIES if f[2] != "malformed"],
+    ids=[f[0] for f in FORGERIES if f[2] != "malformed"],
+)
+def test_a_forged_packet_never_reaches_the_body_decoder(
+    make: object, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The tag is checked over the raw bytes first: refusing a forgery costs no body
+    decode (a genuine packet costs exactly one)."""
+    calls: list[int] = []
+    real = wire.decode_body
+
+    def counting(env: wire.Envelope) -> Packet:
+        calls.append(env.seq)
+        return real(env)
+
+    guard = platform_guard()
+    data = make()  # type: ignore[operator]
+    monkeypatch.setattr(wire, "decode_body", counting)
+    assert guard.check(data, 0.0) is None
+    assert calls == []
+    assert guard.check(sealed(seq=9), 0.0) is not None
+    assert calls == [9]
 
 
 def test_a_captured_robot_cannot_command_but_the_ground_station_can() -> None:

@@ -437,7 +437,20 @@ def encode(
 def decode(data: bytes, *, swarm: str | None = None, max_bytes: int = DEFAULT_MAX_BYTES) -> Packet:
     """Decode untrusted bytes into a :class:`Packet`, or raise :class:`WireError`.
 
-    When ``swarm`` is given, packets of another swarm are refused (reason ``swarm``).
+    When ``swarm`` is given, packets of another swarm are refused (reason ``swarm``). The
+    same as :func:`open_frame` then :func:`decode_body`.
+    """
+    return decode_body(open_frame(data, swarm=swarm, max_bytes=max_bytes))
+
+
+def open_frame(
+    data: bytes, *, swarm: str | None = None, max_bytes: int = DEFAULT_MAX_BYTES
+) -> Envelope:
+    """The first half of :func:`decode`: size, CRC-32, header, protocol version, swarm and a
+    known body type are checked; the body stays encoded (:class:`WireError` on any failure).
+
+    A security layer checks the tag here, over the raw bytes (:func:`covered`), so a forged
+    packet costs no body decode.
     """
     if len(data) > max_bytes:
         raise WireError("oversized", f"{len(data)} bytes > limit {max_bytes}")
@@ -446,6 +459,14 @@ def decode(data: bytes, *, swarm: str | None = None, max_bytes: int = DEFAULT_MA
         raise WireError("version", f"protocol version {env.version}, expected {PROTOCOL_VERSION}")
     if swarm is not None and env.swarm != swarm:
         raise WireError("swarm", f"packet of swarm {env.swarm!r}, this is {swarm!r}")
+    if env.type not in _BODY_DECODERS:
+        raise WireError("type", f"unknown packet type {env.type}")
+    return env
+
+
+def decode_body(env: Envelope) -> Packet:
+    """The second half of :func:`decode`: the body of an envelope :func:`open_frame`
+    accepted, decoded and validated once (:class:`WireError` ``malformed`` or ``type``)."""
     decoder = _BODY_DECODERS.get(env.type)
     if decoder is None:
         raise WireError("type", f"unknown packet type {env.type}")
@@ -476,21 +497,47 @@ def _unframe(data: bytes) -> Envelope:
         raise WireError("malformed", f"bad header: {exc}") from None
 
 
-def signed_part(data: bytes) -> bytes:
-    """The bytes an authentication tag covers: the packet re-encoded with an empty tag.
+# --- the authentication slot ----------------------------------------------------------------
+#
+# ``auth`` is the envelope's last field, and msgpack writes bytes shorter than 256 (the slot
+# holds at most 128) as ``0xc4 <length> <bytes>``. So a packet as the core encodes it ends
+# with ``0xc4 0x00`` and its CRC, and the tag can be put in (and taken out) by slicing, with
+# no decode and no re-encode: the tag covers exactly the frame the core made.
 
-    A security layer computes its tag over this and stores it in ``auth``; raises
-    :class:`WireError` on bytes that are not an envelope.
+_EMPTY_AUTH: Final = b"\xc4\x00"
+
+
+def covered(data: bytes, env: Envelope) -> bytes:
+    """What the tag of the packet ``data`` (whose envelope :func:`open_frame` gave as
+    ``env``) covers: the frame as its sender's core made it, with an empty ``auth`` slot.
+
+    Bytes whose slot is not written the way :func:`seal` writes it give bytes no genuine tag
+    covers (the check then fails, as it should)."""
+    slot = 2 + len(env.auth)
+    return data[: len(data) - 4 - slot] + _EMPTY_AUTH
+
+
+def seal(data: bytes, auth: bytes) -> tuple[bytes, bytes]:
+    """Put ``auth`` into the empty slot of ``data`` (a packet as :func:`encode` made it,
+    ``auth`` empty); returns ``(covered, sealed)``, where ``covered`` is what a tag over
+    the packet covers — call it with ``auth=b""`` first to compute the tag, then again with
+    the tag. Raises :class:`ValueError` for bytes that are not such a packet (a bug of the
+    caller, not something from the network): only the CRC and the slot are looked at.
     """
-    env = _unframe(data)
-    return _ENCODER.encode(
-        Envelope(
-            version=env.version,
-            swarm=env.swarm,
-            sender=env.sender,
-            incarnation=env.incarnation,
-            seq=env.seq,
-            type=env.type,
-            body=env.body,
-        )
-    )
+    if len(auth) > 128:
+        raise ValueError(f"an auth slot holds at most 128 bytes, not {len(auth)}")
+    frame = data[:-4]
+    if len(data) < 7 or zlib.crc32(frame).to_bytes(4, "big") != data[-4:]:
+        raise ValueError("cannot seal bytes that are not a packet: frame check failed")
+    if frame[-2:] != _EMPTY_AUTH:
+        raise ValueError("cannot seal a packet whose auth slot is not empty")
+    if not auth:
+        return frame, data
+    sealed = frame[:-2] + b"\xc4" + bytes((len(auth),)) + auth
+    return frame, sealed + zlib.crc32(sealed).to_bytes(4, "big")
+
+
+def signed_part(data: bytes) -> bytes:
+    """The bytes an authentication tag covers (:func:`covered` of ``data``); raises
+    :class:`WireError` on bytes that are not an envelope."""
+    return covered(data, _unframe(data))

@@ -8,8 +8,10 @@ produced. The
 endpoint itself never sees a clock or a socket, which is why the same objects run in the
 simulator.
 
-With a :class:`Traffic` it counts the packets and bytes it hands to the transport and
-takes from it: what travels on the wire, sealed.
+Packets go in and out through one :class:`~actorswarm.transport.pipeline.Pipeline`, the
+same the simulator uses: sealed once on the way out, checked over the raw bytes before
+their body is decoded on the way in. With a :class:`Traffic` it counts the packets and
+bytes it hands to the transport and takes from it: what travels on the wire, sealed.
 
 The clock is :func:`time.monotonic`: timers must not jump with the wall clock's
 corrections (NTP), and the swarm never compares clocks across platforms.
@@ -22,12 +24,11 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Protocol
 
-from actorswarm.core.wire import URGENT
 from actorswarm.daemon.endpoint import Endpoint
 from actorswarm.security.guard import PacketGuard
+from actorswarm.transport.base import Transport
+from actorswarm.transport.pipeline import Pipeline, Traffic
 
 __all__ = ["Inbox", "Traffic", "Transport", "clock", "flush", "serve"]
 
@@ -38,39 +39,6 @@ _IDLE = 0.5
 def clock() -> float:
     """The host's time, seconds (monotonic)."""
     return time.monotonic()
-
-
-class Transport(Protocol):
-    def send(self, dst: int | None, data: bytes, *, urgent: bool = False) -> None: ...
-
-
-@dataclass(slots=True)
-class Traffic:
-    """Packets and bytes a host loop sent and received, counted where the bytes meet the
-    transport: a packet sent is one :meth:`Transport.send` (a broadcast counts once, however
-    many peers the transport copies it to), its size is the sealed packet's; a packet
-    received is one the transport delivered, counted before it is checked (refused ones
-    too). ``at_wake`` holds the counters as they were when the current wake began, before
-    its packets were taken in: what a report of something that happened in the wake
-    compares against."""
-
-    sent_packets: int = 0
-    sent_bytes: int = 0
-    recv_packets: int = 0
-    recv_bytes: int = 0
-    at_wake: tuple[int, int, int, int] = (0, 0, 0, 0)
-
-    def counters(self) -> tuple[int, int, int, int]:
-        """``(sent_packets, sent_bytes, recv_packets, recv_bytes)`` now."""
-        return self.sent_packets, self.sent_bytes, self.recv_packets, self.recv_bytes
-
-    def as_dict(self) -> dict[str, int]:
-        return {
-            "sent_packets": self.sent_packets,
-            "sent_bytes": self.sent_bytes,
-            "recv_packets": self.recv_packets,
-            "recv_bytes": self.recv_bytes,
-        }
 
 
 class Inbox:
@@ -153,24 +121,21 @@ async def serve(
     the transport's callback), tick it at its deadlines, send what it produces.
     ``on_wake(now)`` runs after every wake (a daemon's status file, a command's progress).
 
-    With ``guard`` (DESIGN.md §2: security between the core and the transport) every packet
-    sent is sealed and every packet received is checked — authenticated, not replayed, an
-    operator's signed — before the endpoint sees it; what fails is counted in
-    ``guard.rejected`` and dropped. With ``traffic`` every packet in and out is counted."""
+    Every packet goes through one :class:`~actorswarm.transport.pipeline.Pipeline`: sealed by
+    ``guard`` on the way out; on the way in checked — the frame, the tag and the replay
+    window over the raw bytes, an operator's signature — and only then decoded, the ground
+    station's packets of a batch first; what fails is counted in ``guard.rejected`` and
+    dropped. Without a guard, an insecure one (frame checks only). With ``traffic`` every
+    packet in and out is counted."""
+    pipeline = Pipeline(endpoint, transport, guard or PacketGuard.insecure(), traffic)
     stopping = asyncio.ensure_future(stop.wait())
     stopping.add_done_callback(lambda _: inbox.poke())
     try:
         while not stop.is_set():
             t = now()
-            packets = inbox.take()
-            if traffic is not None:
-                traffic.at_wake = traffic.counters()
-                traffic.recv_packets += len(packets)
-                traffic.recv_bytes += sum(len(data) for data in packets)
-            for data in packets:
-                _receive(endpoint, data, t, guard)
+            pipeline.receive_all(inbox.take(), t)
             endpoint.tick(t)
-            flush(endpoint, transport, guard, traffic)
+            pipeline.flush()
             if on_wake is not None:
                 on_wake(t)
             deadline = endpoint.next_deadline()
@@ -179,26 +144,12 @@ async def serve(
         stopping.cancel()
 
 
-def _receive(endpoint: Endpoint, data: bytes, now: float, guard: PacketGuard | None) -> None:
-    if guard is None:
-        endpoint.receive(data, now)
-        return
-    packet = guard.check(data, now)
-    if packet is not None:
-        endpoint.receive_packet(packet, now)
-
-
 def flush(
     endpoint: Endpoint,
     transport: Transport,
     guard: PacketGuard | None = None,
     traffic: Traffic | None = None,
 ) -> None:
-    """Send everything ``endpoint`` has produced (sealed by ``guard`` when given, counted
-    in ``traffic`` when given)."""
-    for out in endpoint.drain_outgoing():
-        data = out.data if guard is None else guard.seal(out.data)
-        transport.send(out.dst, data, urgent=out.channel == URGENT)
-        if traffic is not None:
-            traffic.sent_packets += 1
-            traffic.sent_bytes += len(data)
+    """Send everything ``endpoint`` has produced now, outside the loop's wakes (sealed by
+    ``guard`` when given, counted in ``traffic`` when given)."""
+    Pipeline(endpoint, transport, guard or PacketGuard.insecure(), traffic).flush()

@@ -3,22 +3,25 @@
 Theory of operation
 -------------------
 A host puts a :class:`PacketGuard` between its core (or ground station) and its transport
-(DESIGN.md §2), so every transport gets the same protection:
+(docs/deploying.md, "Security"), so every transport gets the same protection:
 
 * every outgoing packet goes through :meth:`PacketGuard.seal`, which fills the envelope's
-  ``auth`` slot: an HMAC-SHA256 tag made with the swarm key over the bytes
-  :func:`~actorswarm.core.wire.signed_part` names (the whole envelope with an empty tag),
-  32 bytes; and, for the ground station's own packets (sender 0), an Ed25519 signature by
-  the ground station's private key over the same bytes: 32 + 64 bytes;
-* every incoming packet goes through :meth:`PacketGuard.check`, which returns the decoded
+  ``auth`` slot: an HMAC-SHA256 tag made with the swarm key over the frame exactly as the
+  core encoded it (with its empty slot, :func:`~actorswarm.core.wire.covered`), 32 bytes;
+  and, for the ground station's own packets (sender 0), an Ed25519 signature by the ground
+  station's private key over the same bytes: 32 + 64 bytes. The slot is the envelope's last
+  field, so the tag goes in by slicing: one HMAC and one CRC per packet, no re-encoding;
+* every incoming packet goes through :meth:`PacketGuard.check`, which checks the frame and
+  the tag over the raw bytes, then the replay window, and decodes the body last — a forged
+  packet never costs a body decode — returning the decoded
   :class:`~actorswarm.core.wire.Packet` for the core's ``receive_packet`` only when it passed
-  every check, and otherwise counts the refusal in :attr:`PacketGuard.rejected`.
+  every check, and otherwise counting the refusal in :attr:`PacketGuard.rejected`.
 
 Checks, in order (the reason counted when one fails):
 
 ``malformed``
     the bytes are not a packet (any :class:`~actorswarm.core.wire.WireError`: damaged frame,
-    bad header or body, oversized, unknown version or type);
+    bad header, oversized, unknown version or type; or, checked last, a bad body);
 ``unauthenticated``
     the ``auth`` slot is empty;
 ``bad_tag``
@@ -50,8 +53,7 @@ window. The window, rather than "seq must grow", is there because packets are re
 the way (broadcast and unicast take different routes; radio jitter): a late genuine packet
 inside the window is still accepted, once. A genuine packet later than the whole window is
 refused; if it carried reliable data, the core's retransmission (a new seq) brings it.
-The tag covers the header's *values* (``signed_part`` re-encodes them), so another msgpack
-encoding of the same values is the same packet: it passes once, like the original would.
+The tag covers the bytes as sent: another msgpack encoding of the same values fails it.
 
 Incarnations must grow on every restart of a sender (the core relies on that too): a sender
 restarted with the same incarnation starts its seq again at 1 and is refused as a replay
@@ -76,8 +78,8 @@ Not protected:
 * **a captured robot speaking as itself** or as another platform (the swarm key is shared):
   it can lie in heartbeats, claim mastership, bid in barriers; rotate the swarm key
   (``actorswarm keys init --force``) to shut it out;
-* **denial of service** — jamming, flooding (each forged packet still costs a decode and an
-  HMAC), or dropping packets;
+* **denial of service** — jamming, flooding (each forged packet still costs a CRC, a header
+  decode and an HMAC, never a body decode), or dropping packets;
 * **replay to a receiver without state** — a receiver that just started knows nothing of a
   sender until it accepts one of its packets, so a recording of that sender's current (or an
   older) incarnation can be replayed to it, each packet once, until the sender's genuine
@@ -121,17 +123,6 @@ REASONS: Final = (
     "replay",
 )
 _MIN_KEY_BYTES: Final = 16
-
-
-def _encode(packet: Packet, auth: bytes) -> bytes:
-    return wire.encode(
-        swarm=packet.swarm,
-        sender=packet.sender,
-        incarnation=packet.incarnation,
-        seq=packet.seq,
-        body=packet.body,
-        auth=auth,
-    )
 
 
 class _Window:
@@ -282,68 +273,81 @@ class PacketGuard:
     def seal(self, data: bytes) -> bytes:
         """``data`` (a packet as the core encoded it, with an empty tag) with its tag.
 
-        Only the ground station's guard signs, and only packets of sender 0; a packet of
-        sender 0 sealed by a platform's guard is refused by every receiver
-        (``unsigned_operator``). Raises ``ValueError`` for bytes that are not such a packet:
-        that is a bug of the caller, not something from the network.
+        The tag is computed once, over the frame exactly as the core made it, and put into
+        the empty slot by slicing (:func:`~actorswarm.core.wire.seal`): no decode, no
+        re-encode. Only a ground station's guard (``role="ground"``) signs, and only packets
+        of sender 0; a packet of sender 0 sealed by a platform's guard is refused by every
+        receiver (``unsigned_operator``). Raises
+        ``ValueError`` for bytes that are not such a packet: that is a bug of the caller,
+        not something from the network.
         """
         if self._key is None:
             return data
-        try:
-            packet = wire.decode(data, max_bytes=len(data))
-        except WireError as exc:
-            raise ValueError(f"cannot seal bytes that are not a packet: {exc}") from None
-        if packet.auth:
-            raise ValueError(f"packet {packet.sender}/{packet.seq} is already sealed")
-        # Tag what the receiver will tag: the re-encoded envelope, not the caller's bytes.
-        covered = wire.signed_part(_encode(packet, b""))
+        covered, _ = wire.seal(data, b"")
         auth = hmac.digest(self._key, covered, hashlib.sha256)
-        if packet.sender == GROUND_STATION and self._private is not None:
+        # Only a ground station's guard holds the private key; it signs its own packets, not
+        # a platform's it relays (its header is read for that: platforms never pay it).
+        if self._private is not None and wire.open_frame(data).sender == GROUND_STATION:
             auth += self._private.sign(covered)
-        return _encode(packet, auth)
+        return wire.seal(data, auth)[1]
 
     # --- incoming ---------------------------------------------------------------------------
 
     def check(self, data: bytes, now: float) -> Packet | None:
         """The packet in ``data`` if it passes every check, else ``None`` (counted).
 
-        ``now`` is the host's clock, kept as when each sender was last accepted
-        (:meth:`last_heard`). Never raises on any bytes.
+        The frame (size, CRC-32, header) is checked first, then the tag and the signature
+        over the raw bytes, then the replay window; only a packet that passed all of them
+        has its body decoded, once. ``now`` is the host's clock, kept as when each sender
+        was last accepted (:meth:`last_heard`). Never raises on any bytes.
         """
         try:
-            packet = wire.decode(data, max_bytes=self.max_bytes)
+            env = wire.open_frame(data, max_bytes=self.max_bytes)
         except WireError:
             self.rejected["malformed"] += 1
             return None
         if self._key is None:
-            self.accepted += 1
-            return packet
-        reason = self._authenticate(packet, data)
+            return self._decode(env)
+        reason = self._authenticate(env, data)
         if reason is not None:
             self.rejected[reason] += 1
             return None
-        state = self._senders.get(packet.sender)
-        if state is None or packet.incarnation > state.incarnation:
-            self._senders[packet.sender] = _Window(packet.incarnation, packet.seq, self.window, now)
-        elif packet.incarnation < state.incarnation or not state.fresh(packet.seq):
+        state = self._senders.get(env.sender)
+        if state is not None and (
+            env.incarnation < state.incarnation
+            or (env.incarnation == state.incarnation and not state.fresh(env.seq))
+        ):
             self.rejected["replay"] += 1
             return None
+        packet = self._decode(env)
+        if packet is None:
+            return None
+        if state is None or env.incarnation > state.incarnation:
+            self._senders[env.sender] = _Window(env.incarnation, env.seq, self.window, now)
         else:
-            state.mark(packet.seq)
+            state.mark(env.seq)
             state.heard = now
+        return packet
+
+    def _decode(self, env: wire.Envelope) -> Packet | None:
+        try:
+            packet = wire.decode_body(env)
+        except WireError:
+            self.rejected["malformed"] += 1
+            return None
         self.accepted += 1
         return packet
 
-    def _authenticate(self, packet: Packet, data: bytes) -> str | None:
-        """The reason ``packet`` is not authentic, or None."""
+    def _authenticate(self, env: wire.Envelope, data: bytes) -> str | None:
+        """The reason the packet ``data`` (envelope ``env``) is not authentic, or None."""
         assert self._key is not None and self._public is not None
-        auth = packet.auth
+        auth = env.auth
         if not auth:
             return "unauthenticated"
-        operator = packet.sender == GROUND_STATION
+        operator = env.sender == GROUND_STATION
         if not operator and len(auth) != TAG_BYTES:
             return "bad_tag"
-        covered = wire.signed_part(data)
+        covered = wire.covered(data, env)
         expected = hmac.digest(self._key, covered, hashlib.sha256)
         if not hmac.compare_digest(auth[:TAG_BYTES], expected):
             return "bad_tag"

@@ -33,10 +33,13 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.node import Node
-from actorswarm.core.wire import Packet, WireError
+from actorswarm.core.wire import Packet
+from actorswarm.security.guard import PacketGuard
 from actorswarm.sim.invariants import InvariantChecker
+from actorswarm.sim.port import RadioPort, Security, SimKeys
 from actorswarm.sim.radio import LinkModel, SimRadio, Transmission
 from actorswarm.sim.scheduler import Scheduler, Timer
+from actorswarm.transport.pipeline import Pipeline
 
 Listener = Callable[[float, Node, CoreEvent], None]
 
@@ -62,6 +65,7 @@ class MasterRecord:
 @dataclass(slots=True)
 class _Host:
     node: Node
+    pipeline: Pipeline
     timer: Timer | None = None
     timer_at: float = float("inf")
     alive: bool = True
@@ -83,7 +87,9 @@ class SimSwarm:
 
     ``log_membership`` keeps join/leave events in :attr:`log` (off for very large swarms,
     where they number N²). ``settle`` is the invariant checker's tolerance window; by default
-    long enough for a leave, a join and a few heartbeats.
+    long enough for a leave, a join and a few heartbeats. ``security`` is how packets are
+    protected (:mod:`actorswarm.sim.port`): by default each platform seals and checks them
+    with the swarm's keys, as a daemon does.
     """
 
     def __init__(
@@ -97,6 +103,7 @@ class SimSwarm:
         log_membership: bool = True,
         settle: float | None = None,
         sample_every: float | None = None,
+        security: Security = "keys",
     ) -> None:
         ids = list(range(1, platforms + 1)) if isinstance(platforms, int) else sorted(platforms)
         if not ids:
@@ -108,6 +115,8 @@ class SimSwarm:
         self.swarm = swarm
         self.scheduler = Scheduler()
         max_bytes = self.config.max_packet_bytes
+        #: The swarm's keys (from the seed): every platform seals and checks its packets.
+        self.keys = SimKeys(seed, security)
 
         def decoder(data: bytes) -> Packet:
             return wire.decode(data, max_bytes=max_bytes)
@@ -179,7 +188,8 @@ class SimSwarm:
         self.incarnations[platform] = incarnation
         if incarnation > 0:
             self.booted[platform] = self.now
-        self.hosts[platform] = _Host(node)
+        guard = self.keys.guard(max_bytes=self.config.max_packet_bytes)
+        self.hosts[platform] = _Host(node, Pipeline(node, RadioPort(self.radio, platform), guard))
         self.radio.attach(platform, functools.partial(self._deliver, platform))
         self._schedule(platform, self.now)
 
@@ -235,17 +245,10 @@ class SimSwarm:
         if not host.alive:
             return
         self.stats.deliveries += 1
-        node = host.node
-        if tx.corrupted:
-            node.receive(tx.data, now)
-        else:
-            try:
-                packet = tx.packet()
-            except WireError:
-                node.receive(tx.data, now)  # counts the drop the same way
-            else:
-                node.receive_packet(packet, now)
-        if node.has_output:
+        # Checked and decoded by this receiver's guard, as on a real platform: a damaged,
+        # duplicated or replayed packet is refused there and counted by reason.
+        host.pipeline.receive(tx.data, now)
+        if host.node.has_output:
             self._service(platform)
 
     def _tick(self, platform: int) -> None:
@@ -274,8 +277,7 @@ class SimSwarm:
         # Listeners (a task engine) may act on the node while handling its events: loop
         # until it has nothing more to send or report.
         for _ in range(1000):
-            for out in node.drain_outgoing():
-                self.radio.send(platform, out.dst, out.data, out.kind)
+            host.pipeline.flush()
             events = node.drain_events()
             if events:
                 self._handle_events(node, events, now)
@@ -338,3 +340,10 @@ class SimSwarm:
 
     def traffic(self) -> dict[int, dict[str, Any]]:
         return self.radio.traffic.snapshot()
+
+    def guard(self, platform: int) -> PacketGuard:
+        """The guard of a live platform (what it refused: ``guard(p).rejected``)."""
+        host = self.hosts.get(platform)
+        if host is None or not host.alive:
+            raise KeyError(f"platform {platform} is not running")
+        return host.pipeline.guard

@@ -19,7 +19,7 @@ from typing import Any
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import CoreEvent
 from actorswarm.core.node import Node
-from actorswarm.core.wire import Packet, WireError
+from actorswarm.core.wire import Packet
 from actorswarm.dsl.model import TaskScript
 from actorswarm.engine.engine import FiredRecord, TaskEngine
 from actorswarm.engine.plan import Plan
@@ -27,9 +27,11 @@ from actorswarm.ground.station import GroundStation
 from actorswarm.runtime.actor_runtime import ActorRuntime
 from actorswarm.runtime.collective import NodeCollective
 from actorswarm.runtime.storage import MemoryBackupStore
+from actorswarm.sim.port import RadioPort
 from actorswarm.sim.radio import Airtime, LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
+from actorswarm.transport.pipeline import Pipeline
 from actorswarm.world.config import WorldConfig
 from actorswarm.world.world import World
 
@@ -80,6 +82,7 @@ class TaskSim:
     ground: GroundStation | None = field(default=None, init=False)
     _gs_timer: Timer | None = field(default=None, init=False)
     _gs_at: float = field(default=float("inf"), init=False)
+    _gs_pipeline: Pipeline | None = field(default=None, init=False)
     swarm: SimSwarm = field(init=False)
     plan: Plan = field(init=False)
     hosts: dict[int, _Host] = field(default_factory=dict, init=False)
@@ -108,6 +111,8 @@ class TaskSim:
             self.swarm.radio.link_fn = self._link
             self.swarm.at(0.0, self._physics)
         self.ground = GroundStation(swarm=self.swarm.swarm, config=self.config)
+        guard = self.swarm.keys.guard("ground", max_bytes=self.config.max_packet_bytes)
+        self._gs_pipeline = Pipeline(self.ground, RadioPort(self.swarm.radio, 0), guard)
         self.swarm.radio.attach(0, self._gs_deliver)
         for p in platforms:
             self._boot(p)
@@ -256,22 +261,14 @@ class TaskSim:
         return result
 
     def _gs_deliver(self, tx: Transmission[Packet], now: float) -> None:
-        assert self.ground is not None
-        if tx.corrupted:
-            self.ground.receive(tx.data, now)
-        else:
-            try:
-                self.ground.receive_packet(tx.packet(), now)
-            except WireError:
-                self.ground.receive(tx.data, now)
+        assert self.ground is not None and self._gs_pipeline is not None
+        self._gs_pipeline.receive(tx.data, now)
         if self.ground.has_output:
             self._gs_service()
 
     def _gs_service(self) -> None:
-        assert self.ground is not None
-        for out in self.ground.drain_outgoing():
-            if out.dst is not None:
-                self.swarm.radio.send(0, out.dst, out.data, out.kind)
+        assert self.ground is not None and self._gs_pipeline is not None
+        self._gs_pipeline.flush()
         deadline = self.ground.next_deadline()
         if deadline is not None and deadline < self._gs_at:
             if self._gs_timer is not None:

@@ -183,9 +183,10 @@ class ZenohTransport:
 
     # --- sending ----------------------------------------------------------------------------
 
-    def send(self, dst: int | None, data: bytes, *, urgent: bool = False) -> None:
+    def send(self, dst: int | None, data: bytes, *, urgent: bool = False, kind: str = "") -> None:
         """Broadcast ``data`` (``dst`` None) or send it to platform ``dst``; ``urgent`` for
-        the ground station's traffic (higher priority). Never blocks on a slow peer."""
+        the ground station's traffic (higher priority); ``kind`` is not used (Zenoh keeps no
+        statistics per packet type). Never blocks on a slow peer."""
         session = self._session
         if session is None:
             return

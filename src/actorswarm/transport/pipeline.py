@@ -1,0 +1,139 @@
+"""The one path every packet takes between an endpoint and its transport.
+
+Theory of operation
+-------------------
+Out: the endpoint (a core :class:`~actorswarm.core.node.Node`, a platform endpoint, the
+ground station) encodes each packet once, with an empty authentication slot;
+:meth:`Pipeline.flush` has the :class:`~actorswarm.security.guard.PacketGuard` put the tag in
+by slicing (one HMAC, one CRC) and hands the bytes to the transport.
+
+In: :meth:`Pipeline.receive` gives the guard the raw bytes; the frame check, the tag and the
+replay window come first, and only a packet that passed them is decoded — once — and given
+to the endpoint's ``receive_packet``. A batch (:meth:`Pipeline.receive_all`, what arrived
+while the host slept) is handed over operator traffic first: the ground station's packets
+(sender 0, read from the decoded header) before the swarm's, as the urgent channel promises.
+
+The daemon's loop (:func:`actorswarm.daemon.loop.serve`) and the simulator's host
+(:class:`actorswarm.sim.swarm.SimSwarm`) both drive endpoints through a pipeline, so the
+simulator's figures include the per-packet work a real platform does. An insecure guard
+(:meth:`~actorswarm.security.guard.PacketGuard.insecure`) checks only the frame.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Protocol
+
+from actorswarm.core.node import Outgoing
+from actorswarm.core.wire import GROUND_STATION, URGENT, Packet
+from actorswarm.security.guard import PacketGuard
+from actorswarm.transport.base import Transport
+
+__all__ = ["PacketEndpoint", "Pipeline", "Traffic"]
+
+
+class PacketEndpoint(Protocol):
+    """What a pipeline serves: it takes checked packets and gives encoded ones."""
+
+    def receive_packet(self, packet: Packet, now: float) -> None: ...
+
+    def drain_outgoing(self) -> list[Outgoing]: ...
+
+
+@dataclass(slots=True)
+class Traffic:
+    """Packets and bytes a pipeline sent and received, counted where the bytes meet the
+    transport: a packet sent is one :meth:`Transport.send` (a broadcast counts once, however
+    many peers the transport copies it to), its size is the sealed packet's; a packet
+    received is one the transport delivered, counted before it is checked (refused ones
+    too). ``at_wake`` holds the counters as they were when the current batch began, before
+    its packets were taken in: what a report of something that happened in the batch
+    compares against."""
+
+    sent_packets: int = 0
+    sent_bytes: int = 0
+    recv_packets: int = 0
+    recv_bytes: int = 0
+    at_wake: tuple[int, int, int, int] = (0, 0, 0, 0)
+
+    def counters(self) -> tuple[int, int, int, int]:
+        """``(sent_packets, sent_bytes, recv_packets, recv_bytes)`` now."""
+        return self.sent_packets, self.sent_bytes, self.recv_packets, self.recv_bytes
+
+    def as_dict(self) -> dict[str, int]:
+        return {
+            "sent_packets": self.sent_packets,
+            "sent_bytes": self.sent_bytes,
+            "recv_packets": self.recv_packets,
+            "recv_bytes": self.recv_bytes,
+        }
+
+
+class Pipeline:
+    """``endpoint``'s packets to and from ``transport``, sealed and checked by ``guard``,
+    counted in ``traffic`` when one is given."""
+
+    __slots__ = ("endpoint", "guard", "traffic", "transport")
+
+    def __init__(
+        self,
+        endpoint: PacketEndpoint,
+        transport: Transport,
+        guard: PacketGuard,
+        traffic: Traffic | None = None,
+    ) -> None:
+        self.endpoint = endpoint
+        self.transport = transport
+        self.guard = guard
+        self.traffic = traffic
+
+    def receive(self, data: bytes, now: float) -> bool:
+        """Check ``data`` and hand the packet to the endpoint; False when it was refused
+        (counted by reason in ``guard.rejected``)."""
+        if self.traffic is not None:
+            self.traffic.recv_packets += 1
+            self.traffic.recv_bytes += len(data)
+        packet = self.guard.check(data, now)
+        if packet is None:
+            return False
+        self.endpoint.receive_packet(packet, now)
+        return True
+
+    def receive_all(self, batch: Iterable[bytes], now: float) -> int:
+        """Check every packet of ``batch`` and hand the accepted ones over, the ground
+        station's first (in arrival order otherwise); how many were accepted."""
+        traffic = self.traffic
+        if traffic is not None:
+            traffic.at_wake = traffic.counters()
+        check = self.guard.check
+        swarm: list[Packet] = []
+        operator: list[Packet] = []
+        for data in batch:
+            if traffic is not None:
+                traffic.recv_packets += 1
+                traffic.recv_bytes += len(data)
+            packet = check(data, now)
+            if packet is not None:
+                (operator if packet.sender == GROUND_STATION else swarm).append(packet)
+        receive = self.endpoint.receive_packet
+        for packet in operator:
+            receive(packet, now)
+        for packet in swarm:
+            receive(packet, now)
+        return len(operator) + len(swarm)
+
+    def flush(self) -> int:
+        """Seal and send everything the endpoint has produced; how many packets."""
+        sent = 0
+        seal = self.guard.seal
+        send = self.transport.send
+        traffic = self.traffic
+        for out in self.endpoint.drain_outgoing():
+            data = seal(out.data)
+            send(out.dst, data, urgent=out.channel == URGENT, kind=out.kind)
+            sent += 1
+            if traffic is not None:
+                traffic.sent_packets += 1
+                traffic.sent_bytes += len(data)
+        return sent
