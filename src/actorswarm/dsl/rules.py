@@ -5,7 +5,8 @@ Two stages, in this order:
 :func:`check_references` — rules about single nodes and the names they refer to: duplicate
 actor names and IDs, unknown actors (in ``<actor name>``, successors, ``timeoutBranch`` and
 platform lines), unknown plugins and bad params of the built-in ones, duplicate transitions
-for one event, branch counts against ``sysNum``, a platform starting one actor twice. These
+for one event, branch counts against ``sysNum``, a platform starting one actor twice, one
+``barrierKey`` on different events (a warning). These
 run even when the builder found errors, on whatever it could build, so one pass reports as
 much as possible.
 
@@ -55,6 +56,7 @@ def check_references(
     for transitions in script.transitions.values():
         _check_transitions(transitions, names, report)
     _check_platforms(script, names, report)
+    _check_keys(script, report)
 
 
 @dataclass(frozen=True, slots=True)
@@ -231,6 +233,33 @@ def _check_counts(transition: Transition, report: Report) -> None:
         )
 
 
+def _check_keys(script: TaskScript, report: Report) -> None:
+    """A ``barrierKey`` shared by transitions on different events (a warning): the group
+    fires only when every part has its candidates, so the platforms that got one event
+    wait for the other one, which a script may mean (a rendezvous) but mostly does not."""
+    first: dict[int, Transition] = {}
+    for transition in script.all_transitions():
+        key = transition.barrier_key
+        if key is None:
+            continue
+        other = first.setdefault(key, transition)
+        if other.event != transition.event:
+            report.warning(
+                transition.at("barrierKey"),
+                f"barrierKey {key} joins {transition.event} of {transition.actor} to "
+                f"{other.event} of {other.actor} at {other.at('name')}: the group fires only "
+                f"when both events have come, so the holders of {transition.actor} that got "
+                f"{transition.event} wait for {other.event} (and the others the other way "
+                f"round){_until(transition, other)}; give them different barrier keys unless "
+                "they are meant to wait for each other",
+            )
+
+
+def _until(*transitions: Transition) -> str:
+    timeouts = [t.timeout for t in transitions if t.timeout is not None]
+    return f", up to the {min(timeouts):g} s timeout" if timeouts else ", for ever"
+
+
 def _platforms(ids: frozenset[int]) -> str:
     """``'platform 7 starts'`` or ``'platforms 1-3 start'``."""
     if len(ids) == 1:
@@ -272,7 +301,7 @@ def check_whole(script: TaskScript, report: Report) -> None:
                 "to it, or delete it",
             )
     for found in infeasible_groups(script):
-        report.error(found.group.members[0].pos, found.message)
+        report.error(found.where or found.group.members[0].pos, found.message)
     handled = {t.event for t in script.all_transitions()}
     for actor in script.actors:
         for _, plugin in actor.plugins():
