@@ -110,3 +110,135 @@ def test_one_barrier_key_on_one_event_is_silent() -> None:
 @pytest.mark.parametrize("sys_num", ["4", "3"])
 def test_sys_num_within_the_counts_passes(sys_num: str) -> None:
     assert check(mission(sys_num), known_plugins=PLUGINS).ok
+
+
+# --- plugins: their params, the world's areas, their bus ----------------------------------
+
+
+def searcher(plugins: str, transition_params: str = "") -> str:
+    """Platforms 1-3 take off and then search: ``plugins`` are Search's buses."""
+    return (
+        '<TaskScript name="s">\n<_ActorsConfig>\n'
+        "<Actor><_P_Name>Standby</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>"
+        "<Plugin><_P_Name>flight.takeoff</_P_Name></Plugin></Bus></OODAConfig></Actor>\n"
+        f"<Actor><_P_Name>Search</_P_Name><OODAConfig>\n{plugins}\n</OODAConfig></Actor>\n"
+        "</_ActorsConfig>\n<_TaskConfig>\n"
+        '<actor name="Standby"><transition name="ready" sysNum="all">\n'
+        f'{transition_params}<successor actor="Search"/></transition></actor>\n'
+        "</_TaskConfig>\n"
+        '<_PlatformActorConfig><platform id="1-3" actor="Standby"/></_PlatformActorConfig>\n'
+        "</TaskScript>\n"
+    )
+
+
+def act(plugin: str, params: str = "", bus: str = "act_bus") -> str:
+    return (
+        f"<Bus><_P_Name>{bus}</_P_Name><Plugin><_P_Name>{plugin}</_P_Name>{params}</Plugin></Bus>"
+    )
+
+
+def problems(text: str, areas: list[str] | None = None) -> tuple[Diagnostic, ...]:
+    return check(text, path="s.xml", areas=areas).diagnostics
+
+
+def test_the_searcher_as_meant_is_clean() -> None:
+    text = searcher(
+        act("detect.target", '<param key="kind" value="jeep"/>', "observe_bus")
+        + act("search.area", '<param key="area" value="search"/>')
+    )
+    assert problems(text, areas=["field", "search"]) == ()
+
+
+@pytest.mark.parametrize(
+    ("plugin", "value", "message"),
+    [
+        ("search.area", "0 0 100", "search.area: area '0 0 100' has 3 numbers, but a rectangle "
+         'is four, "x_min y_min x_max y_max" (metres); give all four, or the name of an area'),
+        ("search.area", "100 0 0 50", "search.area: area '100 0 0 50' is not a rectangle: x_min "
+         "must be below x_max"),
+        ("track.target", "0 0 1e999 9", "track.target: area '0 0 1e999 9' has a number that is "
+         "not finite"),
+    ],
+)  # fmt: skip
+def test_a_malformed_area_is_refused_in_words(plugin: str, value: str, message: str) -> None:
+    text = searcher(act(plugin, f'<param key="area" value="{value}"/>'))
+    result = check(text, path="s.xml")
+    found = at(result.errors, where(text, '<param key="area"'), message)
+    assert "pattern" not in found.message and "\\s" not in found.message
+
+
+def test_a_malformed_route_and_event_name_are_refused_in_words() -> None:
+    text = searcher(
+        act(
+            "formation.arrow",
+            '<param key="route" value="0 0; 100"/><param key="event" value="3 go"/>'
+            '<param key="offset" value="left"/>',
+        )
+    )
+    result = check(text, path="s.xml")
+    at(
+        result.errors,
+        where(text, '<param key="route"'),
+        "formation.arrow: route: waypoint 2 must be two numbers 'x y', not '100'",
+    )
+    at(
+        result.errors,
+        where(text, '<param key="event"'),
+        "formation.arrow: event must be an event name (a letter or _, then letters, digits",
+    )
+    at(
+        result.errors,
+        where(text, '<param key="offset"'),
+        "formation.arrow: offset must be two numbers 'forward left' in metres",
+    )
+    assert not any("pattern" in d.message for d in result.errors)
+
+
+def test_a_transition_param_is_read_by_the_successors_plugins() -> None:
+    text = searcher(
+        act("search.area", '<param key="area" value="search"/>'),
+        '<param key="area" value="0 0 100"/><param key="TargetPoint" value="anything"/>\n',
+    )
+    result = check(text, path="s.xml")
+    (found,) = result.errors
+    place = where(text, '<param key="area" value="0 0')
+    assert str(found).startswith(f"s.xml:{place}: ")
+    assert found.message.startswith("search.area (in Search): area '0 0 100' has 3 numbers")
+
+
+def test_an_area_the_world_does_not_have_is_refused_when_the_world_is_given() -> None:
+    text = searcher(act("search.area", '<param key="area" value="serch"/>'))
+    assert problems(text) == ()  # the world is not known: names are not judged
+    found = at(
+        check(text, path="s.xml", areas=["field", "search"]).errors,
+        where(text, '<param key="area"'),
+        "search.area: the world has no area 'serch' (did you mean \"search\"?); its areas are "
+        "field, search",
+    )
+    assert found.severity == "error"
+    (none,) = check(text, areas=[]).errors
+    assert "it has none" in none.message
+    # A rectangle needs no world.
+    rect = searcher(act("search.area", '<param key="area" value="0 0 100 50"/>'))
+    assert problems(rect, areas=[]) == ()
+
+
+def test_an_unknown_area_in_a_transition_param_is_refused_too() -> None:
+    text = searcher(
+        act("search.area", '<param key="area" value="search"/>'),
+        '<param key="area" value="feild"/>\n',
+    )
+    (found,) = check(text, areas=["field", "search"]).errors
+    assert "search.area (in Search): the world has no area 'feild'" in found.message
+
+
+def test_a_plugin_on_a_bus_it_does_not_declare_is_refused() -> None:
+    text = searcher(act("detect.target", '<param key="kind" value="jeep"/>'))
+    result = check(text, path="s.xml")
+    found = at(result.errors, where(text, "detect.target"), "detect.target is written for")
+    assert found.message == (
+        "detect.target is written for observe_bus (its class declares bus = 'observe_bus'), "
+        "not act_bus; move this <Plugin> into the <Bus> of observe_bus"
+    )
+    # core.idle declares any_bus: it may go anywhere.
+    assert problems(searcher(act("core.idle", bus="decide_bus"))) == ()

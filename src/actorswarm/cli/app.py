@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Collection
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -469,6 +470,7 @@ def sim(
     """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7)."""
     from actorswarm.core.config import CoreConfig
     from actorswarm.runtime.actor_runtime import UnsupportedPlugin
+    from actorswarm.runtime.plugin import ParamError
     from actorswarm.runtime.registry import RegistryError
     from actorswarm.sim.radio import Airtime, LinkModel
     from actorswarm.sim.record import sample_world, write_record
@@ -478,7 +480,16 @@ def sim(
     if no_world and world is not None:
         typer.echo("--world and --no-world exclude each other", err=True)
         raise typer.Exit(2)
-    code, script = _check_script(file, DEFAULT_MAX_BYTES)
+    world_config: WorldConfig | None = None
+    if not no_world:
+        try:
+            world_config = load_world(world)  # None: the default world
+        except (WorldError, OSError) as exc:
+            typer.echo(str(exc), err=True)
+            raise typer.Exit(2) from None
+    # The world is known here, so the script's area names are checked against it.
+    areas = None if world_config is None else [a.name for a in world_config.areas]
+    code, script = _check_script(file, DEFAULT_MAX_BYTES, areas)
     if script is None:
         raise typer.Exit(code or 1)
     try:
@@ -496,13 +507,6 @@ def sim(
         typer.echo(f"--channel-bitrate: {exc}", err=True)
         raise typer.Exit(2) from None
     link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
-    world_config: WorldConfig | None = None
-    if not no_world:
-        try:
-            world_config = load_world(world)  # None: the default world
-        except (WorldError, OSError) as exc:
-            typer.echo(str(exc), err=True)
-            raise typer.Exit(2) from None
     try:
         run = TaskSim(
             script,
@@ -531,7 +535,9 @@ def sim(
         if record is not None and run.world is not None:
             sample_world(run, 0.5)
         report = run.run(duration, events=events, faults=faults)
-    except (UnsupportedPlugin, RegistryError) as exc:
+    except (UnsupportedPlugin, RegistryError, ParamError) as exc:
+        # What the checker cannot know (a plugin of a module:Class path, a param laid over
+        # by a transition): refused here as cleanly.
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
     if record is not None:
@@ -542,8 +548,8 @@ def sim(
         }
         if run.world is not None:
             track = run.world.track()
-            areas = run.world.area_polygons()
-            meta["areas"] = {k: [list(p) for p in v] for k, v in areas.items()}
+            polygons = run.world.area_polygons()
+            meta["areas"] = {k: [list(p) for p in v] for k, v in polygons.items()}
             write_record(
                 record,
                 rows=track.rows(),
@@ -659,11 +665,14 @@ class GraphFormat(StrEnum):
     dot = "dot"
 
 
-def _check_script(path: Path, max_bytes: int) -> tuple[int, TaskScript | None]:
+def _check_script(
+    path: Path, max_bytes: int, areas: Collection[str] | None = None
+) -> tuple[int, TaskScript | None]:
     """Check one script, printing its diagnostics on stderr: (exit status, model or None).
-    Status 2 when the file cannot be read, 1 when the script has errors."""
+    Status 2 when the file cannot be read, 1 when the script has errors. ``areas``: the
+    world's area names, which every ``area`` param must use (None: not checked)."""
     try:
-        result = check_file(path, max_bytes=max_bytes)
+        result = check_file(path, max_bytes=max_bytes, areas=areas)
     except OSError as exc:
         typer.echo(f"{path}: cannot read the file: {exc.strerror or exc}", err=True)
         return 2, None
@@ -678,16 +687,31 @@ def task_check(
     max_bytes: Annotated[
         int, typer.Option(min=1, help="Refuse scripts larger than this many bytes.")
     ] = DEFAULT_MAX_BYTES,
+    world: Annotated[
+        Path | None,
+        typer.Option(help="The world (TOML) the scripts will run in: check their area names."),
+    ] = None,
 ) -> None:
     """Check task scripts before deploying them.
 
     Prints "FILE: ok" on stdout for each valid script; every problem goes to stderr as
-    FILE:LINE:COL: message (warnings too, without failing). Exit status: 0 when every script
-    is valid, 1 when any has an error, 2 when a file cannot be read.
+    FILE:LINE:COL: message (warnings too, without failing). With --world, every area a
+    plugin names must be one of that world's [[areas]]. Exit status: 0 when every script
+    is valid, 1 when any has an error, 2 when a file (or the world) cannot be read.
     """
+    areas: list[str] | None = None
+    if world is not None:
+        from actorswarm.world.config import WorldError, load_world
+
+        try:
+            loaded = load_world(world)
+        except (WorldError, OSError) as exc:
+            typer.echo(str(exc), err=True)
+            raise typer.Exit(2) from None
+        areas = [area.name for area in loaded.areas]
     status = 0
     for path in files:
-        code, _ = _check_script(path, max_bytes)
+        code, _ = _check_script(path, max_bytes, areas)
         if code == 0:
             typer.echo(f"{path}: ok")
         status = max(status, code)
