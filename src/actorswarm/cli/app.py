@@ -466,8 +466,22 @@ def sim(
     port: PortOpt = DEFAULT_PORT,
     token: TokenOpt = None,
     speed: SpeedOpt = 1.0,
+    expect_complete: Annotated[
+        bool,
+        typer.Option(
+            "--expect-complete",
+            help="Exit 4 when the task has not completed by the end of the run.",
+        ),
+    ] = False,
 ) -> None:
-    """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7)."""
+    """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7).
+
+    Exit status: 0 when the run went as asked; 1 when the script has errors or an invariant
+    was violated; 2 when the command line cannot be run (a bad option or world file, an
+    --event no transition handles, an --event or fault after --duration or naming a
+    platform the script does not start); 3 when a plugin failed during the run; 4 with
+    --expect-complete when the task did not complete. The summary says which.
+    """
     from actorswarm.core.config import CoreConfig
     from actorswarm.runtime.actor_runtime import UnsupportedPlugin
     from actorswarm.runtime.plugin import ParamError
@@ -475,6 +489,7 @@ def sim(
     from actorswarm.sim.radio import Airtime, LinkModel
     from actorswarm.sim.record import sample_world, write_record
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
+    from actorswarm.sim.verdict import EXIT_USAGE, schedule_problems, verdict
     from actorswarm.world.config import WorldConfig, WorldError, load_world
 
     if no_world and world is not None:
@@ -501,6 +516,11 @@ def sim(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    problems = schedule_problems(script, duration, events, faults)
+    for problem in problems:
+        typer.echo(problem, err=True)
+    if problems:
+        raise typer.Exit(EXIT_USAGE)
     try:
         airtime = None if channel_bitrate is None else Airtime(bitrate=channel_bitrate)
     except ValueError as exc:
@@ -567,8 +587,10 @@ def sim(
             Path(json_out).write_text(text + "\n")
         for line in summary(report):
             typer.echo(line)
-    if report["violations"]:
-        raise typer.Exit(1)
+    status, lines = verdict(report, expect_complete=expect_complete)
+    for line in lines:
+        typer.echo(line, err=True)
+    raise typer.Exit(status)
 
 
 @app.command("demo")
