@@ -5,10 +5,16 @@ they do not declare."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
+from typing import Any, ClassVar
+
 import pytest
 
-from actorswarm.dsl import check
+from actorswarm.dsl import check, rules
 from actorswarm.dsl.diagnostics import Diagnostic
+from actorswarm.dsl.plugins import installed_plugins
+from actorswarm.runtime.context import PluginContext
+from actorswarm.runtime.plugin import Param, Plugin
 
 PLUGINS = frozenset({"core.idle", "core.emit_after"})
 
@@ -97,7 +103,9 @@ def test_one_barrier_key_on_different_events_is_a_warning() -> None:
     first = where(text, 'name="on_station"')
     assert f"target_detected of Search to on_station of Escort at {first}" in found.message
     assert "fires only when both events have come" in found.message
-    assert "up to the 20 s timeout" in found.message
+    assert "until it comes or the group's timeout expires" in found.message
+    untimed = check(text.replace(' timeout="20"', ""), known_plugins=PLUGINS)
+    assert any("for ever if it never comes (no timeout)" in d.message for d in untimed.warnings)
     assert str(found).startswith(f"m.xml:{place}: warning: ")
 
 
@@ -242,3 +250,42 @@ def test_a_plugin_on_a_bus_it_does_not_declare_is_refused() -> None:
     )
     # core.idle declares any_bus: it may go anywhere.
     assert problems(searcher(act("core.idle", bus="decide_bus"))) == ()
+
+
+class Band(Plugin):
+    """A plugin whose params are tied together: ``low`` must be below ``high``."""
+
+    any_bus = True
+    params: ClassVar[Mapping[str, Param]] = {
+        "low": Param(kind="float", required=True),
+        "high": Param(kind="float", default=10.0),
+    }
+
+    @classmethod
+    def check_params(cls, values: Mapping[str, Any]) -> Iterable[tuple[str, str]]:
+        if values["low"] >= values["high"]:
+            return [("low", f"low must be below high ({values['high']:g}), not {values['low']:g}")]
+        return ()
+
+    def step(self, ctx: PluginContext) -> None:
+        pass
+
+
+def test_the_rules_that_tie_params_together_run_at_check_time(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    plugin_class, param_rules = rules.plugin_class, rules.param_rules
+    monkeypatch.setattr(
+        rules, "plugin_class", lambda name: Band if name == "test.band" else plugin_class(name)
+    )
+    monkeypatch.setattr(
+        rules, "param_rules", lambda name: Band.params if name == "test.band" else param_rules(name)
+    )
+    known = installed_plugins() | {"test.band"}
+    text = searcher(act("test.band", '<param key="low" value="12"/>'))
+    (found,) = check(text, path="s.xml", known_plugins=known).errors
+    place = where(text, '<param key="low"')
+    assert str(found) == f"s.xml:{place}: test.band: low must be below high (10), not 12"
+    # With every param read well and the rule kept, nothing is said.
+    good = searcher(act("test.band", '<param key="low" value="2"/>'))
+    assert check(good, known_plugins=known).diagnostics == ()

@@ -352,8 +352,9 @@ def _check_keys(script: TaskScript, report: Report) -> None:
 
 
 def _until(*transitions: Transition) -> str:
-    timeouts = [t.timeout for t in transitions if t.timeout is not None]
-    return f", up to the {min(timeouts):g} s timeout" if timeouts else ", for ever"
+    if any(t.timeout is not None for t in transitions):
+        return ", until it comes or the group's timeout expires"
+    return ", for ever if it never comes (no timeout)"
 
 
 def _platforms(ids: frozenset[int]) -> str:
