@@ -81,6 +81,15 @@ def test_a_numeric_sys_num_out_of_a_closed_actor_may_fire_several_times() -> Non
     assert result.ok, "\n".join(map(str, result.errors))
 
 
+def test_a_timeout_branch_out_of_a_closed_actor_carries_all_of_it() -> None:
+    # On timeout every waiting Standby goes to Escort: up to 12 Escorts.
+    text = mission("6").replace(
+        'sysNum="all">', 'sysNum="all" timeout="30" timeoutBranch="Escort">'
+    )
+    result = check(text, path="m.xml", known_plugins=PLUGINS)
+    assert result.ok, "\n".join(map(str, result.errors))
+
+
 def test_an_actor_entered_again_is_not_bounded_by_counts() -> None:
     # Onward leads back to Standby: Standby is no longer closed, so nothing caps Escort
     # below the 12 platforms that can reach it.
