@@ -107,6 +107,33 @@ def test_a_failed_plugin_is_in_the_summary_and_exits_3(
     assert sorted(f["platform"] for f in failures) == [1, 2, 3]
 
 
+def test_a_bad_param_of_a_plugin_named_by_path_is_refused_cleanly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The checker does not import module:Class paths; the runtime reads the params when the
+    # script is loaded, and sim refuses them as cleanly as the checker would.
+    (tmp_path / "countplug.py").write_text(
+        "from actorswarm.runtime.plugin import Param, Plugin\n\n\n"
+        "class Count(Plugin):\n"
+        "    any_bus = True\n"
+        '    params = {"n": Param(kind="int", required=True)}\n\n'
+        "    def step(self, ctx):\n"
+        "        pass\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "countplug", raising=False)
+    script = tmp_path / "tiny.xml"
+    script.write_text(
+        TINY.format(done="countplug:Count", event="ready_event").replace(
+            "<_P_Name>countplug:Count</_P_Name>",
+            '<_P_Name>countplug:Count</_P_Name><param key="n" value="three"/>',
+        )
+    )
+    code, out, err = sim(str(script), "--no-world", "--duration", "4")
+    assert code == EXIT_USAGE and out == ""
+    assert err == f"{script}: Count: n must be an integer such as 3, not 'three'\n"
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
