@@ -121,3 +121,11 @@ def test_a_full_id_range_is_checked_quickly() -> None:
     start = time.perf_counter()
     assert errors(script(transitions, lines)) == []
     assert time.perf_counter() - start < 3.0
+
+
+def test_an_actor_nothing_can_send_a_platform_to_is_said_once_where_it_starts() -> None:
+    # A (3 platforms) can never fire its sysNum 5, so no platform ever reaches B: that is
+    # the one error, not a second "at most 0 ever run B" at B's transition.
+    transitions = on("A", "go", "B", "5") + on("B", "on", "C", "2")
+    (message,) = errors(script(transitions, '<platform id="1-3" actor="A"/>', "A B C"))
+    assert message.startswith("transition go of actor A can never fire: it needs 5")

@@ -322,8 +322,8 @@ def check_group(group: Group, swarm: Reach, everywhere: set[str]) -> Infeasible 
     for transition in group.members:
         need = demand(transition)
         most = swarm.most.get(transition.actor)
-        if most is None or most >= need:
-            continue
+        if not most or most >= need:
+            continue  # 0: nothing ever sends a platform there, which is said where it starts
         at_least = "at least " if transition.sys_num == "all" else ""
         role = "" if group.key is None else f" (for {transition.event} of {transition.actor})"
         only = (

@@ -187,6 +187,8 @@ class _ParamCheck:
             problems = list(cls.check_params(values))
         except ValueError as exc:
             problems = [("", str(exc))]
+        except Exception as exc:  # the plugin's own code: a bug there must not end the check
+            problems = [("", f"its check_params failed ({type(exc).__name__}: {exc})")]
         for key, message in problems:
             where = given[key].pos if key in given else plugin.pos
             report.error(where, f"{name}: {message}")
