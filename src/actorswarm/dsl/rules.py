@@ -4,20 +4,20 @@ Two stages, in this order:
 
 :func:`check_references` — rules about single nodes and the names they refer to: duplicate
 actor names and IDs, unknown actors (in ``<actor name>``, successors, ``timeoutBranch`` and
-platform lines), unknown plugins, plugins on a bus their class does not declare, params
-read as the plugin will read them (each value by its ``Param``, the class's cross-param rules,
+platform lines), unknown plugins, plugins on a bus their class does not declare, params read
+as the plugin will read them (each value by its ``Param``, the class's cross-param rules,
 ``area`` names against the world's areas when it is given, a transition's params by the
-successors' plugins that take them), duplicate transitions
-for one event, branch counts against ``sysNum``, a platform starting one actor twice, one
-``barrierKey`` on different events (a warning). These
-run even when the builder found errors, on whatever it could build, so one pass reports as
-much as possible.
+successors' plugins that take them), duplicate transitions for one event, branch counts
+against ``sysNum``, a platform starting one actor twice, one ``barrierKey`` on different
+events (a warning). These run even when the builder found errors, on whatever it could
+build, so one pass reports as much as possible.
 
 :func:`check_whole` — rules about the script as a whole: actors no platform can ever run
-(a warning), barrier groups that can never fire (:mod:`actorswarm.dsl.feasibility`), and
-events a ``core.emit_after`` emits that no transition handles (a warning). They reason about
-everything at once, so they only run on a script with no error left: a missing piece would
-make their conclusions wrong.
+(a warning), barrier groups that can never fire and ``sysNum`` values more than the branch
+counts can ever send (:mod:`actorswarm.dsl.feasibility`), and events a ``core.emit_after``
+emits that no transition handles (a warning). They reason about everything at once, so they
+only run on a script with no error left: a missing piece would make their conclusions
+wrong.
 """
 
 from __future__ import annotations
