@@ -99,3 +99,36 @@ def test_graph_of_a_missing_file_exits_2(tmp_path: Path) -> None:
     result = runner.invoke(app, ["task", "graph", str(tmp_path / "nope.xml")])
     assert result.exit_code == 2
     assert "cannot read the file" in result.stderr
+
+
+def test_check_with_a_world_judges_area_names(tmp_path: Path) -> None:
+    world = EXAMPLES / "worlds" / "search_track_10.toml"
+    good = EXAMPLES / "search_track_10.xml"
+    bad = tmp_path / "serch.xml"
+    text = good.read_text()
+    bad.write_text(
+        text.replace(
+            '<param key="area" value="search"/><param key="altitude"',
+            '<param key="area" value="serch"/><param key="altitude"',
+        )
+    )
+    assert runner.invoke(app, ["task", "check", str(bad)]).exit_code == 0  # no world: no names
+    result = runner.invoke(app, ["task", "check", "--world", str(world), str(good), str(bad)])
+    assert result.exit_code == 1
+    assert result.stdout == f"{good}: ok\n"
+    line = next(n for n, row in enumerate(bad.read_text().splitlines(), 1) if "serch" in row)
+    assert re.fullmatch(
+        rf"{re.escape(str(bad))}:{line}:\d+: search\.area: the world has no area 'serch' "
+        r'\(did you mean "search"\?\); its areas are field, search .*\n',
+        result.stderr,
+    )
+
+
+def test_check_with_an_unreadable_world_exits_2(tmp_path: Path) -> None:
+    world = tmp_path / "w.toml"
+    world.write_text("[world]\nstep = -1\n")
+    result = runner.invoke(
+        app, ["task", "check", "--world", str(world), str(EXAMPLES / "branch_merge.xml")]
+    )
+    assert result.exit_code == 2
+    assert str(world) in result.stderr and "Traceback" not in result.output

@@ -68,6 +68,23 @@ def test_holders_reached_only_by_a_timeout_of_the_group_count() -> None:
     assert errors(script(transitions, '<platform id="1-3" actor="A"/>', "A B C")) == []
 
 
+def test_the_demands_of_a_group_together_exceed_the_platforms() -> None:
+    # A is entered again (z), so no count caps B or C below 5; but the group needs 2 B's and
+    # 4 C's at once from 5 platforms with one thread each.
+    transitions = (
+        '<actor name="A"><transition name="x" sysNum="1"><successor actor="B"/></transition>'
+        '<transition name="y" sysNum="1"><successor actor="C"/></transition>'
+        '<transition name="z" sysNum="1"><successor actor="A"/></transition></actor>'
+        + on("B", "fin", "X", "2", 'barrierKey="9"')
+        + on("C", "fin", "X", "4", 'barrierKey="9"')
+    )
+    (message,) = errors(script(transitions, '<platform id="1-5" actor="A"/>'))
+    assert (
+        "barrier group 9 can never fire: its transitions need 6 platforms at once (2 running B "
+        "for fin, 4 running C for fin), but at most 5 of the platforms" in message
+    )
+
+
 def test_sys_num_all_needs_at_least_the_integer_counts() -> None:
     transitions = (
         '<actor name="A"><transition name="go" sysNum="all">'
@@ -104,3 +121,11 @@ def test_a_full_id_range_is_checked_quickly() -> None:
     start = time.perf_counter()
     assert errors(script(transitions, lines)) == []
     assert time.perf_counter() - start < 3.0
+
+
+def test_an_actor_nothing_can_send_a_platform_to_is_said_once_where_it_starts() -> None:
+    # A (3 platforms) can never fire its sysNum 5, so no platform ever reaches B: that is
+    # the one error, not a second "at most 0 ever run B" at B's transition.
+    transitions = on("A", "go", "B", "5") + on("B", "on", "C", "2")
+    (message,) = errors(script(transitions, '<platform id="1-3" actor="A"/>', "A B C"))
+    assert message.startswith("transition go of actor A can never fire: it needs 5")

@@ -56,6 +56,9 @@ GOOD: list[tuple[Param, str, object]] = [
     (Param(kind="bool"), "0", False),
     (Param(kind="point"), "200 200 20", (200.0, 200.0, 20.0)),
     (Param(kind="point"), " -1.5  0\t3e2 ", (-1.5, 0.0, 300.0)),
+    (Param(kind="area"), " search ", "search"),
+    (Param(kind="area"), "0 0 100 50", "0 0 100 50"),
+    (Param(kind="route"), "60 10; 280 -50;", "60 10; 280 -50;"),
 ]
 
 BAD: list[tuple[Param, str, str]] = [
@@ -63,6 +66,16 @@ BAD: list[tuple[Param, str, str]] = [
     (Param(kind="str", key="scope", choices=("local", "swarm")), "globl", 'did you mean "local"'),
     (Param(kind="str", key="scope", choices=("local", "swarm")), "x", 'one of "local", "swarm"'),
     (Param(kind="str", key="id", pattern=r"[a-z]+"), "A1", "must match the pattern [a-z]+"),
+    (
+        Param(kind="str", key="id", pattern=r"[a-z]+", form="lower-case letters"),
+        "A1",
+        "id must be lower-case letters, not 'A1'",
+    ),
+    (Param(kind="area", key="area"), "0 0 100", "has 3 numbers, but a rectangle is four"),
+    (Param(kind="area", key="area"), "0 0 -5 10", "x_min must be below x_max"),
+    (Param(kind="area", key="area"), " ", "area is empty"),
+    (Param(kind="route", key="route"), "0 0; 100", "route: waypoint 2 must be two numbers"),
+    (Param(kind="route", key="route"), " ", "give at least one waypoint"),
     (Param(kind="int", key="n"), "3.5", "n must be an integer such as 3, not '3.5'"),
     (Param(kind="int", key="n"), "1_000", "must be an integer"),
     (Param(kind="int", key="n"), "٣", "must be an integer"),
@@ -642,5 +655,5 @@ def test_emit_after_params_match_the_design() -> None:
     assert (params["after"].default, params["after"].minimum) == (0.0, 0.0)
     assert params["spread_per_platform"].default == 0.0
     assert (params["scope"].default, params["scope"].choices) == ("local", ("local", "swarm"))
-    with pytest.raises(ParamError, match="event must match the pattern"):
+    with pytest.raises(ParamError, match=r"event must be an event name \(a letter or _"):
         EmitAfter.validate_params({"event": "two words"})

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Collection
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -465,20 +466,45 @@ def sim(
     port: PortOpt = DEFAULT_PORT,
     token: TokenOpt = None,
     speed: SpeedOpt = 1.0,
+    expect_complete: Annotated[
+        bool,
+        typer.Option(
+            "--expect-complete",
+            help="Exit 4 when the task has not completed by the end of the run.",
+        ),
+    ] = False,
 ) -> None:
-    """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7)."""
+    """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7).
+
+    Exit status: 0 when the run went as asked; 1 when the script has errors or an invariant
+    was violated; 2 when the command line cannot be run (a bad option or world file, an
+    --event no transition handles, an --event or fault after --duration or naming a
+    platform the script does not start); 3 when a plugin failed during the run; 4 with
+    --expect-complete when the task did not complete. The summary says which.
+    """
     from actorswarm.core.config import CoreConfig
     from actorswarm.runtime.actor_runtime import UnsupportedPlugin
+    from actorswarm.runtime.plugin import ParamError
     from actorswarm.runtime.registry import RegistryError
     from actorswarm.sim.radio import Airtime, LinkModel
     from actorswarm.sim.record import sample_world, write_record
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
+    from actorswarm.sim.verdict import EXIT_USAGE, schedule_problems, verdict
     from actorswarm.world.config import WorldConfig, WorldError, load_world
 
     if no_world and world is not None:
         typer.echo("--world and --no-world exclude each other", err=True)
         raise typer.Exit(2)
-    code, script = _check_script(file, DEFAULT_MAX_BYTES)
+    world_config: WorldConfig | None = None
+    if not no_world:
+        try:
+            world_config = load_world(world)  # None: the default world
+        except (WorldError, OSError) as exc:
+            typer.echo(str(exc), err=True)
+            raise typer.Exit(2) from None
+    # The world is known here, so the script's area names are checked against it.
+    areas = None if world_config is None else [a.name for a in world_config.areas]
+    code, script = _check_script(file, DEFAULT_MAX_BYTES, areas)
     if script is None:
         raise typer.Exit(code or 1)
     try:
@@ -490,19 +516,17 @@ def sim(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    problems = schedule_problems(script, duration, events, faults)
+    for problem in problems:
+        typer.echo(problem, err=True)
+    if problems:
+        raise typer.Exit(EXIT_USAGE)
     try:
         airtime = None if channel_bitrate is None else Airtime(bitrate=channel_bitrate)
     except ValueError as exc:
         typer.echo(f"--channel-bitrate: {exc}", err=True)
         raise typer.Exit(2) from None
     link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
-    world_config: WorldConfig | None = None
-    if not no_world:
-        try:
-            world_config = load_world(world)  # None: the default world
-        except (WorldError, OSError) as exc:
-            typer.echo(str(exc), err=True)
-            raise typer.Exit(2) from None
     try:
         run = TaskSim(
             script,
@@ -531,7 +555,9 @@ def sim(
         if record is not None and run.world is not None:
             sample_world(run, 0.5)
         report = run.run(duration, events=events, faults=faults)
-    except (UnsupportedPlugin, RegistryError) as exc:
+    except (UnsupportedPlugin, RegistryError, ParamError) as exc:
+        # What the checker cannot know (a plugin of a module:Class path, a param laid over
+        # by a transition): refused here as cleanly.
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
     if record is not None:
@@ -542,8 +568,8 @@ def sim(
         }
         if run.world is not None:
             track = run.world.track()
-            areas = run.world.area_polygons()
-            meta["areas"] = {k: [list(p) for p in v] for k, v in areas.items()}
+            polygons = run.world.area_polygons()
+            meta["areas"] = {k: [list(p) for p in v] for k, v in polygons.items()}
             write_record(
                 record,
                 rows=track.rows(),
@@ -561,8 +587,10 @@ def sim(
             Path(json_out).write_text(text + "\n")
         for line in summary(report):
             typer.echo(line)
-    if report["violations"]:
-        raise typer.Exit(1)
+    status, lines = verdict(report, expect_complete=expect_complete)
+    for line in lines:
+        typer.echo(line, err=True)
+    raise typer.Exit(status)
 
 
 @app.command("demo")
@@ -659,11 +687,14 @@ class GraphFormat(StrEnum):
     dot = "dot"
 
 
-def _check_script(path: Path, max_bytes: int) -> tuple[int, TaskScript | None]:
+def _check_script(
+    path: Path, max_bytes: int, areas: Collection[str] | None = None
+) -> tuple[int, TaskScript | None]:
     """Check one script, printing its diagnostics on stderr: (exit status, model or None).
-    Status 2 when the file cannot be read, 1 when the script has errors."""
+    Status 2 when the file cannot be read, 1 when the script has errors. ``areas``: the
+    world's area names, which every ``area`` param must use (None: not checked)."""
     try:
-        result = check_file(path, max_bytes=max_bytes)
+        result = check_file(path, max_bytes=max_bytes, areas=areas)
     except OSError as exc:
         typer.echo(f"{path}: cannot read the file: {exc.strerror or exc}", err=True)
         return 2, None
@@ -678,16 +709,31 @@ def task_check(
     max_bytes: Annotated[
         int, typer.Option(min=1, help="Refuse scripts larger than this many bytes.")
     ] = DEFAULT_MAX_BYTES,
+    world: Annotated[
+        Path | None,
+        typer.Option(help="The world (TOML) the scripts will run in: check their area names."),
+    ] = None,
 ) -> None:
     """Check task scripts before deploying them.
 
     Prints "FILE: ok" on stdout for each valid script; every problem goes to stderr as
-    FILE:LINE:COL: message (warnings too, without failing). Exit status: 0 when every script
-    is valid, 1 when any has an error, 2 when a file cannot be read.
+    FILE:LINE:COL: message (warnings too, without failing). With --world, every area a
+    plugin names must be one of that world's [[areas]]. Exit status: 0 when every script
+    is valid, 1 when any has an error, 2 when a file (or the world) cannot be read.
     """
+    areas: list[str] | None = None
+    if world is not None:
+        from actorswarm.world.config import WorldError, load_world
+
+        try:
+            loaded = load_world(world)
+        except (WorldError, OSError) as exc:
+            typer.echo(str(exc), err=True)
+            raise typer.Exit(2) from None
+        areas = [area.name for area in loaded.areas]
     status = 0
     for path in files:
-        code, _ = _check_script(path, max_bytes)
+        code, _ = _check_script(path, max_bytes, areas)
         if code == 0:
             typer.echo(f"{path}: ok")
         status = max(status, code)

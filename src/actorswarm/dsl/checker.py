@@ -6,7 +6,8 @@ The pipeline, each stage its own module:
    no DTD or entities); a failure here ends the check with one error;
 2. :mod:`~actorswarm.dsl.builder` — the tree against the grammar, values against their
    syntax, into the :mod:`~actorswarm.dsl.model`;
-3. :func:`~actorswarm.dsl.rules.check_references` — names, duplicates, counts, plugins;
+3. :func:`~actorswarm.dsl.rules.check_references` — names, duplicates, counts, plugins and
+   their buses and params (``area`` names against the world's, when it is given);
 4. :func:`~actorswarm.dsl.rules.check_whole` — reachability and barrier-group feasibility,
    only once 2 and 3 found no error.
 
@@ -57,13 +58,16 @@ def check(
     path: str | os.PathLike[str] = "<script>",
     known_plugins: Collection[str] | None = None,
     max_bytes: int = DEFAULT_MAX_BYTES,
+    areas: Collection[str] | None = None,
 ) -> CheckResult:
     """Check the task script ``source`` (text, or UTF-8 bytes).
 
     ``path`` is only used in the diagnostics. ``known_plugins`` are the plugin names the
     script may use (default: :func:`~actorswarm.dsl.plugins.installed_plugins`).
-    ``max_bytes`` caps the script's size. Never raises for a bad script: everything wrong
-    with it is in the result.
+    ``max_bytes`` caps the script's size. ``areas`` are the names of the areas of the world
+    the script will run in: every ``area`` param must name one of them (or be a rectangle);
+    None (the default) leaves names unchecked. Never raises for a bad script: everything
+    wrong with it is in the result.
     """
     name = os.fspath(path)
     report = Report(name)
@@ -77,7 +81,9 @@ def check(
         built = build(root, report, path=name)
         if built is not None:
             script = built.script
-            rules.check_references(script, report, plugins, all_actors_built=built.all_actors_built)
+            rules.check_references(
+                script, report, plugins, all_actors_built=built.all_actors_built, areas=areas
+            )
             if not report.has_errors:
                 rules.check_whole(script, report)
     found = report.sorted()
@@ -95,6 +101,7 @@ def check_file(
     *,
     known_plugins: Collection[str] | None = None,
     max_bytes: int = DEFAULT_MAX_BYTES,
+    areas: Collection[str] | None = None,
 ) -> CheckResult:
     """:func:`check` the file at ``path``. A file above ``max_bytes`` is refused before it
     is read. ``OSError`` (no such file, no permission) is left to the caller."""
@@ -109,7 +116,7 @@ def check_file(
         return CheckResult(path=os.fspath(path), errors=(error,), warnings=(), script=None)
     with file.open("rb") as stream:
         data = stream.read(max_bytes + 1)  # the file may have grown since stat()
-    return check(data, path=path, known_plugins=known_plugins, max_bytes=max_bytes)
+    return check(data, path=path, known_plugins=known_plugins, max_bytes=max_bytes, areas=areas)
 
 
 def load(
@@ -117,13 +124,14 @@ def load(
     *,
     known_plugins: Collection[str] | None = None,
     max_bytes: int = DEFAULT_MAX_BYTES,
+    areas: Collection[str] | None = None,
 ) -> TaskScript:
     """The model of the valid task script at ``path``.
 
     Raises :class:`~actorswarm.dsl.diagnostics.ScriptError` (carrying every diagnostic)
     when the script has any error, and ``OSError`` when the file cannot be read.
     """
-    result = check_file(path, known_plugins=known_plugins, max_bytes=max_bytes)
+    result = check_file(path, known_plugins=known_plugins, max_bytes=max_bytes, areas=areas)
     if result.script is None:
         raise ScriptError(result.diagnostics)
     return result.script

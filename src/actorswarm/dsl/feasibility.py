@@ -31,18 +31,29 @@ single platforms is always possible (a bipartite multigraph of degree at most ``
 into ``|c|`` matchings, König). When the maximum flow is below the total demand, no moment
 exists at which the group could fire.
 
+Branch counts bound the holders too (:func:`most_holders`): every platform that ever runs an
+actor started in one of the actors that lead to it, and a platform that started in an actor
+no transition re-enters (a *closed* actor) can only have left it through that actor's
+transitions. A ``sysNum="all"`` transition out of a closed actor fires once (it takes every
+holder, and none can come back), so its branch of ``cnt="4"`` sends 4 platforms in all; a
+numeric ``sysNum`` n out of a closed actor started on N platforms fires at most N // n times.
+So in "take off, then 4 to Escort and the rest to Search", at most 4 platforms can ever run
+Escort, and a transition of Escort with ``sysNum="6"`` can never fire.
+
 The check is *necessary, not sufficient*: it assumes any platform that can ever hold an actor
-might hold it when the group fires, and knows nothing of timing, bids or platforms leaving.
-So an error here means "can never fire", while passing means only "might fire".
+might hold it when the group fires, and knows nothing of timing, bids or platforms leaving
+(nor of a platform that misses a ``sysNum="all"`` firing, cut off from the master, and takes
+the transition again later). So an error here means "can never fire", while passing means
+only "might fire".
 """
 
 from __future__ import annotations
 
 from collections import defaultdict, deque
 from collections.abc import Hashable, Iterable, Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from actorswarm.dsl.model import TaskScript, Transition
+from actorswarm.dsl.model import Position, TaskScript, Transition
 from actorswarm.dsl.syntax import id_ranges
 
 
@@ -66,6 +77,8 @@ class Infeasible:
 
     group: Group
     message: str
+    #: Where to point (None: the group's first transition).
+    where: Position | None = None
 
 
 def groups(script: TaskScript) -> list[Group]:
@@ -114,6 +127,67 @@ def reachable(graph: Mapping[str, set[str]], starts: Iterable[str]) -> set[str]:
                 seen.add(successor)
                 todo.append(successor)
     return seen
+
+
+def most_holders(
+    script: TaskScript, graph: Mapping[str, set[str]], *, without: Iterable[Transition] = ()
+) -> dict[str, int]:
+    """An upper bound on the platforms that can ever run each actor reachable in ``graph``
+    (the edges of :func:`edges` made ``without`` the same transitions), from the branch
+    counts of the transitions out of *closed* actors (see the module docstring); an actor
+    that no bound applies to is left out.
+
+    Every platform thread is counted in the actor it starts in: a thread started in ``x``
+    can run ``y`` only if ``y`` is reachable from ``x``. A thread that starts in ``y`` itself,
+    or in an actor that something re-enters, counts in full; one that starts in a closed
+    actor ``x`` counts only as far as the branches out of ``x`` towards ``y`` carry it.
+    """
+    skipped = {id(t) for t in without}
+    started = {actor: len(ids) for actor, ids in script.initial_actors().items()}
+    entered = {successor for targets in graph.values() for successor in targets}
+    # What may leave each closed actor through each of its edges, in all.
+    carry: dict[str, dict[str, int]] = {}
+    for actor, count in started.items():
+        if actor in entered:
+            continue
+        out: dict[str, int] = defaultdict(int)
+        for transition in script.transitions.get(actor, ()):
+            if transition.timeout_branch is not None:
+                out[transition.timeout_branch] += count
+            if id(transition) in skipped:
+                continue
+            for branch in transition.branches:
+                out[branch.successor] += _branch_carry(transition, branch.count, count)
+        carry[actor] = {target: min(n, count) for target, n in out.items()}
+    reverse: dict[str, set[str]] = defaultdict(set)
+    for source, targets in graph.items():
+        for target in targets:
+            reverse[target].add(source)
+    bounds: dict[str, int] = {}
+    for actor in reachable(graph, started):
+        leads_here = reachable(reverse, [actor])
+        total = 0
+        for origin, count in started.items():
+            if origin not in leads_here:
+                continue
+            if origin == actor or origin not in carry:
+                total += count
+            else:
+                sent = sum(n for target, n in carry[origin].items() if target in leads_here)
+                total += min(sent, count)
+        bounds[actor] = total
+    return bounds
+
+
+def _branch_carry(transition: Transition, count: int | str, holders: int) -> int:
+    """How many platforms one branch of ``transition`` can send in all, out of a closed
+    actor started on ``holders`` platforms."""
+    fixed = sum(b.count for b in transition.branches if b.count != "rest")
+    if transition.sys_num == "all":
+        firings, share = 1, holders - fixed
+    else:
+        firings, share = holders // transition.sys_num, transition.sys_num - fixed
+    return max(0, firings * (count if isinstance(count, int) else share))
 
 
 def platform_classes(script: TaskScript) -> dict[frozenset[str], list[int]]:
@@ -175,10 +249,15 @@ class Reach:
     classes: Mapping[frozenset[str], list[int]]
     reach: Mapping[str, set[str]]
     holders: Mapping[str, list[int]]
+    #: :func:`most_holders` of the same edges (an actor left out: no bound from counts).
+    most: Mapping[str, int] = field(default_factory=dict)
 
     @classmethod
     def build(
-        cls, classes: Mapping[frozenset[str], list[int]], graph: Mapping[str, set[str]]
+        cls,
+        classes: Mapping[frozenset[str], list[int]],
+        graph: Mapping[str, set[str]],
+        most: Mapping[str, int] | None = None,
     ) -> Reach:
         # What a thread started in x can reach depends on x alone, not on its platform.
         reach = {x: reachable(graph, [x]) for x in frozenset().union(*classes)}
@@ -186,7 +265,7 @@ class Reach:
         for signature, ids in classes.items():
             for actor in set().union(*(reach[x] for x in signature)):
                 holders[actor].extend(ids)
-        return cls(classes, reach, holders)
+        return cls(classes, reach, holders, dict(most or {}))
 
     def network(self, group: Group) -> dict[Hashable, dict[Hashable, int]]:
         """The flow network of ``group`` (see the module docstring)."""
@@ -240,6 +319,26 @@ def check_group(group: Group, swarm: Reach, everywhere: set[str]) -> Infeasible 
             f"({_short(platforms)}); lower sysNum to at most {len(platforms)} or start more "
             "platforms",
         )
+    for transition in group.members:
+        need = demand(transition)
+        most = swarm.most.get(transition.actor)
+        if not most or most >= need:
+            continue  # 0: nothing ever sends a platform there, which is said where it starts
+        at_least = "at least " if transition.sys_num == "all" else ""
+        role = "" if group.key is None else f" (for {transition.event} of {transition.actor})"
+        only = (
+            f"; it would only ever end by its timeout of {transition.timeout:g} s"
+            if transition.timeout is not None
+            else ""
+        )
+        return Infeasible(
+            group,
+            f"{what} can never fire: it needs {at_least}{need} platforms running "
+            f"{transition.actor} at once{role}, but the branch counts of the transitions "
+            f"that lead to it let at most {most} ever run it{only}; lower sysNum to at most "
+            f"{most} or send more platforms to {transition.actor}",
+            transition.at("sysNum"),
+        )
     if len(group.members) == 1:
         return None  # one transition: the holder count above is exact
     total = sum(demand(t) for t in group.members)
@@ -261,15 +360,19 @@ def infeasible_groups(script: TaskScript) -> Iterator[Infeasible]:
     classes = platform_classes(script)
     graph = edges(script)
     everywhere = reachable(graph, script.initial_actors())
-    full = Reach.build(classes, graph)
+    full = Reach.build(classes, graph, most_holders(script, graph))
     for group in groups(script):
         # Leaving out the edges *from* a lone transition's own actor cannot change whether
-        # that actor is reached, so only a group of several needs its own reachability.
-        swarm = (
-            full
-            if len(group.members) == 1
-            else Reach.build(classes, edges(script, without=group.members))
-        )
+        # that actor is reached, so only a group of several needs its own reachability (the
+        # bound from counts of the full graph is looser, never wrong: fewer edges only
+        # lower it).
+        if len(group.members) == 1:
+            swarm = full
+        else:
+            without = edges(script, without=group.members)
+            swarm = Reach.build(
+                classes, without, most_holders(script, without, without=group.members)
+            )
         found = check_group(group, swarm, everywhere)
         if found is not None:
             yield found

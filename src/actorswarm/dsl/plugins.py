@@ -32,6 +32,8 @@ from actorswarm.dsl import syntax
 if TYPE_CHECKING:
     from importlib.metadata import EntryPoint
 
+    from actorswarm.runtime.plugin import Plugin
+
 #: The entry-point group plugins register under.
 ENTRY_POINT_GROUP = "actorswarm.plugins"
 
@@ -101,6 +103,17 @@ def param_rules(name: str) -> Mapping[str, _ParamLike] | None:
         return param_schema(name)
     except RegistryError:
         return BUILTIN_PLUGINS.get(name)
+
+
+def plugin_class(name: str) -> type[Plugin] | None:
+    """The class of the installed plugin ``name`` (what its bus, params and cross-param
+    rules are read from), or None when it cannot be loaded here."""
+    from actorswarm.runtime.registry import RegistryError, resolve
+
+    try:
+        return resolve(name)
+    except RegistryError:
+        return None
 
 
 def entry_points(*, group: str) -> Iterable[EntryPoint]:

@@ -4,30 +4,37 @@ Two stages, in this order:
 
 :func:`check_references` — rules about single nodes and the names they refer to: duplicate
 actor names and IDs, unknown actors (in ``<actor name>``, successors, ``timeoutBranch`` and
-platform lines), unknown plugins and bad params of the built-in ones, duplicate transitions
-for one event, branch counts against ``sysNum``, a platform starting one actor twice. These
-run even when the builder found errors, on whatever it could build, so one pass reports as
-much as possible.
+platform lines), unknown plugins, plugins on a bus their class does not declare, params read
+as the plugin will read them (each value by its ``Param``, the class's cross-param rules,
+``area`` names against the world's areas when it is given, a transition's params by the
+successors' plugins that take them), duplicate transitions for one event, branch counts
+against ``sysNum``, a platform starting one actor twice, one ``barrierKey`` on different
+events (a warning). These run even when the builder found errors, on whatever it could
+build, so one pass reports as much as possible.
 
 :func:`check_whole` — rules about the script as a whole: actors no platform can ever run
-(a warning), barrier groups that can never fire (:mod:`actorswarm.dsl.feasibility`), and
-events a ``core.emit_after`` emits that no transition handles (a warning). They reason about
-everything at once, so they only run on a script with no error left: a missing piece would
-make their conclusions wrong.
+(a warning), barrier groups that can never fire and ``sysNum`` values more than the branch
+counts can ever send (:mod:`actorswarm.dsl.feasibility`), and events a ``core.emit_after``
+emits that no transition handles (a warning). They reason about everything at once, so they
+only run on a script with no error left: a missing piece would make their conclusions
+wrong.
 """
 
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from actorswarm.dsl.diagnostics import Report
 from actorswarm.dsl.feasibility import edges, infeasible_groups, reachable
-from actorswarm.dsl.model import Param, Position, TaskScript, Transition
-from actorswarm.dsl.plugins import param_rules
+from actorswarm.dsl.model import Param, PluginSpec, Position, TaskScript, Transition
+from actorswarm.dsl.plugins import param_rules, plugin_class
 from actorswarm.dsl.syntax import id_ranges, plugin_kind
 from actorswarm.suggest import did_you_mean
+
+if TYPE_CHECKING:
+    from actorswarm.runtime.plugin import Plugin
 
 _LOST = "_lost"
 
@@ -44,17 +51,24 @@ def check_references(
     known_plugins: Collection[str],
     *,
     all_actors_built: bool = True,
+    areas: Collection[str] | None = None,
 ) -> None:
     """Rules about single nodes and what they name (see the module docstring).
 
     With ``all_actors_built`` False (an ``<Actor>`` was too broken to build), references to
-    undefined actors are not reported: the broken actor may be the one they name.
+    undefined actors are not reported: the broken actor may be the one they name. ``areas``
+    are the names of the world's areas, against which every ``area`` param is looked up
+    (None: the world is not known here, names are not checked).
     """
-    _check_actors(script, report, known_plugins)
+    params = _ParamCheck(report, areas)
+    _check_actors(script, report, known_plugins, params)
     names = _Names(tuple(actor.name for actor in script.actors), complete=all_actors_built)
     for transitions in script.transitions.values():
         _check_transitions(transitions, names, report)
+        for transition in transitions:
+            _check_transition_params(script, transition, known_plugins, params)
     _check_platforms(script, names, report)
+    _check_keys(script, report)
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,7 +86,9 @@ class _Names:
         return f"{did_you_mean(name, self.defined)} (actors: {_listing(self.defined)})"
 
 
-def _check_actors(script: TaskScript, report: Report, known_plugins: Collection[str]) -> None:
+def _check_actors(
+    script: TaskScript, report: Report, known_plugins: Collection[str], params: _ParamCheck
+) -> None:
     named: dict[str, Position] = {}
     numbered: dict[int, tuple[str, Position]] = {}
     for actor in script.actors:
@@ -94,7 +110,7 @@ def _check_actors(script: TaskScript, report: Report, known_plugins: Collection[
                     "give each actor its own _P_ID, or leave _P_ID out to number them in order",
                 )
             numbered.setdefault(actor.id, (actor.name, id_pos))
-        for _, plugin in actor.plugins():
+        for bus, plugin in actor.plugins():
             if plugin_kind(plugin.name) == "path":
                 # A module:Class path is resolved when the actor starts: importing it here
                 # would run code named by the script on the checking machine.
@@ -107,38 +123,122 @@ def _check_actors(script: TaskScript, report: Report, known_plugins: Collection[
                     f"provides it or fix the name (installed: {_listing(known_plugins)})",
                 )
             else:
+                cls = plugin_class(plugin.name)
+                if cls is not None:
+                    _check_bus(bus, plugin, cls, report)
                 rules = param_rules(plugin.name)
                 if rules is not None:
-                    _check_params(plugin.name, rules, plugin.params, plugin.pos, report)
+                    params.plugin(plugin, rules, cls)
 
 
-def _check_params(
-    plugin: str,
-    rules: Mapping[str, Any],
-    params: tuple[Param, ...],
-    pos: Position,
-    report: Report,
-) -> None:
-    given = {param.key for param in params}
-    for param in params:
-        if param.key not in rules:
-            accepted = f"it takes {', '.join(rules)}" if rules else "it takes no params"
+def _check_bus(bus: str, plugin: PluginSpec, cls: type[Plugin], report: Report) -> None:
+    """A plugin on a bus its class does not declare (an error): the buses run in OODA order,
+    so a detector on ``act_bus`` would feed the act plugins a step late. A plugin that fits
+    anywhere declares ``any_bus``."""
+    if cls.any_bus or cls.bus == bus:
+        return
+    report.error(
+        plugin.pos,
+        f"{plugin.name} is written for {cls.bus} (its class declares bus = {cls.bus!r}), not "
+        f"{bus}; move this <Plugin> into the <Bus> of {cls.bus}",
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class _ParamCheck:
+    """Reads params the way the plugins will: each value by its :class:`Param`, the rules
+    that tie params together by the class's ``check_params``, ``area`` names against the
+    world's ``areas`` when they are known."""
+
+    report: Report
+    areas: Collection[str] | None
+
+    def plugin(
+        self, plugin: PluginSpec, rules: Mapping[str, Any], cls: type[Plugin] | None
+    ) -> None:
+        """Every param of one ``<Plugin>``, then its cross-param rules."""
+        name, report = plugin.name, self.report
+        given = {param.key: param for param in plugin.params}
+        values: dict[str, object] = {}
+        for param in plugin.params:
+            if param.key not in rules:
+                accepted = f"it takes {', '.join(rules)}" if rules else "it takes no params"
+                report.error(
+                    param.pos,
+                    f"{name} has no param {param.key!r}{did_you_mean(param.key, rules)}; "
+                    f"{accepted}",
+                )
+                continue
+            read = self.value(name, rules[param.key], param)
+            if read is not None:
+                values[param.key] = read
+        missing = [key for key, rule in rules.items() if rule.required and key not in given]
+        for key in missing:
             report.error(
-                param.pos,
-                f"{plugin} has no param {param.key!r}{did_you_mean(param.key, rules)}; {accepted}",
+                plugin.pos,
+                f"{name} needs the param {key} ({rules[key].meaning}): add "
+                f'<param key="{key}" value="..."/> to its <Plugin>',
             )
-            continue
+        if cls is None or missing or len(values) < len(given):
+            return  # the rules that tie params together need every one of them read
+        for key, declared in cls.params.items():
+            values.setdefault(key, declared.default)
         try:
-            rules[param.key].parse(param.value)
+            problems = list(cls.check_params(values))
         except ValueError as exc:
-            report.error(param.pos, f"{plugin}: {exc}")
-    missing = [key for key, rule in rules.items() if rule.required and key not in given]
-    for key in missing:
-        report.error(
-            pos,
-            f"{plugin} needs the param {key} ({rules[key].meaning}): add "
-            f'<param key="{key}" value="..."/> to its <Plugin>',
-        )
+            problems = [("", str(exc))]
+        except Exception as exc:  # the plugin's own code: a bug there must not end the check
+            problems = [("", f"its check_params failed ({type(exc).__name__}: {exc})")]
+        for key, message in problems:
+            where = given[key].pos if key in given else plugin.pos
+            report.error(where, f"{name}: {message}")
+
+    def value(self, plugin: str, rule: Any, param: Param, into: str = "") -> object | None:
+        """``param`` read by ``rule`` (None, and an error at the param, when it does not
+        read); ``into`` names the actor a transition's param goes to."""
+        try:
+            value: object = rule.parse(param.value)
+        except ValueError as exc:
+            self.report.error(param.pos, f"{plugin}{into}: {exc}")
+            return None
+        if getattr(rule, "kind", None) == "area" and self.areas is not None:
+            from actorswarm.runtime.shapes import area_name  # with the plugins, when needed
+
+            name = area_name(param.value)
+            if name is not None and name not in self.areas:
+                known = f"its areas are {_listing(self.areas)}" if self.areas else "it has none"
+                self.report.error(
+                    param.pos,
+                    f"{plugin}{into}: the world has no area {name!r}"
+                    f"{did_you_mean(name, self.areas)}; {known} (name one of them, or give a "
+                    'rectangle "x_min y_min x_max y_max")',
+                )
+                return None
+        return value
+
+
+def _check_transition_params(
+    script: TaskScript, transition: Transition, known_plugins: Collection[str], check: _ParamCheck
+) -> None:
+    """A transition's params go to every plugin of its successors that declares the key
+    (laid over the script's own), so each is read as those plugins will read it. A key no
+    plugin declares is data for the successor and is left alone."""
+    if not transition.params:
+        return
+    targets: list[tuple[str, str, Mapping[str, Any]]] = []
+    for successor in transition.successors:
+        try:
+            actor = script.actor(successor)
+        except KeyError:
+            continue  # reported as an undefined successor
+        for _, spec in actor.plugins():
+            rules = param_rules(spec.name) if spec.name in known_plugins else None
+            if rules is not None:
+                targets.append((successor, spec.name, rules))
+    for param in transition.params:
+        for successor, plugin, rules in targets:
+            if param.key in rules:
+                check.value(plugin, rules[param.key], param, f" (in {successor})")
 
 
 def _check_transitions(transitions: tuple[Transition, ...], names: _Names, report: Report) -> None:
@@ -231,6 +331,34 @@ def _check_counts(transition: Transition, report: Report) -> None:
         )
 
 
+def _check_keys(script: TaskScript, report: Report) -> None:
+    """A ``barrierKey`` shared by transitions on different events (a warning): the group
+    fires only when every part has its candidates, so the platforms that got one event
+    wait for the other one, which a script may mean (a rendezvous) but mostly does not."""
+    first: dict[int, Transition] = {}
+    for transition in script.all_transitions():
+        key = transition.barrier_key
+        if key is None:
+            continue
+        other = first.setdefault(key, transition)
+        if other.event != transition.event:
+            report.warning(
+                transition.at("barrierKey"),
+                f"barrierKey {key} joins {transition.event} of {transition.actor} to "
+                f"{other.event} of {other.actor} at {other.at('name')}: the group fires only "
+                f"when both events have come, so the holders of {transition.actor} that got "
+                f"{transition.event} wait for {other.event} (and the others the other way "
+                f"round){_until(transition, other)}; give them different barrier keys unless "
+                "they are meant to wait for each other",
+            )
+
+
+def _until(*transitions: Transition) -> str:
+    if any(t.timeout is not None for t in transitions):
+        return ", until it comes or the group's timeout expires"
+    return ", for ever if it never comes (no timeout)"
+
+
 def _platforms(ids: frozenset[int]) -> str:
     """``'platform 7 starts'`` or ``'platforms 1-3 start'``."""
     if len(ids) == 1:
@@ -272,7 +400,7 @@ def check_whole(script: TaskScript, report: Report) -> None:
                 "to it, or delete it",
             )
     for found in infeasible_groups(script):
-        report.error(found.group.members[0].pos, found.message)
+        report.error(found.where or found.group.members[0].pos, found.message)
     handled = {t.event for t in script.all_transitions()}
     for actor in script.actors:
         for _, plugin in actor.plugins():

@@ -44,7 +44,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
 from actorswarm.plugins.snapshot import read_flag, read_point
-from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
+from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
 if TYPE_CHECKING:
@@ -72,6 +72,7 @@ def _event_param(default: str, when: str) -> Param:
         kind="str",
         default=default,
         pattern=EVENT_NAME_PATTERN,
+        form=EVENT_NAME_FORM,
         doc=f"the event to emit, once, {when}",
     )
 

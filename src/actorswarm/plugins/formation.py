@@ -67,7 +67,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
@@ -75,8 +74,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from actorswarm.plugins.snapshot import finite
-from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
+from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
+from actorswarm.runtime.shapes import read_route
 
 if TYPE_CHECKING:
     from actorswarm.runtime.context import PluginContext
@@ -366,23 +366,8 @@ ROUTE_PATTERN: Final = rf"{_WAYPOINT}(?:;{_WAYPOINT})*;?\s*"
 
 def parse_route(text: str, altitude: float) -> list[Point]:
     """The waypoints of ``"x1 y1; x2 y2; ..."`` (metres) at ``altitude``. ValueError naming
-    the waypoint for anything else (a missing or extra number, a word, a non-finite
-    number). A trailing ``;`` is allowed."""
-    parts = [part.strip() for part in text.split(";")]
-    if parts and not parts[-1]:
-        parts.pop()
-    if not parts:
-        raise ValueError("route: give at least one waypoint, as 'x y' (metres)")
-    out: list[Point] = []
-    for i, part in enumerate(parts, start=1):
-        fields = part.split()
-        if len(fields) != 2 or not all(re.fullmatch(_NUMBER, f) for f in fields):
-            raise ValueError(f"route: waypoint {i} must be two numbers 'x y', not {part!r}")
-        x, y = float(fields[0]), float(fields[1])
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise ValueError(f"route: waypoint {i} ({part!r}) is not finite")
-        out.append((x, y, float(altitude)))
-    return out
+    the waypoint for anything else (:func:`~actorswarm.runtime.shapes.read_route`)."""
+    return [(x, y, float(altitude)) for x, y in read_route(text)]
 
 
 def _positive(name: str, params: Mapping[str, Any], key: str) -> float:
@@ -474,9 +459,8 @@ class Formation(Plugin):
             doc="the formation's altitude, metres above the ground (> 0)",
         ),
         "route": Param(
-            kind="str",
+            kind="route",
             default="0 0",
-            pattern=ROUTE_PATTERN,
             doc="the leader's waypoints, 'x1 y1; x2 y2; ...' metres, flown in order",
         ),
         "altitude_step": Param(
@@ -494,6 +478,7 @@ class Formation(Plugin):
         "event": Param(
             kind="str",
             pattern=EVENT_NAME_PATTERN,
+            form=EVENT_NAME_FORM,
             doc="emitted once (local scope) when the leader has reached the route's end and "
             "this member is within tolerance of its slot; left out: none",
         ),
@@ -526,6 +511,7 @@ class Formation(Plugin):
             kind="str",
             default="0 0",
             pattern=rf"\s*{_NUMBER}\s+{_NUMBER}\s*",
+            form="two numbers 'forward left' in metres, such as '0 -30'",
             doc="'forward left' metres from the route's leader to this formation's leader",
         ),
     }

@@ -41,13 +41,13 @@ re-split the area among themselves).
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
 from actorswarm.plugins.snapshot import finite, read_point
-from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
+from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
+from actorswarm.runtime.shapes import read_rectangle
 from actorswarm.suggest import did_you_mean
 
 if TYPE_CHECKING:
@@ -63,27 +63,7 @@ Polygon = Sequence[tuple[float, float]]
 #: simulated world's 90° camera sees ``altitude`` metres around).
 LANE_PER_ALTITUDE: Final = 1.6
 
-_NUMBER: Final = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NAME: Final = "search.area"
-
-
-def _rectangle(text: str) -> tuple[float, float, float, float] | None:
-    """``"x_min y_min x_max y_max"`` as four floats; None when ``text`` is not made of
-    numbers (a name); ValueError when it is numbers, but not a sound rectangle."""
-    fields = text.split()
-    if not fields or not all(_NUMBER.fullmatch(f) for f in fields):
-        return None
-    values = [float(f) for f in fields]
-    if len(values) != 4 or not all(math.isfinite(v) for v in values):
-        raise ValueError(
-            f'area: a rectangle is four numbers "x_min y_min x_max y_max" (metres), not {text!r}'
-        )
-    x0, y0, x1, y1 = values
-    if not (x0 < x1 and y0 < y1):
-        raise ValueError(
-            f"area: a rectangle's x_min must be below x_max and y_min below y_max, not {text!r}"
-        )
-    return x0, y0, x1, y1
 
 
 def parse_area(text: str, areas: Mapping[str, Polygon]) -> list[tuple[float, float]]:
@@ -92,7 +72,7 @@ def parse_area(text: str, areas: Mapping[str, Polygon]) -> list[tuple[float, flo
     ValueError for a malformed rectangle, an unknown name (with a suggestion and the names
     there are), or a named polygon that is not at least three finite vertices."""
     text = text.strip()
-    rect = _rectangle(text)
+    rect = read_rectangle(text)
     if rect is not None:
         x0, y0, x1, y1 = rect
         return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
@@ -235,7 +215,7 @@ class AreaSearch(Plugin):
     needs_vehicle = True
     params: ClassVar[Mapping[str, Param]] = {
         "area": Param(
-            kind="str",
+            kind="area",
             required=True,
             doc="the area to search: a name from the mission's areas, or a rectangle "
             '"x_min y_min x_max y_max" (metres)',
@@ -271,6 +251,7 @@ class AreaSearch(Plugin):
         "event": Param(
             kind="str",
             pattern=EVENT_NAME_PATTERN,
+            form=EVENT_NAME_FORM,
             doc="the event to emit, once, when the strip has been swept the first time; "
             "left out: none",
         ),
@@ -280,14 +261,6 @@ class AreaSearch(Plugin):
         self._route: list[Point] = []
         self._next = 0
         self._done = False
-
-    @classmethod
-    def check_params(cls, values: Mapping[str, Any]) -> Iterable[tuple[str, str]]:
-        try:
-            _rectangle(str(values["area"]))
-        except ValueError as exc:
-            return [("area", str(exc))]
-        return ()
 
     @property
     def route(self) -> tuple[Point, ...]:

@@ -52,7 +52,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Final
 from actorswarm.plugins.formation import RECOMMAND_DISTANCE
 from actorswarm.plugins.search import LANE_PER_ALTITUDE, lanes, parse_area
 from actorswarm.plugins.snapshot import finite, read_flag, read_point
-from actorswarm.runtime.builtin import EVENT_NAME_PATTERN
+from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.context import CollectiveUnavailable
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
@@ -153,6 +153,7 @@ class DetectTarget(Plugin):
             kind="str",
             default="target_detected_event",
             pattern=EVENT_NAME_PATTERN,
+            form=EVENT_NAME_FORM,
             doc="the event to emit, once, when a matching target is seen (and claimed)",
         ),
         "scope": Param(
@@ -377,6 +378,7 @@ class TrackTarget(Plugin):
         "lost_event": Param(
             kind="str",
             pattern=EVENT_NAME_PATTERN,
+            form=EVENT_NAME_FORM,
             doc="the event to emit when the target becomes lost; left out: none",
         ),
         "exclusive": Param(
@@ -386,7 +388,7 @@ class TrackTarget(Plugin):
             "platforms' detectors stay quiet",
         ),
         "area": Param(
-            kind="str",
+            kind="area",
             doc="an area name or 'x_min y_min x_max y_max' to sweep while the target is "
             "unknown or lost; left out: hover",
         ),

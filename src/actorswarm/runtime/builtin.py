@@ -30,6 +30,8 @@ __all__ = ["EmitAfter", "Idle"]
 
 #: What an event name may be (the task script's name syntax).
 EVENT_NAME_PATTERN = r"[A-Za-z_][A-Za-z0-9_.\-]*"
+#: :data:`EVENT_NAME_PATTERN` in words, for messages.
+EVENT_NAME_FORM = "an event name (a letter or _, then letters, digits, _ . or -)"
 
 
 class Idle(Plugin):
@@ -67,6 +69,7 @@ class EmitAfter(Plugin):
             kind="str",
             required=True,
             pattern=EVENT_NAME_PATTERN,
+            form=EVENT_NAME_FORM,
             doc="the event to emit",
         ),
         "after": Param(

@@ -74,6 +74,7 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, ClassVar, Final, Literal, final, get_args
 
+from actorswarm.runtime.shapes import area_name, read_route
 from actorswarm.suggest import did_you_mean as _did_you_mean
 
 if TYPE_CHECKING:
@@ -100,8 +101,10 @@ __all__ = [
 BusName = Literal["observe_bus", "orient_bus", "decide_bus", "act_bus"]
 BUSES: Final[tuple[BusName, ...]] = get_args(BusName)
 
-#: How a param's text is read. ``point`` is three numbers ``"x y z"`` (metres).
-ParamKind = Literal["str", "int", "float", "bool", "point"]
+#: How a param's text is read. ``point`` is three numbers ``"x y z"`` (metres); ``area``
+#: (an area's name or a rectangle) and ``route`` (waypoints) stay text, checked for their
+#: shape (:mod:`actorswarm.runtime.shapes`).
+ParamKind = Literal["str", "int", "float", "bool", "point", "area", "route"]
 PARAM_KINDS: Final[tuple[ParamKind, ...]] = get_args(ParamKind)
 
 Point = tuple[float, float, float]
@@ -155,6 +158,8 @@ _KIND_NAMES: Final[Mapping[ParamKind, str]] = MappingProxyType(
         "float": "a finite float",
         "bool": "a bool",
         "point": "a point (three finite numbers)",
+        "area": "an area (a name, or four numbers x_min y_min x_max y_max)",
+        "route": "a route (waypoints 'x1 y1; x2 y2; ...')",
     }
 )
 _TRUE: Final = frozenset({"true", "yes", "on", "1"})
@@ -203,12 +208,18 @@ class Param:
 
     ``kind`` is how the text is read: ``str`` (trimmed, not empty), ``int`` (ASCII digits,
     optional sign), ``float`` (a finite decimal such as ``2``, ``0.5`` or ``1e-3``),
-    ``bool`` (``true/false``, ``yes/no``, ``on/off``, ``1/0``) or ``point`` (three numbers
-    ``"x y z"`` separated by spaces, in metres). ``required`` params have no default; an
+    ``bool`` (``true/false``, ``yes/no``, ``on/off``, ``1/0``), ``point`` (three numbers
+    ``"x y z"`` separated by spaces, in metres), ``area`` (the name of one of the mission's
+    areas, or a rectangle ``"x_min y_min x_max y_max"``: the script checker also looks the
+    name up when it is given the world) or ``route`` (waypoints ``"x1 y1; x2 y2; ..."``);
+    an ``area`` or a ``route`` stays text, read with :mod:`~actorswarm.runtime.shapes`.
+    ``required`` params have no default; an
     optional one takes ``default`` (which may be None: "not given") when the script leaves
     it out. ``choices`` limits a ``str``/``int``/``float`` to a set of values; ``minimum``
     bounds an ``int``/``float`` from below; ``pattern`` is a regular expression a ``str``
-    must match in full. ``doc`` says what the param means, for messages and generated docs.
+    must match in full, and ``form`` says in words what it accepts (messages show ``form``,
+    not the pattern: "event must be an event name (a letter or _, then letters, digits, _ .
+    -), not '3go'"). ``doc`` says what the param means, for messages and generated docs.
 
     ``key`` is filled in by :class:`Plugin` from the key the param is declared under, so
     messages name it; leave it out when declaring.
@@ -224,6 +235,7 @@ class Param:
     choices: tuple[str | int | float, ...] | None = None
     minimum: float | None = None
     pattern: str | None = None
+    form: str = ""
     key: str = ""
     _regex: re.Pattern[str] | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -277,6 +289,8 @@ class Param:
                     re.compile(self.pattern)
                 except re.error as exc:
                     problems.append(f"pattern {self.pattern!r} is not a regular expression: {exc}")
+        if self.form and self.pattern is None:
+            problems.append("form describes a pattern; give the pattern too, or drop form")
         if self.key and not _NAME.fullmatch(self.key):
             problems.append(f"key {self.key!r} is not a valid param name")
         if not problems and self.default is not None:
@@ -291,7 +305,7 @@ class Param:
     def _value_problems(self, value: object, what: str) -> list[str]:
         """Whether ``value`` is a Python value of this param's kind."""
         ok: bool
-        if self.kind == "str":
+        if self.kind in ("str", "area", "route"):
             ok = isinstance(value, str)
         elif self.kind == "bool":
             ok = isinstance(value, bool)
@@ -333,10 +347,18 @@ class Param:
             if not value:
                 raise ValueError(f"{what} is empty; give it a value or leave the param out")
             if self._regex is not None and not self._regex.fullmatch(value):
+                if self.form:
+                    raise ValueError(f"{what} must be {self.form}, not {value!r}")
                 meaning = f" ({self.doc})" if self.doc else ""
                 raise ValueError(
                     f"{what} must match the pattern {self.pattern}{meaning}, not {value!r}"
                 )
+            parsed = value
+        elif self.kind == "area":
+            area_name(value, what)
+            parsed = value
+        elif self.kind == "route":
+            read_route(value, what)
             parsed = value
         elif self.kind == "int":
             if not _INTEGER.fullmatch(value):

@@ -424,6 +424,25 @@ def parse_fault(kind: str, text: str) -> Fault:
 
 Step = tuple[float, float, str, str, str, str, list[int]]
 
+#: At most this many plugin failures are printed one per line; the rest are counted.
+FAILURES_SHOWN = 10
+
+
+def failure_lines(failures: list[dict[str, Any]]) -> list[str]:
+    """The report's ``plugin_failures`` for people: a count, then one line each (the first
+    :data:`FAILURES_SHOWN`)."""
+    if not failures:
+        return []
+    lines = [f"PLUGIN FAILURES: {len(failures)}"]
+    for f in failures[:FAILURES_SHOWN]:
+        lines.append(
+            f"  {f['t']:7.2f} s  platform {f['platform']}, actor {f['actor']}, plugin "
+            f"{f['plugin']}: {f['error']}"
+        )
+    if len(failures) > FAILURES_SHOWN:
+        lines.append(f"  ... and {len(failures) - FAILURES_SHOWN} more (all in --json)")
+    return lines
+
 
 def steps(transitions: Iterable[dict[str, Any]]) -> list[Step]:
     """Transitions (report entries, time order) grouped into the steps of the task:
@@ -473,6 +492,7 @@ def summary(report: dict[str, Any]) -> list[str]:
     lines.append("final: " + "; ".join(f"{a} on {len(ps)}" for a, ps in sorted(final.items())))
     if report["ignored_events"]:
         lines.append(f"ignored events: {len(report['ignored_events'])}")
+    lines += failure_lines(report.get("plugin_failures", []))
     lines.append(
         "invariants: all held"
         if not report["violations"]
