@@ -269,11 +269,11 @@ def test_goals_are_bounded_by_the_fence(port: int, pilot: Autopilot) -> None:
 )
 def test_unopenable_connection_is_a_clear_error(url: str, why: str) -> None:
     with pytest.raises(MavlinkError) as info:
-        open_connection(url, vehicle="platform 3", source_system=245, source_component=191)
+        open_connection(url, who="vehicle platform 3", source_system=245, source_component=191)
     assert str(info.value).startswith(f"vehicle platform 3: cannot open MAVLink connection {url!r}")
     assert why in str(info.value)
     with pytest.raises(MavlinkError, match=r"system ID must be 1\.\.255"):
-        open_connection("udpin:127.0.0.1:0", vehicle="v", source_system=0, source_component=1)
+        open_connection("udpin:127.0.0.1:0", who="v", source_system=0, source_component=1)
 
 
 def test_filter_adopts_the_first_autopilot() -> None:

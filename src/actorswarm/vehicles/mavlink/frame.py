@@ -46,14 +46,17 @@ class MissionFrame:
         return (float(x), float(y), float(z))
 
 
-def parse_origin(text: str) -> MissionFrame:
+def parse_origin(text: str, what: str = "origin") -> MissionFrame:
     """The frame of an origin written ``LAT,LON,ALT`` (degrees, degrees, metres AMSL);
-    ValueError naming what is wrong."""
+    ValueError naming ``what`` (the option) and what is wrong."""
     parts = [p.strip() for p in text.split(",")]
     if len(parts) != 3:
-        raise ValueError(f"origin {text!r}: write it LAT,LON,ALT (degrees, degrees, metres)")
+        raise ValueError(f"{what} {text!r}: write it LAT,LON,ALT (degrees, degrees, metres)")
     try:
         lat, lon, alt = (float(p) for p in parts)
     except ValueError:
-        raise ValueError(f"origin {text!r}: LAT,LON,ALT must be three numbers") from None
-    return MissionFrame(lat, lon, alt)
+        raise ValueError(f"{what} {text!r}: LAT,LON,ALT must be three numbers") from None
+    try:
+        return MissionFrame(lat, lon, alt)
+    except ValueError as exc:
+        raise ValueError(f"{what} {text!r}: {str(exc).removeprefix('origin: ')}") from None

@@ -31,18 +31,17 @@ _SERIAL = ("/dev/", "COM")
 _READ_BATCH = 500
 
 
-def open_connection(url: str, *, vehicle: str, source_system: int, source_component: int) -> Any:
-    """The pymavlink connection for ``url``, speaking as ``source_system``/``source_component``."""
+def open_connection(url: str, *, who: str, source_system: int, source_component: int) -> Any:
+    """The pymavlink connection for ``url``, speaking as ``source_system``/``source_component``;
+    ``who`` starts the error messages (``vehicle platform 3``)."""
     if not isinstance(url, str) or not url.startswith(_NETWORK + _SERIAL):
         raise MavlinkError(
-            f"vehicle {vehicle}: cannot open MAVLink connection {url!r}: write udpin:HOST:PORT, "
+            f"{who}: cannot open MAVLink connection {url!r}: write udpin:HOST:PORT, "
             "udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or a serial device "
             "(/dev/ttyACM0,57600)"
         )
     if not (1 <= source_system <= 255 and 0 <= source_component <= 255):
-        raise MavlinkError(
-            f"vehicle {vehicle}: our MAVLink system ID must be 1..255, not {source_system}"
-        )
+        raise MavlinkError(f"{who}: our MAVLink system ID must be 1..255, not {source_system}")
     if url.startswith(_NETWORK):
         # pymavlink resolves a host name only when it first sends: resolve it now, so that
         # a wrong name is an error at start, not silence in the air.
@@ -51,7 +50,7 @@ def open_connection(url: str, *, vehicle: str, source_system: int, source_compon
             socket.getaddrinfo(host, int(port))
         except (OSError, ValueError) as exc:
             raise MavlinkError(
-                f"vehicle {vehicle}: cannot open MAVLink connection {url!r}: "
+                f"{who}: cannot open MAVLink connection {url!r}: "
                 f"host {host!r}, port {port!r}: {exc}"
             ) from None
     try:
@@ -62,9 +61,7 @@ def open_connection(url: str, *, vehicle: str, source_system: int, source_compon
             autoreconnect=True,
         )
     except Exception as exc:  # pymavlink raises whatever its socket or serial layer raised
-        raise MavlinkError(
-            f"vehicle {vehicle}: cannot open MAVLink connection {url!r}: {exc}"
-        ) from None
+        raise MavlinkError(f"{who}: cannot open MAVLink connection {url!r}: {exc}") from None
     return connection
 
 

@@ -166,7 +166,7 @@ class MavlinkVehicle:
         self._clock = clock
         self._conn = open_connection(
             settings.url,
-            vehicle=self.name,
+            who=f"vehicle {self.name}",
             source_system=settings.own_system,
             source_component=settings.own_component,
         )
