@@ -79,7 +79,7 @@ def near(a: tuple[float, float, float], b: tuple[float, float, float], tol: floa
 def test_takeoff_goto_land(flight: Flight) -> None:
     vehicle, sim = flight
     wait_for("the first position", lambda: vehicle.status()["mode"] != "", 3.0)
-    wait_for("the home position", lambda: _known(vehicle), 3.0)
+    wait_for("the first position", lambda: vehicle.located, 3.0)
     assert near(vehicle.position(), HOME, 0.05)
     assert vehicle.status()["autopilot"] == sim.options.kind
     wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
@@ -102,14 +102,6 @@ def test_takeoff_goto_land(flight: Flight) -> None:
     wait_for("the disarm seen", lambda: not vehicle.armed, 3.0)
     assert vehicle.drain_errors() == []
     assert vehicle.drain_events() == []
-
-
-def _known(vehicle: MavlinkVehicle) -> bool:
-    try:
-        vehicle.position()
-    except RuntimeError:
-        return False
-    return True
 
 
 def test_px4_holds_when_offboard_setpoints_stop() -> None:

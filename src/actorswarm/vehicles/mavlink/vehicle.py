@@ -38,7 +38,6 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
-from actorswarm.runtime.context import VehicleUnavailable
 from actorswarm.vehicles.mavlink.commands import Command, CommandSender, Step
 from actorswarm.vehicles.mavlink.dialect import mav, mavutil
 from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour
@@ -270,13 +269,16 @@ class MavlinkVehicle:
     # --- the Vehicle interface -------------------------------------------------------------------
 
     def position(self) -> tuple[float, float, float]:
+        """The latest position; the mission origin ``(0, 0, 0)`` until the autopilot sent
+        its first (:attr:`located` says which): the engine reads positions at any time, and
+        a read never raises."""
         with self._lock:
-            if self._state.position is None:
-                raise VehicleUnavailable(
-                    f"vehicle {self.name}: no position from the autopilot yet "
-                    f"(link {self._state.link})"
-                )
-            return self._state.position
+            return self._state.position or (0.0, 0.0, 0.0)
+
+    @property
+    def located(self) -> bool:
+        """Whether the autopilot has sent a position yet."""
+        return self._state.position is not None
 
     def velocity(self) -> tuple[float, float, float]:
         with self._lock:
@@ -290,12 +292,9 @@ class MavlinkVehicle:
 
     def home(self) -> tuple[float, float, float]:
         """Where the autopilot's home is, local metres (its first position when it sent no
-        HOME_POSITION)."""
+        HOME_POSITION; the origin before that)."""
         with self._lock:
-            home = self._state.home or self._state.position
-            if home is None:
-                raise VehicleUnavailable(f"vehicle {self.name}: no home from the autopilot yet")
-            return home
+            return self._state.home or self._state.position or (0.0, 0.0, 0.0)
 
     def goto(self, x: float, y: float, z: float, *, speed: float | None = None) -> None:
         point = (x, y, z)
