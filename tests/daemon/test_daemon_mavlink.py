@@ -5,6 +5,7 @@ transition when the autopilot falls silent."""
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -122,3 +123,80 @@ def test_a_daemon_flies_the_autopilot_and_handles_a_lost_link(
         assert [e["name"] for e in swarm.events(1, "vehicle-event")] == ["vehicle_link_lost"]
         assert any("no HEARTBEAT from system 3" in e["error"]
                    for e in swarm.events(1, "vehicle-error"))  # fmt: skip
+
+
+def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> None:
+    """examples/mavlink_two.xml on two real daemons, each flying its own simulated
+    autopilot (one ArduPilot, one PX4) over UDP: up together, a line abreast to 40 m east
+    and 20 m north, home and landed."""
+    from actorswarm.daemon.launch import free_ports
+
+    origin = MissionFrame(47.397742, 8.545594, 488.0)
+    homes = {1: (-4.0, -6.0, 0.0), 2: (4.0, -6.0, 0.0)}
+    ports = free_ports(2)
+    sims: dict[int, SimAutopilot] = {}
+    stop = threading.Event()
+    threads = []
+    for (platform, home), port, kind in zip(
+        homes.items(), ports, ("ardupilot", "px4"), strict=True
+    ):
+        sims[platform] = SimAutopilot(
+            AutopilotOptions(
+                f"udpin:127.0.0.1:{port}", MissionFrame(*origin.to_geodetic(*home)),
+                system=10 + platform, kind=kind,  # type: ignore[arg-type]
+            )
+        )  # fmt: skip
+        threads.append(threading.Thread(target=sims[platform].run, args=(stop,), daemon=True))
+    for thread in threads:
+        thread.start()
+    try:
+        with LocalSwarm(tmp_path, 2) as swarm:
+            for platform, port in zip(homes, ports, strict=True):
+                swarm.start(
+                    platform, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+                    "--mavlink-sysid", str(10 + platform), "--origin", ORIGIN,
+                )  # fmt: skip
+            swarm.wait(
+                "both links up and a master agreed",
+                lambda: (
+                    swarm.agreed_master() is not None
+                    and all(swarm.status(p).get("vehicle", {}).get("link") == "up" for p in homes)
+                ),
+                timeout=30,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")
+            deployed = swarm.gs("deploy", script, "--expect", "2", *state)
+            assert deployed.returncode == 0, deployed.stdout + deployed.stderr
+            assert swarm.gs("start", *state).returncode == 0
+            swarm.wait(
+                "both in formation",
+                lambda: all(swarm.status(p).get("actors") == ["Formation"] for p in homes),
+                timeout=40,
+            )
+            assert all(sim.position()[2] > 8.0 for sim in sims.values())
+            swarm.wait(
+                "both returning",
+                lambda: all(swarm.status(p).get("actors") == ["Return"] for p in homes),
+                timeout=60,
+                detail=lambda: str([swarm.status(p).get("position") for p in homes]),
+            )
+            swarm.wait(
+                "both landed at home, disarmed",
+                lambda: all(
+                    not sim.armed and sim.physics_mode == "landed" for sim in sims.values()
+                ),
+                timeout=60,
+                detail=lambda: str({p: (s.position(), s.mode_name) for p, s in sims.items()}),
+            )
+            for platform, sim in sims.items():
+                x, y, z = sim.position()  # metres from its own home
+                assert math.hypot(x, y) < 3.0 and z == pytest.approx(0.0, abs=0.05), platform
+                errors = swarm.events(platform, "vehicle-error")
+                assert errors == [], errors
+    finally:
+        stop.set()
+        for thread in threads:
+            thread.join(timeout=2)
+        for sim in sims.values():
+            sim.close()
