@@ -127,3 +127,14 @@ def test_refused_takeoff_is_reported() -> None:
         errors = vehicle.drain_errors()
         assert any("FS_GCS_ENABLE is 0" in e and "refusing to arm" in e for e in errors), errors
         assert not sim.armed
+
+
+def test_a_goto_right_after_the_takeoff_does_not_take_off_again() -> None:
+    with fly("ardupilot") as (vehicle, _):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        vehicle.takeoff(3.0)
+        wait_for("the take-off accepted", lambda: vehicle.status()["plan"] is None, 3.0)
+        goal = (HOME[0] + 3.0, HOME[1], 3.0)
+        vehicle.goto(*goal)  # still low in the climb
+        wait_for("the goal", lambda: near(vehicle.position(), goal, 0.5), 10.0)
+        assert vehicle.drain_errors() == []

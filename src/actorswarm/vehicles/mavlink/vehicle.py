@@ -336,7 +336,12 @@ class MavlinkVehicle:
 
     @property
     def airborne(self) -> bool:
-        return self._state.armed and self._state.height > _AIRBORNE
+        """Armed, and above the ground or climbing after an accepted take-off (a goto in
+        the first second of the climb must not ask for a second take-off)."""
+        if not self._state.armed:
+            return False
+        climbing = self._plan is not None and self._plan.completed[-1:] == ["takeoff"]
+        return climbing or self._state.height > _AIRBORNE
 
     @property
     def mode(self) -> str:
@@ -418,6 +423,12 @@ class MavlinkVehicle:
                 name = name.decode("ascii", "replace")
             s.params[name.rstrip("\x00")] = float(message.param_value)
         elif kind == "COMMAND_ACK":
+            if (
+                message.command == mav.MAV_CMD_COMPONENT_ARM_DISARM
+                and message.result == mav.MAV_RESULT_ACCEPTED
+            ):
+                # We only ever ask to arm: it is armed now, not at the next HEARTBEAT.
+                s.armed = True
             for sender in (self._setup, self._plan):
                 if sender is not None:
                     sender.on_ack(message, now)
