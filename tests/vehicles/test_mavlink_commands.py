@@ -112,3 +112,19 @@ def test_a_new_plan_replaces_the_old(sender: CommandSender, sent: list[Any]) -> 
 def test_bad_timing_is_refused() -> None:
     with pytest.raises(ValueError, match="retry and deadline"):
         CommandSender("x", print, (1, 1), retry=0)
+
+
+def test_temporarily_rejected_is_tried_again_until_the_deadline(
+    sender: CommandSender, sent: list[Any]
+) -> None:
+    sender.start("hold", [ARM], 0.0)
+    sender.on_ack(ack(mav.MAV_CMD_COMPONENT_ARM_DISARM, mav.MAV_RESULT_TEMPORARILY_REJECTED), 0.1)
+    sender.tick(0.6)
+    assert len(sent) == 2 and sender.busy == "hold"  # tried again, not given up
+    sender.on_ack(ack(mav.MAV_CMD_COMPONENT_ARM_DISARM, mav.MAV_RESULT_TEMPORARILY_REJECTED), 0.7)
+    for t in (1.2, 1.7, 2.2):
+        sender.tick(t)
+    assert sender.drain_errors() == [
+        "vehicle platform 3: hold: MAV_CMD_COMPONENT_ARM_DISARM: not done within 2 s "
+        "(4 tries), temporarily rejected"
+    ]

@@ -3,7 +3,8 @@
 The MAVLink command protocol: the sender repeats a command (the ``confirmation`` field
 counting the repeats) until the autopilot answers with a ``COMMAND_ACK`` for it. An ack
 ``ACCEPTED`` ends the step, ``IN_PROGRESS`` stops the repeats while the autopilot works,
-anything else is a refusal. Nothing is retried for ever: a step not accepted within its
+``TEMPORARILY_REJECTED`` ("try again later") lets them go on, anything else is a refusal.
+Nothing is retried for ever: a step not accepted within its
 deadline fails.
 
 One plan of the vehicle (take off: set the mode, check the failsafes, arm, take off) is a
@@ -75,6 +76,7 @@ class _Running:
     sent: float | None = None  # when the current command was last sent
     tries: int = 0
     working: bool = False  # the autopilot said IN_PROGRESS
+    rejected: bool = False  # the autopilot said TEMPORARILY_REJECTED
     done: list[str] = field(default_factory=list)
 
 
@@ -140,6 +142,9 @@ class CommandSender:
             self.tick(now)
         elif ack.result == mav.MAV_RESULT_IN_PROGRESS:
             run.working = True
+        elif ack.result == mav.MAV_RESULT_TEMPORARILY_REJECTED:
+            run.working = False  # "try again later": the repeats go on until the deadline
+            run.rejected = True
         else:
             self._fail(run, f"{step.name} refused by the autopilot: {result_name(ack.result)}")
 
@@ -153,6 +158,8 @@ class CommandSender:
             if now - run.started > limit:
                 what = step.name if isinstance(step, Command) else f"waiting for {step.name}"
                 tries = f" ({run.tries} tries)" if isinstance(step, Command) else ""
+                if run.rejected:
+                    tries += ", temporarily rejected"
                 self._fail(run, f"{what}: not done within {limit:g} s{tries}")
                 return
             if isinstance(step, Do):
@@ -187,7 +194,8 @@ class CommandSender:
     def _advance(self, run: _Running, now: float) -> None:
         step = run.steps.pop(0)
         run.done.append(step.name)
-        run.started, run.sent, run.tries, run.working = now, None, 0, False
+        run.started, run.sent, run.tries = now, None, 0
+        run.working = run.rejected = False
         if not run.steps:
             self._finish(run)
 

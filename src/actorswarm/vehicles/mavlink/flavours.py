@@ -11,7 +11,7 @@ PX4
     level (PX4 switches itself to AUTO.TAKEOFF); goals are ``OFFBOARD`` setpoints, which PX4
     accepts only while they stream (above 2 Hz: it leaves ``OFFBOARD`` when they stop), so
     the stream starts before the mode is asked for; a speed is flown by moving the streamed
-    setpoint along the line at that speed; hold is AUTO.LOITER, land ``MAV_CMD_NAV_LAND``.
+    setpoint along the line at that speed; hold is AUTO.LOITER, land AUTO.LAND.
 
 Both: a goto on the ground takes off to the goal's altitude first, as the simulated
 vehicle does; a take-off in the air climbs or descends where the vehicle is.
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Final, Literal, Protocol
 
 from actorswarm.vehicles.mavlink.commands import Check, Command, Do, Step
-from actorswarm.vehicles.mavlink.dialect import mav
+from actorswarm.vehicles.mavlink.dialect import mav, mavutil
 
 __all__ = [
     "ARDUPILOT_MODES",
@@ -37,6 +37,7 @@ __all__ = [
     "Px4",
     "Target",
     "flavour",
+    "mode_name",
     "px4_custom_mode",
 ]
 
@@ -180,7 +181,8 @@ class ArduPilot:
 
 
 class Px4:
-    """PX4 multicopter: AUTO.TAKEOFF, OFFBOARD goals, AUTO.LOITER, AUTO.LAND."""
+    """PX4 multicopter (and any other autopilot using PX4's modes): AUTO.TAKEOFF, OFFBOARD
+    goals, AUTO.LOITER, AUTO.LAND."""
 
     kind: Kind = "px4"
     #: Setpoints per second: PX4 leaves OFFBOARD below 2 Hz.
@@ -232,10 +234,22 @@ class Px4:
         ]
 
     def land(self, v: Controls) -> list[Step]:
+        # AUTO.LAND through the mode, as ground stations do: PX4 and MAVSDK's action server
+        # both take it (the latter does not answer MAV_CMD_NAV_LAND).
         return [
             Do("stop streaming", lambda: v.set_target(None)),
-            Command(mav.MAV_CMD_NAV_LAND, (0, 0, 0, _NAN, _NAN, _NAN, _NAN)),
+            Command(
+                mav.MAV_CMD_DO_SET_MODE, (_CUSTOM, PX4_MAIN["AUTO"], PX4_SUB["LAND"], 0, 0, 0, 0)
+            ),
         ]
+
+
+def mode_name(kind: Kind, base_mode: int, custom_mode: int) -> str:
+    """The name of the mode a HEARTBEAT reports, read as ``kind`` encodes it."""
+    if kind == "px4":
+        return str(mavutil.interpret_px4_mode(base_mode, custom_mode))
+    names: dict[int, str] = mavutil.mode_mapping_acm  # ArduCopter: number -> name
+    return names.get(custom_mode, f"Mode({custom_mode})")
 
 
 def flavour(kind: Kind) -> Flavour:

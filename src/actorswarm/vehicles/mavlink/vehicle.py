@@ -33,14 +33,15 @@ from __future__ import annotations
 
 import contextlib
 import math
+import struct
 import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
 from actorswarm.vehicles.mavlink.commands import Command, CommandSender, Step
-from actorswarm.vehicles.mavlink.dialect import mav, mavutil
-from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour
+from actorswarm.vehicles.mavlink.dialect import mav
+from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour, mode_name
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import MessageFilter, open_connection, read_available
 
@@ -69,6 +70,16 @@ _STREAMS: Final = {
     mav.MAVLINK_MSG_ID_SYS_STATUS: 1_000_000,
     mav.MAVLINK_MSG_ID_HOME_POSITION: 1_000_000,
 }
+_INT_TYPES: Final = frozenset(
+    (
+        mav.MAV_PARAM_TYPE_UINT8,
+        mav.MAV_PARAM_TYPE_INT8,
+        mav.MAV_PARAM_TYPE_UINT16,
+        mav.MAV_PARAM_TYPE_INT16,
+        mav.MAV_PARAM_TYPE_UINT32,
+        mav.MAV_PARAM_TYPE_INT32,
+    )
+)
 #: Our own heartbeat, and re-requests of unknown parameters, every this many seconds.
 _BEAT: Final = 1.0
 #: Seconds between two looks of the background thread.
@@ -252,8 +263,8 @@ class MavlinkVehicle:
             return out
 
     def status(self) -> dict[str, Any]:
-        """The link, the autopilot's kind, mode and arming, the plan in progress, and the
-        messages dropped by reason."""
+        """The link, the autopilot's kind, mode and arming, the plan in progress, the
+        failsafe parameters read, and the messages dropped by reason."""
         with self._lock:
             s = self._state
             return {
@@ -263,6 +274,7 @@ class MavlinkVehicle:
                 "mode": s.mode,
                 "armed": s.armed,
                 "plan": None if self._plan is None else self._plan.busy,
+                "failsafes": dict(s.params),
                 "dropped": dict(self._filter.dropped),
             }
 
@@ -421,7 +433,7 @@ class MavlinkVehicle:
             name = message.param_id
             if isinstance(name, bytes):
                 name = name.decode("ascii", "replace")
-            s.params[name.rstrip("\x00")] = float(message.param_value)
+            s.params[name.rstrip("\x00")] = self._param_value(message)
         elif kind == "COMMAND_ACK":
             if (
                 message.command == mav.MAV_CMD_COMPONENT_ARM_DISARM
@@ -440,11 +452,12 @@ class MavlinkVehicle:
             self._events.append(LINK_RESTORED)
         s.link = "up"
         s.armed = bool(message.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
-        s.mode = mavutil.mode_string_v10(message)
         if s.kind is None:
             chosen = self.settings.kind
             if chosen == "auto":
-                chosen = "px4" if message.autopilot == mav.MAV_AUTOPILOT_PX4 else "ardupilot"
+                # ArduPilot says so; PX4 and other autopilots use PX4's modes.
+                ardupilot = message.autopilot == mav.MAV_AUTOPILOT_ARDUPILOTMEGA
+                chosen = "ardupilot" if ardupilot else "px4"
             s.kind = chosen
             self._flavour = flavour(chosen)
             target = (message.get_srcSystem(), message.get_srcComponent())
@@ -467,6 +480,15 @@ class MavlinkVehicle:
                 for message_id, interval in _STREAMS.items()
             ]
             self._setup.start("stream rates", intervals, now)
+        s.mode = mode_name(s.kind, message.base_mode, message.custom_mode)
+
+    def _param_value(self, message: Any) -> float:
+        """A PARAM_VALUE's value. PX4 (and MAVSDK) carry an integer parameter's bytes in the
+        float field; ArduPilot converts it to a float."""
+        value = float(message.param_value)
+        if self._state.kind == "px4" and message.param_type in _INT_TYPES:
+            return float(struct.unpack("<i", struct.pack("<f", value))[0])
+        return value
 
     def _watch_link(self, now: float) -> None:
         s = self._state
