@@ -114,6 +114,7 @@ def test_is_a_vehicle_and_reads_never_block(port: int, pilot: Autopilot) -> None
         )
         pilot.conn.mav.sys_status_send(0, 0, 0, 500, 12000, 100, 42, 0, 0, 0, 0, 0, 0)
         until(lambda: vehicle.battery() == 0.42, lambda: vehicle.service(0.1))
+        assert vehicle.status()["battery"] == 0.42
         assert vehicle.located
         assert vehicle.position() == pytest.approx((10.0, -20.0, 5.0), abs=0.01)
         # NED cm/s (north 2, east -3, down 1) -> ENU m/s

@@ -263,8 +263,9 @@ class MavlinkVehicle:
             return out
 
     def status(self) -> dict[str, Any]:
-        """The link, the autopilot's kind, mode and arming, the plan in progress, the
-        failsafe parameters read, and the messages dropped by reason."""
+        """The link, the autopilot's kind, mode and arming, the battery (None: not
+        reported), the plan in progress, the failsafe parameters read, and the messages
+        dropped by reason."""
         with self._lock:
             s = self._state
             return {
@@ -273,6 +274,7 @@ class MavlinkVehicle:
                 "system": self._filter.system,
                 "mode": s.mode,
                 "armed": s.armed,
+                "battery": s.battery,
                 "plan": None if self._plan is None else self._plan.busy,
                 "failsafes": dict(s.params),
                 "dropped": dict(self._filter.dropped),
