@@ -6,6 +6,7 @@ transition when the autopilot falls silent."""
 from __future__ import annotations
 
 import math
+import re
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,6 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from actorswarm.cli.app import app
+from actorswarm.daemon.config import DaemonConfigError, load_daemon_config
 from actorswarm.daemon.launch import LocalSwarm
 from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
 from actorswarm.vehicles.mavlink.frame import MissionFrame
@@ -56,6 +58,32 @@ def test_a_bad_fence_in_the_configuration_is_refused(tmp_path: Path) -> None:
     )
     result = runner.invoke(app, ["daemon", "--platform", "1", "--config", str(config)])
     assert result.exit_code == 2 and "fence: an empty box" in result.output
+
+
+def test_the_mavlink_keys_of_the_configuration_file(tmp_path: Path) -> None:
+    config = tmp_path / "d.toml"
+    config.write_text(
+        'vehicle = "mavlink"\nmavlink = "/dev/ttyAMA0,921600"\nmavlink_sysid = 3\n'
+        f'origin = "{ORIGIN}"\nmavlink_kind = "px4"\nmavlink_link_timeout = 2.5\n'
+        "mavlink_force = false\nfence = [-300, -300, 300, 300, 60]\n"
+    )
+    parsed, _ = load_daemon_config(config)
+    assert (parsed.vehicle, parsed.mavlink, parsed.mavlink_sysid) == (
+        "mavlink",
+        "/dev/ttyAMA0,921600",
+        3,
+    )
+    assert parsed.mavlink_kind == "px4" and parsed.mavlink_link_timeout == 2.5
+    assert parsed.fence == [-300, -300, 300, 300, 60]
+    for text, key in [
+        ("mavlink_sysid = 300\n", "$.mavlink_sysid"),
+        ('mavlink_kind = "inav"\n', "$.mavlink_kind"),
+        ("fence = [1, 2]\n", "$.fence"),
+        ("mavlink_link_timeout = 0\n", "$.mavlink_link_timeout"),
+    ]:
+        config.write_text(text)
+        with pytest.raises(DaemonConfigError, match=re.escape(key)):
+            load_daemon_config(config)
 
 
 @pytest.fixture
