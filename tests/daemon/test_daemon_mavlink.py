@@ -139,6 +139,16 @@ def test_a_daemon_flies_the_autopilot_and_handles_a_lost_link(
             "the mode in status.json", lambda: swarm.status(1)["vehicle"]["mode"] == "GUIDED"
         )
 
+        # The operator takes the vehicle, then gives it back.
+        assert swarm.gs("event", "vehicle_hold").returncode == 0
+        swarm.wait("the override", lambda: swarm.status(1)["vehicle"]["override"] == "hold")
+        assert swarm.gs("event", "vehicle_resume").returncode == 0
+        swarm.wait("the release", lambda: swarm.status(1)["vehicle"]["override"] is None)
+        assert [e["name"] for e in swarm.events(1, "vehicle-override")] == [
+            "vehicle_hold",
+            "vehicle_resume",
+        ]
+
         stop.set()  # the autopilot falls silent
         swarm.wait(
             "the script's vehicle_link_lost transition",

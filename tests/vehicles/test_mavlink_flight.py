@@ -138,3 +138,26 @@ def test_a_goto_right_after_the_takeoff_does_not_take_off_again() -> None:
         vehicle.goto(*goal)  # still low in the climb
         wait_for("the goal", lambda: near(vehicle.position(), goal, 0.5), 10.0)
         assert vehicle.drain_errors() == []
+
+
+def test_the_operator_s_hold_overrides_the_plugins_until_resumed() -> None:
+    with fly("ardupilot") as (vehicle, sim):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        vehicle.takeoff(3.0)
+        wait_for("the climb", lambda: vehicle.position()[2] > 2.8, 6.0)
+        vehicle.goto(HOME[0] + 40.0, HOME[1], 3.0, speed=4.0)
+        wait_for("under way", lambda: vehicle.velocity()[0] > 2.0, 5.0)
+        vehicle.override("hold")
+        wait_for("stopped", lambda: abs(vehicle.velocity()[0]) < 0.1, 5.0)
+        x = sim.position()[0]
+        for _ in range(3):
+            vehicle.goto(HOME[0] + 40.0, HOME[1], 3.0)  # a plugin insists
+        assert vehicle.drain_errors() == [
+            "vehicle platform 1: goto ignored: the operator's hold holds the vehicle until "
+            "vehicle_resume"
+        ]
+        time.sleep(0.5)
+        assert abs(sim.position()[0] - x) < 0.2 and vehicle.status()["override"] == "hold"
+        vehicle.override(None)
+        vehicle.goto(HOME[0] + 3.0, HOME[1] + 3.0, 3.0)
+        wait_for("the plugins' goal again", lambda: sim.position()[1] > 2.5, 6.0)

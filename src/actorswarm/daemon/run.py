@@ -40,7 +40,9 @@ With ``--vehicle mavlink`` the daemon flies a PX4 or ArduPilot autopilot
 progress), a lost or restored link becomes the local event ``vehicle_link_lost`` /
 ``vehicle_link_restored`` of the task script (logged as ``vehicle-event`` with its
 ``name``), and whatever the autopilot refused or never answered is logged as
-``vehicle-error``.
+``vehicle-error``. The operator's events ``vehicle_land`` and ``vehicle_hold`` (``gs event``)
+land or hold the vehicle and keep the plugins' commands from it until ``vehicle_resume``
+(logged as ``vehicle-override``).
 
 A signal stops it cleanly: the loop ends, the transport closes (the swarm notices the
 platform leave within its failure-detection time) and the process exits 0.
@@ -297,6 +299,8 @@ async def _main(options: DaemonOptions) -> int:
             seen.master = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
         if engine.commands:
+            if autopilot is not None:
+                _operator_override(autopilot, engine.commands)
             before = list(traffic.at_wake)
             for c in engine.commands:
                 _log("command", at=c.t, command=c.command, on=c.event, ok=c.ok, traffic=before)
@@ -352,6 +356,17 @@ async def _main(options: DaemonOptions) -> int:
             autopilot.close()
         _log("stopped", platform=options.platform, backup=generation)
     return 0
+
+
+def _operator_override(autopilot: MavlinkVehicle, commands: list[Any]) -> None:
+    """The operator's ``vehicle_land`` / ``vehicle_hold`` / ``vehicle_resume`` events
+    (``gs event``), carried out on the autopilot whatever the plugins ask."""
+    from actorswarm.vehicles.mavlink.vehicle import OPERATOR_EVENTS
+
+    for c in commands:
+        if c.command == "Inject" and c.event in OPERATOR_EVENTS:
+            autopilot.override(OPERATOR_EVENTS[c.event])
+            _log("vehicle-override", name=c.event)
 
 
 def run_daemon(options: DaemonOptions) -> int:

@@ -22,6 +22,9 @@ Safety:
   into events its task script can handle.
 * Before arming, the autopilot's link-loss and low-battery failsafe parameters are read
   (``PARAM_REQUEST_READ``); a take-off is refused while one is off, unless ``force``.
+* The operator's ``land`` or ``hold`` (:meth:`MavlinkVehicle.override`, the daemon's
+  :data:`OPERATOR_EVENTS`) takes the vehicle from the plugins: their commands are ignored
+  (the first one reported) until the operator gives it back.
 * Every goal is bounded by the :class:`Fence`: one outside is moved onto its edge, and the
   move is reported as an error.
 
@@ -49,6 +52,7 @@ __all__ = [
     "FAILSAFE_PARAMS",
     "LINK_LOST",
     "LINK_RESTORED",
+    "OPERATOR_EVENTS",
     "Fence",
     "MavlinkSettings",
     "MavlinkVehicle",
@@ -56,6 +60,13 @@ __all__ = [
 
 LINK_LOST: Final = "vehicle_link_lost"
 LINK_RESTORED: Final = "vehicle_link_restored"
+#: The operator's events (``gs event NAME``) that take the vehicle from the plugins
+#: (``land``, ``hold``) and give it back (None).
+OPERATOR_EVENTS: Final[dict[str, Literal["land", "hold"] | None]] = {
+    "vehicle_land": "land",
+    "vehicle_hold": "hold",
+    "vehicle_resume": None,
+}
 
 #: The failsafe parameters read before arming, per autopilot: name -> what it guards. A
 #: value of 0 means the failsafe is off.
@@ -194,6 +205,8 @@ class MavlinkVehicle:
         self._params_asked: float | None = None
         self._events: list[str] = []
         self._errors: list[str] = []
+        self._override: Literal["land", "hold"] | None = None
+        self._ignored = False
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
@@ -275,10 +288,37 @@ class MavlinkVehicle:
                 "mode": s.mode,
                 "armed": s.armed,
                 "battery": s.battery,
+                "override": self._override,
                 "plan": None if self._plan is None else self._plan.busy,
                 "failsafes": dict(s.params),
                 "dropped": dict(self._filter.dropped),
             }
+
+    def override(self, action: Literal["land", "hold"] | None) -> None:
+        """The operator's command: ``land`` or ``hold`` now, and ignore the plugins' commands
+        until ``override(None)`` gives the vehicle back to them."""
+        with self._lock:
+            self._override = None
+            if action is not None:
+                label = f"{action} (operator)"
+                if action == "land":
+                    self._command(label, lambda f: f.land(self))
+                else:
+                    self._command(label, lambda f: f.hold(self))
+            self._override = action
+            self._ignored = False
+
+    def _overridden(self, label: str) -> bool:
+        """True (and the first time reported) when the operator holds the vehicle."""
+        if self._override is None:
+            return False
+        if not self._ignored:
+            self._ignored = True
+            self._errors.append(
+                f"vehicle {self.name}: {label} ignored: the operator's {self._override} holds "
+                "the vehicle until vehicle_resume"
+            )
+        return True
 
     # --- the Vehicle interface -------------------------------------------------------------------
 
@@ -318,6 +358,8 @@ class MavlinkVehicle:
             raise ValueError(f"goto: speed must be a positive number (m/s) or None, not {speed!r}")
         goal = self.settings.fence.bound(float(x), float(y), float(z))
         with self._lock:
+            if self._overridden("goto"):
+                return
             if goal != point:
                 self._errors.append(
                     f"vehicle {self.name}: goto ({x:g}, {y:g}, {z:g}) is outside the fence: "
@@ -327,11 +369,13 @@ class MavlinkVehicle:
 
     def hold(self) -> None:
         with self._lock:
-            self._command("hold", lambda f: f.hold(self))
+            if not self._overridden("hold"):
+                self._command("hold", lambda f: f.hold(self))
 
     def land(self) -> None:
         with self._lock:
-            self._command("land", lambda f: f.land(self))
+            if not self._overridden("land"):
+                self._command("land", lambda f: f.land(self))
 
     def takeoff(self, altitude: float) -> None:
         if not (_is_number(altitude) and altitude > 0):
@@ -340,7 +384,8 @@ class MavlinkVehicle:
             )
         altitude = min(float(altitude), self.settings.fence.z_max)
         with self._lock:
-            self._command("takeoff", lambda f: f.takeoff(self, altitude))
+            if not self._overridden("takeoff"):
+                self._command("takeoff", lambda f: f.takeoff(self, altitude))
 
     # --- the flavours' view (Controls) -----------------------------------------------------------
 
