@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, Literal
 
@@ -99,7 +100,9 @@ class SimAutopilot:
     """One simulated autopilot on ``options.url`` (opened here: MavlinkError when it
     cannot be). :meth:`service` does one look at ``now``; :meth:`run` loops until a stop."""
 
-    def __init__(self, options: AutopilotOptions, *, clock: Any = time.monotonic) -> None:
+    def __init__(
+        self, options: AutopilotOptions, *, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         self.options = options
         self._clock = clock
         self._conn = open_connection(

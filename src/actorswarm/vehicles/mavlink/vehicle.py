@@ -39,6 +39,7 @@ import math
 import struct
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
@@ -181,7 +182,9 @@ class MavlinkVehicle:
     cannot); nothing is read until :meth:`start` (a thread) or calls to :meth:`service`.
     """
 
-    def __init__(self, settings: MavlinkSettings, *, clock: Any = time.monotonic) -> None:
+    def __init__(
+        self, settings: MavlinkSettings, *, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         self.settings = settings
         self.name = settings.name
         self._clock = clock
@@ -440,14 +443,14 @@ class MavlinkVehicle:
 
     # --- inside ----------------------------------------------------------------------------------
 
-    def _command(self, label: str, plan: Any) -> None:
+    def _command(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
         if self._flavour is None or self._plan is None:
             self._errors.append(
                 f"vehicle {self.name}: {label}: the autopilot has not been heard yet "
                 f"(no HEARTBEAT on {self.settings.url})"
             )
             return
-        steps: list[Step] = plan(self._flavour)
+        steps = plan(self._flavour)
         self._plan.start(label, steps, self._clock())
         self._errors += self._plan.drain_errors()
 
