@@ -38,6 +38,8 @@ HEAVY = (
     "importlib.metadata",
     "actorswarm.cli.app",
     "actorswarm.dsl.checker",
+    "pymavlink",
+    "pymap3d",
 )
 
 runner = CliRunner()
@@ -113,6 +115,8 @@ def test_every_option_of_the_typer_command_is_read_the_same_way() -> None:
          "--connect=tcp/10.0.0.2:7447", "--multicast", "--state-dir", "s", "--keys", "k"],
         ["--platform", "65535", "--vehicle", "sim", "--world", "w.toml", "--config", "c.toml",
          "--transport", "zenoh"],
+        ["--platform", "2", "--vehicle", "mavlink", "--mavlink", "udpin:0.0.0.0:14540",
+         "--mavlink-sysid", "7", "--origin", "47.4,8.5,400"],
     ],
 )  # fmt: skip
 def test_a_well_formed_command_line_reads_as_typer_reads_it(
@@ -137,6 +141,8 @@ def test_a_well_formed_command_line_reads_as_typer_reads_it(
         ["--platform", "0"],
         ["--platform", "65536"],
         ["--platform", "three"],
+        ["--platform", "3", "--mavlink-sysid", "256"],
+        ["--platform", "3", "--mavlink-sysid", "0"],
         ["--platform"],
         ["--platform", "--swarm", "x"],
         ["--platfrm", "3"],

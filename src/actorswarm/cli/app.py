@@ -52,12 +52,14 @@ app.add_typer(task_app, name="task")
 def _register_real_swarm() -> None:
     """``daemon`` and ``gs``: imported here so the commands exist, their heavy imports
     (Zenoh) happen only when they run."""
+    from actorswarm.cli.autopilot_cmd import autopilot
     from actorswarm.cli.daemon_cmd import daemon
     from actorswarm.cli.gs import gs_app
     from actorswarm.cli.gs_control import register
     from actorswarm.cli.keys import keys_app
 
     app.command("daemon")(daemon)
+    app.command("autopilot")(autopilot)
     from actorswarm.cli.bench_tables import register as register_tables
 
     register_tables(bench_app)

@@ -45,10 +45,30 @@ def daemon(
     insecure: InsecureOpt = False,
     vehicle: Annotated[
         str | None,
-        typer.Option(help="none (default), or sim: fly a simulated vehicle in this process."),
+        typer.Option(
+            help="none (default); sim: fly a simulated vehicle in this process; mavlink: fly "
+            "a PX4 or ArduPilot autopilot (--mavlink, --origin)."
+        ),
     ] = None,
     world: Annotated[
         Path | None, typer.Option(help="The simulated vehicle's world file (TOML; --vehicle sim).")
+    ] = None,
+    mavlink: Annotated[
+        str | None,
+        typer.Option(
+            help="The autopilot's MAVLink connection (--vehicle mavlink): udpin:HOST:PORT, "
+            "udpout:HOST:PORT, tcp:HOST:PORT, or a serial device /dev/ttyACM0,57600."
+        ),
+    ] = None,
+    mavlink_sysid: Annotated[
+        int | None,
+        typer.Option(
+            min=1, max=255, help="The autopilot's MAVLink system ID (default: the first heard)."
+        ),
+    ] = None,
+    origin: Annotated[
+        str | None,
+        typer.Option(help="The mission's origin, LAT,LON,ALT (--vehicle mavlink)."),
     ] = None,
     config: Annotated[
         Path | None,
@@ -70,5 +90,8 @@ def daemon(
             vehicle=vehicle,
             world=world,
             config=config,
+            mavlink=mavlink,
+            mavlink_sysid=mavlink_sysid,
+            origin=origin,
         )
     )

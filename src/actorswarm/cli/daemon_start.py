@@ -21,8 +21,9 @@ from typing import Any
 __all__ = ["OPTIONS", "parse_daemon_args", "start_daemon"]
 
 #: The daemon's options: command-line name -> (parameter, kind). ``value``: one string;
-#: ``int``: a platform ID; ``path``: a file or directory; ``list``: repeatable; ``flag``:
-#: True when given; ``on``/``off``: the two sides of a boolean switch.
+#: ``int``: a platform ID; ``sysid``: a MAVLink system ID; ``path``: a file or directory;
+#: ``list``: repeatable; ``flag``: True when given; ``on``/``off``: the two sides of a
+#: boolean switch.
 OPTIONS: dict[str, tuple[str, str]] = {
     "--platform": ("platform", "int"),
     "--swarm": ("swarm", "value"),
@@ -36,11 +37,14 @@ OPTIONS: dict[str, tuple[str, str]] = {
     "--insecure": ("insecure", "flag"),
     "--vehicle": ("vehicle", "value"),
     "--world": ("world", "path"),
+    "--mavlink": ("mavlink", "value"),
+    "--mavlink-sysid": ("mavlink_sysid", "sysid"),
+    "--origin": ("origin", "value"),
     "--config": ("config", "path"),
 }
 
-#: The values the typer command checks itself (``min=1, max=65535``).
-_PLATFORM_RANGE = range(1, 65536)
+#: The values the typer command checks itself (``min=1, max=65535``; ``min=1, max=255``).
+_RANGES = {"int": range(1, 65536), "sysid": range(1, 256)}
 
 
 def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
@@ -58,6 +62,9 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
         "insecure": False,
         "vehicle": None,
         "world": None,
+        "mavlink": None,
+        "mavlink_sysid": None,
+        "origin": None,
         "config": None,
     }
     given: set[str] = set()
@@ -90,8 +97,8 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
         if param in given:
             return None
         given.add(param)
-        if kind == "int":
-            if not (text.isascii() and text.isdigit()) or int(text) not in _PLATFORM_RANGE:
+        if kind in _RANGES:
+            if not (text.isascii() and text.isdigit()) or int(text) not in _RANGES[kind]:
                 return None
             values[param] = int(text)
         elif kind == "path":
@@ -115,6 +122,9 @@ def start_daemon(
     vehicle: str | None,
     world: Path | None,
     config: Path | None,
+    mavlink: str | None = None,
+    mavlink_sysid: int | None = None,
+    origin: str | None = None,
 ) -> int:
     """Check the options (the command line, then the ``--config`` file, then the defaults)
     and run the daemon until a signal; returns its exit status. A problem with the options
@@ -146,8 +156,8 @@ def start_daemon(
     if chosen_transport != "zenoh":
         raise refuse(f"--transport {chosen_transport!r}: the transports are: zenoh")
     chosen_vehicle = vehicle or file.vehicle or "none"
-    if chosen_vehicle not in ("none", "sim"):
-        raise refuse(f"--vehicle {chosen_vehicle!r}: the vehicles are: none, sim")
+    if chosen_vehicle not in ("none", "sim", "mavlink"):
+        raise refuse(f"--vehicle {chosen_vehicle!r}: the vehicles are: none, sim, mavlink")
     world_file = world or file.path(file.world, base)
     if world_file is not None and chosen_vehicle != "sim":
         raise refuse("--world describes a simulated vehicle's world: give --vehicle sim too")
@@ -161,6 +171,11 @@ def start_daemon(
             world_config = load_world(world_file)
         except WorldError as exc:
             raise refuse(str(exc)) from None
+    autopilot = None
+    if chosen_vehicle == "mavlink":
+        autopilot = _mavlink_vehicle(platform, file, mavlink, mavlink_sysid, origin)
+    elif mavlink is not None or mavlink_sysid is not None or origin is not None:
+        raise refuse("--mavlink, --mavlink-sysid and --origin need --vehicle mavlink")
     guard = packet_guard(keys or file.path(file.keys, base), insecure or file.insecure, "platform")
     settings = zenoh_settings(
         list(connect or file.connect) or None,
@@ -175,5 +190,44 @@ def start_daemon(
         zenoh=settings,
         config=daemon_core(core),
         world=world_config,
+        autopilot=autopilot,
     )
     return run_daemon(options)
+
+
+def _mavlink_vehicle(
+    platform: int, file: Any, url: str | None, sysid: int | None, origin: str | None
+) -> Any:
+    """The MAVLink vehicle of ``--vehicle mavlink`` with its connection open (pymavlink is
+    imported here, only for such a daemon); a refusal naming what is wrong otherwise."""
+    from actorswarm.cli.swarm_setup import refuse
+
+    url = url or file.mavlink
+    origin = origin or file.origin
+    if not url:
+        raise refuse("--vehicle mavlink: give --mavlink URL (udpin:0.0.0.0:14540, /dev/ttyACM0)")
+    if not origin:
+        raise refuse("--vehicle mavlink: give --origin LAT,LON,ALT (the mission's origin)")
+    from actorswarm.vehicles.mavlink import MavlinkError
+    from actorswarm.vehicles.mavlink.frame import parse_origin
+    from actorswarm.vehicles.mavlink.vehicle import Fence, MavlinkSettings, MavlinkVehicle
+
+    try:
+        frame = parse_origin(origin, "--origin")
+        fence = Fence(*file.fence) if file.fence is not None else Fence()
+    except ValueError as exc:
+        raise refuse(str(exc)) from None
+    settings = MavlinkSettings(
+        url,
+        frame,
+        system=sysid if sysid is not None else file.mavlink_sysid,
+        kind=file.mavlink_kind,
+        link_timeout=file.mavlink_link_timeout,
+        force=file.mavlink_force,
+        fence=fence,
+        name=f"platform {platform}",
+    )
+    try:
+        return MavlinkVehicle(settings)
+    except MavlinkError as exc:
+        raise refuse(str(exc)) from None

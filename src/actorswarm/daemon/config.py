@@ -13,8 +13,20 @@ directory, so a robot's configuration can live beside its keys::
     multicast = false
     keys = "keys"
     state_dir = "/var/lib/actorswarm"
-    vehicle = "sim"          # or "none"
+    vehicle = "sim"          # or "none", or "mavlink"
     world = "world.toml"     # the simulated vehicle's world (--vehicle sim)
+
+A daemon flying a PX4 or ArduPilot autopilot (``vehicle = "mavlink"``) says where it is
+and where the mission's origin is; the keys after these three exist only in the file::
+
+    vehicle = "mavlink"
+    mavlink = "/dev/ttyAMA0,921600"   # or "udpin:0.0.0.0:14540", "tcp:127.0.0.1:5760"
+    mavlink_sysid = 1                  # the autopilot's system ID (default: the first heard)
+    origin = "47.397742,8.545594,488"  # LAT,LON,ALT of the mission's origin, for the swarm
+    mavlink_kind = "px4"               # "auto" (its HEARTBEAT says), "ardupilot" or "px4"
+    mavlink_link_timeout = 3.0         # seconds of heartbeat silence: vehicle_link_lost
+    mavlink_force = false              # take off even with the failsafes off
+    fence = [-300, -300, 300, 300, 60] # x_min, y_min, x_max, y_max, z_max: bounds every goal
 
     [core]
     t_leave = 0.5
@@ -40,7 +52,7 @@ __all__ = ["BOOT_WAIT", "DaemonConfigError", "DaemonFile", "daemon_core", "load_
 #: up, then take it from the healthy master when they come up — a needless failover.
 BOOT_WAIT = 2.0
 
-Vehicle = Literal["none", "sim"]
+Vehicle = Literal["none", "sim", "mavlink"]
 
 
 class DaemonConfigError(ValueError):
@@ -60,6 +72,13 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     state_dir: str | None = None
     vehicle: Vehicle | None = None
     world: str | None = None
+    mavlink: str | None = None
+    mavlink_sysid: Annotated[int, msgspec.Meta(ge=1, le=255)] | None = None
+    origin: str | None = None
+    mavlink_kind: Literal["auto", "ardupilot", "px4"] = "auto"
+    mavlink_link_timeout: Annotated[float, msgspec.Meta(gt=0)] = 3.0
+    mavlink_force: bool = False
+    fence: Annotated[list[float], msgspec.Meta(min_length=5, max_length=5)] | None = None
     transport: Literal["zenoh"] | None = None
     core: dict[str, Any] = {}
 

@@ -34,6 +34,16 @@ packets, received bytes]`` on the wire, :class:`~actorswarm.daemon.loop.Traffic`
 * ``switched``: the single Actor switch time of a switch to ``actor`` (from ``frm``):
   ``took_ms`` from the switch call to the end of the new actor's first OODA step.
 
+With ``--vehicle mavlink`` the daemon flies a PX4 or ArduPilot autopilot
+(:class:`~actorswarm.vehicles.mavlink.vehicle.MavlinkVehicle`, served by its own thread):
+``status.json`` carries its ``vehicle`` state (link, autopilot, mode, armed, the plan in
+progress), a lost or restored link becomes the local event ``vehicle_link_lost`` /
+``vehicle_link_restored`` of the task script (logged as ``vehicle-event`` with its
+``name``), and whatever the autopilot refused or never answered is logged as
+``vehicle-error``. The operator's events ``vehicle_land`` and ``vehicle_hold`` (``gs event``)
+land or hold the vehicle and keep the plugins' commands from it until ``vehicle_resume``
+(logged as ``vehicle-override``).
+
 A signal stops it cleanly: the loop ends, the transport closes (the swarm notices the
 platform leave within its failure-detection time) and the process exits 0.
 """
@@ -58,6 +68,7 @@ from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
 
 if TYPE_CHECKING:
+    from actorswarm.vehicles.mavlink.vehicle import MavlinkVehicle
     from actorswarm.world.config import WorldConfig
 
 __all__ = ["DaemonFiles", "DaemonOptions", "run_daemon"]
@@ -86,6 +97,9 @@ class DaemonOptions:
     #: ``--vehicle sim``: the world of the simulated vehicle this daemon flies (None: no
     #: vehicle; actors whose plugins need one are refused, as on a robot without one).
     world: WorldConfig | None = None
+    #: ``--vehicle mavlink``: the autopilot this daemon flies, its connection open (None:
+    #: none). The daemon starts its thread and closes it at the stop.
+    autopilot: MavlinkVehicle | None = None
 
 
 @dataclass(slots=True)
@@ -104,7 +118,10 @@ def _log(event: str, **fields: Any) -> None:
 
 
 def _status(
-    endpoint: PlatformEndpoint, guard: PacketGuard, traffic: Traffic
+    endpoint: PlatformEndpoint,
+    guard: PacketGuard,
+    traffic: Traffic,
+    autopilot: MavlinkVehicle | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """What ``status.json`` says: the platform's state, and the packet counters that move
     all the time (written less often when nothing else changed)."""
@@ -130,6 +147,8 @@ def _status(
         "position": endpoint.runtime.position(),
         "pid": os.getpid(),
     }
+    if autopilot is not None:
+        state["vehicle"] = autopilot.status()
     meters = {
         "accepted": guard.accepted,
         "dropped": dict(node.counters),
@@ -151,13 +170,19 @@ class DaemonFiles:
     already."""
 
     def __init__(
-        self, state: StateDir, endpoint: PlatformEndpoint, guard: PacketGuard, traffic: Traffic
+        self,
+        state: StateDir,
+        endpoint: PlatformEndpoint,
+        guard: PacketGuard,
+        traffic: Traffic,
+        autopilot: MavlinkVehicle | None = None,
     ) -> None:
         self.state = state
         self.status_file = state.path / "status.json"
         self.endpoint = endpoint
         self.guard = guard
         self.traffic = traffic
+        self.autopilot = autopilot
         self.status = WritePacer(_STATUS_EVERY, _METERS_EVERY)
         self.replay = WritePacer(_REPLAY_EVERY, seen=guard.replay_snapshot())
 
@@ -175,7 +200,7 @@ class DaemonFiles:
         self._save_replay(now, closing=True)
 
     def _save_status(self, now: float, *, closing: bool = False) -> None:
-        content, meters = _status(self.endpoint, self.guard, self.traffic)
+        content, meters = _status(self.endpoint, self.guard, self.traffic, self.autopilot)
         if self.status.changed(now, content, meters, closing=closing):
             _write_status(self.status_file, content, meters, now)
 
@@ -198,6 +223,9 @@ async def _main(options: DaemonOptions) -> int:
         from actorswarm.world.world import World  # NumPy: only with a simulated vehicle
 
         world = World(options.world, [options.platform])
+    autopilot = options.autopilot
+    if autopilot is not None:
+        autopilot.start()
     endpoint = PlatformEndpoint(
         options.platform,
         swarm=options.swarm,
@@ -205,7 +233,7 @@ async def _main(options: DaemonOptions) -> int:
         now=now,
         config=options.config,
         store=state.backups,
-        vehicle=None if world is None else world.vehicle(options.platform),
+        vehicle=autopilot if world is None else world.vehicle(options.platform),
         camera=None if world is None else world.camera(options.platform),
         areas=None if world is None else world.area_polygons(),
         seed=options.platform,
@@ -240,21 +268,39 @@ async def _main(options: DaemonOptions) -> int:
         swarm=options.swarm,
         incarnation=incarnation,
         secure=guard.secure,
-        vehicle="sim" if world is not None else "none",
+        vehicle="sim" if world is not None else "none" if autopilot is None else "mavlink",
         position=endpoint.runtime.position(),
     )
     seen = _Seen()
     traffic = Traffic()
-    files = DaemonFiles(state, endpoint, guard, traffic)
+    files = DaemonFiles(state, endpoint, guard, traffic, autopilot)
+    raised = 0
 
     def on_wake(t: float) -> None:
+        nonlocal raised
         if world is not None:
             # The simulated vehicle lives in this process's time: seconds since start.
             world.step_to(t - start)
+        if autopilot is not None:
+            for error in autopilot.drain_errors():
+                _log("vehicle-error", error=error)
+            events = autopilot.drain_events()
+            for event in events:
+                raised += 1
+                _log("vehicle-event", name=event)
+                # A local event of this platform, as a plugin's would be.
+                engine.inject(
+                    event, t, occasion=f"vehicle.{options.platform}.{incarnation}:{raised}"
+                )
+            if events:
+                endpoint.tick(t)
+                inbox.poke()  # what the events made goes out at the next wake, now
         if endpoint.node.master != seen.master:
             seen.master = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
         if engine.commands:
+            if autopilot is not None:
+                _operator_override(autopilot, engine.commands)
             before = list(traffic.at_wake)
             for c in engine.commands:
                 _log("command", at=c.t, command=c.command, on=c.event, ok=c.ok, traffic=before)
@@ -306,8 +352,21 @@ async def _main(options: DaemonOptions) -> int:
         # A clean stop resumes where it stopped (nothing written if the last backup says it).
         generation = endpoint.backup(changed_only=True)
         files.close(clock())
+        if autopilot is not None:
+            autopilot.close()
         _log("stopped", platform=options.platform, backup=generation)
     return 0
+
+
+def _operator_override(autopilot: MavlinkVehicle, commands: list[Any]) -> None:
+    """The operator's ``vehicle_land`` / ``vehicle_hold`` / ``vehicle_resume`` events
+    (``gs event``), carried out on the autopilot whatever the plugins ask."""
+    from actorswarm.vehicles.mavlink.vehicle import OPERATOR_EVENTS
+
+    for c in commands:
+        if c.command == "Inject" and c.event in OPERATOR_EVENTS:
+            autopilot.override(OPERATOR_EVENTS[c.event])
+            _log("vehicle-override", name=c.event)
 
 
 def run_daemon(options: DaemonOptions) -> int:

@@ -1,0 +1,432 @@
+"""A simulated MAVLink autopilot: the project's quadrotor physics behind a real MAVLink 2
+endpoint, answering as ArduCopter in GUIDED or PX4 in OFFBOARD do for the messages
+:class:`~actorswarm.vehicles.mavlink.vehicle.MavlinkVehicle` sends.
+
+``actorswarm autopilot`` runs one per vehicle, so the whole real stack (daemon, MAVLink,
+autopilot) runs on a laptop and in the tests.
+
+What it models
+--------------
+* Streams: ``HEARTBEAT`` (1 Hz: type, autopilot, armed flag, custom mode),
+  ``GLOBAL_POSITION_INT`` (4 Hz), ``SYS_STATUS`` (battery, 1 Hz), ``HOME_POSITION``
+  (every 5 s); ``MAV_CMD_SET_MESSAGE_INTERVAL`` changes any of these rates.
+* ``COMMAND_LONG`` answered with ``COMMAND_ACK``: ``DO_SET_MODE``, ``COMPONENT_ARM_DISARM``,
+  ``NAV_TAKEOFF``, ``NAV_LAND``, ``DO_CHANGE_SPEED``, ``SET_MESSAGE_INTERVAL``; anything else
+  ``UNSUPPORTED``. A repeated command (same command, ``confirmation`` > 0) is answered
+  again, as a lost ack must be repaired.
+* ArduPilot: modes STABILIZE, GUIDED, LOITER, LAND (custom modes 0, 4, 5, 9). Arming needs
+  GUIDED (or STABILIZE, LOITER) and some battery; ``NAV_TAKEOFF`` needs GUIDED and armed
+  and takes its altitude (param 7) above home; ``SET_POSITION_TARGET_GLOBAL_INT`` flies
+  in GUIDED once airborne; ``DO_CHANGE_SPEED`` sets the speed of the goals.
+* PX4: main modes POSCTL, AUTO (sub-modes TAKEOFF, LOITER, LAND), OFFBOARD. ``NAV_TAKEOFF``
+  takes its altitude above mean sea level, enters AUTO.TAKEOFF and then AUTO.LOITER.
+  OFFBOARD is accepted only while setpoints stream, and left for AUTO.LOITER (hold) when
+  none came for ``offboard_timeout`` seconds (PX4's ``COM_OF_LOSS_T``).
+* Both: landing ends disarmed; an empty battery drops the vehicle (the physics' ``dead``)
+  and disarms it. The failsafe parameters the pre-flight check reads answer
+  ``PARAM_REQUEST_READ`` (1, or 0 with ``failsafes=False``) and take ``PARAM_SET``.
+
+What it does not model
+----------------------
+Sensors, EKF and GPS (the position is exact), wind, attitude and yaw, RC input, geofences,
+missions (``MISSION_*``), RTL, the failsafes themselves (the parameters are read, never
+acted on), pre-arm checks beyond the mode and the battery, parameters other than the
+failsafes', MAVLink signing, fixed-wing and VTOL vehicles, and any other message.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Final, Literal
+
+from actorswarm.vehicles.mavlink.dialect import mav
+from actorswarm.vehicles.mavlink.flavours import ARDUPILOT_MODES, PX4_MAIN, PX4_SUB, px4_custom_mode
+from actorswarm.vehicles.mavlink.frame import MissionFrame
+from actorswarm.vehicles.mavlink.link import open_connection, read_available
+from actorswarm.vehicles.mavlink.vehicle import FAILSAFE_PARAMS
+from actorswarm.world.config import QuadrotorParams, VehicleSpec
+from actorswarm.world.vehicles import Fleet
+
+__all__ = ["AutopilotOptions", "SimAutopilot"]
+
+#: Default intervals (seconds) of the streams, by message ID.
+_DEFAULT_STREAMS: Final = {
+    mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
+    mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 0.25,
+    mav.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
+    mav.MAVLINK_MSG_ID_HOME_POSITION: 5.0,
+}
+#: The physics step, seconds.
+_DT: Final = 0.02
+#: PX4's MIS_TAKEOFF_ALT: the take-off altitude when NAV_TAKEOFF gives none.
+_PX4_TAKEOFF_ALT: Final = 2.5
+_ACCEPTED: Final[int] = mav.MAV_RESULT_ACCEPTED
+_DENIED: Final[int] = mav.MAV_RESULT_DENIED
+_UNSUPPORTED: Final[int] = mav.MAV_RESULT_UNSUPPORTED
+
+
+@dataclass(frozen=True, slots=True)
+class AutopilotOptions:
+    """``url``: where it listens (a pymavlink connection string, ``udpin:`` for a daemon's
+    ``udpout:``); ``home``: where it stands, latitude, longitude, altitude AMSL;
+    ``system``: its MAVLink system ID; ``kind``: which autopilot it plays; ``failsafes``:
+    the value of its failsafe parameters (on, or all 0); ``battery``: the charge at start;
+    ``endurance``: seconds of flight at cruise speed on a full battery;
+    ``offboard_timeout``: PX4's setpoint timeout, seconds."""
+
+    url: str
+    home: MissionFrame
+    system: int = 1
+    kind: Literal["ardupilot", "px4"] = "ardupilot"
+    failsafes: bool = True
+    battery: float = 1.0
+    endurance: float = 1200.0
+    offboard_timeout: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.system <= 255:
+            raise ValueError(f"autopilot: the system ID must be 1..255, not {self.system}")
+        if not 0.0 < self.battery <= 1.0:
+            raise ValueError(f"autopilot: the battery must be within (0, 1], not {self.battery}")
+        if not (self.endurance > 0 and self.offboard_timeout > 0):
+            raise ValueError("autopilot: endurance and offboard timeout must be > 0 s")
+
+
+class SimAutopilot:
+    """One simulated autopilot on ``options.url`` (opened here: MavlinkError when it
+    cannot be). :meth:`service` does one look at ``now``; :meth:`run` loops until a stop."""
+
+    def __init__(
+        self, options: AutopilotOptions, *, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        self.options = options
+        self._clock = clock
+        self._conn = open_connection(
+            options.url,
+            who=f"autopilot {options.system}",
+            source_system=options.system,
+            source_component=mav.MAV_COMP_ID_AUTOPILOT1,
+        )
+        params = QuadrotorParams(endurance=options.endurance)
+        spec = VehicleSpec(
+            platform=1,
+            kind="quadrotor",
+            home=(0.0, 0.0),
+            heading=math.pi / 2,
+            battery=options.battery,
+            params=params,
+        )
+        self._fleet = Fleet([spec])
+        self._vehicle = self._fleet.vehicle(1)
+        self._px4 = options.kind == "px4"
+        self.armed = False
+        # ArduPilot: the custom mode number; PX4: (main mode, sub-mode).
+        self._mode: int | tuple[int, int] = (
+            (PX4_MAIN["AUTO"], PX4_SUB["LOITER"]) if self._px4 else ARDUPILOT_MODES["STABILIZE"]
+        )
+        self._speed: float | None = None
+        self._setpoint_at: float | None = None
+        self._params = dict.fromkeys(
+            FAILSAFE_PARAMS[options.kind], 1.0 if options.failsafes else 0.0
+        )
+        self._intervals = dict(_DEFAULT_STREAMS)
+        self._sent: dict[int, float] = {}
+        self._physics_at = self._started = clock()
+        self._closed = False
+
+    # --- life ------------------------------------------------------------------------------------
+
+    def run(self, stop: threading.Event) -> None:
+        """Serve until ``stop`` is set."""
+        while not stop.is_set():
+            self.service(self._clock())
+            stop.wait(_DT / 2)
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self._conn.close()
+
+    def service(self, now: float) -> None:
+        """Take in what arrived, advance the physics to ``now``, send what is due."""
+        for message in read_available(self._conn):
+            if message.get_type() not in ("BAD_DATA", "UNKNOWN"):
+                self._on_message(message, now)
+        while self._physics_at + _DT <= now:
+            self._physics_at += _DT
+            self._fleet.step(_DT)
+            self._after_step(self._physics_at)
+        self._streams(now)
+
+    # --- state, as the tests and the command line see it -----------------------------------------
+
+    @property
+    def mode_name(self) -> str:
+        if isinstance(self._mode, tuple):
+            main, sub = self._mode
+            main_name = next(k for k, v in PX4_MAIN.items() if v == main)
+            if main_name != "AUTO":
+                return main_name
+            return "AUTO." + next(k for k, v in PX4_SUB.items() if v == sub)
+        return next(k for k, v in ARDUPILOT_MODES.items() if v == self._mode)
+
+    def position(self) -> tuple[float, float, float]:
+        """Local metres from home (x east, y north, z up)."""
+        return self._vehicle.position()
+
+    @property
+    def physics_mode(self) -> str:
+        return self._vehicle.mode
+
+    # --- inside ----------------------------------------------------------------------------------
+
+    def _on_message(self, message: Any, now: float) -> None:
+        kind = message.get_type()
+        # Messages addressed to another system (0: to all) are not ours to answer.
+        if getattr(message, "target_system", 0) not in (0, self.options.system):
+            return
+        if kind == "COMMAND_LONG":
+            result = self._command(message, now)
+            self._conn.mav.command_ack_send(
+                message.command, result, 0, 0, message.get_srcSystem(), message.get_srcComponent()
+            )
+        elif kind == "SET_POSITION_TARGET_GLOBAL_INT":
+            self._setpoint(message, now)
+        elif kind == "PARAM_REQUEST_READ":
+            self._param_value(message.param_id)
+        elif kind == "PARAM_SET" and message.param_id in self._params:
+            self._params[message.param_id] = float(message.param_value)
+            self._param_value(message.param_id)
+
+    def _param_value(self, name: str) -> None:
+        if name in self._params:
+            names = list(self._params)
+            self._conn.mav.param_value_send(
+                name.encode(),
+                self._params[name],
+                mav.MAV_PARAM_TYPE_REAL32,
+                len(names),
+                names.index(name),
+            )
+
+    def _command(self, m: Any, now: float) -> int:
+        c = m.command
+        if c == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
+            message_id, interval = int(m.param1), m.param2
+            if message_id not in _DEFAULT_STREAMS:
+                return _UNSUPPORTED
+            if interval == 0:
+                self._intervals[message_id] = _DEFAULT_STREAMS[message_id]
+            elif interval < 0:
+                self._intervals[message_id] = math.inf
+            else:
+                self._intervals[message_id] = interval / 1e6
+            return _ACCEPTED
+        if c == mav.MAV_CMD_DO_SET_MODE:
+            return self._set_mode(m, now)
+        if c == mav.MAV_CMD_COMPONENT_ARM_DISARM:
+            return self._arm(m.param1 == 1)
+        if c == mav.MAV_CMD_NAV_TAKEOFF:
+            return self._takeoff(m.param7)
+        if c == mav.MAV_CMD_NAV_LAND:
+            if not self._airborne():
+                return _DENIED
+            self._land()
+            return _ACCEPTED
+        if c == mav.MAV_CMD_DO_CHANGE_SPEED:
+            if not m.param2 > 0:
+                return _DENIED
+            self._speed = float(m.param2)
+            if self._vehicle.mode == "flying":
+                goal = self._vehicle.goal()
+                self._vehicle.goto(*goal, speed=self._speed)
+            return _ACCEPTED
+        return _UNSUPPORTED
+
+    def _airborne(self) -> bool:
+        return self._vehicle.mode in ("takeoff", "flying", "landing")
+
+    def _set_mode(self, m: Any, now: float) -> int:
+        if not int(m.param1) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            return _UNSUPPORTED
+        if self._px4:
+            main, sub = int(m.param2), int(m.param3)
+            if main == PX4_MAIN["OFFBOARD"]:
+                fresh = self._setpoint_at is not None and (
+                    now - self._setpoint_at <= self.options.offboard_timeout
+                )
+                if not fresh:
+                    return _DENIED  # PX4 enters OFFBOARD only while setpoints stream
+                self._mode = (main, 0)
+                return _ACCEPTED
+            if main == PX4_MAIN["POSCTL"]:
+                self._mode = (main, 0)
+                self._hold()
+                return _ACCEPTED
+            if main == PX4_MAIN["AUTO"] and sub == PX4_SUB["LOITER"]:
+                self._mode = (main, sub)
+                self._hold()
+                return _ACCEPTED
+            if main == PX4_MAIN["AUTO"] and sub == PX4_SUB["LAND"]:
+                if not self._airborne():
+                    return _DENIED
+                self._land()
+                return _ACCEPTED
+            if main == PX4_MAIN["AUTO"] and sub == PX4_SUB["TAKEOFF"]:
+                return self._takeoff(math.nan)
+            return _UNSUPPORTED
+        mode = int(m.param2)
+        if mode not in ARDUPILOT_MODES.values() or mode == ARDUPILOT_MODES["RTL"]:
+            return _UNSUPPORTED
+        if mode == ARDUPILOT_MODES["LAND"]:
+            self._land()
+            return _ACCEPTED
+        self._mode = mode
+        if mode in (ARDUPILOT_MODES["LOITER"], ARDUPILOT_MODES["GUIDED"]):
+            self._hold()
+        return _ACCEPTED
+
+    def _arm(self, arm: bool) -> int:
+        if not arm:
+            if self._airborne():
+                return _DENIED
+            self.armed = False
+            return _ACCEPTED
+        if self._vehicle.mode == "dead" or self._vehicle.battery() < 0.05:
+            return _DENIED
+        if not self._px4 and self._mode == ARDUPILOT_MODES["LAND"]:
+            return _DENIED
+        self.armed = True
+        return _ACCEPTED
+
+    def _takeoff(self, altitude_param: float) -> int:
+        if not self.armed or self._airborne():
+            return _DENIED
+        if self._px4:
+            # PX4: param 7 is the altitude above mean sea level.
+            altitude = (
+                _PX4_TAKEOFF_ALT
+                if math.isnan(altitude_param)
+                else altitude_param - self.options.home.alt
+            )
+            mode_ok = True
+        else:
+            # ArduPilot: param 7 is the altitude above home, and GUIDED is needed.
+            altitude = altitude_param
+            mode_ok = self._mode == ARDUPILOT_MODES["GUIDED"]
+        if not mode_ok or not (math.isfinite(altitude) and altitude > 0):
+            return _DENIED
+        self._vehicle.takeoff(float(altitude))
+        if self._px4:
+            self._mode = (PX4_MAIN["AUTO"], PX4_SUB["TAKEOFF"])
+        return _ACCEPTED
+
+    def _land(self) -> None:
+        self._vehicle.land()
+        self._mode = (PX4_MAIN["AUTO"], PX4_SUB["LAND"]) if self._px4 else ARDUPILOT_MODES["LAND"]
+
+    def _hold(self) -> None:
+        if self._airborne():
+            self._vehicle.hold()
+
+    def _setpoint(self, m: Any, now: float) -> None:
+        self._setpoint_at = now
+        frame = m.coordinate_frame
+        if frame == mav.MAV_FRAME_GLOBAL_INT:
+            alt = float(m.alt)
+        elif frame in (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT):
+            alt = self.options.home.alt + float(m.alt)
+        else:
+            return
+        guiding = (
+            self._mode == (PX4_MAIN["OFFBOARD"], 0)
+            if self._px4
+            else self._mode == ARDUPILOT_MODES["GUIDED"]
+        )
+        if not (guiding and self.armed and self._vehicle.mode in ("takeoff", "flying")):
+            return
+        x, y, z = self.options.home.to_local(m.lat_int / 1e7, m.lon_int / 1e7, alt)
+        if all(math.isfinite(v) for v in (x, y, z)):
+            self._vehicle.goto(x, y, max(z, 0.5), speed=self._speed)
+
+    def _after_step(self, now: float) -> None:
+        mode = self._vehicle.mode
+        if mode in ("landed", "dead") and self.armed:
+            self.armed = False  # both autopilots disarm on touchdown; an empty battery too
+        if self._px4:
+            if self._mode == (PX4_MAIN["AUTO"], PX4_SUB["TAKEOFF"]) and mode == "flying":
+                self._mode = (PX4_MAIN["AUTO"], PX4_SUB["LOITER"])
+            elif (
+                self._mode == (PX4_MAIN["OFFBOARD"], 0)
+                and self._setpoint_at is not None
+                and now - self._setpoint_at > self.options.offboard_timeout
+            ):
+                # PX4's offboard-loss failsafe: hold where it is.
+                self._mode = (PX4_MAIN["AUTO"], PX4_SUB["LOITER"])
+                self._hold()
+                self._conn.mav.statustext_send(
+                    mav.MAV_SEVERITY_WARNING, b"Offboard setpoints lost: holding"
+                )
+
+    def _streams(self, now: float) -> None:
+        for message_id, interval in self._intervals.items():
+            last = self._sent.get(message_id)
+            if last is not None and now - last < interval:
+                continue
+            self._sent[message_id] = now
+            self._send_stream(message_id, now)
+
+    def _custom_mode(self) -> int:
+        if isinstance(self._mode, tuple):
+            return px4_custom_mode(*self._mode)
+        return self._mode
+
+    def _send_stream(self, message_id: int, now: float) -> None:
+        mav_ = self._conn.mav
+        boot_ms = int((now - self._started) * 1000) & 0xFFFFFFFF
+        home = self.options.home
+        if message_id == mav.MAVLINK_MSG_ID_HEARTBEAT:
+            base = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+            if self.armed:
+                base |= mav.MAV_MODE_FLAG_SAFETY_ARMED
+            autopilot = mav.MAV_AUTOPILOT_PX4 if self._px4 else mav.MAV_AUTOPILOT_ARDUPILOTMEGA
+            state = mav.MAV_STATE_ACTIVE if self._airborne() else mav.MAV_STATE_STANDBY
+            mav_.heartbeat_send(mav.MAV_TYPE_QUADROTOR, autopilot, base, self._custom_mode(), state)
+        elif message_id == mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
+            x, y, z = self._vehicle.position()
+            vx, vy, vz = self._vehicle.velocity()
+            lat, lon, alt = home.to_geodetic(x, y, z)
+            # Heading: degrees clockwise from north, centidegrees.
+            heading = round((90.0 - math.degrees(self._vehicle.heading())) % 360.0 * 100) % 36000
+            mav_.global_position_int_send(
+                boot_ms,
+                round(lat * 1e7),
+                round(lon * 1e7),
+                round(alt * 1000),
+                round(z * 1000),
+                round(vy * 100),
+                round(vx * 100),
+                round(-vz * 100),
+                heading,
+            )
+        elif message_id == mav.MAVLINK_MSG_ID_SYS_STATUS:
+            remaining = round(self._vehicle.battery() * 100)
+            voltage = round(13_200 + 3_600 * self._vehicle.battery())  # a 4S pack, millivolts
+            mav_.sys_status_send(0, 0, 0, 500, voltage, -1, remaining, 0, 0, 0, 0, 0, 0)
+        elif message_id == mav.MAVLINK_MSG_ID_HOME_POSITION:
+            mav_.home_position_send(
+                round(home.lat * 1e7),
+                round(home.lon * 1e7),
+                round(home.alt * 1000),
+                0,
+                0,
+                0,
+                [1, 0, 0, 0],
+                0,
+                0,
+                0,
+            )

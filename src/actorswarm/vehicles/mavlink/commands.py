@@ -1,0 +1,210 @@
+"""Commands to the autopilot: ``COMMAND_LONG`` retried until ``COMMAND_ACK``, in steps.
+
+The MAVLink command protocol: the sender repeats a command (the ``confirmation`` field
+counting the repeats) until the autopilot answers with a ``COMMAND_ACK`` for it. An ack
+``ACCEPTED`` ends the step, ``IN_PROGRESS`` stops the repeats while the autopilot works,
+``TEMPORARILY_REJECTED`` ("try again later") lets them go on, anything else is a refusal.
+Nothing is retried for ever: a step not accepted within its
+deadline fails.
+
+One plan of the vehicle (take off: set the mode, check the failsafes, arm, take off) is a
+:class:`Sequence` of steps run in order — a :class:`Command`, a :class:`Check` that waits for
+a fact about the autopilot (its failsafe parameters known and set), or a :class:`Do` that
+runs at once (start streaming setpoints). A step that fails abandons the rest of its
+sequence and leaves an error naming the vehicle, the plan and the command in
+:meth:`CommandSender.drain_errors`. A new sequence replaces the one in progress, as a new
+command to a :class:`~actorswarm.runtime.context.Vehicle` replaces its previous goal.
+
+No clock and no socket: the owner gives ``now``, passes each ``COMMAND_ACK`` in, and the
+sender hands the messages to send to its ``send`` callable.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from actorswarm.vehicles.mavlink.dialect import command_name, mav, result_name
+
+__all__ = ["Check", "Command", "CommandSender", "Do", "Step"]
+
+#: The answer of a :class:`Check`: True (go on), None (not known yet: ask again), or the
+#: reason it fails.
+CheckResult = bool | str | None
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """One ``COMMAND_LONG``: ``command`` (a ``MAV_CMD``) with its seven parameters."""
+
+    command: int
+    params: tuple[float, float, float, float, float, float, float] = (0, 0, 0, 0, 0, 0, 0)
+
+    @property
+    def name(self) -> str:
+        return command_name(self.command)
+
+
+@dataclass(frozen=True, slots=True)
+class Check:
+    """Wait until ``test()`` says True; a string from it is the reason the plan stops.
+    ``deadline`` (seconds) replaces the sender's for this step (a climb takes longer than
+    an answer)."""
+
+    name: str
+    test: Callable[[], CheckResult]
+    deadline: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Do:
+    """Run ``action()`` when the sequence reaches it, then go on."""
+
+    name: str
+    action: Callable[[], None]
+
+
+Step = Command | Check | Do
+
+
+@dataclass(slots=True)
+class _Running:
+    label: str
+    steps: list[Step]
+    started: float = 0.0  # when the current step began
+    sent: float | None = None  # when the current command was last sent
+    tries: int = 0
+    working: bool = False  # the autopilot said IN_PROGRESS
+    rejected: bool = False  # the autopilot said TEMPORARILY_REJECTED
+    done: list[str] = field(default_factory=list)
+
+
+class CommandSender:
+    """Runs one sequence of steps at a time for the vehicle named ``vehicle``, whose
+    autopilot is ``target`` = (system ID, component ID).
+
+    ``retry``: seconds between two sendings of an unanswered command; ``deadline``:
+    seconds a step may take (an answered ``IN_PROGRESS`` included) before it fails.
+    """
+
+    def __init__(
+        self,
+        vehicle: str,
+        send: Callable[[Any], None],
+        target: tuple[int, int],
+        *,
+        retry: float = 0.5,
+        deadline: float = 5.0,
+    ) -> None:
+        if not (retry > 0 and deadline > 0):
+            raise ValueError(f"retry and deadline must be > 0 s, not {retry!r}, {deadline!r}")
+        self.vehicle = vehicle
+        self.target = target
+        self.retry = retry
+        self.deadline = deadline
+        self._send = send
+        self._running: _Running | None = None
+        self._errors: list[str] = []
+        #: Plans that ran to their end, in order (for status and tests).
+        self.completed: list[str] = []
+
+    @property
+    def busy(self) -> str | None:
+        """The label of the sequence in progress (None: idle)."""
+        return None if self._running is None else self._running.label
+
+    def start(self, label: str, steps: Sequence[Step], now: float) -> None:
+        """Run ``steps`` as the plan ``label`` from ``now``, abandoning any plan in progress;
+        the first command goes out at once."""
+        self._running = _Running(label, list(steps), started=now)
+        self.tick(now)
+
+    def cancel(self) -> None:
+        """Abandon the plan in progress, quietly."""
+        self._running = None
+
+    def drain_errors(self) -> list[str]:
+        """The failures since the last call, oldest first."""
+        out, self._errors = self._errors, []
+        return out
+
+    def on_ack(self, ack: Any, now: float) -> None:
+        """A ``COMMAND_ACK`` from the autopilot (already filtered to this vehicle's)."""
+        run = self._running
+        if run is None or not run.steps:
+            return
+        step = run.steps[0]
+        if not isinstance(step, Command) or ack.command != step.command:
+            return  # an answer to something else (an earlier plan, another sender)
+        if ack.result == mav.MAV_RESULT_ACCEPTED:
+            self._advance(run, now)
+            self.tick(now)
+        elif ack.result == mav.MAV_RESULT_IN_PROGRESS:
+            run.working = True
+        elif ack.result == mav.MAV_RESULT_TEMPORARILY_REJECTED:
+            run.working = False  # "try again later": the repeats go on until the deadline
+            run.rejected = True
+        else:
+            self._fail(run, f"{step.name} refused by the autopilot: {result_name(ack.result)}")
+
+    def tick(self, now: float) -> None:
+        """Move the plan on at ``now``: run the steps that need no answer, send or resend
+        the current command, fail a step past its deadline."""
+        run = self._running
+        while run is not None and run is self._running and run.steps:
+            step = run.steps[0]
+            limit = step.deadline if isinstance(step, Check) and step.deadline else self.deadline
+            if now - run.started > limit:
+                what = step.name if isinstance(step, Command) else f"waiting for {step.name}"
+                tries = f" ({run.tries} tries)" if isinstance(step, Command) else ""
+                if run.rejected:
+                    tries += ", temporarily rejected"
+                self._fail(run, f"{what}: not done within {limit:g} s{tries}")
+                return
+            if isinstance(step, Do):
+                step.action()
+                self._advance(run, now)
+            elif isinstance(step, Check):
+                verdict = step.test()
+                if verdict is True:
+                    self._advance(run, now)
+                elif isinstance(verdict, str):
+                    self._fail(run, f"{step.name}: {verdict}")
+                    return
+                else:
+                    return
+            else:
+                if not run.working and (run.sent is None or now - run.sent >= self.retry):
+                    self._send_command(run, step, now)
+                return
+        if run is not None and run is self._running and not run.steps:
+            self._finish(run)
+
+    def _send_command(self, run: _Running, step: Command, now: float) -> None:
+        system, component = self.target
+        # ``confirmation`` counts the repeats, as the protocol asks (0 the first time).
+        message = mav.MAVLink_command_long_message(
+            system, component, step.command, min(run.tries, 255), *step.params
+        )
+        run.tries += 1
+        run.sent = now
+        self._send(message)
+
+    def _advance(self, run: _Running, now: float) -> None:
+        step = run.steps.pop(0)
+        run.done.append(step.name)
+        run.started, run.sent, run.tries = now, None, 0
+        run.working = run.rejected = False
+        if not run.steps:
+            self._finish(run)
+
+    def _finish(self, run: _Running) -> None:
+        if run is self._running:
+            self._running = None
+            self.completed.append(run.label)
+
+    def _fail(self, run: _Running, why: str) -> None:
+        self._errors.append(f"vehicle {self.vehicle}: {run.label}: {why}")
+        if run is self._running:
+            self._running = None

@@ -1,0 +1,257 @@
+"""What each autopilot wants for take-off, goto, hold and land: the steps of each plan.
+
+ArduPilot (ArduCopter)
+    Everything in ``GUIDED``: ``MAV_CMD_DO_SET_MODE`` GUIDED, arm, ``MAV_CMD_NAV_TAKEOFF``
+    whose altitude (param 7) is metres above home; goals are
+    ``SET_POSITION_TARGET_GLOBAL_INT`` (resent each second: a lost datagram is repaired),
+    their speed ``MAV_CMD_DO_CHANGE_SPEED``; hold is a target at the current position; land
+    is the ``LAND`` mode.
+PX4
+    Arm, then ``MAV_CMD_NAV_TAKEOFF`` whose altitude (param 7) is metres above mean sea
+    level (PX4 switches itself to AUTO.TAKEOFF); goals are ``OFFBOARD`` setpoints, which PX4
+    accepts only while they stream (above 2 Hz: it leaves ``OFFBOARD`` when they stop), so
+    the stream starts before the mode is asked for; a speed is flown by moving the streamed
+    setpoint along the line at that speed; hold is AUTO.LOITER, land AUTO.LAND.
+
+Both: a goto on the ground takes off to the goal's altitude first, as the simulated
+vehicle does; a take-off in the air climbs or descends where the vehicle is.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Final, Literal, Protocol
+
+from actorswarm.vehicles.mavlink.commands import Check, Command, Do, Step
+from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+
+__all__ = [
+    "ARDUPILOT_MODES",
+    "PX4_MAIN",
+    "PX4_SUB",
+    "ArduPilot",
+    "Controls",
+    "Flavour",
+    "Kind",
+    "Px4",
+    "Target",
+    "flavour",
+    "mode_name",
+    "px4_custom_mode",
+]
+
+Kind = Literal["ardupilot", "px4"]
+
+#: ArduCopter's custom mode numbers.
+ARDUPILOT_MODES: Final = {"STABILIZE": 0, "GUIDED": 4, "LOITER": 5, "RTL": 6, "LAND": 9}
+#: PX4's main modes, and the sub-modes of AUTO.
+PX4_MAIN: Final = {"POSCTL": 3, "AUTO": 4, "OFFBOARD": 6}
+PX4_SUB: Final = {"READY": 1, "TAKEOFF": 2, "LOITER": 3, "MISSION": 4, "RTL": 5, "LAND": 6}
+
+_CUSTOM: Final = float(mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+_NAN: Final = math.nan
+#: Seconds a climb before a goto may take.
+CLIMB_DEADLINE: Final = 60.0
+#: A take-off is over within this many metres of its altitude.
+_AT_ALTITUDE: Final = 0.5
+
+
+def px4_custom_mode(main: int, sub: int = 0) -> int:
+    """PX4's ``custom_mode`` of a HEARTBEAT: the main mode in byte 2, the sub-mode in 3."""
+    return (main << 16) | (sub << 24)
+
+
+@dataclass(frozen=True, slots=True)
+class Target:
+    """A goal to stream: ``goal`` (local metres) reached from ``start`` at ``speed`` m/s
+    (None: the setpoint is the goal at once); ``rate`` setpoints per second."""
+
+    goal: tuple[float, float, float]
+    start: tuple[float, float, float]
+    speed: float | None
+    rate: float
+
+
+class Controls(Protocol):
+    """What a flavour needs of the vehicle to build its plans."""
+
+    @property
+    def armed(self) -> bool: ...
+
+    @property
+    def airborne(self) -> bool: ...
+
+    @property
+    def mode(self) -> str: ...
+
+    def here(self) -> tuple[float, float, float]:
+        """The current local position."""
+        ...
+
+    def home_altitude(self) -> float:
+        """Home's altitude above mean sea level, metres."""
+        ...
+
+    def set_target(self, target: Target | None) -> None:
+        """Stream ``target`` from now (None: stop streaming)."""
+        ...
+
+    def failsafes(self) -> bool | str | None:
+        """The pre-flight check: True, the reason it refuses, or None (not known yet)."""
+        ...
+
+    def height(self) -> float:
+        """Metres above home."""
+        ...
+
+
+class Flavour(Protocol):
+    kind: Kind
+
+    def takeoff(self, v: Controls, altitude: float) -> list[Step]: ...
+
+    def goto(
+        self, v: Controls, goal: tuple[float, float, float], speed: float | None
+    ) -> list[Step]: ...
+
+    def hold(self, v: Controls) -> list[Step]: ...
+
+    def land(self, v: Controls) -> list[Step]: ...
+
+
+def _check_failsafes(v: Controls) -> Check:
+    return Check("the failsafe parameters", v.failsafes)
+
+
+def _climbed(v: Controls, altitude: float) -> Check:
+    def test() -> bool | None:
+        return True if v.height() >= altitude - _AT_ALTITUDE else None
+
+    return Check(f"the climb to {altitude:g} m", test, deadline=CLIMB_DEADLINE)
+
+
+class ArduPilot:
+    """ArduCopter in GUIDED."""
+
+    kind: Kind = "ardupilot"
+
+    def _guided(self) -> Command:
+        return Command(mav.MAV_CMD_DO_SET_MODE, (_CUSTOM, ARDUPILOT_MODES["GUIDED"], 0, 0, 0, 0, 0))
+
+    def takeoff(self, v: Controls, altitude: float) -> list[Step]:
+        if v.airborne:
+            x, y, _ = v.here()
+            return self.goto(v, (x, y, v.here()[2] - v.height() + altitude), None)
+        return [
+            Do("stop streaming", lambda: v.set_target(None)),
+            _check_failsafes(v),
+            self._guided(),
+            Command(mav.MAV_CMD_COMPONENT_ARM_DISARM, (1, 0, 0, 0, 0, 0, 0)),
+            # ArduPilot: param 7 is the altitude above home.
+            Command(mav.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 0, 0, altitude)),
+        ]
+
+    def goto(
+        self, v: Controls, goal: tuple[float, float, float], speed: float | None
+    ) -> list[Step]:
+        steps: list[Step] = []
+        if not v.airborne:
+            altitude = max(goal[2] - (v.here()[2] - v.height()), 1.0)
+            steps += [*self.takeoff(v, altitude), _climbed(v, altitude)]
+        elif v.mode != "GUIDED":
+            steps.append(self._guided())
+        if speed is not None:
+            steps.append(Command(mav.MAV_CMD_DO_CHANGE_SPEED, (1, speed, -1, 0, 0, 0, 0)))
+        target = Target(goal, goal, None, 1.0)
+        steps.append(Do("stream the goal", lambda: v.set_target(target)))
+        return steps
+
+    def hold(self, v: Controls) -> list[Step]:
+        if not v.airborne:
+            return []
+        here = v.here()
+        return [self._guided(), Do("hold here", lambda: v.set_target(Target(here, here, None, 1)))]
+
+    def land(self, v: Controls) -> list[Step]:
+        return [
+            Do("stop streaming", lambda: v.set_target(None)),
+            Command(mav.MAV_CMD_DO_SET_MODE, (_CUSTOM, ARDUPILOT_MODES["LAND"], 0, 0, 0, 0, 0)),
+        ]
+
+
+class Px4:
+    """PX4 multicopter (and any other autopilot using PX4's modes): AUTO.TAKEOFF, OFFBOARD
+    goals, AUTO.LOITER, AUTO.LAND."""
+
+    kind: Kind = "px4"
+    #: Setpoints per second: PX4 leaves OFFBOARD below 2 Hz.
+    rate: Final = 5.0
+
+    def takeoff(self, v: Controls, altitude: float) -> list[Step]:
+        if v.airborne:
+            x, y, _ = v.here()
+            return self.goto(v, (x, y, v.here()[2] - v.height() + altitude), None)
+        return [
+            Do("stop streaming", lambda: v.set_target(None)),
+            _check_failsafes(v),
+            Command(mav.MAV_CMD_COMPONENT_ARM_DISARM, (1, 0, 0, 0, 0, 0, 0)),
+            # PX4: param 7 is the altitude above mean sea level (home's plus the climb).
+            Command(
+                mav.MAV_CMD_NAV_TAKEOFF,
+                (-1, 0, 0, _NAN, _NAN, _NAN, v.home_altitude() + altitude),
+            ),
+        ]
+
+    def goto(
+        self, v: Controls, goal: tuple[float, float, float], speed: float | None
+    ) -> list[Step]:
+        steps: list[Step] = []
+        if not v.airborne:
+            altitude = max(goal[2] - (v.here()[2] - v.height()), 1.0)
+            steps += [*self.takeoff(v, altitude), _climbed(v, altitude)]
+        rate = self.rate
+
+        def stream() -> None:
+            v.set_target(Target(goal, v.here(), speed, rate))
+
+        steps.append(Do("stream setpoints", stream))
+        if v.mode != "OFFBOARD":
+            steps.append(
+                Command(mav.MAV_CMD_DO_SET_MODE, (_CUSTOM, PX4_MAIN["OFFBOARD"], 0, 0, 0, 0, 0))
+            )
+        return steps
+
+    def hold(self, v: Controls) -> list[Step]:
+        if not v.airborne:
+            return []
+        return [
+            Do("stop streaming", lambda: v.set_target(None)),
+            Command(
+                mav.MAV_CMD_DO_SET_MODE,
+                (_CUSTOM, PX4_MAIN["AUTO"], PX4_SUB["LOITER"], 0, 0, 0, 0),
+            ),
+        ]
+
+    def land(self, v: Controls) -> list[Step]:
+        # AUTO.LAND through the mode, as ground stations do: PX4 and MAVSDK's action server
+        # both take it (the latter does not answer MAV_CMD_NAV_LAND).
+        return [
+            Do("stop streaming", lambda: v.set_target(None)),
+            Command(
+                mav.MAV_CMD_DO_SET_MODE, (_CUSTOM, PX4_MAIN["AUTO"], PX4_SUB["LAND"], 0, 0, 0, 0)
+            ),
+        ]
+
+
+def mode_name(kind: Kind, base_mode: int, custom_mode: int) -> str:
+    """The name of the mode a HEARTBEAT reports, read as ``kind`` encodes it."""
+    if kind == "px4":
+        return str(mavutil.interpret_px4_mode(base_mode, custom_mode))
+    names: dict[int, str] = mavutil.mode_mapping_acm  # ArduCopter: number -> name
+    return names.get(custom_mode, f"Mode({custom_mode})")
+
+
+def flavour(kind: Kind) -> Flavour:
+    """The flavour of ``kind``."""
+    return ArduPilot() if kind == "ardupilot" else Px4()

@@ -1,0 +1,609 @@
+""":class:`MavlinkVehicle`: the plugins' :class:`~actorswarm.runtime.context.Vehicle` on a PX4
+or ArduPilot autopilot.
+
+Theory of operation
+-------------------
+One vehicle, one autopilot, one connection. A background thread (:meth:`MavlinkVehicle.start`)
+calls :meth:`MavlinkVehicle.service` every few milliseconds: it reads whatever arrived,
+keeps the messages of this vehicle's autopilot (:class:`~.link.MessageFilter`), updates the
+latest state, moves the command plan on (:class:`~.commands.CommandSender`), streams the
+current goal, sends our own ``HEARTBEAT`` each second and watches the autopilot's.
+
+The plugins' calls never block: a read returns the latest state under a lock; a command
+builds its plan (:mod:`~.flavours`) and returns, the thread carries it out. What fails
+— a refused or unanswered command, a pre-flight check that refuses to arm — is kept for
+:meth:`drain_errors`, each message naming the vehicle and the command.
+
+Safety:
+
+* The autopilot's ``HEARTBEAT`` silent for ``link_timeout`` seconds (default 3) raises the
+  local event ``vehicle_link_lost`` (also when it is never heard from the start); the next
+  heartbeat raises ``vehicle_link_restored``: :meth:`drain_events`, which the daemon turns
+  into events its task script can handle.
+* Before arming, the autopilot's link-loss and low-battery failsafe parameters are read
+  (``PARAM_REQUEST_READ``); a take-off is refused while one is off, unless ``force``.
+* The operator's ``land`` or ``hold`` (:meth:`MavlinkVehicle.override`, the daemon's
+  :data:`OPERATOR_EVENTS`) takes the vehicle from the plugins: their commands are ignored
+  (the first one reported) until the operator gives it back.
+* Every goal is bounded by the :class:`Fence`: one outside is moved onto its edge, and the
+  move is reported as an error.
+
+Stream rates are asked for with ``MAV_CMD_SET_MESSAGE_INTERVAL`` once the autopilot is
+heard: positions at 10 Hz, battery and home each second.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import struct
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Final, Literal
+
+from actorswarm.vehicles.mavlink.commands import Command, CommandSender, Step
+from actorswarm.vehicles.mavlink.dialect import mav
+from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour, mode_name
+from actorswarm.vehicles.mavlink.frame import MissionFrame
+from actorswarm.vehicles.mavlink.link import MessageFilter, open_connection, read_available
+
+__all__ = [
+    "FAILSAFE_PARAMS",
+    "LINK_LOST",
+    "LINK_RESTORED",
+    "OPERATOR_EVENTS",
+    "Fence",
+    "MavlinkSettings",
+    "MavlinkVehicle",
+]
+
+LINK_LOST: Final = "vehicle_link_lost"
+LINK_RESTORED: Final = "vehicle_link_restored"
+#: The operator's events (``gs event NAME``) that take the vehicle from the plugins
+#: (``land``, ``hold``) and give it back (None).
+OPERATOR_EVENTS: Final[dict[str, Literal["land", "hold"] | None]] = {
+    "vehicle_land": "land",
+    "vehicle_hold": "hold",
+    "vehicle_resume": None,
+}
+
+#: The failsafe parameters read before arming, per autopilot: name -> what it guards. A
+#: value of 0 means the failsafe is off.
+FAILSAFE_PARAMS: Final[dict[Kind, dict[str, str]]] = {
+    "ardupilot": {"FS_GCS_ENABLE": "link-loss failsafe", "BATT_FS_LOW_ACT": "low-battery failsafe"},
+    "px4": {"NAV_DLL_ACT": "link-loss failsafe", "COM_LOW_BAT_ACT": "low-battery failsafe"},
+}
+
+#: Message -> interval asked for, microseconds.
+_STREAMS: Final = {
+    mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 100_000,
+    mav.MAVLINK_MSG_ID_SYS_STATUS: 1_000_000,
+    mav.MAVLINK_MSG_ID_HOME_POSITION: 1_000_000,
+}
+_INT_TYPES: Final = frozenset(
+    (
+        mav.MAV_PARAM_TYPE_UINT8,
+        mav.MAV_PARAM_TYPE_INT8,
+        mav.MAV_PARAM_TYPE_UINT16,
+        mav.MAV_PARAM_TYPE_INT16,
+        mav.MAV_PARAM_TYPE_UINT32,
+        mav.MAV_PARAM_TYPE_INT32,
+    )
+)
+#: Our own heartbeat, and re-requests of unknown parameters, every this many seconds.
+_BEAT: Final = 1.0
+#: Seconds between two looks of the background thread.
+_PERIOD: Final = 0.02
+#: Metres above home from which the vehicle counts as airborne.
+_AIRBORNE: Final = 0.5
+# SET_POSITION_TARGET_GLOBAL_INT: use the position only (ignore velocity, acceleration, yaw).
+_POSITION_ONLY: Final = 0b0000_1101_1111_1000
+
+Link = Literal["never heard", "up", "lost"]
+
+
+@dataclass(frozen=True, slots=True)
+class Fence:
+    """The box every goal must stay in: local metres ``x_min..x_max`` east,
+    ``y_min..y_max`` north, up to ``z_max``."""
+
+    x_min: float = -500.0
+    y_min: float = -500.0
+    x_max: float = 500.0
+    y_max: float = 500.0
+    z_max: float = 120.0
+
+    def __post_init__(self) -> None:
+        if not (self.x_min < self.x_max and self.y_min < self.y_max and self.z_max > 0):
+            raise ValueError(f"fence: an empty box {self}")
+
+    def bound(self, x: float, y: float, z: float) -> tuple[float, float, float]:
+        """The point of the box nearest to ``(x, y, z)`` (itself when inside)."""
+        return (
+            min(max(x, self.x_min), self.x_max),
+            min(max(y, self.y_min), self.y_max),
+            min(z, self.z_max),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class MavlinkSettings:
+    """How to reach and fly one autopilot.
+
+    ``url``: a pymavlink connection string; ``origin``: the mission's origin;
+    ``system``: the autopilot's system ID (None: the first autopilot heard);
+    ``component``: its component ID; ``own_system``/``own_component``: ours;
+    ``kind``: ``"auto"`` (from its HEARTBEAT), ``"ardupilot"`` or ``"px4"``;
+    ``link_timeout``: seconds of heartbeat silence that count as a lost link;
+    ``retry``/``deadline``: seconds between two sendings of a command, and before one
+    fails; ``force``: take off even when the failsafe check refuses; ``name``: how
+    messages name the vehicle.
+    """
+
+    url: str
+    origin: MissionFrame
+    system: int | None = None
+    component: int = 1
+    own_system: int = 245
+    own_component: int = 191
+    kind: Literal["auto", "ardupilot", "px4"] = "auto"
+    link_timeout: float = 3.0
+    retry: float = 0.5
+    deadline: float = 5.0
+    force: bool = False
+    fence: Fence = field(default_factory=Fence)
+    name: str = "mavlink"
+
+
+@dataclass(slots=True)
+class _State:
+    """The latest known state of the autopilot."""
+
+    heard: float | None = None  # the last HEARTBEAT
+    link: Link = "never heard"
+    kind: Kind | None = None
+    mode: str = ""
+    armed: bool = False
+    position: tuple[float, float, float] | None = None
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    height: float = 0.0  # above home
+    battery: float | None = None
+    home: tuple[float, float, float] | None = None
+    home_amsl: float | None = None
+    params: dict[str, float] = field(default_factory=dict)
+
+
+class MavlinkVehicle:
+    """A :class:`~actorswarm.runtime.context.Vehicle` flying the autopilot of ``settings``.
+
+    The connection opens here (MavlinkError naming the vehicle and the string when it
+    cannot); nothing is read until :meth:`start` (a thread) or calls to :meth:`service`.
+    """
+
+    def __init__(
+        self, settings: MavlinkSettings, *, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        self.settings = settings
+        self.name = settings.name
+        self._clock = clock
+        self._conn = open_connection(
+            settings.url,
+            who=f"vehicle {self.name}",
+            source_system=settings.own_system,
+            source_component=settings.own_component,
+        )
+        self._filter = MessageFilter(settings.system, settings.component)
+        self._lock = threading.RLock()
+        self._state = _State()
+        self._started = clock()
+        self._plan: CommandSender | None = None
+        self._setup: CommandSender | None = None
+        self._flavour: Flavour | None = None
+        self._target: Target | None = None
+        self._target_since = 0.0
+        self._target_sent: float | None = None
+        self._beat: float | None = None
+        self._params_asked: float | None = None
+        self._events: list[str] = []
+        self._errors: list[str] = []
+        self._override: Literal["land", "hold"] | None = None
+        self._ignored = False
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # --- life ------------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Serve the link in a background thread until :meth:`close`."""
+        if self._thread is None:
+            self._thread = threading.Thread(
+                target=self._run, name=f"mavlink {self.name}", daemon=True
+            )
+            self._thread.start()
+
+    def close(self) -> None:
+        """Stop the thread and close the connection."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        with contextlib.suppress(OSError):
+            self._conn.close()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.service(self._clock())
+            self._stop.wait(_PERIOD)
+
+    def service(self, now: float) -> None:
+        """Read, update, command, stream, watch: one look at the link at ``now``."""
+        with self._lock:
+            for message in read_available(self._conn):
+                if self._filter.accept(message):
+                    self._on_message(message, now)
+            if self._beat is None or now - self._beat >= _BEAT:
+                self._beat = now
+                self._send(
+                    mav.MAVLink_heartbeat_message(
+                        mav.MAV_TYPE_ONBOARD_CONTROLLER,
+                        mav.MAV_AUTOPILOT_INVALID,
+                        0,
+                        0,
+                        mav.MAV_STATE_ACTIVE,
+                        3,
+                    )
+                )
+            self._watch_link(now)
+            if self._state.kind is not None:
+                self._ask_params(now)
+            for sender in (self._setup, self._plan):
+                if sender is not None:
+                    sender.tick(now)
+                    self._errors += sender.drain_errors()
+            self._stream(now)
+
+    # --- what the daemon reads -------------------------------------------------------------------
+
+    def drain_events(self) -> list[str]:
+        """The local events raised since the last call (:data:`LINK_LOST`,
+        :data:`LINK_RESTORED`), oldest first."""
+        with self._lock:
+            out, self._events = self._events, []
+            return out
+
+    def drain_errors(self) -> list[str]:
+        """What failed since the last call, oldest first; each names the vehicle."""
+        with self._lock:
+            out, self._errors = self._errors, []
+            return out
+
+    def status(self) -> dict[str, Any]:
+        """The link, the autopilot's kind, mode and arming, the battery (None: not
+        reported), the plan in progress, the failsafe parameters read, and the messages
+        dropped by reason."""
+        with self._lock:
+            s = self._state
+            return {
+                "link": s.link,
+                "autopilot": s.kind,
+                "system": self._filter.system,
+                "mode": s.mode,
+                "armed": s.armed,
+                "battery": s.battery,
+                "override": self._override,
+                "plan": None if self._plan is None else self._plan.busy,
+                "failsafes": dict(s.params),
+                "dropped": dict(self._filter.dropped),
+            }
+
+    def override(self, action: Literal["land", "hold"] | None) -> None:
+        """The operator's command: ``land`` or ``hold`` now, and ignore the plugins' commands
+        until ``override(None)`` gives the vehicle back to them."""
+        with self._lock:
+            self._override = None
+            if action is not None:
+                label = f"{action} (operator)"
+                if action == "land":
+                    self._command(label, lambda f: f.land(self))
+                else:
+                    self._command(label, lambda f: f.hold(self))
+            self._override = action
+            self._ignored = False
+
+    def _overridden(self, label: str) -> bool:
+        """True (and the first time reported) when the operator holds the vehicle."""
+        if self._override is None:
+            return False
+        if not self._ignored:
+            self._ignored = True
+            self._errors.append(
+                f"vehicle {self.name}: {label} ignored: the operator's {self._override} holds "
+                "the vehicle until vehicle_resume"
+            )
+        return True
+
+    # --- the Vehicle interface -------------------------------------------------------------------
+
+    def position(self) -> tuple[float, float, float]:
+        """The latest position; the mission origin ``(0, 0, 0)`` until the autopilot sent
+        its first (:attr:`located` says which): the engine reads positions at any time, and
+        a read never raises."""
+        with self._lock:
+            return self._state.position or (0.0, 0.0, 0.0)
+
+    @property
+    def located(self) -> bool:
+        """Whether the autopilot has sent a position yet."""
+        return self._state.position is not None
+
+    def velocity(self) -> tuple[float, float, float]:
+        with self._lock:
+            return self._state.velocity
+
+    def battery(self) -> float:
+        with self._lock:
+            # Unknown (an autopilot that does not report it) reads as full, not as empty:
+            # an empty reading would send every plugin home at once.
+            return 1.0 if self._state.battery is None else self._state.battery
+
+    def home(self) -> tuple[float, float, float]:
+        """Where the autopilot's home is, local metres (its first position when it sent no
+        HOME_POSITION; the origin before that)."""
+        with self._lock:
+            return self._state.home or self._state.position or (0.0, 0.0, 0.0)
+
+    def goto(self, x: float, y: float, z: float, *, speed: float | None = None) -> None:
+        point = (x, y, z)
+        if not all(_is_number(v) for v in point):
+            raise ValueError(f"goto: a point is three finite numbers (x, y, z), not {point!r}")
+        if speed is not None and not (_is_number(speed) and speed > 0):
+            raise ValueError(f"goto: speed must be a positive number (m/s) or None, not {speed!r}")
+        goal = self.settings.fence.bound(float(x), float(y), float(z))
+        with self._lock:
+            if self._overridden("goto"):
+                return
+            if goal != point:
+                self._errors.append(
+                    f"vehicle {self.name}: goto ({x:g}, {y:g}, {z:g}) is outside the fence: "
+                    f"flying to ({goal[0]:g}, {goal[1]:g}, {goal[2]:g}) instead"
+                )
+            self._command("goto", lambda f: f.goto(self, goal, speed))
+
+    def hold(self) -> None:
+        with self._lock:
+            if not self._overridden("hold"):
+                self._command("hold", lambda f: f.hold(self))
+
+    def land(self) -> None:
+        with self._lock:
+            if not self._overridden("land"):
+                self._command("land", lambda f: f.land(self))
+
+    def takeoff(self, altitude: float) -> None:
+        if not (_is_number(altitude) and altitude > 0):
+            raise ValueError(
+                f"takeoff: altitude must be a positive number (metres), not {altitude!r}"
+            )
+        altitude = min(float(altitude), self.settings.fence.z_max)
+        with self._lock:
+            if not self._overridden("takeoff"):
+                self._command("takeoff", lambda f: f.takeoff(self, altitude))
+
+    # --- the flavours' view (Controls) -----------------------------------------------------------
+
+    @property
+    def armed(self) -> bool:
+        return self._state.armed
+
+    @property
+    def airborne(self) -> bool:
+        """Armed, and above the ground or climbing after an accepted take-off (a goto in
+        the first second of the climb must not ask for a second take-off)."""
+        if not self._state.armed:
+            return False
+        climbing = self._plan is not None and self._plan.completed[-1:] == ["takeoff"]
+        return climbing or self._state.height > _AIRBORNE
+
+    @property
+    def mode(self) -> str:
+        return self._state.mode
+
+    def here(self) -> tuple[float, float, float]:
+        return self._state.position or (0.0, 0.0, 0.0)
+
+    def height(self) -> float:
+        return self._state.height
+
+    def home_altitude(self) -> float:
+        s = self._state
+        return s.home_amsl if s.home_amsl is not None else self.settings.origin.alt
+
+    def set_target(self, target: Target | None) -> None:
+        self._target = target
+        self._target_since = self._clock()
+        self._target_sent = None
+        if target is not None:
+            self._stream(self._target_since)  # the first setpoint goes out now
+
+    def failsafes(self) -> bool | str | None:
+        kind = self._state.kind
+        if kind is None:
+            return None
+        for name, what in FAILSAFE_PARAMS[kind].items():
+            value = self._state.params.get(name)
+            if value is None:
+                return None
+            if value == 0 and not self.settings.force:
+                return (
+                    f"{name} is 0 ({what} off): refusing to arm; set it on the autopilot, "
+                    "or force the take-off"
+                )
+        return True
+
+    # --- inside ----------------------------------------------------------------------------------
+
+    def _command(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
+        if self._flavour is None or self._plan is None:
+            self._errors.append(
+                f"vehicle {self.name}: {label}: the autopilot has not been heard yet "
+                f"(no HEARTBEAT on {self.settings.url})"
+            )
+            return
+        steps = plan(self._flavour)
+        self._plan.start(label, steps, self._clock())
+        self._errors += self._plan.drain_errors()
+
+    def _send(self, message: Any) -> None:
+        # A link that is down drops what is sent; the heartbeat watch reports it.
+        with contextlib.suppress(OSError):
+            self._conn.mav.send(message)
+
+    def _on_message(self, message: Any, now: float) -> None:
+        kind = message.get_type()
+        s = self._state
+        if kind == "HEARTBEAT":
+            self._on_heartbeat(message, now)
+        elif kind == "GLOBAL_POSITION_INT":
+            lat, lon, alt = message.lat / 1e7, message.lon / 1e7, message.alt / 1000.0
+            s.position = self.settings.origin.to_local(lat, lon, alt)
+            # NED centimetres per second -> ENU metres per second.
+            s.velocity = (message.vy / 100.0, message.vx / 100.0, -message.vz / 100.0)
+            s.height = message.relative_alt / 1000.0
+            if s.home_amsl is None:
+                s.home_amsl = alt - s.height
+        elif kind == "SYS_STATUS":
+            if message.battery_remaining >= 0:
+                s.battery = min(message.battery_remaining, 100) / 100.0
+        elif kind == "HOME_POSITION":
+            lat, lon, alt = message.latitude / 1e7, message.longitude / 1e7, message.altitude / 1e3
+            s.home = self.settings.origin.to_local(lat, lon, alt)
+            s.home_amsl = alt
+        elif kind == "PARAM_VALUE":
+            name = message.param_id
+            if isinstance(name, bytes):
+                name = name.decode("ascii", "replace")
+            s.params[name.rstrip("\x00")] = self._param_value(message)
+        elif kind == "COMMAND_ACK":
+            if (
+                message.command == mav.MAV_CMD_COMPONENT_ARM_DISARM
+                and message.result == mav.MAV_RESULT_ACCEPTED
+            ):
+                # We only ever ask to arm: it is armed now, not at the next HEARTBEAT.
+                s.armed = True
+            for sender in (self._setup, self._plan):
+                if sender is not None:
+                    sender.on_ack(message, now)
+
+    def _on_heartbeat(self, message: Any, now: float) -> None:
+        s = self._state
+        s.heard = now
+        if s.link == "lost":
+            self._events.append(LINK_RESTORED)
+        s.link = "up"
+        s.armed = bool(message.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+        if s.kind is None:
+            chosen = self.settings.kind
+            if chosen == "auto":
+                # ArduPilot says so; PX4 and other autopilots use PX4's modes.
+                ardupilot = message.autopilot == mav.MAV_AUTOPILOT_ARDUPILOTMEGA
+                chosen = "ardupilot" if ardupilot else "px4"
+            s.kind = chosen
+            self._flavour = flavour(chosen)
+            target = (message.get_srcSystem(), message.get_srcComponent())
+            self._plan = CommandSender(
+                self.name,
+                self._send,
+                target,
+                retry=self.settings.retry,
+                deadline=self.settings.deadline,
+            )
+            self._setup = CommandSender(
+                self.name,
+                self._send,
+                target,
+                retry=self.settings.retry,
+                deadline=self.settings.deadline,
+            )
+            intervals: list[Step] = [
+                Command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, (message_id, interval, 0, 0, 0, 0, 0))
+                for message_id, interval in _STREAMS.items()
+            ]
+            self._setup.start("stream rates", intervals, now)
+        s.mode = mode_name(s.kind, message.base_mode, message.custom_mode)
+
+    def _param_value(self, message: Any) -> float:
+        """A PARAM_VALUE's value. PX4 (and MAVSDK) carry an integer parameter's bytes in the
+        float field; ArduPilot converts it to a float."""
+        value = float(message.param_value)
+        if self._state.kind == "px4" and message.param_type in _INT_TYPES:
+            return float(struct.unpack("<i", struct.pack("<f", value))[0])
+        return value
+
+    def _watch_link(self, now: float) -> None:
+        s = self._state
+        since = s.heard if s.heard is not None else self._started
+        if s.link != "lost" and now - since > self.settings.link_timeout:
+            self._events.append(LINK_LOST)
+            who = "system " + str(self._filter.system) if self._filter.system else "an autopilot"
+            self._errors.append(
+                f"vehicle {self.name}: no HEARTBEAT from {who} on {self.settings.url} "
+                f"for {self.settings.link_timeout:g} s: link lost"
+            )
+            s.link = "lost"
+
+    def _ask_params(self, now: float) -> None:
+        kind = self._state.kind
+        if kind is None or (self._params_asked is not None and now - self._params_asked < _BEAT):
+            return
+        missing = [name for name in FAILSAFE_PARAMS[kind] if name not in self._state.params]
+        if not missing:
+            return
+        self._params_asked = now
+        system, component = self._filter.system or 0, self.settings.component
+        for name in missing:
+            self._send(mav.MAVLink_param_request_read_message(system, component, name.encode(), -1))
+
+    def _stream(self, now: float) -> None:
+        target = self._target
+        if target is None or (
+            self._target_sent is not None and now - self._target_sent < 1.0 / target.rate
+        ):
+            return
+        self._target_sent = now
+        goal = target.goal
+        if target.speed is not None:
+            # Move the setpoint along the line at the speed asked for.
+            delta = [g - s for g, s in zip(goal, target.start, strict=True)]
+            dist = math.sqrt(sum(d * d for d in delta))
+            run = target.speed * (now - self._target_since)
+            if dist > run:
+                f = run / dist
+                sx, sy, sz = target.start
+                goal = (sx + delta[0] * f, sy + delta[1] * f, sz + delta[2] * f)
+        lat, lon, alt = self.settings.origin.to_geodetic(*goal)
+        system, component = self._filter.system or 0, self.settings.component
+        self._send(
+            mav.MAVLink_set_position_target_global_int_message(
+                int((now - self._started) * 1000) & 0xFFFFFFFF,
+                system,
+                component,
+                mav.MAV_FRAME_GLOBAL_INT,
+                _POSITION_ONLY,
+                round(lat * 1e7),
+                round(lon * 1e7),
+                alt,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+            )
+        )
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)

@@ -1,0 +1,240 @@
+"""``actorswarm daemon --vehicle mavlink``: its options refused clearly when wrong, and a real
+daemon process flying the simulated MAVLink autopilot over UDP loopback — take-off by a
+deployed script, the link and mode in status.json, the script's ``vehicle_link_lost``
+transition when the autopilot falls silent."""
+
+from __future__ import annotations
+
+import math
+import re
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from actorswarm.cli.app import app
+from actorswarm.daemon.config import DaemonConfigError, load_daemon_config
+from actorswarm.daemon.launch import LocalSwarm
+from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
+from actorswarm.vehicles.mavlink.frame import MissionFrame
+
+runner = CliRunner()
+ORIGIN = "47.397742,8.545594,488"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--vehicle", "mavlink", "--origin", ORIGIN], "give --mavlink URL"),
+        (["--vehicle", "mavlink", "--mavlink", "udpin:127.0.0.1:0"], "give --origin LAT,LON"),
+        (
+            ["--vehicle", "mavlink", "--mavlink", "udpin:127.0.0.1:0", "--origin", "47,8"],
+            "--origin '47,8': write it LAT,LON,ALT",
+        ),
+        (["--origin", ORIGIN], "need --vehicle mavlink"),
+        (
+            ["--vehicle", "mavlink", "--mavlink", "flight.tlog", "--origin", ORIGIN],
+            "vehicle platform 1: cannot open MAVLink connection 'flight.tlog'",
+        ),
+        (["--vehicle", "boat"], "the vehicles are: none, sim, mavlink"),
+    ],
+)
+def test_bad_mavlink_options_are_refused(args: list[str], message: str, tmp_path: Path) -> None:
+    result = runner.invoke(
+        app, ["daemon", "--platform", "1", "--insecure", "--state-dir", str(tmp_path), *args]
+    )
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert "Traceback" not in result.output
+
+
+def test_a_bad_fence_in_the_configuration_is_refused(tmp_path: Path) -> None:
+    config = tmp_path / "d.toml"
+    config.write_text(
+        f'vehicle = "mavlink"\nmavlink = "udpin:127.0.0.1:0"\norigin = "{ORIGIN}"\n'
+        "fence = [10, 0, -10, 5, 30]\n"
+    )
+    result = runner.invoke(app, ["daemon", "--platform", "1", "--config", str(config)])
+    assert result.exit_code == 2 and "fence: an empty box" in result.output
+
+
+def test_the_mavlink_keys_of_the_configuration_file(tmp_path: Path) -> None:
+    config = tmp_path / "d.toml"
+    config.write_text(
+        'vehicle = "mavlink"\nmavlink = "/dev/ttyAMA0,921600"\nmavlink_sysid = 3\n'
+        f'origin = "{ORIGIN}"\nmavlink_kind = "px4"\nmavlink_link_timeout = 2.5\n'
+        "mavlink_force = false\nfence = [-300, -300, 300, 300, 60]\n"
+    )
+    parsed, _ = load_daemon_config(config)
+    assert (parsed.vehicle, parsed.mavlink, parsed.mavlink_sysid) == (
+        "mavlink",
+        "/dev/ttyAMA0,921600",
+        3,
+    )
+    assert parsed.mavlink_kind == "px4" and parsed.mavlink_link_timeout == 2.5
+    assert parsed.fence == [-300, -300, 300, 300, 60]
+    for text, key in [
+        ("mavlink_sysid = 300\n", "$.mavlink_sysid"),
+        ('mavlink_kind = "inav"\n', "$.mavlink_kind"),
+        ("fence = [1, 2]\n", "$.fence"),
+        ("mavlink_link_timeout = 0\n", "$.mavlink_link_timeout"),
+    ]:
+        config.write_text(text)
+        with pytest.raises(DaemonConfigError, match=re.escape(key)):
+            load_daemon_config(config)
+
+
+@pytest.fixture
+def autopilot() -> Iterator[tuple[SimAutopilot, threading.Event, int]]:
+    from actorswarm.daemon.launch import free_ports
+
+    port = free_ports(1)[0]
+    home = MissionFrame(*MissionFrame(47.397742, 8.545594, 488.0).to_geodetic(15.0, 5.0, 0.0))
+    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", home, system=3))
+    stop = threading.Event()
+    thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
+    thread.start()
+    yield sim, stop, port
+    stop.set()
+    thread.join(timeout=2)
+    sim.close()
+
+
+def test_a_daemon_flies_the_autopilot_and_handles_a_lost_link(
+    autopilot: tuple[SimAutopilot, threading.Event, int], tmp_path: Path
+) -> None:
+    sim, stop, port = autopilot
+    with LocalSwarm(tmp_path, 1) as swarm:
+        swarm.start(
+            1, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+            "--mavlink-sysid", "3", "--origin", ORIGIN,
+        )  # fmt: skip
+        swarm.wait(
+            "the autopilot heard",
+            lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
+            timeout=20,
+        )
+        status = swarm.status(1)
+        assert status["vehicle"]["autopilot"] == "ardupilot"
+        assert status["vehicle"]["system"] == 3
+        assert swarm.events(1, "started")[0]["vehicle"] == "mavlink"
+        state = ["--state", str(tmp_path / "gs.json")]
+        script = str(Path(__file__).with_name("lost.xml"))
+        deployed = swarm.gs("deploy", script, "--expect", "1", *state)
+        assert deployed.returncode == 0, deployed.stdout + deployed.stderr
+        assert swarm.gs("start", *state).returncode == 0
+        swarm.wait(
+            "up at 5 m and hovering",
+            lambda: swarm.status(1).get("actors") == ["Hover"],
+            timeout=30,
+            detail=lambda: str(swarm.status(1).get("position")),
+        )
+        x, y, z = swarm.status(1)["position"]
+        # The autopilot stands 15 m east and 5 m north of the mission origin.
+        assert abs(x - 15.0) < 0.5 and abs(y - 5.0) < 0.5 and abs(z - 5.0) < 1.0
+        assert sim.armed and sim.mode_name == "GUIDED"
+        swarm.wait(
+            "the mode in status.json", lambda: swarm.status(1)["vehicle"]["mode"] == "GUIDED"
+        )
+
+        # The operator takes the vehicle, then gives it back.
+        assert swarm.gs("event", "vehicle_hold").returncode == 0
+        swarm.wait("the override", lambda: swarm.status(1)["vehicle"]["override"] == "hold")
+        assert swarm.gs("event", "vehicle_resume").returncode == 0
+        swarm.wait("the release", lambda: swarm.status(1)["vehicle"]["override"] is None)
+        assert [e["name"] for e in swarm.events(1, "vehicle-override")] == [
+            "vehicle_hold",
+            "vehicle_resume",
+        ]
+
+        stop.set()  # the autopilot falls silent
+        swarm.wait(
+            "the script's vehicle_link_lost transition",
+            lambda: swarm.status(1).get("actors") == ["Lost"],
+            timeout=15,
+        )
+        last = swarm.status(1)["transitions"][-1]
+        assert (last["from"], last["to"], last["event"]) == ("Hover", "Lost", "vehicle_link_lost")
+        assert swarm.status(1)["vehicle"]["link"] == "lost"
+        assert [e["name"] for e in swarm.events(1, "vehicle-event")] == ["vehicle_link_lost"]
+        assert any("no HEARTBEAT from system 3" in e["error"]
+                   for e in swarm.events(1, "vehicle-error"))  # fmt: skip
+
+
+def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> None:
+    """examples/mavlink_two.xml on two real daemons, each flying its own simulated
+    autopilot (one ArduPilot, one PX4) over UDP: up together, a line abreast to 20 m east
+    and 10 m north, home and landed."""
+    from actorswarm.daemon.launch import free_ports
+
+    origin = MissionFrame(47.397742, 8.545594, 488.0)
+    homes = {1: (-4.0, -6.0, 0.0), 2: (4.0, -6.0, 0.0)}
+    ports = free_ports(2)
+    sims: dict[int, SimAutopilot] = {}
+    stop = threading.Event()
+    threads = []
+    for (platform, home), port, kind in zip(
+        homes.items(), ports, ("ardupilot", "px4"), strict=True
+    ):
+        sims[platform] = SimAutopilot(
+            AutopilotOptions(
+                f"udpin:127.0.0.1:{port}", MissionFrame(*origin.to_geodetic(*home)),
+                system=10 + platform, kind=kind,  # type: ignore[arg-type]
+            )
+        )  # fmt: skip
+        threads.append(threading.Thread(target=sims[platform].run, args=(stop,), daemon=True))
+    for thread in threads:
+        thread.start()
+    try:
+        with LocalSwarm(tmp_path, 2) as swarm:
+            for platform, port in zip(homes, ports, strict=True):
+                swarm.start(
+                    platform, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+                    "--mavlink-sysid", str(10 + platform), "--origin", ORIGIN,
+                )  # fmt: skip
+            swarm.wait(
+                "both links up and a master agreed",
+                lambda: (
+                    swarm.agreed_master() is not None
+                    and all(swarm.status(p).get("vehicle", {}).get("link") == "up" for p in homes)
+                ),
+                timeout=30,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")
+            deployed = swarm.gs("deploy", script, "--expect", "2", *state)
+            assert deployed.returncode == 0, deployed.stdout + deployed.stderr
+            assert swarm.gs("start", *state).returncode == 0
+            swarm.wait(
+                "both in formation",
+                lambda: all(swarm.status(p).get("actors") == ["Formation"] for p in homes),
+                timeout=40,
+            )
+            assert all(sim.position()[2] > 5.0 for sim in sims.values())
+            swarm.wait(
+                "both returning",
+                lambda: all(swarm.status(p).get("actors") == ["Return"] for p in homes),
+                timeout=60,
+                detail=lambda: str([swarm.status(p).get("position") for p in homes]),
+            )
+            swarm.wait(
+                "both landed at home, disarmed",
+                lambda: all(
+                    not sim.armed and sim.physics_mode == "landed" for sim in sims.values()
+                ),
+                timeout=60,
+                detail=lambda: str({p: (s.position(), s.mode_name) for p, s in sims.items()}),
+            )
+            for platform, sim in sims.items():
+                x, y, z = sim.position()  # metres from its own home
+                assert math.hypot(x, y) < 3.0 and z == pytest.approx(0.0, abs=0.05), platform
+                errors = swarm.events(platform, "vehicle-error")
+                assert errors == [], errors
+    finally:
+        stop.set()
+        for thread in threads:
+            thread.join(timeout=2)
+        for sim in sims.values():
+            sim.close()

@@ -1,0 +1,82 @@
+"""``actorswarm autopilot``: bad options are clear errors (exit 2), a good one serves MAVLink
+until SIGTERM."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from actorswarm.cli.app import app
+from actorswarm.vehicles.mavlink.dialect import mavutil
+
+runner = CliRunner()
+SRC = str(Path(__file__).resolve().parents[2] / "src")
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--home", "47.4,8.5"], "--home '47.4,8.5': write it LAT,LON,ALT"),
+        (["--home", "147.4,8.5,3"], "--home '147.4,8.5,3': latitude 147.4"),
+        (
+            ["--home", "47.4,8.5,3", "--listen", "flight.tlog"],
+            "autopilot 1: cannot open MAVLink connection 'flight.tlog'",
+        ),
+    ],
+)
+def test_bad_options(args: list[str], message: str) -> None:
+    result = runner.invoke(app, ["autopilot", *args])
+    assert result.exit_code == 2
+    assert message in result.output
+    assert "Traceback" not in result.output
+
+
+def test_serves_mavlink_until_sigterm() -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = {**os.environ, "PYTHONPATH": SRC}
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "actorswarm",
+            "autopilot",
+            "--home",
+            "47.4,8.5,400",
+            "--listen",
+            f"udpin:127.0.0.1:{port}",
+            "--sysid",
+            "5",
+            "--kind",
+            "px4",
+        ],
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=255)
+    try:
+        deadline = time.monotonic() + 20.0
+        beat = None
+        while beat is None and time.monotonic() < deadline:
+            gcs.mav.heartbeat_send(6, 8, 0, 0, 0)  # the autopilot answers whoever spoke
+            beat = gcs.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
+        assert beat is not None, "no heartbeat from the autopilot"
+        assert beat.get_srcSystem() == 5 and beat.autopilot == 12  # MAV_AUTOPILOT_PX4
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
+    finally:
+        gcs.close()
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.stderr is not None and "autopilot 5 (px4)" in proc.stderr.read()

@@ -1,0 +1,163 @@
+"""End to end over UDP loopback: MavlinkVehicle flies the simulated autopilot (ArduPilot and
+PX4 flavours) through take-off, goto and landing, in real time; PX4's offboard timeout."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Literal
+
+import pytest
+
+from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
+from actorswarm.vehicles.mavlink.frame import MissionFrame
+from actorswarm.vehicles.mavlink.vehicle import MavlinkSettings, MavlinkVehicle
+
+ORIGIN = MissionFrame(47.397742, 8.545594, 488.0)
+#: The autopilot stands 20 m east and 10 m south of the mission origin.
+HOME = (20.0, -10.0, 0.0)
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port: int = s.getsockname()[1]
+        return port
+
+
+def wait_for(what: str, condition: Callable[[], bool], seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < end, f"not within {seconds} s: {what}"
+        time.sleep(0.05)
+
+
+Flight = tuple[MavlinkVehicle, SimAutopilot]
+
+
+@contextlib.contextmanager
+def fly(kind: Literal["ardupilot", "px4"], **autopilot: object) -> Iterator[Flight]:
+    port = free_port()
+    options = AutopilotOptions(
+        f"udpin:127.0.0.1:{port}",
+        MissionFrame(*ORIGIN.to_geodetic(*HOME)),
+        system=7,
+        kind=kind,
+        **autopilot,  # type: ignore[arg-type]
+    )
+    sim = SimAutopilot(options)
+    stop = threading.Event()
+    thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
+    thread.start()
+    vehicle = MavlinkVehicle(
+        MavlinkSettings(f"udpout:127.0.0.1:{port}", ORIGIN, system=7, name="platform 1")
+    )
+    vehicle.start()
+    try:
+        yield vehicle, sim
+    finally:
+        vehicle.close()
+        stop.set()
+        thread.join(timeout=2)
+        sim.close()
+
+
+@pytest.fixture(params=["ardupilot", "px4"])
+def flight(request: pytest.FixtureRequest) -> Iterator[Flight]:
+    with fly(request.param) as pair:
+        yield pair
+
+
+def near(a: tuple[float, float, float], b: tuple[float, float, float], tol: float) -> bool:
+    return math.dist(a, b) <= tol
+
+
+def test_takeoff_goto_land(flight: Flight) -> None:
+    vehicle, sim = flight
+    wait_for("the first position", lambda: vehicle.status()["mode"] != "", 3.0)
+    wait_for("the first position", lambda: vehicle.located, 3.0)
+    assert near(vehicle.position(), HOME, 0.05)
+    assert vehicle.status()["autopilot"] == sim.options.kind
+    wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+
+    vehicle.takeoff(4.0)
+    wait_for("the climb", lambda: vehicle.position()[2] > 3.8, 8.0)
+    assert sim.armed
+    assert near(vehicle.position(), (HOME[0], HOME[1], 4.0), 0.5)
+
+    goal = (HOME[0] + 8.0, HOME[1] + 4.0, 6.0)
+    vehicle.goto(*goal, speed=4.0)
+    wait_for("the goal", lambda: near(vehicle.position(), goal, 0.5), 10.0)
+    assert sim.mode_name == ("GUIDED" if sim.options.kind == "ardupilot" else "OFFBOARD")
+    # The autopilot's own frame agrees with ours: 8 m east, 4 m north, 6 m up from its home.
+    assert near(sim.position(), (8.0, 4.0, 6.0), 0.6)
+
+    vehicle.land()
+    wait_for("the landing", lambda: not sim.armed, 10.0)
+    assert vehicle.position()[2] == pytest.approx(0.0, abs=0.1)
+    wait_for("the disarm seen", lambda: not vehicle.armed, 3.0)
+    assert vehicle.drain_errors() == []
+    assert vehicle.drain_events() == []
+
+
+def test_px4_holds_when_offboard_setpoints_stop() -> None:
+    with fly("px4", offboard_timeout=0.5) as (vehicle, sim):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        vehicle.takeoff(2.0)
+        wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 6.0)
+        vehicle.goto(HOME[0] + 30.0, HOME[1], 2.0)
+        wait_for("offboard", lambda: sim.mode_name == "OFFBOARD", 3.0)
+        vehicle.close()  # the companion computer dies: no more setpoints
+        wait_for("the offboard failsafe", lambda: sim.mode_name == "AUTO.LOITER", 3.0)
+        x = sim.position()[0]
+        time.sleep(1.0)
+        assert abs(sim.position()[0] - x) < 1.5  # it holds instead of flying on
+        assert sim.position()[0] < 25.0
+
+
+def test_refused_takeoff_is_reported() -> None:
+    with fly("ardupilot", failsafes=False) as (vehicle, sim):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is not None, 3.0)
+        vehicle.takeoff(3.0)
+        time.sleep(0.3)
+        errors = vehicle.drain_errors()
+        assert any("FS_GCS_ENABLE is 0" in e and "refusing to arm" in e for e in errors), errors
+        assert not sim.armed
+
+
+def test_a_goto_right_after_the_takeoff_does_not_take_off_again() -> None:
+    with fly("ardupilot") as (vehicle, _):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        vehicle.takeoff(3.0)
+        wait_for("the take-off accepted", lambda: vehicle.status()["plan"] is None, 3.0)
+        goal = (HOME[0] + 3.0, HOME[1], 3.0)
+        vehicle.goto(*goal)  # still low in the climb
+        wait_for("the goal", lambda: near(vehicle.position(), goal, 0.5), 10.0)
+        assert vehicle.drain_errors() == []
+
+
+def test_the_operator_s_hold_overrides_the_plugins_until_resumed() -> None:
+    with fly("ardupilot") as (vehicle, sim):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        vehicle.takeoff(3.0)
+        wait_for("the climb", lambda: vehicle.position()[2] > 2.8, 6.0)
+        vehicle.goto(HOME[0] + 40.0, HOME[1], 3.0, speed=4.0)
+        wait_for("under way", lambda: vehicle.velocity()[0] > 2.0, 5.0)
+        vehicle.override("hold")
+        wait_for("stopped", lambda: abs(vehicle.velocity()[0]) < 0.1, 5.0)
+        x = sim.position()[0]
+        for _ in range(3):
+            vehicle.goto(HOME[0] + 40.0, HOME[1], 3.0)  # a plugin insists
+        assert vehicle.drain_errors() == [
+            "vehicle platform 1: goto ignored: the operator's hold holds the vehicle until "
+            "vehicle_resume"
+        ]
+        time.sleep(0.5)
+        assert abs(sim.position()[0] - x) < 0.2 and vehicle.status()["override"] == "hold"
+        vehicle.override(None)
+        vehicle.goto(HOME[0] + 3.0, HOME[1] + 3.0, 3.0)
+        wait_for("the plugins' goal again", lambda: sim.position()[1] > 2.5, 6.0)
