@@ -153,7 +153,7 @@ async def serve(
     the transport's callback), tick it at its deadlines, send what it produces.
     ``on_wake(now)`` runs after every wake (a daemon's status file, a command's progress).
 
-    With ``guard`` (DESIGN.md §2: security between the core and the transport) every packet
+    With ``guard`` (docs/design.md §2: security between the core and the transport) every packet
     sent is sealed and every packet received is checked — authenticated, not replayed, an
     operator's signed — before the endpoint sees it; what fails is counted in
     ``guard.rejected`` and dropped. With ``traffic`` every packet in and out is counted."""

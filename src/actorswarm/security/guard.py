@@ -3,7 +3,7 @@
 Theory of operation
 -------------------
 A host puts a :class:`PacketGuard` between its core (or ground station) and its transport
-(DESIGN.md §2), so every transport gets the same protection:
+(docs/design.md §2), so every transport gets the same protection:
 
 * every outgoing packet goes through :meth:`PacketGuard.seal`, which fills the envelope's
   ``auth`` slot: an HMAC-SHA256 tag made with the swarm key over the bytes

@@ -4,7 +4,7 @@ Theory of operation
 -------------------
 A task script says *what* the swarm does; the world file says *where* and *with what*, so
 one script runs unchanged on quadrotors or fixed-wings, in a field or over a valley
-(DESIGN.md §6). :func:`load_world` reads the file with :mod:`tomllib` and builds a frozen
+(docs/design.md §6). :func:`load_world` reads the file with :mod:`tomllib` and builds a frozen
 :class:`WorldConfig`; every key has a default, so an empty file (or no file at all:
 ``load_world(None)``) is a valid world of quadrotors on a grid.
 
