@@ -50,6 +50,15 @@ def daemon(
     world: Annotated[
         Path | None, typer.Option(help="The simulated vehicle's world file (TOML; --vehicle sim).")
     ] = None,
+    fleet: Annotated[
+        str | None,
+        typer.Option(
+            metavar="IDS",
+            help="The swarm's platform IDs (e.g. 1-10; default: the world's fleet.platforms), "
+            "so --vehicle sim starts at this platform's home on the world's grid, as in the "
+            "simulator.",
+        ),
+    ] = None,
     config: Annotated[
         Path | None,
         typer.Option(help="A TOML file with any of these options (and a \\[core] table)."),
@@ -69,6 +78,7 @@ def daemon(
             insecure=insecure,
             vehicle=vehicle,
             world=world,
+            fleet=fleet,
             config=config,
         )
     )

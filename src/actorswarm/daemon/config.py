@@ -15,6 +15,7 @@ directory, so a robot's configuration can live beside its keys::
     state_dir = "/var/lib/actorswarm"
     vehicle = "sim"          # or "none"
     world = "world.toml"     # the simulated vehicle's world (--vehicle sim)
+    fleet = "1-10"           # the swarm's platforms, for this one's home on the world's grid
 
     [core]
     t_leave = 0.5
@@ -60,6 +61,7 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     state_dir: str | None = None
     vehicle: Vehicle | None = None
     world: str | None = None
+    fleet: str | None = None
     transport: Literal["zenoh"] | None = None
     core: dict[str, Any] = {}
 
