@@ -144,10 +144,14 @@ class LocalSwarm:
 
     # --- the operator's side ------------------------------------------------------------
 
-    def gs(self, *args: str, timeout: float = 60.0) -> subprocess.CompletedProcess[str]:
-        """Run ``actorswarm gs ARGS`` against this swarm (connected to every daemon)."""
+    def gs(
+        self, *args: str, timeout: float = 60.0, keys: Path | None = None
+    ) -> subprocess.CompletedProcess[str]:
+        """Run ``actorswarm gs ARGS`` against this swarm (connected to every daemon), with
+        the swarm's keys or those in ``keys`` (a ground station with other keys)."""
+        security = self._security() if keys is None else ["--keys", str(keys)]
         cmd = [sys.executable, "-m", "actorswarm", "gs", *args, "--swarm", self.swarm,
-               "--no-multicast", *self._security()]  # fmt: skip
+               "--no-multicast", *security]  # fmt: skip
         for endpoint in self.endpoints:
             cmd += ["--connect", endpoint]
         prefix = list(self.wrap(0)) if self.wrap is not None else []

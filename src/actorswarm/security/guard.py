@@ -123,6 +123,10 @@ REASONS: Final = (
 _MIN_KEY_BYTES: Final = 16
 
 
+#: How many claimed senders :attr:`PacketGuard.refused_from` keeps per reason.
+_MAX_NAMED: Final = 256
+
+
 def _encode(packet: Packet, auth: bytes) -> bytes:
     return wire.encode(
         swarm=packet.swarm,
@@ -224,6 +228,11 @@ class PacketGuard:
         self.max_bytes = max_bytes
         #: Refused packets by reason (see :data:`REASONS`).
         self.rejected: Counter[str] = Counter()
+        #: Who the refused packets claimed to come from, per reason (at most
+        #: :data:`_MAX_NAMED` senders each): unauthenticated, so only a hint — a ground
+        #: station hearing its swarm under another key can say "platforms 1-6 (as they
+        #: claim)".
+        self.refused_from: dict[str, set[int]] = {}
         #: Packets that passed every check.
         self.accepted = 0
         self._senders: dict[int, _Window] = {}
@@ -321,6 +330,9 @@ class PacketGuard:
         reason = self._authenticate(packet, data)
         if reason is not None:
             self.rejected[reason] += 1
+            named = self.refused_from.setdefault(reason, set())
+            if len(named) < _MAX_NAMED:
+                named.add(packet.sender)
             return None
         state = self._senders.get(packet.sender)
         if state is None or packet.incarnation > state.incarnation:
