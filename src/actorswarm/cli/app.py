@@ -58,6 +58,9 @@ def _register_real_swarm() -> None:
     from actorswarm.cli.keys import keys_app
 
     app.command("daemon")(daemon)
+    from actorswarm.cli.launch_cmd import launch
+
+    app.command("launch")(launch)
     from actorswarm.cli.bench_tables import register as register_tables
 
     register_tables(bench_app)
