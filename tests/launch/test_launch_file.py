@@ -76,6 +76,7 @@ def test_overrides_and_defaults_make_each_daemon_command(tmp_path: Path) -> None
     assert result.exit_code == 0, result.output
     lines = result.output.splitlines()
     assert len(lines) == 4
+    assert not (tmp_path / "run").exists(), "--check starts nothing and writes nothing"
     one, two, three, four = lines
     assert f"--platform 1 --swarm s1 --insecure --state-dir {tmp_path / 'run' / 'state-1'}" in one
     assert f"--vehicle sim --fleet 1,2,3,4 --world {world}" in one

@@ -71,8 +71,9 @@ class LocalSwarm:
         state_dirs: Mapping[int, Path] | None = None,
         new_session: bool = False,
     ) -> None:
+        # Created when something is written there (keys, logs): a launch that is only
+        # checked leaves no trace.
         self.dir = Path(directory)
-        self.dir.mkdir(parents=True, exist_ok=True)
         self.platforms = list(platforms) if platforms is not None else list(range(1, size + 1))
         if len(self.platforms) != size:
             raise ValueError(f"{len(self.platforms)} platform IDs for {size} platforms")
@@ -83,6 +84,7 @@ class LocalSwarm:
         if secure and keys is None and not (self.keys / "swarm.key").exists():
             from actorswarm.security import init_keys
 
+            self.dir.mkdir(parents=True, exist_ok=True)
             init_keys(self.keys)
         self.multicast = multicast
         if endpoints is None and not multicast:
@@ -141,6 +143,7 @@ class LocalSwarm:
         if platform in self.procs:
             raise RuntimeError(f"platform {platform} is already running")
         args = self.command(platform, *extra)
+        self.dir.mkdir(parents=True, exist_ok=True)
         prefix = list(self.wrap(platform)) if self.wrap is not None else []
         with self.log(platform).open("ab") as log:
             proc = subprocess.Popen(
