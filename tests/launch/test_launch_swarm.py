@@ -11,6 +11,7 @@ import subprocess
 import sys
 import threading
 import time
+import urllib.request
 from pathlib import Path
 
 from actorswarm.daemon.launch import LocalSwarm, free_ports
@@ -39,17 +40,30 @@ class _Output:
         raise AssertionError(f"no {pattern!r} in the launcher's output:\n{''.join(self.lines)}")
 
 
+def _get(url: str, timeout: float = 20.0) -> str:
+    """The page at ``url``, once the server answers."""
+    end = time.monotonic() + timeout
+    while True:
+        try:
+            with urllib.request.urlopen(url, timeout=2) as reply:
+                return str(reply.read().decode())
+        except OSError:
+            if time.monotonic() > end:
+                raise
+            time.sleep(0.2)
+
+
 def test_a_launch_file_starts_a_swarm_the_ground_station_drives_and_sigint_stops(
     tmp_path: Path,
 ) -> None:
     keys = tmp_path / "keys"
     init_keys(keys)
-    ports = free_ports(3)
+    ports = free_ports(4)  # three daemons and the web ground station
     swarm_name = f"launch{os.getpid()}"
     path = tmp_path / "three.toml"
     path.write_text(
         f'swarm = "{swarm_name}"\nplatforms = "1-3"\nkeys = "keys"\ndirectory = "run"\n'
-        f"ports = {ports}\n"
+        f"ports = {ports[:3]}\nweb = {ports[3]}\n"
     )
     launcher = subprocess.Popen(
         [sys.executable, "-m", "actorswarm", "launch", str(path), "--interval", "0.5"],
@@ -62,12 +76,17 @@ def test_a_launch_file_starts_a_swarm_the_ground_station_drives_and_sigint_stops
     try:
         pids = {int(out.wait_for(rf"platform {p}: pid (\d+)").group(1)) for p in (1, 2, 3)}
         out.wait_for(r"3 of 3 up, master \d")
+        # The web ground station serves its page beside the swarm.
+        out.wait_for(rf"web ground station: http://127.0.0.1:{ports[3]}/")
+        gs_page = f"http://127.0.0.1:{ports[3]}/"
+        page = _get(gs_page)
+        assert "<html" in page.lower()
         # The ground station's view of the same swarm: its endpoints, keys, state directories.
         gs = LocalSwarm(
             tmp_path / "gs",
             3,
             swarm=swarm_name,
-            endpoints=[f"tcp/127.0.0.1:{p}" for p in ports],
+            endpoints=[f"tcp/127.0.0.1:{p}" for p in ports[:3]],
             keys=keys,
             state_dirs={p: tmp_path / "run" / f"state-{p}" for p in (1, 2, 3)},
         )
@@ -103,6 +122,7 @@ def test_a_launch_file_starts_a_swarm_the_ground_station_drives_and_sigint_stops
             launcher.wait()
     for p in (1, 2, 3):
         out.wait_for(rf"platform {p}: stopped, exit 0")
+    out.wait_for(r"web ground station: stopped, exit 130")  # its exit on Ctrl-C
     for pid in pids:
         try:
             os.kill(pid, 0)

@@ -14,6 +14,8 @@ One TOML file says which platforms to start and how; every key is optional but
     vehicle = "sim"             # "none" (default) or "sim"
     world = "world.toml"        # the simulated vehicles' world (default: the default world)
     config = "daemon.toml"      # a daemon configuration file every daemon reads (--config)
+    web = 8765                  # also serve the web ground station on 127.0.0.1:8765
+                                #   (true: that port; default: no page)
 
     [platform.3]                # overrides for one platform (or a range: [platform."4-6"])
     vehicle = "none"
@@ -41,11 +43,13 @@ __all__ = ["LaunchError", "LaunchFile", "PlatformPlan", "load_launch"]
 
 _TOP: Final = frozenset(
     {"swarm", "platforms", "directory", "keys", "insecure", "multicast", "host", "ports",
-     "vehicle", "world", "config", "platform"}
+     "vehicle", "world", "config", "platform", "web"}
 )  # fmt: skip
 _PER_PLATFORM: Final = frozenset({"vehicle", "world", "config", "state_dir"})
 _VEHICLES: Final = ("none", "sim")
 _MAX_PLATFORM: Final = 65535
+#: ``web = true``: the web ground station's usual port (``actorswarm gs web``).
+WEB_PORT: Final = 8765
 
 
 class LaunchError(ValueError):
@@ -78,6 +82,8 @@ class LaunchFile:
     #: One port per platform, in ``plans`` order; empty: chosen at launch (or multicast).
     ports: tuple[int, ...]
     plans: tuple[PlatformPlan, ...] = field(default=())
+    #: The port of the web ground station on 127.0.0.1 to serve with the swarm; None: none.
+    web: int | None = None
 
     @property
     def platforms(self) -> list[int]:
@@ -223,6 +229,7 @@ def load_launch(path: Path) -> LaunchFile:
     if multicast and ports:
         raise r.fail("ports", "multicast = true finds the peers without ports: remove one")
     directory = r.path(data, "directory") or r.path_base / f"launch-{swarm}"
+    web = _web(r, data.get("web"))
     default = _plan_values(r, data, "")
     overrides = _overrides(r, data.get("platform", {}), platforms)
     plans = []
@@ -255,7 +262,18 @@ def load_launch(path: Path) -> LaunchFile:
         host=host,
         ports=ports,
         plans=tuple(plans),
+        web=web,
     )
+
+
+def _web(r: _Reader, value: object) -> int | None:
+    if value is None or value is False:
+        return None
+    if value is True:
+        return WEB_PORT
+    if isinstance(value, int) and 1 <= value <= 65535:
+        return value
+    raise r.fail("web", f"expected true, false or a port (1..65535), not {value!r}")
 
 
 def _ports(r: _Reader, value: object, count: int) -> tuple[int, ...]:

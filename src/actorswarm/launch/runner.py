@@ -18,6 +18,7 @@ import os
 import queue
 import signal
 import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -82,6 +83,40 @@ class Launcher:
         self._plans = {p.platform: p for p in plan.plans}
         self._requests: queue.Queue[str] = queue.Queue()
         self._stop = threading.Event()
+        self._keys = keys
+        self.web: subprocess.Popen[bytes] | None = None
+
+    # --- the web ground station ---------------------------------------------------------
+
+    def web_command(self) -> list[str]:
+        """``actorswarm gs web`` for this swarm (its name, keys and endpoints)."""
+        assert self.plan.web is not None
+        cmd = [sys.executable, "-m", "actorswarm", "gs", "web", "--swarm", self.plan.swarm,
+               "--port", str(self.plan.web)]  # fmt: skip
+        cmd += ["--insecure"] if self.plan.insecure else ["--keys", str(self._keys)]
+        if self.swarm.endpoints:
+            cmd.append("--no-multicast")
+        for endpoint in self.swarm.endpoints:
+            cmd += ["--connect", endpoint]
+        return cmd
+
+    def start_web(self) -> None:
+        log = self.directory / "web.log"
+        with log.open("ab") as out:
+            self.web = subprocess.Popen(
+                self.web_command(), stdout=out, stderr=out, start_new_session=True
+            )
+        self.say(f"web ground station: http://127.0.0.1:{self.plan.web}/ (log {log})")
+
+    def stop_web(self) -> None:
+        """SIGINT, as the operator's Ctrl-C would (it exits 130 then); killed after
+        :data:`STOP_WAIT`."""
+        if self.web is None:
+            return
+        if self.web.poll() is None:
+            self.web.send_signal(signal.SIGINT)
+        self.say(f"web ground station: stopped, exit {_wait(self.web)}")
+        self.web = None
 
     # --- processes ----------------------------------------------------------------------
 
@@ -163,7 +198,7 @@ class Launcher:
     # --- the loop -----------------------------------------------------------------------
 
     def say(self, text: str) -> None:
-        self.console.print(text, markup=False, highlight=False)
+        self.console.print(text, markup=False, highlight=False, soft_wrap=True)
 
     def refresh(self) -> None:
         """Poll every process, read its status and /proc figures."""
@@ -218,9 +253,12 @@ class Launcher:
         try:
             for plan in self.plan.plans:
                 self.start(plan.platform)
+            if self.plan.web is not None:
+                self.start_web()
             self._watch(live, interval)
         finally:
             _restore(previous)
+            self.stop_web()
             self.say("stopping every daemon (SIGTERM) ...")
             codes = self.stop_all()
             self.swarm.close()
