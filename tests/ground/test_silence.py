@@ -64,3 +64,9 @@ def test_nothing_heard_at_all_says_so_and_where_a_platform_would_count_it() -> N
     (line,) = _explain()
     assert line.startswith("no platform of swarm 'field' answered: nothing was heard")
     assert "bad_tag" in line and "--connect" in line
+
+
+def test_members_behind_a_refusing_master_are_not_called_off() -> None:
+    refused, unheard = _explain(targets=[1, 2, 3], heard=[1])
+    assert refused.startswith("no platform accepted the command: platform 1 heard but")
+    assert unheard.startswith("platforms 2-3 not heard: a star swarm's members are heard")

@@ -79,8 +79,8 @@ def explain(
             )
         return out
     refused = sorted(p for p in silent if p in heard and p not in acked)
+    everyone = bool(refused) and not answered and not set(acked) & set(targets)
     if refused:
-        everyone = len(refused) == len(set(targets)) and not answered
         lead = "no platform accepted the command: " if everyone else ""
         out.append(f"{lead}{platforms(refused)} heard but acknowledged nothing — {_REFUSED_HINT}")
     lost = sorted(p for p in silent if p in acked)
@@ -90,6 +90,13 @@ def explain(
             "they are busy; try again with a longer --timeout"
         )
     unheard = sorted(p for p in silent if p not in heard and p not in acked)
-    if unheard:
+    if unheard and everyone:
+        # Star membership: members heartbeat to their master only; the ground station
+        # learns them from the master's roster, which it asks for in a signed request.
+        out.append(
+            f"{platforms(unheard)} not heard: a star swarm's members are heard through their "
+            "master's roster, which a ground station the master refuses does not get"
+        )
+    elif unheard:
         out.append(f"{platforms(unheard)} not heard: off, out of range, or not in swarm {swarm!r}")
     return out
