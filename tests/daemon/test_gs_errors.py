@@ -48,6 +48,15 @@ def test_a_ground_station_with_a_foreign_key_is_told_its_commands_are_refused(
     fired = swarm.gs("event", "go", "--timeout", "1.5", keys=foreign)
     assert fired.returncode == 1
     assert f"{master}: FAILED: no answer" in fired.stdout and "bad_signature" in fired.stderr
+    script = str(Path(__file__).with_name("three.xml"))
+    state = ["--state", str(tmp_path / "gs.json")]
+    deployed = swarm.gs("deploy", script, "--expect", "2", "--timeout", "1.5", *state, keys=foreign)
+    assert deployed.returncode == 1
+    member = 3 - master
+    assert f"platform {master} heard but acknowledged nothing" in deployed.stderr
+    assert f"platform {member} not heard: a star swarm's members are heard through" in (
+        deployed.stderr
+    )
     # The swarm's own ground station is answered, and exits 0.
     good = swarm.gs("status", "--timeout", "3")
     assert good.returncode == 0, good.stdout + good.stderr
