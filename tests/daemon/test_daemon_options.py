@@ -124,6 +124,13 @@ def test_daemons_fly_simulated_vehicles_through_a_task(swarm: LocalSwarm, tmp_pa
         assert abs(z - 8.0) <= 1.5, (p, z)
 
 
+def test_the_fleet_may_come_from_the_configuration_file(tmp_path: Path) -> None:
+    config = tmp_path / "robot.toml"
+    config.write_text('platform = 9\nvehicle = "sim"\nfleet = "1-4"\n')
+    code, output = _daemon("--config", str(config), "--insecure")
+    assert code == 2 and "fleet: platform 9 is not one of the swarm's platforms" in output
+
+
 def test_a_simulated_vehicle_starts_at_its_home_in_the_world_fleet(tmp_path: Path) -> None:
     """``--vehicle sim`` places platform 4 where the simulator places it in the world's
     fleet (slot 4 of a two-column grid), not at the grid's first home."""
