@@ -55,3 +55,17 @@ def test_the_table_shows_each_daemon_and_the_summary_their_master(tmp_path: Path
     launcher.handle("hello")
     said = console.export_text()
     assert "no platform 7 in this launch: [1, 2]" in said and "`r ID` to restart" in said
+
+
+def test_a_restart_request_reaches_a_running_launcher_through_its_control_file(
+    tmp_path: Path,
+) -> None:
+    from actorswarm.launch.runner import CONTROL, PIDFILE, request
+
+    assert (
+        request(tmp_path, "r 3")
+        == f"no launcher is running on {tmp_path} (no live {PIDFILE} there)"
+    )
+    (tmp_path / PIDFILE).write_text(f"{os.getpid()}\n")  # a live process: this one
+    assert request(tmp_path, "r 3") is None
+    assert (tmp_path / CONTROL).read_text() == "r 3\n"

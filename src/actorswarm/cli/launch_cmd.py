@@ -8,6 +8,7 @@ reported before anything starts, with exit status 2.
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -68,5 +69,22 @@ def launch(
         for p in plan.plans:
             typer.echo(" ".join(launcher.swarm.command(p.platform, *plan.daemon_args(p))))
         return
-    launcher.listen(sys.stdin)
+    if _may_read_stdin():
+        launcher.listen(sys.stdin)
     raise typer.Exit(launcher.run(live=console.is_terminal, interval=interval))
+
+
+def _may_read_stdin() -> bool:
+    """Whether requests can be read from standard input: a pipe or file, or the terminal
+    when the launcher runs in its foreground (a background job that reads the terminal is
+    stopped by SIGTTIN; it then takes requests through ``--restart`` only)."""
+    try:
+        fd = sys.stdin.fileno()
+    except (AttributeError, OSError, ValueError):
+        return False
+    if not os.isatty(fd):
+        return True
+    try:
+        return os.tcgetpgrp(fd) == os.getpgrp()
+    except OSError:
+        return False
