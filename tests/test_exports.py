@@ -58,7 +58,7 @@ def test_core_imports_no_io_modules() -> None:
     ],
 )
 def test_layers_only_import_downward(package: str, above: set[str]) -> None:
-    """DESIGN.md §2: dependencies point downward only (type-checking imports aside)."""
+    """docs/design.md §2: dependencies point downward only (type-checking imports aside)."""
     import ast
     from pathlib import Path
 

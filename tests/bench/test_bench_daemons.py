@@ -82,7 +82,7 @@ def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
 
     text = markdown(result)
     assert "Command: `test`" in text
-    assert "## Against DESIGN.md §8" in text
+    assert "## Against docs/design.md §8" in text
     assert "None: every run completed." in text
     data = json.loads(json.dumps(to_json(result), allow_nan=False))
     assert data["machine"]["cpus"] >= 1

@@ -1,4 +1,4 @@
-"""CoreConfig: DESIGN.md defaults, validation that names the field, retry delays, mappings."""
+"""CoreConfig: docs/design.md defaults, validation that names the field, retry delays, mappings."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from actorswarm.core.config import ConfigError, CoreConfig
 )
 def test_defaults_match_design(field: str, expected: object) -> None:
     value = getattr(CoreConfig(), field)
-    assert value == expected, f"default {field} is {value!r}, DESIGN.md §3 says {expected!r}"
+    assert value == expected, f"default {field} is {value!r}, docs/design.md §3 says {expected!r}"
 
 
 def test_default_startup_wait_covers_a_join() -> None:

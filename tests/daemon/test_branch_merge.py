@@ -1,5 +1,5 @@
 """Ten daemons and a ground station run the paper's branch-and-merge script
-(``../shared/examples/branch_merge.xml``) to the outcome the simulator gives for the same
+(``examples/branch_merge.xml``) to the outcome the simulator gives for the same
 events: two B's and eight C's on one release, then ten A's on another, every platform
 switching exactly once each time."""
 
@@ -16,8 +16,7 @@ from actorswarm.dsl import load
 from actorswarm.sim.tasksim import GroundEvent, TaskSim
 
 ROOT = Path(__file__).resolve().parents[2]
-SHARED = ROOT.parent / "shared" / "examples" / "branch_merge.xml"
-SCRIPT = SHARED if SHARED.exists() else ROOT / "examples" / "branch_merge.xml"
+SCRIPT = ROOT / "examples" / "branch_merge.xml"
 PLATFORMS = range(1, 11)
 BRANCH, MERGE = "AtoBC_branch_event", "finish_event"
 

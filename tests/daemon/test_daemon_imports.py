@@ -114,6 +114,7 @@ def test_every_option_of_the_typer_command_is_read_the_same_way() -> None:
         ["--listen", "tcp/0.0.0.0:7447", "--connect", "tcp/10.0.0.1:7447", "--platform", "9",
          "--connect=tcp/10.0.0.2:7447", "--multicast", "--state-dir", "s", "--keys", "k"],
         ["--platform", "65535", "--vehicle", "sim", "--world", "w.toml", "--config", "c.toml",
+         "--fleet", "1-10",
          "--transport", "zenoh"],
         ["--platform", "2", "--vehicle", "mavlink", "--mavlink", "udpin:0.0.0.0:14540",
          "--mavlink-sysid", "7", "--origin", "47.4,8.5,400"],

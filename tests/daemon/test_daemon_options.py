@@ -73,6 +73,9 @@ def test_a_configuration_file_fills_what_the_command_line_leaves_out(tmp_path: P
         (("--platform", "1", "--vehicle", "sim", "--world", "nowhere.toml"), "no such file"),
         (("--platform", "1", "--swarm", "a/b"), "swarm name 'a/b'"),
         (("--platform", "1", "--config", "nowhere.toml"), "cannot read"),
+        (("--platform", "1", "--fleet", "1-4"), "give --vehicle sim"),
+        (("--platform", "1", "--vehicle", "sim", "--fleet", "4-1"), "--fleet '4-1': the range"),
+        (("--platform", "9", "--vehicle", "sim", "--fleet", "1-4"), "platform 9 is not one of"),
     ],
 )
 def test_bad_options_are_refused_before_anything_starts(
@@ -119,6 +122,24 @@ def test_daemons_fly_simulated_vehicles_through_a_task(swarm: LocalSwarm, tmp_pa
     for p in (1, 2):
         z = swarm.status(p)["position"][2]
         assert abs(z - 8.0) <= 1.5, (p, z)
+
+
+def test_the_fleet_may_come_from_the_configuration_file(tmp_path: Path) -> None:
+    config = tmp_path / "robot.toml"
+    config.write_text('platform = 9\nvehicle = "sim"\nfleet = "1-4"\n')
+    code, output = _daemon("--config", str(config), "--insecure")
+    assert code == 2 and "fleet: platform 9 is not one of the swarm's platforms" in output
+
+
+def test_a_simulated_vehicle_starts_at_its_home_in_the_world_fleet(tmp_path: Path) -> None:
+    """``--vehicle sim`` places platform 4 where the simulator places it in the world's
+    fleet (slot 4 of a two-column grid), not at the grid's first home."""
+    world = tmp_path / "w.toml"
+    world.write_text('[fleet]\nplatforms = "1-4"\ncolumns = 2\nspacing = 30\norigin = [5, 5]\n')
+    with LocalSwarm(tmp_path / "s", 4) as one:
+        one.start(4, "--vehicle", "sim", "--world", str(world))
+        one.wait("platform 4 to start", lambda: bool(one.events(4, "started")))
+        assert one.events(4, "started")[0]["position"] == [35.0, 35.0, 0.0]
 
 
 def test_a_daemon_listens_longer_than_the_simulator_before_it_claims_mastership() -> None:

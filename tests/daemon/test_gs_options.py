@@ -32,6 +32,17 @@ def test_bad_ground_station_options_exit_2(args: tuple[str, ...], message: str) 
     assert message in result.output
 
 
+@pytest.mark.parametrize("role", ["gs", "daemon"])
+def test_a_missing_key_directory_gets_one_clean_hint(role: str) -> None:
+    """The hint names the directory once, in a command that runs as written."""
+    args = ["gs", "status"] if role == "gs" else ["daemon", "--platform", "1"]
+    result = runner.invoke(app, [*args, "--keys", "/nonexistent/keys"])
+    assert result.exit_code == 2
+    assert result.output.count("--dir") == 1
+    assert "create keys with `actorswarm keys init --dir /nonexistent/keys`" in result.output
+    assert "DIR" not in result.output and "--insecure" in result.output
+
+
 def test_platforms_are_ids_and_expect_may_be_a_count() -> None:
     assert id_list("4", "--platforms") == [4]
     assert id_list("1-3, 7", "--platforms") == [1, 2, 3, 7]

@@ -1,4 +1,4 @@
-"""``actorswarm task check`` and ``actorswarm task graph`` (DESIGN.md §7)."""
+"""``actorswarm task check`` and ``actorswarm task graph`` (docs/design.md §7)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Task-engine scenarios on the simulated swarm: every behaviour of DESIGN.md §4.1.
+"""Task-engine scenarios on the simulated swarm: every behaviour of docs/design.md §4.1.
 
 Each test writes a small script (or uses a shipped example), runs it with
 :class:`~actorswarm.sim.tasksim.TaskSim`, and asserts the switches it made and that the core's

@@ -272,6 +272,18 @@ def test_missing_file_says_how_to_create_keys(keydir: Path) -> None:
     (keydir / "swarm.key").unlink()
     with pytest.raises(KeyFileError, match="actorswarm keys init"):
         load_keys(keydir)
+    with pytest.raises(KeyFileError) as err:
+        load_keys(keydir)
+    assert f"`actorswarm keys init --dir {keydir}`, or copy it here" in str(err.value)
+
+
+def test_the_default_directory_needs_no_dir_in_the_hint(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path))
+    with pytest.raises(KeyFileError) as err:
+        load_keys(tmp_path / "actorswarm" / "keys")
+    assert str(err.value).endswith("no such key directory; create keys with `actorswarm keys init`")
 
 
 def test_a_directory_in_place_of_a_key_file_is_refused(keydir: Path) -> None:

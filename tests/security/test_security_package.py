@@ -1,4 +1,4 @@
-"""The security package's public surface and its place in the layers (DESIGN.md §2)."""
+"""The security package's public surface and its place in the layers (docs/design.md §2)."""
 
 from __future__ import annotations
 

@@ -320,3 +320,39 @@ def test_configs_built_in_code_are_checked_too() -> None:
         QuadrotorParams(max_accel=0)
     with pytest.raises(WorldError, match=r"^RadioConfig: range: "):
         RadioConfig(range=math.inf)
+
+
+# --- one vehicle flown alone (a daemon's --vehicle sim) ----------------------------------------
+
+
+def test_a_vehicle_flown_alone_starts_at_its_home_in_the_whole_fleet() -> None:
+    """A daemon's world holds its own vehicle only; it starts where the simulator puts that
+    platform among the fleet, whether the fleet comes from the file or from the caller."""
+    from actorswarm.world.world import World
+
+    listed = loads_world(
+        '[fleet]\nplatforms = "1-6"\ncolumns = 3\nspacing = 25\norigin = [100, -50]\n'
+        "[[vehicles]]\nplatform = 2\nhome = [7, 8]\nheading = 45\n",
+        source="w.toml",
+    )
+    whole = World(listed, None).positions()
+    for pid in (1, 2, 5, 6):
+        alone = World(listed.alone(pid), [pid])
+        assert alone.positions()[pid] == whole[pid], pid
+        (spec,) = listed.alone(pid).vehicle_specs([pid])
+        assert spec == listed.vehicle_specs()[pid - 1], pid  # kind, heading, battery too
+    assert whole[6] == (150.0, -25.0, 0.0)  # slot 5: column 2 of row 1
+    unlisted = WorldConfig()  # the default grid: columns follow the swarm's size
+    fleet = range(1, 11)
+    whole = World(unlisted, list(fleet)).positions()
+    assert World(unlisted.alone(10, fleet), [10]).positions()[10] == whole[10] != whole[1]
+    # No fleet anywhere: the platform alone, at the grid's first home.
+    assert World(unlisted.alone(10), [10]).positions()[10] == whole[1]
+
+
+def test_a_fleet_without_the_platform_is_refused() -> None:
+    listed = loads_world('[fleet]\nplatforms = "1-6"\n', source="w.toml")
+    with pytest.raises(WorldError, match=r"w\.toml: fleet\.platforms: platform 9 is not"):
+        listed.alone(9)
+    with pytest.raises(WorldError, match=r"fleet: platform 9 is not one of"):
+        listed.alone(9, [1, 2])

@@ -1,1 +1,1 @@
-"""Benchmarks that measure the framework against DESIGN.md §8."""
+"""Benchmarks that measure the framework against docs/design.md §8."""

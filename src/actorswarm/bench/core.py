@@ -1,4 +1,4 @@
-"""Benchmark of the collective core in virtual time (DESIGN.md §8).
+"""Benchmark of the collective core in virtual time (docs/design.md §8).
 
 For each swarm size it boots a simulated swarm, waits until the membership and the master's
 handshake are settled, then measures, over several seeded repetitions:
@@ -244,7 +244,8 @@ def markdown(results: list[SizeResult], *, latency: float, loss: float, config: 
         )
         + f" + k·{config.retry_step * 1000:.0f} ms (cap {config.retry_cap * 1000:.0f} ms).",
         "",
-        f"Targets (DESIGN.md §8): barrier ≤ 3 × latency + 5 ms = {target_barrier * 1000:.0f} ms; "
+        "Targets (docs/design.md §8): "
+        f"barrier ≤ 3 × latency + 5 ms = {target_barrier * 1000:.0f} ms; "
         f"failover ≤ T_leave + 100 ms = {target_failover * 1000:.0f} ms, flat in N; "
         "master traffic linear in N.",
         "",

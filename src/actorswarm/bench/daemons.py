@@ -1,4 +1,4 @@
-"""Benchmark of real daemon processes on one machine (DESIGN.md §8), over Zenoh on loopback.
+"""Benchmark of real daemon processes on one machine (docs/design.md §8), over Zenoh on loopback.
 
 For each swarm size it starts that many ``actorswarm daemon`` processes
 (:class:`~actorswarm.daemon.launch.LocalSwarm`: a full mesh of TCP links on 127.0.0.1, packet
@@ -756,7 +756,7 @@ def _verdict(values: Sequence[float], target: float, failed: int) -> str:
 
 
 def markdown(result: BenchResult) -> str:
-    """The report: machine, settings, one table per measurement, then DESIGN.md §8."""
+    """The report: machine, settings, one table per measurement, then docs/design.md §8."""
     m, s, c = result.machine, result.settings, result.config
     t_leave = c["t_leave"]
     lines = [
@@ -846,7 +846,7 @@ def markdown(result: BenchResult) -> str:
         lines += [
             "",
             f"In {len(back_runs)} run(s) the restarted platform took the master role back "
-            "although election is sticky (DESIGN.md §3.2). Its log shows how: it names "
+            "although election is sticky (docs/design.md §3.2). Its log shows how: it names "
             "itself master within a second of starting, before its Zenoh links to the others "
             "are up; when they come up the two masters meet and the lower ID keeps the role, "
             "so the swarm changes master a second time, seconds after the restart.",
@@ -920,14 +920,14 @@ def cpu_fit(result: BenchResult) -> tuple[float, float, list[int]] | None:
 
 
 def _against_design(result: BenchResult) -> list[str]:
-    """The rows of DESIGN.md §8 these measurements speak to, with a plain verdict."""
+    """The rows of docs/design.md §8 these measurements speak to, with a plain verdict."""
     t_leave = result.config["t_leave"]
     cpus = int(result.machine.get("cpus") or 1)
     failover_target = t_leave + 0.1
     switch_target = 0.005  # 3 x loopback's one-way latency (microseconds) + 5 ms
     biggest = max(result.sizes, key=lambda r: r.size, default=None)
     lines = [
-        "## Against DESIGN.md §8",
+        "## Against docs/design.md §8",
         "",
         "| measure | paper | target | measured | met? |",
         "|---|---|---|---|---|",

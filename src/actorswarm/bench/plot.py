@@ -1,4 +1,4 @@
-"""Pictures of the collective-core benchmark: the figures of DESIGN.md §8 against swarm size.
+"""Pictures of the collective-core benchmark: the figures of docs/design.md §8 against swarm size.
 
 Three panels, log-scaled swarm size on the x axis: barrier latency (no loss and with loss)
 with the 35 ms target and the paper's measured switch times; time to a new master after a

@@ -1,4 +1,4 @@
-"""Single-platform Actor switch time (DESIGN.md §8: ≤ 1 ms median; the paper: 104 ms).
+"""Single-platform Actor switch time (docs/design.md §8: ≤ 1 ms median; the paper: 104 ms).
 
 A switch is measured from the call to :meth:`ActorRuntime.switch` — pause the current actor
 and free its hardware, then start the next: plugin group instantiated and started, params

@@ -2,8 +2,9 @@
 
 Commands so far: ``swarm demo`` (a simulated swarm losing its master mid-barrier and being
 partitioned, with every invariant checked), ``swarm campaign`` (the seeded fault campaign, or
-one replayed seed) and ``bench core`` (the collective-core benchmark of DESIGN.md §8);
-``task check`` and ``task graph`` for task scripts (DESIGN.md §4, §7).
+one replayed seed) and ``bench core`` (the collective-core benchmark of docs/design.md §8);
+``task check`` and ``task graph`` for task scripts (docs/design.md §4, §7); ``launch`` for
+several daemons from one file.
 """
 
 from __future__ import annotations
@@ -39,9 +40,9 @@ app = typer.Typer(
     add_completion=False,
 )
 swarm_app = typer.Typer(help="Simulated swarms of the collective core.", no_args_is_help=True)
-bench_app = typer.Typer(help="Benchmarks (DESIGN.md §8).", no_args_is_help=True)
+bench_app = typer.Typer(help="Benchmarks (docs/design.md §8).", no_args_is_help=True)
 task_app = typer.Typer(
-    help="Task scripts (DESIGN.md §4): check them, draw their Actor state machine.",
+    help="Task scripts (docs/design.md §4): check them, draw their Actor state machine.",
     no_args_is_help=True,
 )
 app.add_typer(swarm_app, name="swarm")
@@ -60,6 +61,9 @@ def _register_real_swarm() -> None:
 
     app.command("daemon")(daemon)
     app.command("autopilot")(autopilot)
+    from actorswarm.cli.launch_cmd import launch
+
+    app.command("launch")(launch)
     from actorswarm.cli.bench_tables import register as register_tables
 
     register_tables(bench_app)
@@ -336,7 +340,7 @@ def bench_daemons(
     json_out: Annotated[Path | None, typer.Option("--json", help="Write every run here.")] = None,
 ) -> None:
     """Real daemon processes on loopback: CPU and memory, master failover, collective
-    switch (DESIGN.md §8). Loads the machine: every daemon is a process on its cores."""
+    switch (docs/design.md §8). Loads the machine: every daemon is a process on its cores."""
     import signal
     import tempfile
 
@@ -390,7 +394,7 @@ def bench_switch(
     out: Annotated[Path | None, typer.Option(help="Write the Markdown table here.")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the rows here.")] = None,
 ) -> None:
-    """Single-platform Actor switch time, cold and warm (DESIGN.md §8)."""
+    """Single-platform Actor switch time, cold and warm (docs/design.md §8)."""
     from actorswarm.bench.switch import markdown, run, to_json
 
     counts = _int_list(plugins, "--plugins", 1, 64)
@@ -432,9 +436,26 @@ def bench_plot(
 def sim(
     file: Annotated[Path, typer.Argument(help="The task script to run.")],
     seed: Annotated[int, typer.Option(help="Seed of the radio and the platforms.")] = 0,
-    loss: Annotated[float, typer.Option(min=0.0, max=0.95, help="Packet loss probability.")] = 0.0,
-    latency: Annotated[float, typer.Option(min=0.0, help="One-way latency, ms.")] = 10.0,
-    jitter: Annotated[float, typer.Option(min=0.0, help="Extra random latency, ms.")] = 0.0,
+    loss: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            max=0.9,
+            help="Packet loss probability of every link; with a world, on top of its "
+            "distance-based loss.",
+        ),
+    ] = 0.0,
+    latency: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            help="One-way latency of every link, ms; with a world, added to its "
+            "distance-based latency.",
+        ),
+    ] = 10.0,
+    jitter: Annotated[
+        float, typer.Option(min=0.0, help="Extra random latency of every link, ms.")
+    ] = 0.0,
     channel_bitrate: Annotated[
         float | None,
         typer.Option(
@@ -476,7 +497,7 @@ def sim(
         ),
     ] = False,
 ) -> None:
-    """Run a task script on a simulated swarm, in virtual time (DESIGN.md §7).
+    """Run a task script on a simulated swarm, in virtual time (docs/design.md §7).
 
     Exit status: 0 when the run went as asked; 1 when the script has errors or an invariant
     was violated; 2 when the command line cannot be run (a bad option or world file, an
@@ -605,7 +626,13 @@ def demo(
     ] = None,
     seed: Annotated[int, typer.Option(help="Seed of the radio and the platforms.")] = 0,
     loss: Annotated[
-        float, typer.Option(min=0.0, max=0.9, help="Extra packet loss probability.")
+        float,
+        typer.Option(
+            min=0.0,
+            max=0.9,
+            help="Packet loss probability of every link, on top of the world's "
+            "distance-based loss.",
+        ),
     ] = 0.0,
     kill: Annotated[list[str] | None, typer.Option(help="ID@T: crash platforms.")] = None,
     realtime: Annotated[

@@ -70,6 +70,15 @@ def daemon(
         str | None,
         typer.Option(help="The mission's origin, LAT,LON,ALT (--vehicle mavlink)."),
     ] = None,
+    fleet: Annotated[
+        str | None,
+        typer.Option(
+            metavar="IDS",
+            help="The swarm's platform IDs (e.g. 1-10; default: the world's fleet.platforms), "
+            "so --vehicle sim starts at this platform's home on the world's grid, as in the "
+            "simulator.",
+        ),
+    ] = None,
     config: Annotated[
         Path | None,
         typer.Option(help="A TOML file with any of these options (and a \\[core] table)."),
@@ -89,6 +98,7 @@ def daemon(
             insecure=insecure,
             vehicle=vehicle,
             world=world,
+            fleet=fleet,
             config=config,
             mavlink=mavlink,
             mavlink_sysid=mavlink_sysid,

@@ -40,6 +40,7 @@ OPTIONS: dict[str, tuple[str, str]] = {
     "--mavlink": ("mavlink", "value"),
     "--mavlink-sysid": ("mavlink_sysid", "sysid"),
     "--origin": ("origin", "value"),
+    "--fleet": ("fleet", "value"),
     "--config": ("config", "path"),
 }
 
@@ -65,6 +66,7 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
         "mavlink": None,
         "mavlink_sysid": None,
         "origin": None,
+        "fleet": None,
         "config": None,
     }
     given: set[str] = set()
@@ -125,6 +127,7 @@ def start_daemon(
     mavlink: str | None = None,
     mavlink_sysid: int | None = None,
     origin: str | None = None,
+    fleet: str | None = None,
 ) -> int:
     """Check the options (the command line, then the ``--config`` file, then the defaults)
     and run the daemon until a signal; returns its exit status. A problem with the options
@@ -163,12 +166,21 @@ def start_daemon(
         raise refuse("--world describes a simulated vehicle's world: give --vehicle sim too")
     if world_file is not None and not world_file.is_file():
         raise refuse(f"--world {world_file}: no such file")
+    fleet_text = fleet or file.fleet
+    if fleet_text is not None and chosen_vehicle != "sim":
+        raise refuse("--fleet places a simulated vehicle on the world's grid: give --vehicle sim")
     world_config = None
     if chosen_vehicle == "sim":
-        from actorswarm.world.config import WorldError, load_world
+        from actorswarm.world.config import WorldError, load_world, parse_platforms
 
         try:
-            world_config = load_world(world_file)
+            fleet_ids = None if fleet_text is None else parse_platforms(fleet_text)
+        except ValueError as exc:
+            raise refuse(f"--fleet {fleet_text!r}: {exc}") from None
+        try:
+            # The vehicle starts at this platform's home on the fleet's grid, as in the
+            # simulator, not at the grid's first slot.
+            world_config = load_world(world_file).alone(platform, fleet_ids)
         except WorldError as exc:
             raise refuse(str(exc)) from None
     autopilot = None

@@ -63,14 +63,15 @@ def gs_deploy(
         raise typer.Exit(1)
     data = file.read_bytes()
 
-    async def go() -> tuple[str, list[int], list[int]]:
+    async def go() -> tuple[str, list[int], list[int], list[str]]:
         async with ln.session(timeout) as gs:
             sha = gs.do(lambda st, now: st.deploy(data, platforms, now))
             await gs.wait_for(lambda: not gs.station.missing(sha), timeout)
             missing = gs.station.missing(sha)
-            return sha, missing, sorted(set(missing) & set(gs.station.unreachable))
+            why = gs.explain(platforms, set(platforms) - set(missing))
+            return sha, missing, sorted(set(missing) & set(gs.station.unreachable)), why
 
-    sha, missing, unreachable = asyncio.run(go())
+    sha, missing, unreachable, why = asyncio.run(go())
     confirmed = sorted(set(platforms) - set(missing))
     path = state or default_state_file(swarm)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -80,6 +81,8 @@ def gs_deploy(
         typer.echo(f"not confirmed by: {missing}", err=True)
         if unreachable:
             typer.echo(f"never acknowledged a chunk (unreachable?): {unreachable}", err=True)
+        for line in why:
+            typer.echo(line, err=True)
         raise typer.Exit(1)
 
 
@@ -110,7 +113,7 @@ def gs_start(
         typer.echo(f"{path}: nothing deployed to start ({exc}); run gs deploy first", err=True)
         raise typer.Exit(2) from None
 
-    async def go() -> tuple[list[int], list[int], str]:
+    async def go() -> tuple[list[int], list[int], str, list[str]]:
         async with ln.session(timeout) as gs:
             # Deploying again is idempotent (a platform that has the script confirms at
             # once): it tells this session who has it.
@@ -119,7 +122,8 @@ def gs_start(
             try:
                 gs.do(lambda st, now: st.start(now, force=force))
             except NotConfirmed as exc:
-                return [], exc.missing, str(exc)
+                confirmed = set(platforms) - set(exc.missing)
+                return [], exc.missing, str(exc), gs.explain(platforms, confirmed)
 
             def answered() -> dict[int, tuple[bool, str]]:
                 return gs.station.outcomes("Start")
@@ -129,15 +133,20 @@ def gs_start(
                 if not ok:
                     typer.echo(f"  {p}: FAILED: {message}", err=True)
             started = [p for p, (ok, _) in answered().items() if ok]
-            return sorted(started), gs.station.missing(sha), ""
+            why = gs.explain(platforms, answered())
+            return sorted(started), gs.station.missing(sha), "", why
 
-    started, missing, refused = asyncio.run(go())
+    started, missing, refused, why = asyncio.run(go())
     if refused:
         typer.echo(refused, err=True)
+        for line in why:
+            typer.echo(line, err=True)
         raise typer.Exit(1)
     typer.echo(f"started on {len(started)} of {len(platforms)}: {started}")
     if missing:
         typer.echo(f"never confirmed the script: {missing}", err=True)
+    for line in why:
+        typer.echo(line, err=True)
     if set(platforms) - set(started):
         raise typer.Exit(1)
 
@@ -153,17 +162,21 @@ def gs_status(
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
 ) -> None:
-    """Each platform heard: its actors, master flag, epoch, incarnation, last heard."""
+    """Each platform heard: its actors, master flag, epoch, incarnation, last heard.
+
+    Exits 1 when no platform answered (none heard, or every one refused the request), and
+    says why as far as the ground station can tell."""
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
 
     ln = link(swarm, connect, listen, multicast, keys, insecure)
 
-    async def go() -> dict[str, Any]:
+    async def go() -> tuple[dict[str, Any], list[str]]:
         async with ln.session(timeout) as gs:
             await gs.listen(1.5)
             heard = sorted(gs.station.heard)
-            gs.do(lambda st, now: st.send(cmds.Status(), heard, now))
+            if heard:
+                gs.do(lambda st, now: st.send(cmds.Status(), heard, now))
 
             def replies() -> dict[int, cmds.StatusReply]:
                 return {
@@ -172,7 +185,8 @@ def gs_status(
                     if isinstance(r.reply, cmds.StatusReply)
                 }
 
-            await gs.wait_for(lambda: set(heard) <= set(replies()), timeout)
+            if heard:
+                await gs.wait_for(lambda: set(heard) <= set(replies()), timeout)
             now = clock()
             out: dict[str, Any] = {}
             got = replies()
@@ -180,6 +194,8 @@ def gs_status(
                 incarnation, master, epoch = gs.station.state[p]
                 reply = got.get(p)
                 out[str(p)] = {
+                    # False: heard, but its answer never came (see the reasons printed).
+                    "answered": reply is not None,
                     "actors": []
                     if reply is None
                     else [a for a, s in reply.actors.items() if s == "running"],
@@ -189,18 +205,20 @@ def gs_status(
                     "last_heard_s": round(now - gs.station.heard[p], 3),
                     "script": "" if reply is None else reply.script,
                 }
-            return {"platforms": out}
+            return {"platforms": out}, gs.explain(heard, got)
 
-    status = asyncio.run(go())
+    status, why = asyncio.run(go())
+    rows = status["platforms"]
     if as_json:
         typer.echo(json.dumps(status, indent=2))
-        return
-    if not status["platforms"]:
-        typer.echo("no platform heard", err=True)
-        raise typer.Exit(1)
-    for p, row in status["platforms"].items():
+    for p, row in rows.items() if not as_json else ():
         flag = " (master)" if row["master"] else ""
+        said = (", ".join(row["actors"]) or "-") if row["answered"] else "no answer"
         typer.echo(
-            f"  {p}{flag}: {', '.join(row['actors']) or '-'}; epoch {row['epoch']}, "
+            f"  {p}{flag}: {said}; epoch {row['epoch']}, "
             f"incarnation {row['incarnation']}, heard {row['last_heard_s']} s ago"
         )
+    for line in why:
+        typer.echo(line, err=True)
+    if not any(row["answered"] for row in rows.values()):
+        raise typer.Exit(1)

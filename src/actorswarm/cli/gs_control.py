@@ -44,37 +44,40 @@ Send = Callable[[GroundStation, list[int], float], None]
 
 async def _run(
     ln: Link, name: str, send: Send, platforms: list[int] | None, timeout: float
-) -> tuple[list[int], dict[int, tuple[bool, str]], set[int]]:
-    """The targets, the answers per platform, and the platforms the command was given up
-    on (never acknowledged within ``timeout``)."""
+) -> tuple[list[int], dict[int, tuple[bool, str]], set[int], list[str]]:
+    """The targets, the answers per platform, the platforms the command was given up on
+    (never acknowledged within ``timeout``), and why the silent ones said nothing."""
     async with ln.session(timeout) as gs:
         if platforms is None:
             await gs.listen(1.5)  # heartbeats say who is there
         targets = sorted(gs.station.heard) if platforms is None else platforms
-        gs.do(lambda st, now: send(st, targets, now))
+        if targets:
+            gs.do(lambda st, now: send(st, targets, now))
 
         def answers() -> dict[int, tuple[bool, str]]:
             return gs.station.outcomes(name)
 
-        await gs.wait_for(lambda: set(targets) <= set(answers()), timeout)
-        return targets, answers(), set(gs.station.unreachable) - set(answers())
+        if targets:
+            await gs.wait_for(lambda: set(targets) <= set(answers()), timeout)
+        got = answers()
+        why = gs.explain(targets, got)
+        return targets, got, set(gs.station.unreachable) - set(got), why
 
 
 def _execute(ln: Link, name: str, send: Send, platforms: str | None, timeout: float) -> None:
-    """Send, wait, print the outcome per platform, exit with the status of the module
-    docstring."""
+    """Send, wait, print the outcome per platform and why the silent ones said nothing,
+    exit with the status of the module docstring."""
     chosen = None if platforms is None else id_list(platforms, "--platforms")
-    targets, answers, unreachable = asyncio.run(_run(ln, name, send, chosen, timeout))
-    if not targets:
-        typer.echo("no platform heard", err=True)
-        raise typer.Exit(1)
+    targets, answers, unreachable, why = asyncio.run(_run(ln, name, send, chosen, timeout))
     for p in targets:
         silent = "no answer"
         if p in unreachable:
             silent = f"unreachable: nothing acknowledged in {timeout:g} s"
         ok, message = answers.get(p, (False, silent))
         typer.echo(f"  {p}: {message}" if ok else f"  {p}: FAILED: {message}")
-    if set(targets) - set(answers) or not any(ok for ok, _ in answers.values()):
+    for line in why:
+        typer.echo(line, err=True)
+    if not targets or set(targets) - set(answers) or not any(ok for ok, _ in answers.values()):
         raise typer.Exit(1)
 
 

@@ -36,10 +36,15 @@ def packet_guard(
     try:
         loaded = load_keys(directory, need_private=role == "ground")
     except KeyFileError as exc:
-        raise refuse(
-            f"{exc}\ncreate keys with `actorswarm keys init --dir {directory}` and copy "
-            "swarm.key and ground_station.pub to every platform, or run with --insecure"
-        ) from None
+        # The key module's message already says how to create the keys; add only what the
+        # role does with them.
+        then = (
+            "a platform needs swarm.key and ground_station.pub from the ground station's key "
+            "directory"
+            if role == "platform"
+            else "then copy swarm.key and ground_station.pub to every platform"
+        )
+        raise refuse(f"{exc}\n{then}, or run with --insecure (trusted networks only)") from None
     return PacketGuard.from_keys(loaded, role=role)
 
 

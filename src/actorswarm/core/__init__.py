@@ -1,4 +1,4 @@
-"""The collective core: sans-IO swarm organization (DESIGN.md §3).
+"""The collective core: sans-IO swarm organization (docs/design.md §3).
 
 Start with :class:`Node`, one platform's core; :class:`CoreConfig` holds every protocol
 timing; :mod:`actorswarm.core.wire` defines the packets; :mod:`actorswarm.core.events` what

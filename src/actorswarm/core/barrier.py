@@ -1,4 +1,4 @@
-"""Barriers with gather/scatter, master side and member side (DESIGN.md §3.4).
+"""Barriers with gather/scatter, master side and member side (docs/design.md §3.4).
 
 Theory of operation
 -------------------

@@ -1,6 +1,6 @@
 """Protocol timings and limits of the collective core.
 
-Every number the protocol uses lives here, with the defaults of DESIGN.md §3, and is validated
+Every number the protocol uses lives here, with the defaults of docs/design.md §3, and is validated
 when the config is built: a bad value raises :class:`ConfigError` naming the field, the value
 and the rule, so a typo in a config file never turns into a swarm that silently misbehaves.
 """
@@ -24,7 +24,7 @@ class ConfigError(ValueError):
 class CoreConfig:
     """Timings (seconds) and limits of one platform's collective core.
 
-    Membership (DESIGN.md §3.1): a heartbeat every ``heartbeat_interval``; a peer joins after
+    Membership (docs/design.md §3.1): a heartbeat every ``heartbeat_interval``; a peer joins after
     ``join_heartbeats`` heartbeats within ``t_join``; it leaves after ``t_leave`` without one
     (``detector="timeout"``) or when the phi accrual suspicion passes ``phi_threshold``
     (``detector="phi"``).

@@ -9,7 +9,7 @@ matters at 1000 simulated platforms.
 
 Two detectors ship:
 
-* :class:`FixedTimeout` — left after ``t_leave`` without a heartbeat (DESIGN.md §3.1).
+* :class:`FixedTimeout` — left after ``t_leave`` without a heartbeat (docs/design.md §3.1).
 * :class:`PhiAccrual` — Hayashibara et al.'s accrual detector with a normal model of the
   inter-arrival times: suspicion ``phi(t) = -log10(1 - F(t - last))``; the peer is left when
   phi passes ``threshold``. Since phi grows monotonically with the silence, the crossing time is

@@ -1,4 +1,4 @@
-"""Master election rules (DESIGN.md §3.2), as pure decisions the node applies.
+"""Master election rules (docs/design.md §3.2), as pure decisions the node applies.
 
 Theory of operation
 -------------------

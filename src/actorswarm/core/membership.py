@@ -1,4 +1,4 @@
-"""Membership: who is in this platform's view of the swarm (DESIGN.md §3.1).
+"""Membership: who is in this platform's view of the swarm (docs/design.md §3.1).
 
 Theory of operation
 -------------------

@@ -134,7 +134,7 @@ class Node(NodeElection):
 
     def receive_batch(self, batch: list[bytes], now: float) -> None:
         """Accept several packets that arrived together: ground-station traffic (sender 0,
-        the operator's commands) is processed before swarm traffic (DESIGN.md §3.3)."""
+        the operator's commands) is processed before swarm traffic (docs/design.md §3.3)."""
         packets: list[Packet] = []
         for data in batch:
             try:

@@ -132,7 +132,7 @@ class NodeBase:
         else:
             self._next_heartbeat = now + self._rng.uniform(0.0, interval)
             self._rephase = False
-        # Star topology (DESIGN.md §3.1): the roster as the master keeps it and as members
+        # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
         # copy it, the member heartbeat interval the master asks for, and the succession
         # entries presumed alive after the master was lost (platform -> presumed until).
         self._star = self.config.membership == "star"

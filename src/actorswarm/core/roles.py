@@ -1,4 +1,4 @@
-"""Arbitration of roles with quotas (DESIGN.md §3.4): "exactly one leader", "one Track actor".
+"""Arbitration of roles with quotas (docs/design.md §3.4): "exactly one leader", "one Track actor".
 
 Theory of operation
 -------------------

@@ -1,4 +1,5 @@
-"""The star master's roster and its copy at the members (DESIGN.md §3.1, ``membership="star"``).
+"""The star master's roster and its copy at the members (``membership="star"``,
+docs/design.md §3.1).
 
 Theory of operation
 -------------------

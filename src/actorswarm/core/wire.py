@@ -41,7 +41,7 @@ Name = Annotated[str, Meta(max_length=256)]
 Finite = Annotated[float, Meta(ge=-1e300, le=1e300)]
 
 #: Reliable channels: ground-station traffic has a channel of its own that is sent and
-#: processed before swarm traffic (DESIGN.md §3.3, priorities); master-bound traffic has one
+#: processed before swarm traffic (docs/design.md §3.3, priorities); master-bound traffic has one
 #: whose sequence numbers survive a change of master, so a message re-targeted to a master
 #: that already had it is recognised as a duplicate.
 URGENT: Final = 0
@@ -212,7 +212,7 @@ class Heartbeat(_Msg, frozen=True, tag=1):
     ``count`` numbers the sender's scheduled heartbeats (a probe or an answer to one repeats
     the current count), so a receiver measures the loss from the gaps. ``suspects`` names
     the peers the sender suspects: a peer that finds itself listed answers at once (a free
-    probe, DESIGN.md §3.1).
+    probe, docs/design.md §3.1).
 
     A star master's heartbeat also carries what its members need of its view: ``roster``,
     the version of its roster in this epoch, and ``size``, its member count; ``changes``,

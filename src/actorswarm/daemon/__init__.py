@@ -1,4 +1,4 @@
-"""The daemon host (DESIGN.md §2): one process per platform, the same core, engine and
+"""The daemon host (docs/design.md §2): one process per platform, the same core, engine and
 runtime objects as the simulator, driven by the wall clock and a real transport.
 
 :class:`PlatformEndpoint` composes a platform's sans-IO pieces (core node, task engine,

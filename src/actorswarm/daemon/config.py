@@ -15,6 +15,7 @@ directory, so a robot's configuration can live beside its keys::
     state_dir = "/var/lib/actorswarm"
     vehicle = "sim"          # or "none", or "mavlink"
     world = "world.toml"     # the simulated vehicle's world (--vehicle sim)
+    fleet = "1-10"           # the swarm's platforms, for this one's home on the world's grid
 
 A daemon flying a PX4 or ArduPilot autopilot (``vehicle = "mavlink"``) says where it is
 and where the mission's origin is; the keys after these three exist only in the file::
@@ -79,6 +80,7 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     mavlink_link_timeout: Annotated[float, msgspec.Meta(gt=0)] = 3.0
     mavlink_force: bool = False
     fence: Annotated[list[float], msgspec.Meta(min_length=5, max_length=5)] | None = None
+    fleet: str | None = None
     transport: Literal["zenoh"] | None = None
     core: dict[str, Any] = {}
 

@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from types import TracebackType
 from typing import TypeVar
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.loop import Inbox, clock, flush, serve
+from actorswarm.ground.silence import explain
 from actorswarm.ground.station import GroundStation
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
@@ -120,3 +121,17 @@ class GroundSession:
     async def listen(self, seconds: float) -> None:
         """Just listen (heartbeats tell who is there) for ``seconds``."""
         await asyncio.sleep(seconds)
+
+    def explain(self, targets: Collection[int], answered: Collection[int]) -> list[str]:
+        """Why the ``targets`` not in ``answered`` did not answer, as far as this session
+        can tell (:func:`actorswarm.ground.silence.explain`); empty when all answered."""
+        station, guard = self.station, self.guard
+        return explain(
+            self.swarm,
+            targets=targets,
+            answered=answered,
+            heard=station.heard,
+            acked=station.acked,
+            rejected=guard.rejected,
+            refused_from=guard.refused_from,
+        )

@@ -21,7 +21,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -42,11 +42,17 @@ def free_ports(n: int) -> list[int]:
 
 
 class LocalSwarm:
-    """Platforms ``1..size`` as daemon processes, files under ``directory``.
+    """Platforms ``1..size`` (or ``platforms``) as daemon processes, files under
+    ``directory``.
 
     ``connect_all``: each daemon connects to every earlier one (a full mesh, the default)
     instead of to platform 1 only. ``extra`` arguments go to every daemon (``--vehicle
-    sim``, ``--config FILE``). Use it as a context manager: leaving kills what still runs.
+    sim``, ``--config FILE``). ``keys``: an existing key directory instead of one made under
+    ``directory``. ``multicast``: the daemons find each other by multicast scouting, with no
+    endpoints. ``state_dirs``: state directories other than ``directory/state-ID``.
+    ``new_session``: each daemon in a session of its own, so a Ctrl-C at the terminal
+    reaches only the process that started them (``actorswarm launch``), which stops them.
+    Use it as a context manager: leaving kills what still runs.
     """
 
     def __init__(
@@ -59,24 +65,37 @@ class LocalSwarm:
         endpoints: Sequence[str] | None = None,
         wrap: Callable[[int], Sequence[str]] | None = None,
         extra: Sequence[str] = (),
+        platforms: Sequence[int] | None = None,
+        keys: Path | None = None,
+        multicast: bool = False,
+        state_dirs: Mapping[int, Path] | None = None,
+        new_session: bool = False,
     ) -> None:
+        # Created when something is written there (keys, logs): a launch that is only
+        # checked leaves no trace.
         self.dir = Path(directory)
-        self.dir.mkdir(parents=True, exist_ok=True)
+        self.platforms = list(platforms) if platforms is not None else list(range(1, size + 1))
+        if len(self.platforms) != size:
+            raise ValueError(f"{len(self.platforms)} platform IDs for {size} platforms")
         self.size = size
         self.swarm = swarm or f"local{os.getpid()}"
         self.secure = secure
-        self.keys = self.dir / "keys"
-        if secure and not (self.keys / "swarm.key").exists():
+        self.keys = self.dir / "keys" if keys is None else Path(keys)
+        if secure and keys is None and not (self.keys / "swarm.key").exists():
             from actorswarm.security import init_keys
 
+            self.dir.mkdir(parents=True, exist_ok=True)
             init_keys(self.keys)
-        if endpoints is None:
+        self.multicast = multicast
+        if endpoints is None and not multicast:
             endpoints = [f"tcp/127.0.0.1:{p}" for p in free_ports(size)]
-        if len(endpoints) != size:
+        if endpoints is not None and len(endpoints) != size:
             raise ValueError(f"{len(endpoints)} endpoints for {size} platforms")
-        self.endpoints = list(endpoints)
+        self.endpoints = list(endpoints or [])
         self.wrap = wrap
         self.extra = list(extra)
+        self.state_dirs = dict(state_dirs or {})
+        self.new_session = new_session
         self.procs: dict[int, subprocess.Popen[bytes]] = {}
 
     def __enter__(self) -> LocalSwarm:
@@ -96,31 +115,45 @@ class LocalSwarm:
         return ["--keys", str(self.keys)] if self.secure else ["--insecure"]
 
     def state_dir(self, platform: int) -> Path:
-        return self.dir / f"state-{platform}"
+        return self.state_dirs.get(platform, self.dir / f"state-{platform}")
 
     def log(self, platform: int) -> Path:
         return self.dir / f"daemon-{platform}.log"
+
+    def endpoint(self, platform: int) -> str | None:
+        """Where ``platform`` listens (None: multicast scouting only)."""
+        return self.endpoints[self.platforms.index(platform)] if self.endpoints else None
+
+    def command(self, platform: int, *extra: str) -> list[str]:
+        """The daemon command line of ``platform`` (without ``wrap``'s prefix)."""
+        index = self.platforms.index(platform)
+        args = [
+            sys.executable, "-m", "actorswarm", "daemon", "--platform", str(platform),
+            "--swarm", self.swarm, *self._security(),
+            "--state-dir", str(self.state_dir(platform)), *self.extra, *extra,
+        ]  # fmt: skip
+        if self.endpoints:
+            args += ["--no-multicast", "--listen", self.endpoints[index]]
+            for other in self.endpoints[:index]:
+                args += ["--connect", other]
+        return args
 
     def start(self, platform: int, *extra: str) -> subprocess.Popen[bytes]:
         """Start platform ``platform`` (again, after a stop: from its state directory)."""
         if platform in self.procs:
             raise RuntimeError(f"platform {platform} is already running")
-        args = [
-            sys.executable, "-m", "actorswarm", "daemon", "--platform", str(platform),
-            "--swarm", self.swarm, "--no-multicast", *self._security(),
-            "--listen", self.endpoints[platform - 1],
-            "--state-dir", str(self.state_dir(platform)), *self.extra, *extra,
-        ]  # fmt: skip
-        for other in self.endpoints[: platform - 1]:
-            args += ["--connect", other]
+        args = self.command(platform, *extra)
+        self.dir.mkdir(parents=True, exist_ok=True)
         prefix = list(self.wrap(platform)) if self.wrap is not None else []
         with self.log(platform).open("ab") as log:
-            proc = subprocess.Popen([*prefix, *args], stdout=log, stderr=log)
+            proc = subprocess.Popen(
+                [*prefix, *args], stdout=log, stderr=log, start_new_session=self.new_session
+            )
         self.procs[platform] = proc
         return proc
 
     def start_all(self) -> None:
-        for platform in range(1, self.size + 1):
+        for platform in self.platforms:
             self.start(platform)
 
     def stop(self, platform: int, sig: int = signal.SIGTERM) -> int:
@@ -144,10 +177,16 @@ class LocalSwarm:
 
     # --- the operator's side ------------------------------------------------------------
 
-    def gs(self, *args: str, timeout: float = 60.0) -> subprocess.CompletedProcess[str]:
-        """Run ``actorswarm gs ARGS`` against this swarm (connected to every daemon)."""
+    def gs(
+        self, *args: str, timeout: float = 60.0, keys: Path | None = None
+    ) -> subprocess.CompletedProcess[str]:
+        """Run ``actorswarm gs ARGS`` against this swarm (connected to every daemon), with
+        the swarm's keys or those in ``keys`` (a ground station with other keys)."""
+        security = self._security() if keys is None else ["--keys", str(keys)]
         cmd = [sys.executable, "-m", "actorswarm", "gs", *args, "--swarm", self.swarm,
-               "--no-multicast", *self._security()]  # fmt: skip
+               *security]  # fmt: skip
+        if self.endpoints:
+            cmd.append("--no-multicast")
         for endpoint in self.endpoints:
             cmd += ["--connect", endpoint]
         prefix = list(self.wrap(0)) if self.wrap is not None else []

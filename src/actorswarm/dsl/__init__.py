@@ -1,4 +1,4 @@
-"""Task scripts (DESIGN.md §4): the XML that programs a swarm as an Actor state machine.
+"""Task scripts (docs/design.md §4): the XML that programs a swarm as an Actor state machine.
 
 Check a script and read its diagnostics, or load it as a typed model for the task engine::
 

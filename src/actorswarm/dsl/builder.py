@@ -63,7 +63,7 @@ class Shape:
 
 _TEXT = Shape(text=True)
 
-#: The format, element by element (DESIGN.md §4). The XSD in ``schema.xsd`` mirrors it.
+#: The format, element by element (docs/design.md §4). The XSD in ``schema.xsd`` mirrors it.
 GRAMMAR: Mapping[str, Shape] = {
     "TaskScript": Shape(
         required=("name",),

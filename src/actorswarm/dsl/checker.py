@@ -11,7 +11,7 @@ The pipeline, each stage its own module:
 4. :func:`~actorswarm.dsl.rules.check_whole` — reachability and barrier-group feasibility,
    only once 2 and 3 found no error.
 
-A script with any error is refused whole (DESIGN.md §4): :func:`check` then returns no model
+A script with any error is refused whole (docs/design.md §4): :func:`check` then returns no model
 and :func:`load` raises :class:`~actorswarm.dsl.diagnostics.ScriptError`. Warnings never
 refuse a script.
 """

@@ -2,7 +2,7 @@
 
 A *group* is every transition sharing one ``barrierKey`` (a transition without a key is a
 group of its own). It fires only when each of its transitions has its ``sysNum`` candidates
-at the same moment (DESIGN.md §4), so the question is whether the platforms of
+at the same moment (docs/design.md §4), so the question is whether the platforms of
 ``<_PlatformActorConfig>`` could ever hold all those actors at once.
 
 The model of a platform: each of its ``<platform>`` lines starts one *thread* of actors on

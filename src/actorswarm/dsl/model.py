@@ -1,4 +1,4 @@
-"""The typed, immutable model of a task script (DESIGN.md §4).
+"""The typed, immutable model of a task script (docs/design.md §4).
 
 A :class:`TaskScript` is what the checker hands to the task engine once a script is valid:
 the Actors with their OODA plugin groups, the transitions of the Actor state machine grouped

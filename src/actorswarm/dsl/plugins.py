@@ -1,10 +1,10 @@
 """Which plugins a task script may name, and the params of the built-in ones.
 
 A plugin is found by name through the entry-point group :data:`ENTRY_POINT_GROUP`
-(DESIGN.md §5); :func:`installed_plugins` lists those names so the checker can refuse a
+(docs/design.md §5); :func:`installed_plugins` lists those names so the checker can refuse a
 script that names a plugin this machine does not have, before it is deployed.
 
-Two plugins need no vehicle and always exist (DESIGN.md §6):
+Two plugins need no vehicle and always exist (docs/design.md §6):
 
 ``core.idle``
     Does nothing; an actor that only waits for events. Takes no params.

@@ -292,7 +292,7 @@ def _check_transitions(transitions: tuple[Transition, ...], names: _Names, repor
 
 
 def _check_counts(transition: Transition, report: Report) -> None:
-    """Branch counts against sysNum (DESIGN.md §4, and docs/task-scripts.md for "all")."""
+    """Branch counts against sysNum (docs/design.md §4, and docs/task-scripts.md for "all")."""
     rests = [b for b in transition.branches if b.count == "rest"]
     fixed = sum(b.count for b in transition.branches if b.count != "rest")
     for extra in rests[1:]:

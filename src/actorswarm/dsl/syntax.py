@@ -14,7 +14,7 @@ from typing import Literal
 
 from actorswarm.dsl.model import Count, SysNum
 
-#: The range of platform IDs (DESIGN.md §3.1).
+#: The range of platform IDs (docs/design.md §3.1).
 MIN_PLATFORM_ID, MAX_PLATFORM_ID = 1, 65535
 #: The range of barrier keys (the paper: 1-63).
 MIN_BARRIER_KEY, MAX_BARRIER_KEY = 1, 63

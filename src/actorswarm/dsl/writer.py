@@ -1,4 +1,4 @@
-"""Write a model back as a task script, in the canonical form of DESIGN.md §4.
+"""Write a model back as a task script, in the canonical form of docs/design.md §4.
 
 Reading what :func:`to_xml` writes gives back an equal model (positions aside), which is how
 the tests pin down that the builder loses nothing. The canonical form writes every actor's

@@ -1,4 +1,4 @@
-"""The task engine (DESIGN.md §4): a task script's Actor state machine on the collective core.
+"""The task engine (docs/design.md §4): a task script's Actor state machine on the collective core.
 
 :class:`TaskEngine` runs one platform's share; :class:`Plan` is the script compiled into
 barrier groups; :class:`ActorHost` is the narrow interface to the actor runtime

@@ -1,4 +1,4 @@
-"""Ground-station commands and the platforms' replies (DESIGN.md §4.2), and their codec.
+"""Ground-station commands and the platforms' replies (docs/design.md §4.2), and their codec.
 
 Commands travel from the ground station (platform ID 0) to platforms as reliable application
 messages on the urgent channel (topic :data:`TOPIC_COMMAND`), so they are retransmitted

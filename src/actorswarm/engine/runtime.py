@@ -1,4 +1,4 @@
-"""The engine's narrow interface to the actor runtime (DESIGN.md §5).
+"""The engine's narrow interface to the actor runtime (docs/design.md §5).
 
 The task engine only ever asks a runtime to *start*, *stop*, *switch*, *pause* and
 *activate* actors, to *step* them to a given time and to *snapshot* them; whatever the

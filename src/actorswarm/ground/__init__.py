@@ -1,4 +1,4 @@
-"""The ground station: the operator's side of the swarm (DESIGN.md §4.2)."""
+"""The ground station: the operator's side of the swarm (docs/design.md §4.2)."""
 
 from actorswarm.ground.station import GroundStation, NotConfirmed
 

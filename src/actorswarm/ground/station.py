@@ -86,6 +86,10 @@ class GroundStation:
         #: Platforms a command was given up on (no acknowledgement by ``delivery_deadline``),
         #: with when: a command's outcome for them is "unreachable", not "no answer yet".
         self.unreachable: dict[int, float] = {}
+        #: Platforms that acknowledged or sent this session anything of its reliable
+        #: streams, with when: they accept its packets. A platform heard but absent here
+        #: refuses them (or the link to it is one-way): see :mod:`actorswarm.ground.silence`.
+        self.acked: dict[int, float] = {}
         self.counters: dict[str, int] = {}
         self.deployed_sha = ""
         # A star master's roster: the members the ground station does not hear directly.
@@ -176,8 +180,10 @@ class GroundStation:
                 self._learn_roster(now)
         elif isinstance(body, Ack):
             if body.dst == wire.GROUND_STATION and body.dst_incarnation == self.incarnation:
+                self.acked[sender] = now
                 self.reliable.on_ack(sender, body, now)
         elif isinstance(body, Data) and body.dst == wire.GROUND_STATION:
+            self.acked[sender] = now
             delivered, ack = self.reliable.on_data(sender, packet.incarnation, body)
             if ack is not None:
                 self._emit(sender, ack)

@@ -1,4 +1,4 @@
-"""The flight plugins (DESIGN.md §6): take off, go to a point, return home.
+"""The flight plugins (docs/design.md §6): take off, go to a point, return home.
 
 ``flight.takeoff`` (:class:`TakeOff`)
     The paper's *Standby* actor: take off to ``altitude`` and hover; emit ``event``

@@ -1,4 +1,4 @@
-"""The formation plugins (DESIGN.md §6): fly a slot of a shape that follows a moving leader.
+"""The formation plugins (docs/design.md §6): fly a slot of a shape that follows a moving leader.
 
 ``formation.arrow`` (:class:`Arrow`)
     One V, the leader at its tip, its arms opening backwards.

@@ -1,4 +1,4 @@
-"""The area-search plugin (DESIGN.md §6): the searchers split an area and sweep it.
+"""The area-search plugin (docs/design.md §6): the searchers split an area and sweep it.
 
 ``search.area`` (:class:`AreaSearch`)
     The paper's *Range* actor: each searcher takes one strip of the area and flies it in a

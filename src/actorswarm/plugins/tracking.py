@@ -1,4 +1,4 @@
-"""The detection and tracking plugins (DESIGN.md §6): see a target, claim it, follow it.
+"""The detection and tracking plugins (docs/design.md §6): see a target, claim it, follow it.
 
 ``detect.target`` (:class:`DetectTarget`)
     Watches the camera for a target (of a kind, by name, or any). Writes the nearest one
@@ -15,7 +15,7 @@ Theory of operation
 **One tracker per target.** A searcher that sees the jeep should switch to tracking it,
 but several searchers may see it at once, and a task script can only say ``sysNum="1"``
 per platform's event, not per target. So the detector arbitrates through the collective
-core's roles (DESIGN.md §3.4): the target named ``jeep`` has the role ``track:jeep`` with a
+core's roles (docs/design.md §3.4): the target named ``jeep`` has the role ``track:jeep`` with a
 quota of 1 (:func:`track_role`). In exclusive mode :class:`DetectTarget` claims that role
 when it first sees the target and emits its event only once the master's answer
 (``ctx.blackboard["collective"]``, :func:`actorswarm.runtime.collective.plugin_view`) says

@@ -1,4 +1,4 @@
-"""The actor runtime (DESIGN.md §5): Actors as plugin groups on the OODA buses.
+"""The actor runtime (docs/design.md §5): Actors as plugin groups on the OODA buses.
 
 :class:`ActorRuntime` runs one platform's actors under the task engine; :class:`ACB` is an
 actor's control block; :class:`Plugin` is what algorithm developers subclass (see

@@ -1,4 +1,4 @@
-"""The Actor Control Block (DESIGN.md §5, paper §IV.A.1): the runtime's record of one actor.
+"""The Actor Control Block (docs/design.md §5, paper §IV.A.1): the runtime's record of one actor.
 
 Theory of operation
 -------------------

@@ -1,4 +1,4 @@
-"""The two plugins that need no vehicle (DESIGN.md §6), registered as entry points.
+"""The two plugins that need no vehicle (docs/design.md §6), registered as entry points.
 
 ``core.idle`` (:class:`Idle`)
     Does nothing. An actor made of it only waits for events (from the ground station, or
@@ -52,7 +52,7 @@ class EmitAfter(Plugin):
 
     **Only running time counts.** While the actor is paused the countdown stops, and
     ``activate`` resumes it where it was — like the rest of a sleeping plugin's state. A
-    pause is a suspension (DESIGN.md §5: "plugins suspended, state kept"), so waking up must
+    pause is a suspension (docs/design.md §5: "plugins suspended, state kept"), so waking up must
     not find the timer already expired and the event fired in a burst with every other
     plugin's; an operator who pauses a swarm for a minute gets the same mission, a minute
     later.

@@ -134,7 +134,7 @@ class Camera(Protocol):
 @runtime_checkable
 class Collective(Protocol):
     """The swarm coordination primitives a plugin may use, wired by the runtime to the
-    platform's core node (DESIGN.md §3.4). Each call queues a request and returns at once;
+    platform's core node (docs/design.md §3.4). Each call queues a request and returns at once;
     the master answers later, through the core's events.
     """
 

@@ -1,4 +1,4 @@
-"""Actor operations (DESIGN.md §5, paper Fig. 2) as one transition table.
+"""Actor operations (docs/design.md §5, paper Fig. 2) as one transition table.
 
 Theory of operation
 -------------------

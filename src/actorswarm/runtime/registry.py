@@ -2,7 +2,7 @@
 
 Theory of operation
 -------------------
-A script names a plugin in one of two ways (DESIGN.md §5):
+A script names a plugin in one of two ways (docs/design.md §5):
 
 * an **entry-point name** such as ``core.emit_after`` or ``formation.arrow``: a
   distribution installed in this environment declares it in the group

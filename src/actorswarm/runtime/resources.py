@@ -1,4 +1,4 @@
-"""Exclusive hardware resources and who holds them (DESIGN.md §5).
+"""Exclusive hardware resources and who holds them (docs/design.md §5).
 
 Theory of operation
 -------------------

@@ -2,7 +2,7 @@
 
 :mod:`.keys` creates and loads a swarm's key material (a shared swarm key, the ground
 station's Ed25519 key pair); :class:`PacketGuard` seals outgoing packets and checks incoming
-ones (DESIGN.md §2: security sits between the core and the transport). The guard's module
+ones (docs/design.md §2: security sits between the core and the transport). The guard's module
 documentation states the threat model.
 """
 

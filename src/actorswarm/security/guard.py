@@ -3,7 +3,7 @@
 Theory of operation
 -------------------
 A host puts a :class:`PacketGuard` between its core (or ground station) and its transport
-(docs/deploying.md, "Security"), so every transport gets the same protection:
+(docs/design.md §2), so every transport gets the same protection:
 
 * every outgoing packet goes through :meth:`PacketGuard.seal`, which fills the envelope's
   ``auth`` slot: an HMAC-SHA256 tag made with the swarm key over the frame exactly as the
@@ -125,6 +125,10 @@ REASONS: Final = (
 _MIN_KEY_BYTES: Final = 16
 
 
+#: How many claimed senders :attr:`PacketGuard.refused_from` keeps per reason.
+_MAX_NAMED: Final = 256
+
+
 class _Window:
     """Which seqs of one sender incarnation were accepted: bit ``k`` of ``seen`` is
     ``top - k``. Everything below ``top - size + 1`` counts as seen."""
@@ -215,6 +219,11 @@ class PacketGuard:
         self.max_bytes = max_bytes
         #: Refused packets by reason (see :data:`REASONS`).
         self.rejected: Counter[str] = Counter()
+        #: Who the refused packets claimed to come from, per reason (at most
+        #: :data:`_MAX_NAMED` senders each): unauthenticated, so only a hint — a ground
+        #: station hearing its swarm under another key can say "platforms 1-6 (as they
+        #: claim)".
+        self.refused_from: dict[str, set[int]] = {}
         #: Packets that passed every check.
         self.accepted = 0
         self._senders: dict[int, _Window] = {}
@@ -311,6 +320,9 @@ class PacketGuard:
         reason = self._authenticate(env, data)
         if reason is not None:
             self.rejected[reason] += 1
+            named = self.refused_from.setdefault(reason, set())
+            if len(named) < _MAX_NAMED:
+                named.add(env.sender)
             return None
         state = self._senders.get(env.sender)
         if state is not None and (

@@ -47,7 +47,13 @@ _SECRET_MODE: Final = 0o600
 _PUBLIC_MODE: Final = 0o644
 _DIR_MODE: Final = 0o700
 _MAX_FILE_BYTES: Final = 64 * 1024
-_INIT_HINT: Final = "create keys with `actorswarm keys init`"
+
+
+def init_hint(directory: Path) -> str:
+    """The command that creates the key files of ``directory`` (``--dir`` only when it is
+    not the default one)."""
+    where = "" if directory == default_key_dir() else f" --dir {directory}"
+    return f"create keys with `actorswarm keys init{where}`"
 
 
 class KeyFileError(ValueError):
@@ -213,7 +219,7 @@ def load_keys(directory: str | os.PathLike[str], *, need_private: bool = False) 
     """
     paths = KeyPaths.in_dir(directory)
     if not paths.directory.is_dir():
-        raise KeyFileError(paths.directory, f"no such key directory; {_INIT_HINT} --dir DIR")
+        raise KeyFileError(paths.directory, f"no such key directory; {init_hint(paths.directory)}")
     swarm_key = _load_swarm_key(paths.swarm_key)
     public = _load_public(paths.gs_public)
     private = _load_private(paths.gs_private) if need_private else None
@@ -231,7 +237,7 @@ def _read(path: Path, *, secret: bool) -> bytes:
     try:
         st = os.stat(path)
     except FileNotFoundError:
-        raise KeyFileError(path, f"missing; {_INIT_HINT}, or copy it here") from None
+        raise KeyFileError(path, f"missing; {init_hint(path.parent)}, or copy it here") from None
     except OSError as exc:
         raise KeyFileError(path, f"cannot be read: {exc.strerror}") from None
     if not stat.S_ISREG(st.st_mode):

@@ -7,7 +7,7 @@ partitions — but only *observes*: it never changes a run. Hosts feed it events
 drained (:meth:`InvariantChecker.on_event`), let it sample state periodically
 (:meth:`InvariantChecker.sample`), and call :meth:`InvariantChecker.finish` at the end.
 
-The invariants (DESIGN.md §3, issue "collective core"):
+The invariants (docs/design.md §3, issue "collective core"):
 
 1. **One master per connected component once the network is stable**: two masters may meet
    for a moment (a partition heals, a false suspicion under loss); a component with more

@@ -5,7 +5,7 @@ Every platform the script starts gets a core :class:`~actorswarm.core.Node` (ins
 actor runtime (plugins from the registry, no vehicle); the task starts at time 0.
 Ground-station events, crashes, restarts, partitions and heals happen at the virtual times
 given. The report has the keys of
-DESIGN.md §7: ``completed``, ``sim_time_s``, ``final_actors``, ``transitions`` (with their
+docs/design.md §7: ``completed``, ``sim_time_s``, ``final_actors``, ``transitions`` (with their
 ``cause``), ``masters``, ``traffic`` and ``violations``, and ``channel``: the load on the
 radio's channel (:meth:`~actorswarm.sim.radio.ChannelStats.as_dict`).
 """

@@ -1,4 +1,4 @@
-"""Transport adapters (DESIGN.md §2): how a platform's packets reach the others.
+"""Transport adapters (docs/design.md §2): how a platform's packets reach the others.
 
 A transport is thin: ``send(dst, data, urgent=...)`` (``dst`` None broadcasts), a receive
 callback handed to the constructor, ``close()``, and a context manager. It moves opaque

@@ -4,7 +4,7 @@ Theory of operation
 -------------------
 A task script says *what* the swarm does; the world file says *where* and *with what*, so
 one script runs unchanged on quadrotors or fixed-wings, in a field or over a valley
-(DESIGN.md §6). :func:`load_world` reads the file with :mod:`tomllib` and builds a frozen
+(docs/design.md §6). :func:`load_world` reads the file with :mod:`tomllib` and builds a frozen
 :class:`WorldConfig`; every key has a default, so an empty file (or no file at all:
 ``load_world(None)``) is a valid world of quadrotors on a grid.
 
@@ -607,6 +607,37 @@ class WorldConfig:
         except WorldError as exc:
             raise WorldError("WorldConfig.defaults", exc.key, exc.problem) from None
         return cls(fleet=fleet)
+
+    def fleet_of(self, platform: int, fleet: Iterable[int] | None = None) -> tuple[int, ...]:
+        """The swarm ``platform`` flies in, for its home on the fleet's grid: ``fleet`` when
+        given, else the world's ``fleet.platforms``, else ``platform`` alone (the first
+        home). WorldError when the swarm named does not hold ``platform``."""
+        ids = tuple(sorted(set(fleet))) if fleet is not None else self.fleet.platforms
+        if ids is None:
+            return (platform,)
+        if platform not in ids:
+            key = "fleet" if fleet is not None else "fleet.platforms"
+            raise WorldError(
+                self.source, key, f"platform {platform} is not one of the swarm's platforms"
+            )
+        return ids
+
+    def alone(self, platform: int, fleet: Iterable[int] | None = None) -> WorldConfig:
+        """This world for ``platform``'s vehicle flown on its own (a daemon's ``--vehicle
+        sim``), starting where the simulator would put it in a run of the platforms
+        :meth:`fleet_of` gives: its home is pinned in a ``[[vehicles]]`` entry, so the
+        one-vehicle world places it at its slot of the whole fleet's grid, not at the
+        first slot."""
+        spec = {s.platform: s for s in self.vehicle_specs(self.fleet_of(platform, fleet))}
+        home = spec[platform].home
+        others = tuple(e for e in self.vehicles if e.platform != platform)
+        mine = next((e for e in self.vehicles if e.platform == platform), None)
+        pinned = (
+            VehicleEntry(platform=platform, home=home)
+            if mine is None
+            else dataclasses.replace(mine, home=home)
+        )
+        return dataclasses.replace(self, vehicles=(*others, pinned))
 
     def params(self, kind: Kind) -> VehicleParams:
         """The performance of ``kind``."""
