@@ -67,6 +67,9 @@ def _register_real_swarm() -> None:
     from actorswarm.cli.web_cmd import register as register_web
 
     register_web(gs_app)
+    from actorswarm.cli.gs_record import register as register_record
+
+    register_record(gs_app)
     app.add_typer(gs_app, name="gs")
     app.add_typer(keys_app, name="keys")
 

@@ -117,6 +117,12 @@ class GroundSession:
             await asyncio.sleep(_POLL)
         return True
 
+    def renew(self) -> None:
+        """Become a new session (a new incarnation) on the same link: the platforms answer
+        the newest session only, so a long-lived one displaced by a later ``gs`` command
+        renews itself to be answered again (what is in flight is dropped)."""
+        self.station.renew(session_incarnation())
+
     async def listen(self, seconds: float) -> None:
         """Just listen (heartbeats tell who is there) for ``seconds``."""
         await asyncio.sleep(seconds)
