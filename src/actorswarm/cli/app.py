@@ -635,7 +635,9 @@ def demo(
 
 @app.command("plot")
 def plot(
-    recording: Annotated[Path, typer.Argument(help="A recording written by sim --record.")],
+    recording: Annotated[
+        Path, typer.Argument(help="A recording written by sim --record or gs record.")
+    ],
     out: Annotated[Path, typer.Option(help="Directory for the pictures.")] = Path("."),
 ) -> None:
     """Draw a recorded run: trajectories (top view, coloured by actor) and the timeline."""
@@ -653,6 +655,15 @@ def plot(
         timeline_png(data, out / f"{stem}-timeline.png"),
     ):
         typer.echo(f"wrote {path}")
+
+
+def _register_web() -> None:
+    from actorswarm.cli.web_cmd import web
+
+    app.command("web")(web)
+
+
+_register_web()
 
 
 class GraphFormat(StrEnum):

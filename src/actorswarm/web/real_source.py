@@ -62,7 +62,7 @@ def _pose(
 class RealSource(SwarmSource):
     """The swarm reached by ``session`` (entered and left by this source)."""
 
-    kind: Literal["sim", "real"] = "real"
+    kind: Literal["sim", "real", "replay"] = "real"
 
     def __init__(
         self,
