@@ -42,8 +42,9 @@ __all__ = ["gs_record", "register"]
 
 #: Seconds between two progress lines (and two looks at the heartbeats).
 _PROGRESS = 0.5
-#: Seconds without an answer, and without another session heard, before renewing.
-_DISPLACED = 1.0
+#: Seconds without an answer, and without another session heard, before renewing (long
+#: enough for the operator's next command of a sequence, deploy then start, to begin).
+_DISPLACED = 3.0
 
 
 def gs_record(

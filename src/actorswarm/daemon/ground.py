@@ -83,6 +83,10 @@ class GroundSession:
     async def __aenter__(self) -> GroundSession:
         inbox = self._inbox = Inbox(asyncio.get_running_loop())
         self._transport = ZenohTransport(self.swarm, 0, inbox.put, self.settings)
+        # The incarnation is taken now, when the session is about to speak, not when it was
+        # made: opening Zenoh takes a while, and a long-lived session (gs record) that
+        # renewed itself meanwhile would otherwise outrank this one before it said a word.
+        self.station.renew(session_incarnation())
         self._task = asyncio.create_task(
             serve(self.station, self._transport, inbox, self._stop, guard=self.guard)
         )
