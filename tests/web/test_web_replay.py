@@ -252,3 +252,14 @@ def test_web_replay_names_a_bad_recording(tmp_path: Path) -> None:
         )  # fmt: skip
         assert done.returncode == 2 and problem in done.stderr, done.stderr
         assert "Traceback" not in done.stderr
+
+
+def test_gs_record_names_a_file_it_cannot_write(tmp_path: Path) -> None:
+    out = tmp_path / "no" / "such" / "dir.jsonl"
+    done = subprocess.run(
+        [sys.executable, "-m", "actorswarm", "gs", "record", str(out), "--insecure",
+         "--no-multicast", "--duration", "1"],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert f"{out}: cannot write the recording" in done.stderr and "Traceback" not in done.stderr
