@@ -63,11 +63,16 @@ def test_map_counts_platforms_and_an_event_from_the_page_switches_the_swarm(
         done = page.wait_for_selector("#log li[data-op=event][data-state=done]", timeout=30_000)
         assert done.get_attribute("data-ok") == "true", done.inner_text()
         assert "10 of 10: event AtoBC_branch_event delivered" in done.inner_text()
+        # One row for the branching transition, a part for each destination.
         page.wait_for_selector(
-            "#timeline li[data-event=AtoBC_branch_event][data-to=C][data-count='8']", timeout=30_000
+            "#timeline li[data-event=AtoBC_branch_event][data-count='10'][data-parts='2']",
+            timeout=30_000,
         )
-        b = page.wait_for_selector("#timeline li[data-event=AtoBC_branch_event][data-to=B]")
-        assert "2 platforms" in b.inner_text() and "key 4" in b.inner_text()
+        rows = page.query_selector_all("#timeline li[data-event=AtoBC_branch_event]")
+        assert len(rows) == 1 and "key 4" in rows[0].inner_text()
+        c = rows[0].query_selector(".part[data-to=C][data-count='8']")
+        b = rows[0].query_selector(".part[data-to=B]")
+        assert c is not None and b is not None and "2 platforms" in b.inner_text()
         _wait(page, "document.querySelector('#graph .node[data-actor=C]').dataset.count === '8'")
         assert page.get_attribute("#graph .node[data-actor=B]", "data-count") == "2"
         assert page.get_attribute("#map", "data-platforms") == "10"
@@ -124,3 +129,49 @@ def test_two_hundred_platforms_stay_usable(page: Any) -> None:
         page.wait_for_timeout(1500)  # a second of frames and drawings
         draw_ms = float(page.get_attribute("#map", "data-draw-ms") or "inf")
     assert math.isfinite(draw_ms) and draw_ms >= 0, "the map was drawn and timed"
+
+
+def test_the_state_machine_of_a_recall_from_every_actor_is_drawn_apart(page: Any) -> None:
+    """Edges from every actor into one: no drawn label covers another label or an actor,
+    and every actor's name is drawn whole inside its box."""
+    from actorswarm.dsl import load
+    from actorswarm.sim.tasksim import TaskSim
+
+    script = load(Path(__file__).with_name("recall_all.xml"))
+    source = SimSource(TaskSim(script, seed=1), speed=1.0)
+    with Server(source) as server:
+        page.goto(server.url)
+        page.wait_for_selector("#graph .node[data-actor=Overwatch]")
+        drawn = page.evaluate(
+            """() => {
+              const box = (e) => { const b = e.getBBox(); return [b.x, b.y, b.width, b.height]; };
+              return {
+                labels: [...document.querySelectorAll('#graph .elabel')].map(
+                  (t) => ({ text: t.firstChild.textContent, box: box(t) })),
+                nodes: [...document.querySelectorAll('#graph .node')].map((g) => ({
+                  actor: g.dataset.actor,
+                  name: g.querySelector('text.name').textContent,
+                  text: box(g.querySelector('text.name')),
+                  rect: box(g.querySelector('rect')),
+                  pill: box(g.querySelector('rect.count-bg')),
+                })),
+              };
+            }"""
+        )
+    assert [label["text"] for label in drawn["labels"]].count("recall_event") == 6
+
+    def overlap(a: list[float], b: list[float]) -> bool:
+        return (
+            a[0] < b[0] + b[2] and b[0] < a[0] + a[2] and a[1] < b[1] + b[3] and b[1] < a[1] + a[3]
+        )
+
+    boxes = [label["box"] for label in drawn["labels"]] + [n["rect"] for n in drawn["nodes"]]
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1 :]:
+            assert not overlap(a, b), (a, b)
+    assert {n["actor"] for n in drawn["nodes"]} == {a.name for a in script.actors}
+    for n in drawn["nodes"]:
+        assert n["name"] == n["actor"]
+        x, _, w, _ = n["text"]
+        rx = n["rect"][0]
+        assert rx < x and x + w <= n["pill"][0] + 0.5, f"{n['actor']} drawn whole: {n}"

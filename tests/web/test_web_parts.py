@@ -128,6 +128,69 @@ def test_layout_draws_the_task_graph_edges() -> None:
     assert all(n["y"] + n["h"] <= drawn["height"] for n in nodes.values())
 
 
+def _overlap(a: dict[str, float], b: dict[str, float]) -> bool:
+    return (
+        a["x"] < b["x"] + b["w"]
+        and b["x"] < a["x"] + a["w"]
+        and a["y"] < b["y"] + b["h"]
+        and b["y"] < a["y"] + a["h"]
+    )
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        ROOT / "tests" / "web" / "recall_all.xml",
+        ROOT / "examples" / "formation_30.xml",
+        ROOT / "examples" / "search_track_10.xml",
+        ROOT / "examples" / "branch_merge.xml",
+    ],
+    ids=lambda p: p.stem,
+)
+def test_layout_keeps_labels_and_actors_apart(path: Path) -> None:
+    """No label box covers another or an actor, actors do not touch, every actor is as
+    wide as its name, and every edge runs from its source's box to its target's."""
+    from actorswarm.web.graph_layout import name_width
+
+    drawn = layout(load(path))
+    nodes = {n["name"]: n for n in drawn["nodes"]}
+    labels = [e["box"] for e in drawn["edges"] if e["box"] is not None]
+    boxes = labels + list(nodes.values())
+    for i, a in enumerate(boxes):
+        assert a["x"] >= 0 and a["x"] + a["w"] <= drawn["width"] + 0.5, a
+        assert a["y"] >= 0 and a["y"] + a["h"] <= drawn["height"] + 0.5, a
+        for b in boxes[i + 1 :]:
+            assert not _overlap(a, b), (a, b)
+    for n in nodes.values():
+        assert n["w"] >= name_width(n["name"]) - 0.1
+    for e in drawn["edges"]:
+        a, b = nodes[e["source"]], nodes[e["target"]]
+        (x0, y0), (x1, y1) = e["points"][0], e["points"][-1]
+        if e["source"] == e["target"]:  # a loop, on the actor's right side
+            assert x0 == x1 == pytest.approx(a["x"] + a["w"], abs=0.1), e
+            assert a["y"] < y0 < y1 < a["y"] + a["h"], e
+            continue
+        assert a["x"] <= x0 <= a["x"] + a["w"] and y0 in (a["y"], a["y"] + a["h"]), e
+        assert b["x"] <= x1 <= b["x"] + b["w"] and y1 in (b["y"], b["y"] + b["h"]), e
+
+
+def test_layout_labels_a_recall_from_every_actor_once_each_and_a_branch_once() -> None:
+    drawn = layout(load(ROOT / "tests" / "web" / "recall_all.xml"))
+    recalls = [e for e in drawn["edges"] if e["event"] == "recall_event"]
+    assert {e["source"] for e in recalls} == {
+        "Standby", "Ingress", "Search", "Track", "Overwatch", "Relay"
+    }  # fmt: skip
+    assert all(e["target"] == "Return" and e["text"] == "recall_event" for e in recalls)
+    # The edges into Return meet it at different places.
+    ends = [e["points"][-1][0] for e in recalls]
+    assert len(set(ends)) == len(ends)
+    split = [e for e in drawn["edges"] if e["event"] == "split_event"]
+    assert sorted(e["target"] for e in split) == ["Overwatch", "Track"]
+    assert sorted(e["text"] for e in split) == ["", "split_event"], "a branch is labelled once"
+    names = {n["name"]: n for n in drawn["nodes"]}
+    assert names["Overwatch"]["w"] > names["Track"]["w"], "as wide as its name"
+
+
 def test_membership_logs_joins_and_leaves() -> None:
     station = GroundStation(swarm="s")
     members = Membership(t_leave=0.5)

@@ -74,6 +74,9 @@ def _register_real_swarm() -> None:
     from actorswarm.cli.web_cmd import register as register_web
 
     register_web(gs_app)
+    from actorswarm.cli.gs_record import register as register_record
+
+    register_record(gs_app)
     app.add_typer(gs_app, name="gs")
     app.add_typer(keys_app, name="keys")
 
@@ -689,7 +692,9 @@ def demo(
 
 @app.command("plot")
 def plot(
-    recording: Annotated[Path, typer.Argument(help="A recording written by sim --record.")],
+    recording: Annotated[
+        Path, typer.Argument(help="A recording written by sim --record or gs record.")
+    ],
     out: Annotated[Path, typer.Option(help="Directory for the pictures.")] = Path("."),
 ) -> None:
     """Draw a recorded run: trajectories (top view, coloured by actor) and the timeline."""
@@ -707,6 +712,15 @@ def plot(
         timeline_png(data, out / f"{stem}-timeline.png"),
     ):
         typer.echo(f"wrote {path}")
+
+
+def _register_web() -> None:
+    from actorswarm.cli.web_cmd import web
+
+    app.command("web")(web)
+
+
+_register_web()
 
 
 class GraphFormat(StrEnum):

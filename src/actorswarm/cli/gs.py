@@ -33,7 +33,7 @@ from actorswarm.cli.swarm_options import (
 
 gs_app = typer.Typer(
     help="The ground station over a real swarm: deploy, start, event, force, pause, "
-    "activate, stop, backup, status.",
+    "activate, stop, backup, status; record it, or watch it on the web page.",
     no_args_is_help=True,
 )
 

@@ -1,5 +1,5 @@
-"""The web ground station on the command line: ``actorswarm gs web``, and ``--serve`` for
-``actorswarm sim`` and ``actorswarm demo``.
+"""The web ground station on the command line: ``actorswarm gs web``, ``--serve`` for
+``actorswarm sim`` and ``actorswarm demo``, and ``actorswarm web --replay`` for a recording.
 
 ``gs web`` serves the page against a real swarm over Zenoh, with the same swarm, endpoint
 and key options as the other ``gs`` commands; the state machine drawn is the script given
@@ -52,6 +52,7 @@ __all__ = [
     "register",
     "serve_mission",
     "serve_sim",
+    "web",
 ]
 
 # The same values as actorswarm.web.server's, kept here so declaring the options does not
@@ -218,6 +219,45 @@ def gs_web(
     from actorswarm.web.real_source import RealSource
 
     source = RealSource(ln.session(), script=drawn, sha=sha, poll=poll)
+    _serve(source, host, port, token)
+
+
+def web(
+    replay: Annotated[
+        Path,
+        typer.Option(help="Play this recording back (sim --record or gs record wrote it)."),
+    ],
+    script: Annotated[
+        Path | None, typer.Option(help="The task script the run ran, to draw its state machine.")
+    ] = None,
+    speed: Annotated[
+        float, typer.Option(min=0.1, max=100.0, help="Recording seconds per wall second.")
+    ] = 1.0,
+    paused: Annotated[bool, typer.Option("--paused", help="Start paused at time 0.")] = False,
+    host: HostOpt = DEFAULT_HOST,
+    port: PortOpt = DEFAULT_PORT,
+    token: TokenOpt = None,
+) -> None:
+    """The web ground station on a recording: the run played back on the map, the timeline
+    and the swarm table, with pause, pace and seek. Open the address it prints."""
+    from actorswarm.sim.record import RecordError, read_record
+
+    try:
+        recording = read_record(replay)
+    except (RecordError, OSError) as exc:
+        typer.echo(f"{replay}: {exc}", err=True)
+        raise typer.Exit(2) from None
+    drawn, sha = (None, "") if script is None else _known_script(script, Path())
+    from actorswarm.web.replay_source import ReplaySource
+
+    source = ReplaySource(
+        recording,
+        title=f"replay of {replay.name}",
+        script=drawn,
+        sha=sha,
+        speed=speed,
+        playing=not paused,
+    )
     _serve(source, host, port, token)
 
 

@@ -84,6 +84,10 @@ class GroundSession:
     async def __aenter__(self) -> GroundSession:
         inbox = self._inbox = Inbox(asyncio.get_running_loop())
         self._transport = ZenohTransport(self.swarm, 0, inbox.put, self.settings)
+        # The incarnation is taken now, when the session is about to speak, not when it was
+        # made: opening Zenoh takes a while, and a long-lived session (gs record) that
+        # renewed itself meanwhile would otherwise outrank this one before it said a word.
+        self.station.renew(session_incarnation())
         self._task = asyncio.create_task(
             serve(self.station, self._transport, inbox, self._stop, guard=self.guard)
         )
@@ -117,6 +121,12 @@ class GroundSession:
                 return False
             await asyncio.sleep(_POLL)
         return True
+
+    def renew(self) -> None:
+        """Become a new session (a new incarnation) on the same link: the platforms answer
+        the newest session only, so a long-lived one displaced by a later ``gs`` command
+        renews itself to be answered again (what is in flight is dropped)."""
+        self.station.renew(session_incarnation())
 
     async def listen(self, seconds: float) -> None:
         """Just listen (heartbeats tell who is there) for ``seconds``."""

@@ -96,6 +96,10 @@ class GroundStation:
         self.roster = RosterView()
         self._roster_master: int | None = None
         self._roster_asked = -1e9
+        #: When an acknowledgement to another ground-station session was last heard (the
+        #: swarm's acknowledgements to platform 0 reach every session listening): another
+        #: operator is at work.
+        self.other_session_heard = -1e9
 
     # --- operator interface ------------------------------------------------------------
 
@@ -155,6 +159,18 @@ class GroundStation:
         )
         self.send(command, targets, now)
 
+    def renew(self, incarnation: int) -> None:
+        """Become a new session (``incarnation``, above every earlier session's): what is
+        in flight is dropped. The platforms accept one ground-station session at a time,
+        the newest; a long-lived session (a recorder) that a newer one displaced renews
+        itself once that one is done, to be answered again."""
+        if incarnation <= self.incarnation:
+            raise ValueError(f"incarnation {incarnation} is not above {self.incarnation}")
+        self.incarnation = incarnation
+        self.reliable = Reliable(self.config)
+        self._seq = 0
+        self.unreachable.clear()
+
     # --- host interface -----------------------------------------------------------------
 
     def receive(self, data: bytes, now: float) -> None:
@@ -182,6 +198,8 @@ class GroundStation:
             if body.dst == wire.GROUND_STATION and body.dst_incarnation == self.incarnation:
                 self.acked[sender] = now
                 self.reliable.on_ack(sender, body, now)
+            elif body.dst == wire.GROUND_STATION and body.dst_incarnation > self.incarnation:
+                self.other_session_heard = now
         elif isinstance(body, Data) and body.dst == wire.GROUND_STATION:
             self.acked[sender] = now
             delivered, ack = self.reliable.on_data(sender, packet.incarnation, body)

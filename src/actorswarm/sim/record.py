@@ -12,9 +12,20 @@ One JSON object per line, UTF-8, each with a ``type``:
   time; the meta line may carry the world's ``areas`` as ``{name: [[x, y], ...]}``;
 * ``{"type": "transition", "t", "platform", "from", "to", "event", "cause", ...}``: one
   entry of a run report's ``transitions`` (an empty ``from`` starts an actor, an empty
-  ``to`` stops one).
+  ``to`` stops one);
+* ``{"type": "master", "t", "masters", "epoch"}``: from ``t`` on, the platforms in the list
+  ``masters`` say they are master (none: empty; two while a partition lasts), the highest
+  epoch heard being ``epoch`` (an integer, or null before any);
+* ``{"type": "event", "t", "what", "platform", "text"}``: something that happened to the
+  swarm as a whole or to one platform (``platform`` 0 for the swarm), e.g. ``what``
+  ``joined`` or ``left`` for membership, ``command`` for an operator's command seen.
+
+A recording of a real swarm (``actorswarm gs record``) is written line by line as it
+happens, so its lines of every type come interleaved in time order; a simulation's
+(``actorswarm sim --record``) is written at the end. Readers take either.
 
 :func:`write_record` writes the meta line, then the poses, then the transitions;
+:class:`RecordWriter` writes one line at a time, flushing each;
 :func:`read_record` reads one back as a :class:`Recording` and refuses a malformed file
 with a :class:`RecordError` that names the line. :func:`actor_timeline` turns transitions
 into who ran what when, and :func:`collective_transitions` finds the moments many
@@ -43,6 +54,7 @@ __all__ = [
     "VERSION",
     "Collective",
     "RecordError",
+    "RecordWriter",
     "Recording",
     "Span",
     "actor_timeline",
@@ -93,6 +105,10 @@ class Recording:
     targets: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
         default_factory=dict
     )
+    #: The master lines (without ``type``), in file order.
+    masters: list[dict[str, Any]] = field(default_factory=list)
+    #: The event lines (without ``type``), in file order.
+    events: list[dict[str, Any]] = field(default_factory=list)
 
     def areas(self) -> dict[str, list[tuple[float, float]]]:
         """The areas the meta line names (``{name: polygon}``; malformed entries are
@@ -149,6 +165,8 @@ class Recording:
         if len(self.t):
             ends.append(float(self.t.max()))
         ends.extend(float(tr["t"]) for tr in self.transitions)
+        ends.extend(float(m["t"]) for m in self.masters)
+        ends.extend(float(e["t"]) for e in self.events)
         duration = self.meta.get("duration")
         if isinstance(duration, int | float) and not isinstance(duration, bool):
             ends.append(float(duration))
@@ -227,6 +245,98 @@ def write_record(
         raise
 
 
+class RecordWriter:
+    """A recording written as it happens, one line at a time (module docstring).
+
+    ``with RecordWriter(path, meta) as out: out.pose(...)``: the meta line is written on
+    opening; every line is written whole and flushed at once, so a recording cut short (the
+    recorder killed) is readable up to its last full line, and one stopped cleanly (leaving
+    the ``with`` block, or :meth:`close`) is complete. ``lines`` counts what was written by
+    type. ``ValueError`` as for :func:`write_record`; ``OSError`` when the file cannot be
+    written.
+    """
+
+    def __init__(self, path: Path | str, meta: Mapping[str, Any]) -> None:
+        clash = [key for key in _RESERVED_META if key in meta]
+        if clash:
+            raise ValueError(f"meta may not use the reserved key(s) {clash}")
+        header = _line({"type": "meta", "format": FORMAT, "version": VERSION, **meta})
+        self.path = Path(path)
+        self.lines: dict[str, int] = {}
+        self._out = self.path.open("w", encoding="utf-8", newline="\n")
+        self._write(header, "meta")
+
+    def __enter__(self) -> RecordWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def closed(self) -> bool:
+        return self._out.closed
+
+    def close(self) -> None:
+        """Finish the file (idempotent)."""
+        self._out.close()
+
+    def _write(self, text: str, kind: str) -> None:
+        self._out.write(text + "\n")
+        self._out.flush()
+        self.lines[kind] = self.lines.get(kind, 0) + 1
+
+    def pose(
+        self,
+        t: float,
+        platform: int,
+        x: float,
+        y: float,
+        z: float,
+        heading: float = 0.0,
+        mode: str = "",
+    ) -> None:
+        """One vehicle's pose at ``t``."""
+        line = {
+            "type": "pose",
+            "t": float(t),
+            "platform": int(platform),
+            "x": float(x),
+            "y": float(y),
+            "z": float(z),
+            "heading": float(heading),
+            "mode": str(mode),
+        }
+        self._write(_line(line), "pose")
+
+    def transition(self, record: Mapping[str, Any]) -> None:
+        """One transition record (``t``, ``platform``, ``from``, ``to``, ``event``,
+        ``cause``, ...)."""
+        if "type" in record:
+            raise ValueError(f"a transition may not have a 'type' key: {dict(record)!r}")
+        self._write(_line({"type": "transition", **record}), "transition")
+
+    def master(self, t: float, masters: Iterable[int], epoch: int | None) -> None:
+        """From ``t`` on, ``masters`` say they are master, in (at most) ``epoch``."""
+        line = {
+            "type": "master",
+            "t": float(t),
+            "masters": sorted(int(p) for p in masters),
+            "epoch": None if epoch is None else int(epoch),
+        }
+        self._write(_line(line), "master")
+
+    def event(self, t: float, what: str, platform: int = 0, text: str = "") -> None:
+        """Something that happened at ``t`` (``platform`` 0: to the swarm as a whole)."""
+        line = {
+            "type": "event",
+            "t": float(t),
+            "what": str(what),
+            "platform": int(platform),
+            "text": str(text),
+        }
+        self._write(_line(line), "event")
+
+
 # --- reading -------------------------------------------------------------------------------
 
 
@@ -260,6 +370,8 @@ def read_record(path: Path | str) -> Recording:
     platforms: list[int] = []
     modes: list[str] = []
     transitions: list[dict[str, Any]] = []
+    masters: list[dict[str, Any]] = []
+    events: list[dict[str, Any]] = []
     target_rows: dict[str, list[tuple[float, float, float, float]]] = {}
     with Path(path).open(encoding="utf-8") as stream:
         for lineno, text in enumerate(stream, start=1):
@@ -314,13 +426,18 @@ def read_record(path: Path | str) -> Recording:
                 target_rows.setdefault(obj["name"], []).append(
                     (float(obj["t"]), float(obj["x"]), float(obj["y"]), float(obj["z"]))
                 )
+            elif kind == "master":
+                masters.append(_master_line(obj, where, lineno))
+            elif kind == "event":
+                events.append(_event_line(obj, where, lineno))
             elif kind == "meta":
                 raise _fail(where, lineno, "a second meta line")
             else:
                 raise _fail(
                     where,
                     lineno,
-                    f"unknown type {kind!r} (meta, pose, target or transition expected)",
+                    f"unknown type {kind!r} (meta, pose, target, transition, master or event "
+                    "expected)",
                 )
     if meta is None:
         raise RecordError(f"{where}, line 1: empty recording (no meta line)")
@@ -335,7 +452,32 @@ def read_record(path: Path | str) -> Recording:
         mode=modes,
         transitions=transitions,
         targets={name: _path_of(rows) for name, rows in target_rows.items()},
+        masters=masters,
+        events=events,
     )
+
+
+def _master_line(obj: dict[str, Any], where: str, lineno: int) -> dict[str, Any]:
+    if not _is_number(obj.get("t")):
+        raise _fail(where, lineno, "master 't' must be a finite number")
+    masters = obj.get("masters")
+    if not isinstance(masters, list) or not all(_is_int(p) for p in masters):
+        raise _fail(where, lineno, "master 'masters' must be a list of platform IDs")
+    epoch = obj.get("epoch")
+    if epoch is not None and not _is_int(epoch):
+        raise _fail(where, lineno, "master 'epoch' must be an integer or null")
+    return {k: v for k, v in obj.items() if k != "type"}
+
+
+def _event_line(obj: dict[str, Any], where: str, lineno: int) -> dict[str, Any]:
+    if not _is_number(obj.get("t")):
+        raise _fail(where, lineno, "event 't' must be a finite number")
+    if not _is_int(obj.get("platform")):
+        raise _fail(where, lineno, "event 'platform' must be an integer")
+    for key in ("what", "text"):
+        if not isinstance(obj.get(key), str):
+            raise _fail(where, lineno, f"event {key!r} must be a string")
+    return {k: v for k, v in obj.items() if k != "type"}
 
 
 def _path_of(

@@ -29,8 +29,10 @@ __all__ = [
     "Force",
     "Inspect",
     "Pause",
+    "Play",
     "ProtocolError",
     "Request",
+    "Seek",
     "Speed",
     "Start",
     "StartActor",
@@ -120,6 +122,18 @@ class Speed(_Op, frozen=True, kw_only=True, tag="speed"):
     speed: Annotated[float, Meta(gt=0.0, le=100.0)]
 
 
+class Play(_Op, frozen=True, kw_only=True, tag="play"):
+    """A replay: play (``playing``) or pause."""
+
+    playing: bool
+
+
+class Seek(_Op, frozen=True, kw_only=True, tag="seek"):
+    """A replay: go to time ``t`` (seconds of the recording)."""
+
+    t: Annotated[float, Meta(ge=0.0, le=1e9)]
+
+
 class Inspect(_Op, frozen=True, kw_only=True, tag="inspect"):
     """Every actor control block of ``platform``; answered to the asking page only."""
 
@@ -139,6 +153,8 @@ Command = (
     | StopActor
     | Backup
     | Speed
+    | Play
+    | Seek
 )
 Request = Command | Inspect
 

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any, Literal, TypeVar
 from actorswarm.daemon.loop import clock
 from actorswarm.dsl.model import TaskScript
 from actorswarm.engine import commands as cmds
+from actorswarm.ground.recorder import observed
 from actorswarm.ground.station import GroundStation, ReplyRecord
 from actorswarm.web.operator import Timeouts
 from actorswarm.web.source import PlatformRow, SwarmSource
@@ -37,29 +38,6 @@ _T = TypeVar("_T")
 #: A platform that moved less than this (m) between two status replies shows no heading
 #: (a hovering multicopter has none worth drawing).
 _MOVED = 0.3
-
-
-def observed(
-    t: float, platform: int, before: tuple[str, ...], after: tuple[str, ...]
-) -> list[dict[str, Any]]:
-    """Transition records for a platform whose running actors went from ``before`` to
-    ``after``: stopped actors paired with started ones in order (``A -> B``), the rest
-    from or to nothing."""
-    gone = [a for a in before if a not in after]
-    new = [a for a in after if a not in before]
-    out = []
-    for i in range(max(len(gone), len(new))):
-        out.append(
-            {
-                "t": t,
-                "platform": platform,
-                "from": gone[i] if i < len(gone) else "",
-                "to": new[i] if i < len(new) else "",
-                "event": "",
-                "cause": "observed",
-            }
-        )
-    return out
 
 
 def _pose(
@@ -84,7 +62,7 @@ def _pose(
 class RealSource(SwarmSource):
     """The swarm reached by ``session`` (entered and left by this source)."""
 
-    kind: Literal["sim", "real"] = "real"
+    kind: Literal["sim", "real", "replay"] = "real"
 
     def __init__(
         self,

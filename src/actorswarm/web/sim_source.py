@@ -43,7 +43,7 @@ class SimSource(SwarmSource):
     """``sim`` served to the page, ``speed`` virtual seconds per wall second, up to
     ``until`` virtual seconds (None: until the server stops)."""
 
-    kind: Literal["sim", "real"] = "sim"
+    kind: Literal["sim", "real", "replay"] = "sim"
 
     def __init__(
         self,

@@ -8,7 +8,10 @@ virtual time paced to the wall clock (:class:`~actorswarm.web.sim_source.SimSour
 Zenoh session polling the platforms' status (:class:`~actorswarm.web.real_source.
 RealSource`). A subclass fills in a few hooks (the platforms' positions and actors, their
 control blocks, the clock, how to act on the station); this class turns them into the same
-JSON messages for either kind, so the page never knows which it is looking at:
+JSON messages for either kind, so the page never knows which it is looking at (a
+recording played back, :class:`~actorswarm.web.replay_source.ReplaySource`, is a third
+kind: its frames carry ``replay``, ``{"playing", "end"}``, and it takes no command but the
+pace, ``play`` and ``seek``):
 
 ``hello``
     Sent first and whenever the running script changes: the source's ``kind`` and
@@ -136,8 +139,8 @@ class SwarmSource(abc.ABC):
     the membership log keeps up.
     """
 
-    #: ``"sim"`` or ``"real"``.
-    kind: Literal["sim", "real"]
+    #: ``"sim"``, ``"real"`` or ``"replay"``.
+    kind: Literal["sim", "real", "replay"]
 
     def __init__(
         self,
@@ -165,7 +168,7 @@ class SwarmSource(abc.ABC):
             timeouts=timeouts,
         )
         self._task: asyncio.Task[None] | None = None
-        self._frame_cache: tuple[tuple[float, float | None, str], dict[str, Any]] | None = None
+        self._frame_cache: tuple[tuple[Any, ...], dict[str, Any]] | None = None
         #: Why the source stopped working, if it did (shown on every page).
         self.failure: str | None = None
         self._trails: deque[dict[str, Any]] = deque(maxlen=TRAIL_SAMPLES)
@@ -225,6 +228,18 @@ class SwarmSource(abc.ABC):
 
     def speed(self) -> float | None:
         return None
+
+    def replay_state(self) -> dict[str, Any] | None:
+        """A replay's ``{"playing", "end"}`` (None for a live swarm)."""
+        return None
+
+    def set_playing(self, playing: bool) -> str:
+        """Play or pause a replay; ValueError where there is none."""
+        raise ValueError("only a replay can be paused or played")
+
+    def seek(self, t: float) -> str:
+        """Go to time ``t`` of a replay; ValueError where there is none."""
+        raise ValueError("only a replay can be sought")
 
     # --- lifecycle ---------------------------------------------------------------------
 
@@ -314,6 +329,7 @@ class SwarmSource(abc.ABC):
             "title": self.title,
             "swarm": self.station.swarm,
             "speed": self.speed(),
+            "replay": self.replay_state(),
             "t0": round(self.origin(), 3),
             "script": self._script_json,
             "areas": self.areas(),
@@ -326,7 +342,8 @@ class SwarmSource(abc.ABC):
 
     def frame(self) -> dict[str, Any]:
         now = self.now()
-        key = (now, self.speed(), self.sha)
+        replay = self.replay_state()
+        key = (now, self.speed(), self.sha, None if replay is None else replay["playing"])
         cached = self._frame_cache
         if cached is not None and cached[0] == key:
             return cached[1]
@@ -363,6 +380,7 @@ class SwarmSource(abc.ABC):
             "type": "frame",
             "t": round(now, 3),
             "speed": self.speed(),
+            "replay": replay,
             "names": names,
             "ids": ids,
             "x": xs if positioned else None,
@@ -417,12 +435,19 @@ class SwarmSource(abc.ABC):
     async def execute(self, request: proto.Command) -> dict[str, Any]:
         """Carry out one command from a page; returns the final ``outcome`` message (also
         published to every page)."""
-        if isinstance(request, proto.Speed):
-            outcome = Outcome(
-                id=request.id, op="speed", asked=f"pace ×{request.speed:g}", t=self.now()
-            )
+        if isinstance(request, proto.Speed | proto.Play | proto.Seek):
+            outcome = Outcome(id=request.id, op="", asked="", t=self.now())
             try:
-                outcome.finish(True, self.set_speed(request.speed))
+                if isinstance(request, proto.Speed):
+                    outcome.op, outcome.asked = "speed", f"pace ×{request.speed:g}"
+                    outcome.finish(True, self.set_speed(request.speed))
+                elif isinstance(request, proto.Play):
+                    outcome.op = "play"
+                    outcome.asked = "play" if request.playing else "pause"
+                    outcome.finish(True, self.set_playing(request.playing))
+                else:
+                    outcome.op, outcome.asked = "seek", f"seek to {request.t:g} s"
+                    outcome.finish(True, self.seek(request.t))
             except ValueError as exc:
                 outcome.finish(False, str(exc))
             self._published(outcome)

@@ -2,8 +2,9 @@
 // edges of `actorswarm task graph`), with the number of platforms in each actor now and
 // the edges of the latest collective transitions lit up for a moment.
 //
-// A timeout edge that goes where its transition's own edge goes is folded into that edge
-// (its label gains the timeout) rather than drawn twice.
+// The layout (boxes, edge points, label boxes) comes from the server; this draws it. A
+// timeout edge that goes where its transition's own edge goes is folded into that edge
+// (its tooltip gains the timeout) rather than drawn twice.
 
 import { colour } from "./util.js";
 
@@ -47,65 +48,28 @@ export class StateGraph {
       defs.append(marker);
     }
     root.append(defs);
-    const byName = new Map(g.nodes.map((n) => [n.name, n]));
     const edgeLayer = svg("g");
+    const labelLayer = svg("g");
     const nodeLayer = svg("g");
-    root.append(edgeLayer, nodeLayer);
+    root.append(edgeLayer, nodeLayer, labelLayer);
 
-    // Fold timeouts into the edge they duplicate.
-    const branches = g.edges.filter((e) => e.kind !== "timeout");
-    const extra = new Map();
-    const drawn = [...branches];
-    for (const e of g.edges.filter((e) => e.kind === "timeout")) {
-      const twin = branches.find((b) => b.source === e.source && b.target === e.target);
-      if (twin) extra.set(twin, (extra.get(twin) || []).concat(e.label));
-      else drawn.push(e);
-    }
-    // A transition that branches to several actors is labelled once, under its source.
-    const fans = new Map();
-    for (const e of drawn) {
-      if (e.kind === "branch" && !e.back) {
-        const key = `${e.source}\u0000${e.event}`;
-        fans.set(key, (fans.get(key) || 0) + 1);
-      }
-    }
-    // Edges between the same two actors (two transitions, or a branch and a timeout) are
-    // drawn side by side.
-    const pairs = new Map();
-    for (const e of drawn) {
-      const key = `${e.source}\u0000${e.target}`;
-      pairs.set(key, [...(pairs.get(key) || []), e]);
-    }
-    const labelled = new Set();
-    const backs = { left: 0, right: 0 };
-    for (const e of drawn) {
-      const a = byName.get(e.source), b = byName.get(e.target);
-      if (!a || !b) continue;
-      const twins = pairs.get(`${e.source}\u0000${e.target}`);
-      const spread = twins.length > 1 && !e.back ? (twins.indexOf(e) - (twins.length - 1) / 2) * 16 : 0;
-      let { d, lx, ly, anchor } = this.route(a, b, backs, g, spread);
-      if (spread) ly += twins.indexOf(e) * 12 - ((twins.length - 1) * 12) / 2;
-      const fan = `${e.source}\u0000${e.event}`;
-      if (e.kind === "branch" && !e.back && fans.get(fan) > 1) {
-        if (labelled.has(fan)) lx = null;
-        labelled.add(fan);
-        [lx, ly, anchor] = lx == null ? [null, 0, ""] : [a.x + a.w / 2 + 6, a.y + a.h + 13, "start"];
-      }
-      const title = [e.label, ...(extra.get(e) || [])].join("\n");
+    // The server laid everything out (graph_layout.py): each edge's points and its
+    // label's box, placed so that no label covers another or an actor.
+    for (const e of g.edges) {
       const path = svg("path", {
-        d, class: `edge ${e.kind}`, "marker-end": "url(#arrow)", "data-source": e.source,
+        d: this.curve(e), class: `edge ${e.kind}`, "marker-end": "url(#arrow)", "data-source": e.source,
         "data-target": e.target, "data-event": e.event,
       });
-      path.append(svg("title", {}, title));
+      path.append(svg("title", {}, e.title));
       edgeLayer.append(path);
-      // The event on the arrow; its share of sysNum, key and timeout in the tooltip.
-      const text = e.kind === "branch" ? e.event : e.label.split(" (")[0].replace("timeout ", "");
-      if (lx != null) {
-        const label = svg("text", { x: lx, y: ly, class: `elabel ${e.kind}`, "text-anchor": anchor }, text);
-        label.append(svg("title", {}, title));
-        edgeLayer.append(label);
-      }
       this.edges.push(path);
+      if (e.text && e.box) {
+        const b = e.box;
+        const label = svg("text", { x: b.x + 3, y: b.y + b.h - 4, class: `elabel ${e.kind}`, "data-source": e.source, "data-target": e.target }, e.text);
+        label.append(svg("title", {}, e.title));
+        labelLayer.append(label);
+        this.fit(label, b.w - 4);
+      }
     }
     for (const n of g.nodes) {
       const c = colour(this.names.indexOf(n.name));
@@ -113,78 +77,53 @@ export class StateGraph {
       group.append(svg("rect", {
         x: n.x, y: n.y, width: n.w, height: n.h, rx: 6, fill: `${c}26`, stroke: c,
       }));
-      group.append(svg("text", { x: n.x + 10, y: n.y + n.h / 2 + 4 }, n.name));
+      const name = svg("text", { x: n.x + 9, y: n.y + n.h / 2 + 4, class: "name" }, n.name);
       const pill = svg("rect", { x: n.x + n.w - 24, y: n.y + n.h / 2 - 9, width: 20, height: 18, rx: 9, class: "count-bg", fill: c });
       const count = svg("text", { x: n.x + n.w - 14, y: n.y + n.h / 2 + 4, "text-anchor": "middle", class: "count" }, "0");
-      group.append(pill, count);
+      group.append(name, pill, count);
       if (n.initial) {
         const x = n.x + n.w / 2;
-        nodeLayer.append(svg("circle", { cx: x - 40, cy: n.y - 14, r: 3.5, class: "start" }));
+        nodeLayer.append(svg("circle", { cx: x - 30, cy: n.y - 14, r: 3.5, class: "start" }));
         nodeLayer.append(svg("path", {
-          d: `M${x - 36},${n.y - 12} Q${x - 20},${n.y - 12} ${x - 8},${n.y - 1}`, class: "edge", "marker-end": "url(#arrow)",
+          d: `M${x - 26},${n.y - 12} Q${x - 12},${n.y - 12} ${x - 4},${n.y - 1}`, class: "edge", "marker-end": "url(#arrow)",
         }));
-        nodeLayer.append(svg("text", { x: x - 2, y: n.y - 8, class: "slabel" }, `platforms ${n.initial}`));
+        nodeLayer.append(svg("text", { x: x + 2, y: n.y - 8, class: "slabel" }, `platforms ${n.initial}`));
       }
       nodeLayer.append(group);
-      this.nodes.set(n.name, { group, count, pill, right: n.x + n.w - 4 });
+      // The name whole: a font wider than the layout's estimate is squeezed, never cut.
+      this.fit(name, n.w - 9 - 30);
+      this.nodes.set(n.name, { group, count, pill, name, right: n.x + n.w - 4 });
+    }
+    // The start marks may reach past the layout's right edge: show all that was drawn.
+    const box = root.getBBox();
+    const x0 = Math.min(0, box.x - 2), y0 = Math.min(0, box.y - 2);
+    root.setAttribute("viewBox", `${x0} ${y0} ${Math.max(g.width, box.x + box.width + 2) - x0} ${Math.max(g.height, box.y + box.height + 2) - y0}`);
+  }
+
+  /** Squeeze `text` into `width` when its font draws it wider. */
+  fit(text, width) {
+    if (text.getComputedTextLength() > width) {
+      text.setAttribute("textLength", String(width));
+      text.setAttribute("lengthAdjust", "spacingAndGlyphs");
     }
   }
 
-  /** The path of an edge from node a to node b, and where its label goes; `backs` counts
-   * the edges already routed back up on each side, so each goes further out. */
-  route(a, b, backs, g, spread = 0) {
-    if (a === b) {
-      // A loop on the node's left, where the layout keeps room.
-      const x = a.x, y = a.y + a.h / 2;
-      return {
-        d: `M${x},${y - 7} C${x - 34},${y - 26} ${x - 34},${y + 26} ${x - 1},${y + 7}`,
-        lx: x - 30, ly: y + 3, anchor: "end",
-      };
+  /** An edge's path through its points: smooth, vertical where it meets a rank. */
+  curve(e) {
+    const p = e.points;
+    if (e.source === e.target) {
+      // A loop on the actor's right.
+      const [a, m, b] = p;
+      const out = m[0] + 8;
+      return `M${a[0]},${a[1]} C${out},${a[1] - 10} ${out},${b[1] + 10} ${b[0] + 2},${b[1]}`;
     }
-    if (b.layer <= a.layer) {
-      // Back up: around the side the source is on (the right when it is in line), each
-      // further out than the last on that side.
-      const left = a.x + a.w / 2 < b.x + b.w / 2 - 1;
-      const k = left ? backs.left++ : backs.right++;
-      const y1 = a.y + a.h / 2, y2 = b.y + b.h / 2;
-      if (left) {
-        const x1 = a.x, x2 = b.x;
-        const out = Math.max(6, Math.min(x1, x2) - 30 - 16 * k);
-        const tip = x1 + 0.75 * (out - x1); // the curve's outermost point
-        return {
-          d: `M${x1},${y1} C${out},${y1} ${out},${y2} ${x2 - 2},${y2}`,
-          lx: tip - 4, ly: (y1 + y2) / 2 + 3, anchor: "end",
-        };
-      }
-      const x1 = a.x + a.w, x2 = b.x + b.w;
-      const out = Math.min(g.width - 6, Math.max(x1, x2) + 30 + 16 * k);
-      const tip = x1 + 0.75 * (out - x1);
-      return {
-        d: `M${x1},${y1} C${out},${y1} ${out},${y2} ${x2 + 2},${y2}`,
-        lx: tip + 4, ly: (y1 + y2) / 2 + 3, anchor: "start",
-      };
+    let d = `M${p[0][0]},${p[0][1]}`;
+    for (let i = 1; i < p.length; i++) {
+      const [x0, y0] = p[i - 1], [x1, y1] = p[i];
+      const my = (y0 + y1) / 2;
+      d += ` C${x0},${my} ${x1},${my} ${x1},${y1}`;
     }
-    const x1 = a.x + a.w / 2 + spread, y1 = a.y + a.h, x2 = b.x + b.w / 2 + spread, y2 = b.y - 1;
-    if (b.layer - a.layer > 1) {
-      // Skips layers: bow out to the side it leaves from, clear of the actors between.
-      const side = x1 <= x2 ? Math.min(a.x, b.x) - 30 : Math.max(a.x + a.w, b.x + b.w) + 30;
-      return {
-        d: `M${x1},${y1} C${side},${y1 + 30} ${side},${y2 - 30} ${x2},${y2}`,
-        // Outside the bow, clear of the actors it passes.
-        lx: side + (x1 <= x2 ? -4 : 4), ly: (y1 + y2) / 2 + 3, anchor: x1 <= x2 ? "end" : "start",
-      };
-    }
-    const my = (y1 + y2) / 2;
-    // The label sits beside the curve, on the side it bends towards, so the labels of a
-    // fan of edges part instead of piling up in the middle.
-    const t = 0.55, u = 1 - t;
-    const px = u * u * u * x1 + 3 * u * u * t * x1 + 3 * u * t * t * x2 + t * t * t * x2;
-    const py = u * u * u * y1 + 3 * u * u * t * my + 3 * u * t * t * my + t * t * t * y2;
-    const left = x2 < x1 - 1;
-    return {
-      d: `M${x1},${y1} C${x1},${my} ${x2},${my} ${x2},${y2}`,
-      lx: px + (left ? -5 : 5), ly: py + 3, anchor: left ? "end" : "start",
-    };
+    return d;
   }
 
   /** Platforms per actor now: {A: 3, ...}. */

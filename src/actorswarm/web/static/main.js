@@ -82,8 +82,10 @@ function hello(m) {
   state.names = m.script ? m.script.actors : [];
   $("title").textContent = m.title;
   $("script-name").textContent = m.script ? `${m.script.name}${m.script.sha ? " · " + m.script.sha.slice(0, 12) : ""}` : "no script";
-  $("pace-box").hidden = m.kind !== "sim";
+  $("pace-box").hidden = m.kind !== "sim" && m.kind !== "replay";
+  $("replay-box").hidden = m.kind !== "replay";
   showSpeed(m.speed);
+  showReplay(m.replay, m.t0 || 0);
   document.body.dataset.kind = m.kind;
   graph.show(m.script);
   map.setAreas(m.areas);
@@ -103,6 +105,27 @@ function showSpeed(speed) {
   select.value = value;
 }
 
+// A replay's controls follow the server's state unless the operator is dragging the slider.
+function showReplay(replay, t) {
+  if (!replay) return;
+  const seek = $("replay-seek");
+  seek.max = String(replay.end);
+  if (!state.seeking) seek.value = String(t);
+  $("replay-play").textContent = replay.playing ? "Pause" : "Play";
+  $("replay-play").dataset.playing = replay.playing ? "1" : "0";
+  $("replay-end").textContent = `${clock(t - state.t0)} / ${clock(replay.end - state.t0)}`;
+  document.body.dataset.playing = replay.playing ? "1" : "0";
+}
+
+$("replay-play").addEventListener("click", () =>
+  link.send({ op: "play", playing: $("replay-play").dataset.playing !== "1" }),
+);
+$("replay-seek").addEventListener("input", () => (state.seeking = true));
+$("replay-seek").addEventListener("change", (e) => {
+  state.seeking = false;
+  link.send({ op: "seek", t: Number(e.target.value) });
+});
+
 function frame(m) {
   state.names = m.names;
   timeline.setNames(m.names);
@@ -110,6 +133,7 @@ function frame(m) {
   graph.counts(m.counts);
   $("clock").textContent = clock(m.t - state.t0);
   if (document.activeElement !== $("speed")) showSpeed(m.speed);
+  showReplay(m.replay, m.t);
   const legend = m.names.map((n) => `${n}:${m.counts[n] || 0}`).join(",");
   if (legend !== state.legend) {
     state.legend = legend;

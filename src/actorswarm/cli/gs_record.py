@@ -1,0 +1,166 @@
+"""``actorswarm gs record OUT.jsonl``: record a real swarm as ``sim --record`` records a
+simulation.
+
+A ground-station session (the same one the other ``gs`` commands open, with their swarm,
+endpoint and key options) listens to the heartbeats and asks every platform heard for its
+status every ``--poll`` seconds; a :class:`~actorswarm.ground.recorder.SwarmRecorder`
+writes the poses, the actors' switches, the masters and the joins and leaves to OUT as
+they come (:class:`~actorswarm.sim.record.RecordWriter`). A progress line on stderr says
+how much was recorded. Ctrl-C (or ``--duration``) ends the recording; every line written
+is whole and flushed, so the file is a well-formed recording however it stops.
+
+The platforms answer one ground-station session at a time, the newest: while another
+``gs`` command runs (a deploy, an event), the recorder's requests go unanswered. Once that
+session has been quiet for a while, the recorder renews its own (a new incarnation) and an
+``event`` line ``gap`` says how long it had no status.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from actorswarm.cli.swarm_options import (
+    ConnectOpt,
+    InsecureOpt,
+    KeysOpt,
+    ListenOpt,
+    MulticastOpt,
+    SwarmOpt,
+    link,
+)
+
+if TYPE_CHECKING:
+    from actorswarm.daemon.ground import GroundSession
+
+__all__ = ["gs_record", "register"]
+
+#: Seconds between two progress lines (and two looks at the heartbeats).
+_PROGRESS = 0.5
+#: Seconds without an answer, and without another session heard, before renewing (long
+#: enough for the operator's next command of a sequence, deploy then start, to begin).
+_DISPLACED = 3.0
+
+
+def gs_record(
+    out: Annotated[Path, typer.Argument(help="The recording to write (JSON Lines).")],
+    swarm: SwarmOpt = "swarm",
+    connect: ConnectOpt = None,
+    listen: ListenOpt = None,
+    multicast: MulticastOpt = True,
+    keys: KeysOpt = None,
+    insecure: InsecureOpt = False,
+    poll: Annotated[
+        float, typer.Option(min=0.2, max=60.0, help="Seconds between two status requests.")
+    ] = 0.5,
+    duration: Annotated[
+        float | None,
+        typer.Option(min=0.5, help="Stop after this many seconds (default: at Ctrl-C)."),
+    ] = None,
+    name: Annotated[
+        str, typer.Option(help="The recording's name (plot titles); default: the swarm's.")
+    ] = "",
+) -> None:
+    """Record a real swarm (poses, actors' switches, masters, joins and leaves) until Ctrl-C,
+    in the format sim --record writes: draw it with plot, replay it with web --replay."""
+    from actorswarm.daemon.loop import clock
+    from actorswarm.engine import commands as cmds
+    from actorswarm.ground.recorder import SwarmRecorder
+    from actorswarm.sim.record import RecordWriter
+    from actorswarm.web.membership import Membership
+
+    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    meta = {
+        "name": name or f"swarm {swarm}",
+        "swarm": swarm,
+        "source": "gs record",
+        "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "poll_s": poll,
+    }
+    try:
+        writer = RecordWriter(out, meta)
+    except OSError as exc:
+        typer.echo(f"{out}: cannot write the recording: {exc.strerror or exc}", err=True)
+        raise typer.Exit(2) from None
+    session = ln.session()
+    recorder = SwarmRecorder(writer, clock())
+    membership = Membership(session.station.config.t_leave)
+    show = sys.stderr.isatty()
+
+    def progress(final: bool = False) -> str:
+        lines = writer.lines
+        text = (
+            f"recording {out}: {clock() - recorder.t0:6.1f} s, "
+            f"{len(membership.alive())} platforms up, {lines.get('pose', 0)} poses, "
+            f"{lines.get('transition', 0)} transitions, {lines.get('master', 0)} master changes"
+        )
+        if show or final:
+            typer.echo(("\r" if show else "") + text, err=True, nl=final)
+        return text
+
+    def ask(gs: GroundSession, platforms: list[int]) -> None:
+        if platforms:
+            gs.do(lambda st, t: st.send(cmds.Status(), platforms, t))
+
+    async def go() -> None:
+        async with session as gs:
+            station = gs.station
+            next_poll = clock() + min(poll, 1.0)  # heartbeats first: who is there
+            next_look = clock()
+            end = None if duration is None else clock() + duration
+            answered = clock()
+            while end is None or clock() < end:
+                for record in station.replies:
+                    if isinstance(record.reply, cmds.StatusReply):
+                        recorder.status(record.t, record.platform, record.reply)
+                        answered = record.t
+                station.replies.clear()
+                now = clock()
+                if (
+                    membership.alive()
+                    and now - answered > max(3 * poll, _DISPLACED)
+                    and now - station.other_session_heard > _DISPLACED
+                ):
+                    # Another operator's session displaced this one and is done: renew.
+                    gs.renew()
+                    writer.event(
+                        recorder.t(now),
+                        "gap",
+                        0,
+                        f"no status since {recorder.t(answered):.1f} s (another ground station?)",
+                    )
+                    answered = now
+                if now >= next_look:
+                    membership.update(station, now)
+                    recorder.membership(now, membership)
+                    progress()
+                    next_look = now + _PROGRESS
+                if now >= next_poll:
+                    ask(gs, membership.alive())
+                    next_poll = now + poll
+                await asyncio.sleep(0.02)
+
+    try:
+        asyncio.run(go())
+    except KeyboardInterrupt:
+        pass  # Ctrl-C: the normal end of a recording
+    except OSError as exc:
+        writer.close()
+        typer.echo(f"\nthe link to the swarm failed: {exc}", err=True)
+        raise typer.Exit(1) from None
+    finally:
+        writer.close()
+    if show:
+        typer.echo("", err=True)
+    progress(final=True)
+    typer.echo(f"wrote {out}")
+
+
+def register(gs_app: typer.Typer) -> None:
+    """Add ``record`` to the ``gs`` command group."""
+    gs_app.command("record")(gs_record)

@@ -1,0 +1,265 @@
+"""A real swarm recorded and shown again: three daemons flying simulated vehicles on
+loopback, recorded by ``actorswarm gs record`` (stopped with Ctrl-C), drawn by
+``actorswarm plot`` and played back by the web ground station (``web --replay``) in a real
+browser, with pause, pace and seek."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from actorswarm.daemon.launch import LocalSwarm
+from actorswarm.sim.record import Recording, read_record
+
+FLY3 = """<TaskScript name="fly3" version="1">
+  <_ActorsConfig>
+    <Actor><_P_Name>Up</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>flight.takeoff</_P_Name>
+        <param key="altitude" value="12"/><param key="event" value="up_event"/></Plugin>
+    </Bus></OODAConfig></Actor>
+    <Actor><_P_Name>Hover</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>
+  </_ActorsConfig>
+  <_TaskConfig>
+    <actor name="Up">
+      <transition name="up_event" barrierKey="1" sysNum="all">
+        <successor actor="Hover"/>
+      </transition>
+    </actor>
+  </_TaskConfig>
+  <_PlatformActorConfig><platform id="1-3" actor="Up"/></_PlatformActorConfig>
+</TaskScript>
+"""
+
+
+def _hovering(path: Path) -> bool:
+    data = read_record(path)  # every line is whole: readable at any time
+    return {tr["platform"] for tr in data.transitions if tr["to"] == "Hover"} == {1, 2, 3}
+
+
+def _seen(path: Path) -> bool:
+    return path.exists() and set(read_record(path).platform.tolist()) == {1, 2, 3}
+
+
+def _wait(what: str, ready: Any, recorder: subprocess.Popen[str]) -> None:
+    end = time.monotonic() + 60
+    while not ready():
+        assert recorder.poll() is None, recorder.communicate()
+        assert time.monotonic() < end, f"not {what} within 60 s"
+        time.sleep(0.3)
+
+
+@pytest.fixture(scope="module")
+def real_recording(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, str]]:
+    """``(recording, gs record's stderr)``: three daemons recorded from before the
+    deployment until every vehicle hovers, then Ctrl-C."""
+    tmp = tmp_path_factory.mktemp("real")
+    script = tmp / "fly3.xml"
+    script.write_text(FLY3)
+    out = tmp / "flight.jsonl"
+    with LocalSwarm(tmp, 3, extra=("--vehicle", "sim")) as swarm:
+        swarm.start_all()
+        swarm.wait("three daemons with a master", lambda: swarm.agreed_master() is not None)
+        cmd = [sys.executable, "-m", "actorswarm", "gs", "record", str(out), "--poll", "0.3",
+               "--swarm", swarm.swarm, "--no-multicast", "--keys", str(swarm.keys)]  # fmt: skip
+        for endpoint in swarm.endpoints:
+            cmd += ["--connect", endpoint]
+        recorder = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            _wait("recording every vehicle", lambda: _seen(out), recorder)
+            state = ["--state", str(tmp / "gs.json")]
+            deployed = swarm.gs("deploy", str(script), "--expect", "3", *state)
+            assert deployed.returncode == 0, deployed.stdout + deployed.stderr
+            started = swarm.gs("start", *state)
+            assert started.returncode == 0, started.stdout + started.stderr
+            _wait("every vehicle seen hovering", lambda: _hovering(out), recorder)
+            time.sleep(1.0)  # a few hovering poses
+            recorder.send_signal(signal.SIGINT)
+            stdout, stderr = recorder.communicate(timeout=20)
+        finally:
+            if recorder.poll() is None:
+                recorder.kill()
+    assert recorder.returncode == 0, stderr
+    assert f"wrote {out}" in stdout
+    yield out, stderr
+
+
+def test_a_real_flight_is_recorded_and_plotted(
+    real_recording: tuple[Path, str], tmp_path: Path
+) -> None:
+    out, stderr = real_recording
+    assert "recording" in stderr and "3 platforms up" in stderr, stderr
+    data: Recording = read_record(out)
+    assert data.meta["source"] == "gs record"
+    assert set(data.platform.tolist()) == {1, 2, 3}
+    for p in (1, 2, 3):
+        times, xyz = data.path(p)
+        assert len(times) >= 3
+        assert xyz[0, 2] < 1.0, f"{p} started on the ground: {xyz[:, 2]}"
+        assert 10.0 < xyz[-1, 2] < 13.5, f"{p} climbed to 12 m: {xyz[:, 2]}"
+    # The recorder was displaced while gs deploy and gs start ran, and said so; it saw
+    # the climb and the switch to Hover after.
+    assert [e["what"] for e in data.events].count("gap") >= 1
+    moves = {(tr["platform"], tr["from"], tr["to"]) for tr in data.transitions}
+    assert {(p, "", "Up") for p in (1, 2, 3)} <= moves
+    assert {(p, "Up", "Hover") for p in (1, 2, 3)} <= moves
+    assert data.masters and len(data.masters[0]["masters"]) == 1
+    assert {(e["what"], e["platform"]) for e in data.events} >= {("joined", p) for p in (1, 2, 3)}
+    plotted = subprocess.run(
+        [sys.executable, "-m", "actorswarm", "plot", str(out), "--out", str(tmp_path)],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert plotted.returncode == 0, plotted.stderr
+    for name in ("flight-trajectories.png", "flight-timeline.png"):
+        png = tmp_path / name
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+
+
+@pytest.mark.browser
+def test_the_page_plays_the_real_recording_back_with_pause_pace_and_seek(
+    real_recording: tuple[Path, str], page: Any
+) -> None:
+    from actorswarm.web import ReplaySource, Server
+
+    out, _ = real_recording
+    data = read_record(out)
+    up = min(tr["t"] for tr in data.transitions if tr["to"] == "Up")
+    source = ReplaySource(data, speed=20.0, playing=False)
+    with Server(source) as server:
+        page.goto(server.url)
+        page.wait_for_selector("#replay-box:not([hidden])")
+        assert page.get_attribute("#replay-play", "data-playing") == "0"
+        assert page.text_content("#replay-play") == "Play"
+        # Paused at 0, before the recorder heard anyone: nothing to show yet.
+        _wait_page(page, "document.querySelector('#clock').textContent !== '—'")
+        assert page.get_attribute("#map", "data-platforms") == "0"
+        assert page.query_selector_all("#timeline li") == []
+        # Seek past the take-off: the vehicles run Up on the map and in the table.
+        page.eval_on_selector(
+            "#replay-seek",
+            f"(e) => {{ e.value = '{up + 0.1}'; e.dispatchEvent(new Event('change')); }}",
+        )
+        _wait_page(page, "document.querySelector('#legend').textContent.includes('Up3')")
+        _wait_page(page, "document.querySelector('#map').dataset.platforms === '3'")
+        _wait_page(
+            page, "document.querySelectorAll('#swarm-table tr[data-state=joined]').length === 3"
+        )
+        # Play at ×20 to the end: the switch to Hover is a step of the timeline, and the
+        # replay pauses itself there.
+        page.click("#replay-play")
+        page.wait_for_selector("#timeline li[data-from=Up][data-to=Hover]", timeout=30_000)
+        _wait_page(page, "document.querySelector('#legend').textContent.includes('Hover3')")
+        # Paused at the end, the slider there (its step is 0.1 s).
+        _wait_page(
+            page,
+            "document.querySelector('#replay-play').dataset.playing === '0' && "
+            f"Number(document.querySelector('#replay-seek').value) > {source.end - 0.15}",
+        )
+        assert page.text_content("#replay-play") == "Play"
+        assert source.now() == source.end and not source.playing
+        # Back to the start: the page is told afresh, the timeline is empty again.
+        page.eval_on_selector(
+            "#replay-seek", "(e) => { e.value = '0'; e.dispatchEvent(new Event('change')); }"
+        )
+        _wait_page(page, "document.querySelectorAll('#timeline li').length === 0")
+        assert page.is_hidden("#tab-event"), "a replay takes no command"
+
+
+def _wait_page(page: Any, script: str) -> None:
+    page.wait_for_function(script, timeout=30_000)
+
+
+def _small_recording(path: Path) -> Recording:
+    """Two platforms flying east 1 m/s for 10 s; both switch A -> B at 4 s; platform 2
+    is master until it leaves at 6 s, then platform 1."""
+    from actorswarm.sim.record import RecordWriter
+
+    with RecordWriter(path, {"name": "small", "swarm": "s"}) as out:
+        for p in (1, 2):
+            out.event(0.0, "joined", p)
+            out.transition({"t": 0.0, "platform": p, "from": "", "to": "A", "event": "",
+                            "cause": "start"})  # fmt: skip
+        out.master(0.0, [2], 1)
+        for i in range(11):
+            out.pose(float(i), 1, float(i), 0.0, 5.0, 0.0)
+            if i <= 6:
+                out.pose(float(i), 2, float(i), 10.0, 5.0, 0.0)
+        for p in (1, 2):
+            out.transition({"t": 4.0, "platform": p, "from": "A", "to": "B", "event": "go",
+                            "cause": "barrier"})  # fmt: skip
+        out.event(6.0, "left", 2)
+        out.master(6.5, [1], 2)
+    return read_record(path)
+
+
+def test_a_replay_shows_the_recording_at_its_time_and_seeks_both_ways(tmp_path: Path) -> None:
+    import asyncio
+
+    from actorswarm.web import ReplaySource
+    from actorswarm.web import protocol as proto
+
+    source = ReplaySource(_small_recording(tmp_path / "small.jsonl"), playing=False)
+    assert source.end == 10.0 and source.hello()["replay"] == {"playing": False, "end": 10.0}
+    source.step(2.5)
+    frame = source.frame()
+    assert frame["ids"] == [1, 2] and frame["x"] == [2.5, 2.5] and frame["y"] == [0.0, 10.0]
+    assert frame["counts"] == {"A": 2}
+    assert source.swarm_view()["master"] == 2
+    source.step(5.0)  # to 7.5: both switched, 2 has left, 1 is master
+    frame = source.frame()
+    assert frame["counts"] == {"B": 1}
+    view = source.swarm_view()
+    assert view["master"] == 1 and view["epoch"] == 2
+    assert {m["id"]: m["state"] for m in view["members"]} == {1: "joined", 2: "left"}
+    assert [(s.src, s.dst, s.platforms) for s in source.timeline.steps][-1] == ("A", "B", [1, 2])
+    # Backwards: the timeline is rebuilt up to the new time.
+    assert source.seek(3.0) == "at 3.0 s of 10.0 s"
+    assert source.timeline.steps == [], "the switch at 4 s is not yet"
+    assert source.frame()["counts"] == {"A": 2}
+
+    def ask(request: proto.Command) -> dict[str, Any]:
+        # A thread of its own: a browser test before may leave this one's loop running.
+        with ThreadPoolExecutor(1) as pool:
+            return pool.submit(asyncio.run, source.execute(request)).result()
+
+    refused = ask(proto.Event(name="go", id="e"))
+    assert not refused["ok"] and "cannot be commanded" in refused["message"]
+    bad = ask(proto.Seek(t=11.0, id="s"))
+    assert not bad["ok"] and "from 0 to 10.0 s" in bad["message"]
+    assert (ask(proto.Play(playing=True, id="p")))["ok"] and source.playing
+    source.step(100.0)
+    assert source.now() == 10.0 and not source.playing, "pauses at the end"
+    assert (ask(proto.Speed(speed=5.0, id="v")))["ok"] and source.speed() == 5.0
+    assert proto.decode('{"op": "seek", "t": 1.5}') == proto.Seek(t=1.5)
+
+
+def test_web_replay_names_a_bad_recording(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text('{"type": "pose"}\n')
+    for path, problem in ((bad, "line 1: the first line must be the meta line"),
+                          (tmp_path / "none.jsonl", "No such file")):  # fmt: skip
+        done = subprocess.run(
+            [sys.executable, "-m", "actorswarm", "web", "--replay", str(path)],
+            capture_output=True, text=True, timeout=60, check=False,
+        )  # fmt: skip
+        assert done.returncode == 2 and problem in done.stderr, done.stderr
+        assert "Traceback" not in done.stderr
+
+
+def test_gs_record_names_a_file_it_cannot_write(tmp_path: Path) -> None:
+    out = tmp_path / "no" / "such" / "dir.jsonl"
+    done = subprocess.run(
+        [sys.executable, "-m", "actorswarm", "gs", "record", str(out), "--insecure",
+         "--no-multicast", "--duration", "1"],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert f"{out}: cannot write the recording" in done.stderr and "Traceback" not in done.stderr
