@@ -25,7 +25,7 @@ from actorswarm.bench.tables_real import (
 )
 from actorswarm.core.events import AppReceived
 from actorswarm.core.node import Outgoing
-from actorswarm.core.wire import GROUND_STATION, Packet
+from actorswarm.core.wire import GROUND_STATION, Heartbeat, Packet, encode
 from actorswarm.daemon.endpoint import PlatformEndpoint
 from actorswarm.daemon.loop import Inbox, Traffic, serve
 from actorswarm.dsl import check
@@ -167,17 +167,27 @@ def test_the_master_records_each_transition_group_it_releases() -> None:
 # --- the host loop's traffic counters -------------------------------------------------------
 
 
-class _Doubler:
-    """An endpoint that answers every packet with a broadcast twice its size."""
+def _packet(sender: int, seq: int) -> bytes:
+    return encode(
+        swarm="t", sender=sender, incarnation=1, seq=seq,
+        body=Heartbeat(is_master=False, epoch=0, master=0),
+    )  # fmt: skip
+
+
+class _Echo:
+    """An endpoint that answers every packet it accepts with a broadcast of its own."""
 
     def __init__(self) -> None:
         self._out: list[Outgoing] = []
+        self.seen: list[int] = []
 
     def receive(self, data: bytes, now: float) -> None:
-        self._out.append(Outgoing(dst=None, data=data * 2, kind="test", channel=0))
+        raise AssertionError("the loop hands over checked packets only")
 
     def receive_packet(self, packet: Packet, now: float) -> None:
-        raise AssertionError("no guard: raw bytes only")
+        self.seen.append(packet.seq)
+        answer = _packet(1, len(self.seen))
+        self._out.append(Outgoing(dst=None, data=answer, kind="test", channel=0))
 
     def tick(self, now: float) -> None:
         pass
@@ -194,19 +204,23 @@ class _Wire:
     def __init__(self) -> None:
         self.sent: list[bytes] = []
 
-    def send(self, dst: int | None, data: bytes, *, urgent: bool = False) -> None:
+    def send(self, dst: int | None, data: bytes, *, urgent: bool = False, kind: str = "") -> None:
         self.sent.append(data)
 
 
 def test_the_loop_counts_packets_and_bytes_both_ways() -> None:
+    """Every packet the transport delivered counts as received (a refused one too), every
+    packet handed to the transport as sent, in bytes as they travel."""
     traffic = Traffic()
     wire = _Wire()
+    endpoint = _Echo()
     seen: list[tuple[tuple[int, int, int, int], tuple[int, int, int, int]]] = []
+    batches = [[_packet(5, 1), b"not a packet"], [_packet(5, 2)]]
+    received = [data for batch in batches for data in batch]
 
     async def main() -> None:
         inbox = Inbox(asyncio.get_running_loop())
         stop = asyncio.Event()
-        batches = [[b"abc", b"defgh"], [b"x"]]
 
         def on_wake(now: float) -> None:
             seen.append((traffic.at_wake, traffic.counters()))
@@ -217,17 +231,20 @@ def test_the_loop_counts_packets_and_bytes_both_ways() -> None:
                 stop.set()
 
         await asyncio.wait_for(
-            serve(_Doubler(), wire, inbox, stop, on_wake=on_wake, traffic=traffic), 5.0
+            serve(endpoint, wire, inbox, stop, on_wake=on_wake, traffic=traffic), 5.0
         )
 
     asyncio.run(main())
-    assert traffic.counters() == (3, 18, 3, 9)
-    assert wire.sent == [b"abcabc", b"defghdefgh", b"xx"]
+    assert endpoint.seen == [1, 2], "the garbage was refused before the endpoint"
+    assert wire.sent == [_packet(1, 1), _packet(1, 2)]
+    sent_bytes = sum(map(len, wire.sent))
+    recv_bytes = sum(map(len, received))
+    assert traffic.counters() == (2, sent_bytes, 3, recv_bytes)
     assert traffic.as_dict() == {
-        "sent_packets": 3,
-        "sent_bytes": 18,
+        "sent_packets": 2,
+        "sent_bytes": sent_bytes,
         "recv_packets": 3,
-        "recv_bytes": 9,
+        "recv_bytes": recv_bytes,
     }
     # Each wake's snapshot is what the counters were when it began.
     for (_, before), (at_wake, _) in itertools.pairwise(seen):

@@ -59,8 +59,7 @@ import pytest
 from actorswarm.daemon.launch import LocalSwarm
 
 ROOT = Path(__file__).resolve().parents[2]
-SHARED = ROOT.parent / "shared" / "examples" / "branch_merge.xml"
-SCRIPT = SHARED if SHARED.exists() else ROOT / "examples" / "branch_merge.xml"
+SCRIPT = ROOT / "examples" / "branch_merge.xml"
 BRANCH, MERGE = "AtoBC_branch_event", "finish_event"
 PLATFORMS = 10
 SUBNET = "10.199.0"

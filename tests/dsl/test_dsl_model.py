@@ -25,21 +25,11 @@ from actorswarm.dsl import (
 PLUGINS = installed_plugins()  # every example must check on this machine
 REPO = Path(__file__).resolve().parents[2]
 REPO_EXAMPLES = REPO / "examples"
-SHARED_EXAMPLES = REPO / ".." / "shared" / "examples"
 
 
 def test_every_example_passes_the_checker_without_warnings(example: Path) -> None:
     result = check_file(example, known_plugins=PLUGINS)
     assert result.ok and not result.warnings, "\n".join(map(str, result.diagnostics))
-
-
-def test_the_shared_examples_pass_the_checker() -> None:
-    if not SHARED_EXAMPLES.is_dir():
-        pytest.skip(f"no shared examples: {SHARED_EXAMPLES.resolve()} does not exist")
-    paths = sorted(SHARED_EXAMPLES.glob("*.xml"))
-    assert paths, f"{SHARED_EXAMPLES} holds no *.xml"
-    for path in paths:
-        assert check_file(path).ok, path  # with the plugins installed on this machine
 
 
 def test_every_example_survives_the_round_trip(example: Path) -> None:

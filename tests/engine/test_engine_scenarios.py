@@ -263,13 +263,9 @@ def test_same_seed_gives_the_same_report() -> None:
     assert run() == run()
 
 
-SHARED = ROOT.parent / "shared" / "examples"
-
-
-@pytest.mark.skipif(not SHARED.is_dir(), reason=f"no shared examples at {SHARED}")
 @pytest.mark.parametrize("seed", [0, 1])
-def test_the_shared_branch_merge_example_as_the_issue_states(seed: int) -> None:
-    report = TaskSim(load(SHARED / "branch_merge.xml"), seed=seed).run(
+def test_the_branch_merge_example_as_its_comment_says(seed: int) -> None:
+    report = TaskSim(load(EXAMPLES / "branch_merge.xml"), seed=seed).run(
         15, events=[GroundEvent("AtoBC_branch_event", 5.0), GroundEvent("finish_event", 10.0)]
     )
     clean(report)
@@ -277,9 +273,8 @@ def test_the_shared_branch_merge_example_as_the_issue_states(seed: int) -> None:
     assert moves == {("A", "B"): 2, ("A", "C"): 8, ("B", "A"): 2, ("C", "A"): 8}
 
 
-@pytest.mark.skipif(not SHARED.is_dir(), reason=f"no shared examples at {SHARED}")
-def test_the_shared_ready_barrier_example_as_its_comment_says() -> None:
-    report = TaskSim(load(SHARED / "ready_barrier.xml"), seed=0).run(10)
+def test_the_ready_barrier_example_as_its_comment_says() -> None:
+    report = TaskSim(load(EXAMPLES / "ready_barrier.xml"), seed=0).run(10)
     clean(report)
     out = switches(report)
     assert len(out) == 10 and all(2.95 <= t["t"] <= 3.1 for t in out)

@@ -8,7 +8,7 @@ produced. The
 endpoint itself never sees a clock or a socket, which is why the same objects run in the
 simulator.
 
-Packets go in and out through one :class:`~actorswarm.transport.pipeline.Pipeline`, the
+Packets go in and out through one :class:`~actorswarm.security.pipeline.Pipeline`, the
 same the simulator uses: sealed once on the way out, checked over the raw bytes before
 their body is decoded on the way in. With a :class:`Traffic` it counts the packets and
 bytes it hands to the transport and takes from it: what travels on the wire, sealed.
@@ -27,8 +27,8 @@ from collections.abc import Callable
 
 from actorswarm.daemon.endpoint import Endpoint
 from actorswarm.security.guard import PacketGuard
+from actorswarm.security.pipeline import Pipeline, Traffic
 from actorswarm.transport.base import Transport
-from actorswarm.transport.pipeline import Pipeline, Traffic
 
 __all__ = ["Inbox", "Traffic", "Transport", "clock", "flush", "serve"]
 
@@ -121,7 +121,7 @@ async def serve(
     the transport's callback), tick it at its deadlines, send what it produces.
     ``on_wake(now)`` runs after every wake (a daemon's status file, a command's progress).
 
-    Every packet goes through one :class:`~actorswarm.transport.pipeline.Pipeline`: sealed by
+    Every packet goes through one :class:`~actorswarm.security.pipeline.Pipeline`: sealed by
     ``guard`` on the way out; on the way in checked — the frame, the tag and the replay
     window over the raw bytes, an operator's signature — and only then decoded, the ground
     station's packets of a batch first; what fails is counted in ``guard.rejected`` and

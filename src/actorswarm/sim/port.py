@@ -3,7 +3,7 @@
 :class:`RadioPort` is one platform's :class:`~actorswarm.transport.base.Transport` on a
 :class:`~actorswarm.sim.radio.SimRadio`; :class:`SimKeys` are the simulated swarm's keys,
 derived from the run's seed (a run replays, packet for packet, tag for tag). A simulated
-host puts a :class:`~actorswarm.transport.pipeline.Pipeline` between each endpoint and its
+host puts a :class:`~actorswarm.security.pipeline.Pipeline` between each endpoint and its
 port, with a guard made by :meth:`SimKeys.guard`, so every simulated packet costs what a
 real one does: one HMAC to seal it, a frame check, one HMAC and one body decode to take it.
 

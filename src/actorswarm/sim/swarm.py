@@ -35,11 +35,11 @@ from actorswarm.core.events import (
 from actorswarm.core.node import Node
 from actorswarm.core.wire import Packet
 from actorswarm.security.guard import PacketGuard
+from actorswarm.security.pipeline import Pipeline
 from actorswarm.sim.invariants import InvariantChecker
 from actorswarm.sim.port import RadioPort, Security, SimKeys
 from actorswarm.sim.radio import LinkModel, SimRadio, Transmission
 from actorswarm.sim.scheduler import Scheduler, Timer
-from actorswarm.transport.pipeline import Pipeline
 
 Listener = Callable[[float, Node, CoreEvent], None]
 

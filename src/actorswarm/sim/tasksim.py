@@ -27,11 +27,11 @@ from actorswarm.ground.station import GroundStation
 from actorswarm.runtime.actor_runtime import ActorRuntime
 from actorswarm.runtime.collective import NodeCollective
 from actorswarm.runtime.storage import MemoryBackupStore
+from actorswarm.security.pipeline import Pipeline
 from actorswarm.sim.port import RadioPort
 from actorswarm.sim.radio import Airtime, LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
-from actorswarm.transport.pipeline import Pipeline
 from actorswarm.world.config import WorldConfig
 from actorswarm.world.world import World
 

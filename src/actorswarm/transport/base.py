@@ -2,7 +2,7 @@
 
 Two implementations: :class:`~actorswarm.transport.zenoh_transport.ZenohTransport` on real
 robots and :class:`~actorswarm.sim.radio.RadioPort` in the simulator. Both receive through a
-callback they were given, both sit under one :class:`~actorswarm.transport.pipeline.Pipeline`
+callback they were given, both sit under one :class:`~actorswarm.security.pipeline.Pipeline`
 (seal, check, count), so the simulator does the per-packet work a daemon does.
 """
 
