@@ -138,6 +138,10 @@ def test_a_daemon_flies_the_autopilot_and_handles_a_lost_link(
         swarm.wait(
             "the mode in status.json", lambda: swarm.status(1)["vehicle"]["mode"] == "GUIDED"
         )
+        # ... and the operator sees the link and the mode with `gs status`.
+        shown = swarm.gs("status")
+        assert shown.returncode == 0, shown.stderr
+        assert "vehicle: link up, ardupilot GUIDED, armed" in shown.stdout, shown.stdout
 
         # The operator takes the vehicle, then gives it back.
         assert swarm.gs("event", "vehicle_hold").returncode == 0

@@ -261,3 +261,27 @@ def test_vehicle_plugins_are_refused_without_a_vehicle() -> None:
     sys.modules["rt_plugins"].NeedsVehicle = NeedsVehicle  # type: ignore[attr-defined]
     with pytest.raises(UnsupportedPlugin, match="needs a vehicle"):
         runtime(script(actor("A", 0, plugin("NeedsVehicle", "act_bus"))))
+
+
+class _ReportingVehicle:
+    """A vehicle adapter that says something of itself (as the MAVLink one does)."""
+
+    def __init__(self, said: object) -> None:
+        self.said = said
+
+    def position(self) -> tuple[float, float, float]:
+        return (0.0, 0.0, 0.0)
+
+    def status(self) -> object:
+        if isinstance(self.said, Exception):
+            raise self.said
+        return self.said
+
+
+def test_the_vehicle_s_own_state_reaches_the_status_scalars_only() -> None:
+    said = {"link": "up", "mode": "GUIDED", "armed": True, "battery": 0.87, "failsafes": {}}
+    rt = ActorRuntime(1, vehicle=_ReportingVehicle(said))  # type: ignore[arg-type]
+    assert rt.vehicle_state() == {"link": "up", "mode": "GUIDED", "armed": True, "battery": 0.87}
+    assert ActorRuntime(2).vehicle_state() == {}
+    broken = ActorRuntime(3, vehicle=_ReportingVehicle(RuntimeError("no link")))  # type: ignore[arg-type]
+    assert broken.vehicle_state() == {"error": "RuntimeError: no link"}

@@ -151,6 +151,26 @@ def gs_start(
         raise typer.Exit(1)
 
 
+def _vehicle_line(vehicle: dict[str, Any]) -> str:
+    """``; vehicle: link up, ardupilot GUIDED, armed, battery 87 %`` (empty without one)."""
+    if not vehicle:
+        return ""
+    parts = [f"link {vehicle['link']}"] if "link" in vehicle else []
+    kind = " ".join(str(vehicle[k]) for k in ("autopilot", "mode") if vehicle.get(k))
+    if kind:
+        parts.append(kind)
+    if "armed" in vehicle:
+        parts.append("armed" if vehicle["armed"] else "disarmed")
+    battery = vehicle.get("battery")
+    if isinstance(battery, int | float) and not isinstance(battery, bool):
+        parts.append(f"battery {100 * battery:.0f} %")
+    if vehicle.get("override"):
+        parts.append(f"operator {vehicle['override']}")
+    if "error" in vehicle:
+        parts.append(f"status failed: {vehicle['error']}")
+    return "; vehicle: " + ", ".join(parts) if parts else ""
+
+
 @gs_app.command("status")
 def gs_status(
     swarm: SwarmOpt = "swarm",
@@ -204,6 +224,7 @@ def gs_status(
                     "incarnation": incarnation,
                     "last_heard_s": round(now - gs.station.heard[p], 3),
                     "script": "" if reply is None else reply.script,
+                    "vehicle": {} if reply is None else dict(reply.vehicle),
                 }
             return {"platforms": out}, gs.explain(heard, got)
 
@@ -217,6 +238,7 @@ def gs_status(
         typer.echo(
             f"  {p}{flag}: {said}; epoch {row['epoch']}, "
             f"incarnation {row['incarnation']}, heard {row['last_heard_s']} s ago"
+            + _vehicle_line(row["vehicle"])
         )
     for line in why:
         typer.echo(line, err=True)

@@ -127,6 +127,9 @@ class StatusReply(_Cmd, frozen=True):
     #: Where the platform's vehicle is (x, y, z in metres, the mission frame), when it has
     #: one: what puts a real swarm on the operator's map.
     position: list[float] | None = None
+    #: What the vehicle adapter says of itself when it says anything (a MAVLink vehicle:
+    #: ``link`` up/lost, ``autopilot``, ``mode``, ``armed``, ``battery``, ``override``).
+    vehicle: dict[Name, str | int | float | bool | None] = {}
 
 
 class BackupReply(_Cmd, frozen=True):

@@ -614,6 +614,7 @@ class TaskEngine:
             incarnation=self.node.incarnation,
             script=self.script_sha,
             position=None if position is None else [round(v, 3) for v in position],
+            vehicle=self.runtime.vehicle_state(),
         )
 
     def _deploy_chunk(self, chunk: cmds.DeployChunk, now: float) -> str | None:

@@ -60,6 +60,11 @@ class ActorHost(Protocol):
         master can hand out slots by distance."""
         ...
 
+    def vehicle_state(self) -> dict[str, str | int | float | bool | None]:
+        """What the vehicle adapter says of itself (link, mode, ...), for the operator's
+        status; empty when it says nothing."""
+        ...
+
     def group_points(
         self, actor: str, count: int, now: float, params: dict[str, str]
     ) -> list[tuple[float, float]] | None:

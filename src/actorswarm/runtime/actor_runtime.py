@@ -190,6 +190,26 @@ class ActorRuntime:
         """Where the vehicle is (None without one)."""
         return None if self.vehicle is None else self.vehicle.position()
 
+    def vehicle_state(self) -> dict[str, str | int | float | bool | None]:
+        """The scalar entries of the vehicle adapter's ``status()`` (a MAVLink vehicle's
+        link, autopilot, mode, arming, battery, override); empty for a vehicle without one
+        (the simulated world's) or none. Never raises: a status that fails is reported as
+        such, not propagated into a ground-station reply."""
+        status = getattr(self.vehicle, "status", None)
+        if not callable(status):
+            return {}
+        try:
+            said = status()
+        except Exception as exc:  # an adapter's bug must not cost the operator the reply
+            return {"error": f"{type(exc).__name__}: {exc}"[:200]}
+        if not isinstance(said, dict):
+            return {}
+        return {
+            str(k)[:64]: v
+            for k, v in said.items()
+            if v is None or isinstance(v, str | int | float | bool)
+        }
+
     def group_points(
         self, actor: str, count: int, now: float, params: Mapping[str, str]
     ) -> list[tuple[float, float]] | None:

@@ -1,0 +1,28 @@
+"""How ``gs status`` prints what a platform's vehicle says of itself."""
+
+from __future__ import annotations
+
+from actorswarm.cli.gs import _vehicle_line
+from actorswarm.engine import commands as cmds
+
+
+def test_a_mavlink_vehicle_is_one_readable_clause() -> None:
+    line = _vehicle_line(
+        {"link": "up", "autopilot": "ardupilot", "mode": "GUIDED", "armed": True,
+         "battery": 0.874, "override": "hold"}
+    )  # fmt: skip
+    assert line == "; vehicle: link up, ardupilot GUIDED, armed, battery 87 %, operator hold"
+    assert _vehicle_line({"link": "lost", "armed": False, "battery": None}) == (
+        "; vehicle: link lost, disarmed"
+    )
+    assert _vehicle_line({}) == ""
+
+
+def test_the_status_reply_carries_the_vehicle_both_ways() -> None:
+    reply = cmds.StatusReply(
+        actors={}, master=False, epoch=1, incarnation=0, vehicle={"link": "up", "armed": False}
+    )
+    again = cmds.decode_reply(cmds.encode(reply))
+    assert isinstance(again, cmds.StatusReply) and again.vehicle == {"link": "up", "armed": False}
+    old = cmds.StatusReply(actors={}, master=False, epoch=1, incarnation=0)
+    assert cmds.decode_reply(cmds.encode(old)) == old
