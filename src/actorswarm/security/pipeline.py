@@ -23,12 +23,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from actorswarm.core.node import Outgoing
 from actorswarm.core.wire import GROUND_STATION, URGENT, Packet
 from actorswarm.security.guard import PacketGuard
-from actorswarm.transport.base import Transport
+
+if TYPE_CHECKING:  # the shape of a transport only: security sits on the core alone
+    from actorswarm.transport.base import Transport
 
 __all__ = ["PacketEndpoint", "Pipeline", "Traffic"]
 
