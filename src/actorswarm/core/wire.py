@@ -511,30 +511,32 @@ def covered(data: bytes, env: Envelope) -> bytes:
     """What the tag of the packet ``data`` (whose envelope :func:`open_frame` gave as
     ``env``) covers: the frame as its sender's core made it, with an empty ``auth`` slot.
 
-    Bytes whose slot is not written the way :func:`seal` writes it give bytes no genuine tag
+    Bytes whose slot is not written the way :func:`seal_frame` writes it give bytes no genuine tag
     covers (the check then fails, as it should)."""
     slot = 2 + len(env.auth)
     return data[: len(data) - 4 - slot] + _EMPTY_AUTH
 
 
-def seal(data: bytes, auth: bytes) -> tuple[bytes, bytes]:
-    """Put ``auth`` into the empty slot of ``data`` (a packet as :func:`encode` made it,
-    ``auth`` empty); returns ``(covered, sealed)``, where ``covered`` is what a tag over
-    the packet covers — call it with ``auth=b""`` first to compute the tag, then again with
-    the tag. Raises :class:`ValueError` for bytes that are not such a packet (a bug of the
-    caller, not something from the network): only the CRC and the slot are looked at.
-    """
-    if len(auth) > 128:
-        raise ValueError(f"an auth slot holds at most 128 bytes, not {len(auth)}")
+def unsealed_frame(data: bytes) -> bytes:
+    """The frame of ``data`` (a packet as :func:`encode` made it, its ``auth`` slot empty):
+    what a tag over the packet covers. Raises :class:`ValueError` for bytes that are not
+    such a packet (a bug of the caller, not something from the network): only the CRC and
+    the slot are looked at."""
     frame = data[:-4]
     if len(data) < 7 or zlib.crc32(frame).to_bytes(4, "big") != data[-4:]:
         raise ValueError("cannot seal bytes that are not a packet: frame check failed")
     if frame[-2:] != _EMPTY_AUTH:
         raise ValueError("cannot seal a packet whose auth slot is not empty")
-    if not auth:
-        return frame, data
+    return frame
+
+
+def seal_frame(frame: bytes, auth: bytes) -> bytes:
+    """The packet of :func:`unsealed_frame`'s ``frame`` with ``auth`` in its slot, framed
+    with its CRC-32 (the same bytes :func:`encode` would write with that ``auth``)."""
+    if len(auth) > 128:
+        raise ValueError(f"an auth slot holds at most 128 bytes, not {len(auth)}")
     sealed = frame[:-2] + b"\xc4" + bytes((len(auth),)) + auth
-    return frame, sealed + zlib.crc32(sealed).to_bytes(4, "big")
+    return sealed + zlib.crc32(sealed).to_bytes(4, "big")
 
 
 def signed_part(data: bytes) -> bytes:

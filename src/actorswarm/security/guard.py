@@ -283,7 +283,7 @@ class PacketGuard:
         """``data`` (a packet as the core encoded it, with an empty tag) with its tag.
 
         The tag is computed once, over the frame exactly as the core made it, and put into
-        the empty slot by slicing (:func:`~actorswarm.core.wire.seal`): no decode, no
+        the empty slot by slicing (:func:`~actorswarm.core.wire.seal_frame`): no decode, no
         re-encode. Only a ground station's guard (``role="ground"``) signs, and only packets
         of sender 0; a packet of sender 0 sealed by a platform's guard is refused by every
         receiver (``unsigned_operator``). Raises
@@ -292,13 +292,13 @@ class PacketGuard:
         """
         if self._key is None:
             return data
-        covered, _ = wire.seal(data, b"")
+        covered = wire.unsealed_frame(data)
         auth = hmac.digest(self._key, covered, hashlib.sha256)
         # Only a ground station's guard holds the private key; it signs its own packets, not
         # a platform's it relays (its header is read for that: platforms never pay it).
         if self._private is not None and wire.open_frame(data).sender == GROUND_STATION:
             auth += self._private.sign(covered)
-        return wire.seal(data, auth)[1]
+        return wire.seal_frame(covered, auth)
 
     # --- incoming ---------------------------------------------------------------------------
 

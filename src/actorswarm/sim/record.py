@@ -176,6 +176,22 @@ class Recording:
 # --- writing -------------------------------------------------------------------------------
 
 
+def _pose(
+    t: float, platform: int, x: float, y: float, z: float, heading: float, mode: str
+) -> dict[str, Any]:
+    """A ``pose`` line's fields, typed as the format has them."""
+    return {
+        "type": "pose",
+        "t": float(t),
+        "platform": int(platform),
+        "x": float(x),
+        "y": float(y),
+        "z": float(z),
+        "heading": float(heading),
+        "mode": str(mode),
+    }
+
+
 def _line(obj: Mapping[str, Any]) -> str:
     try:
         return json.dumps(obj, allow_nan=False, ensure_ascii=False, separators=(",", ":"))
@@ -210,18 +226,8 @@ def write_record(
         with partial.open("w", encoding="utf-8", newline="\n") as out:
             out.write(_line({"type": "meta", "format": FORMAT, "version": VERSION, **meta}))
             out.write("\n")
-            for t, platform, x, y, z, heading, mode in rows:
-                pose = {
-                    "type": "pose",
-                    "t": float(t),
-                    "platform": int(platform),
-                    "x": float(x),
-                    "y": float(y),
-                    "z": float(z),
-                    "heading": float(heading),
-                    "mode": str(mode),
-                }
-                out.write(_line(pose))
+            for row in rows:
+                out.write(_line(_pose(*row)))
                 out.write("\n")
             for t, name, x, y, z in targets:
                 sighting = {
@@ -296,17 +302,7 @@ class RecordWriter:
         mode: str = "",
     ) -> None:
         """One vehicle's pose at ``t``."""
-        line = {
-            "type": "pose",
-            "t": float(t),
-            "platform": int(platform),
-            "x": float(x),
-            "y": float(y),
-            "z": float(z),
-            "heading": float(heading),
-            "mode": str(mode),
-        }
-        self._write(_line(line), "pose")
+        self._write(_line(_pose(t, platform, x, y, z, heading, mode)), "pose")
 
     def transition(self, record: Mapping[str, Any]) -> None:
         """One transition record (``t``, ``platform``, ``from``, ``to``, ``event``,

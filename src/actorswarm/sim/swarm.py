@@ -114,15 +114,12 @@ class SimSwarm:
         self.config = config or CoreConfig()
         self.swarm = swarm
         self.scheduler = Scheduler()
-        max_bytes = self.config.max_packet_bytes
         #: The swarm's keys (from the seed): every platform seals and checks its packets.
         self.keys = SimKeys(seed, security)
-
-        def decoder(data: bytes) -> Packet:
-            return wire.decode(data, max_bytes=max_bytes)
-
+        # Receivers check and decode through their own guards; the radio's shared decoder
+        # serves only a tap that asks a transmission for its packet.
         self.radio: SimRadio[Packet] = SimRadio(
-            self.scheduler, random.Random(f"{seed}:radio"), link or LinkModel(), decoder=decoder
+            self.scheduler, random.Random(f"{seed}:radio"), link or LinkModel(), decoder=wire.decode
         )
         self.hosts: dict[int, _Host] = {}
         self.incarnations: dict[int, int] = {}

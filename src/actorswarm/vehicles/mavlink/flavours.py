@@ -131,6 +131,21 @@ def _climbed(v: Controls, altitude: float) -> Check:
     return Check(f"the climb to {altitude:g} m", test, deadline=CLIMB_DEADLINE)
 
 
+def _above_here(v: Controls, altitude: float) -> tuple[float, float, float]:
+    """Where a take-off of an airborne vehicle goes: ``altitude`` above the ground here."""
+    x, y, z = v.here()
+    return (x, y, z - v.height() + altitude)
+
+
+def _before_arming(v: Controls) -> list[Step]:
+    """Both autopilots: stop any setpoint stream, then the failsafe pre-flight check."""
+    return [Do("stop streaming", lambda: v.set_target(None)), _check_failsafes(v)]
+
+
+def _arm() -> Command:
+    return Command(mav.MAV_CMD_COMPONENT_ARM_DISARM, (1, 0, 0, 0, 0, 0, 0))
+
+
 class ArduPilot:
     """ArduCopter in GUIDED."""
 
@@ -141,13 +156,11 @@ class ArduPilot:
 
     def takeoff(self, v: Controls, altitude: float) -> list[Step]:
         if v.airborne:
-            x, y, _ = v.here()
-            return self.goto(v, (x, y, v.here()[2] - v.height() + altitude), None)
+            return self.goto(v, _above_here(v, altitude), None)
         return [
-            Do("stop streaming", lambda: v.set_target(None)),
-            _check_failsafes(v),
+            *_before_arming(v),
             self._guided(),
-            Command(mav.MAV_CMD_COMPONENT_ARM_DISARM, (1, 0, 0, 0, 0, 0, 0)),
+            _arm(),
             # ArduPilot: param 7 is the altitude above home.
             Command(mav.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 0, 0, altitude)),
         ]
@@ -190,12 +203,10 @@ class Px4:
 
     def takeoff(self, v: Controls, altitude: float) -> list[Step]:
         if v.airborne:
-            x, y, _ = v.here()
-            return self.goto(v, (x, y, v.here()[2] - v.height() + altitude), None)
+            return self.goto(v, _above_here(v, altitude), None)
         return [
-            Do("stop streaming", lambda: v.set_target(None)),
-            _check_failsafes(v),
-            Command(mav.MAV_CMD_COMPONENT_ARM_DISARM, (1, 0, 0, 0, 0, 0, 0)),
+            *_before_arming(v),
+            _arm(),
             # PX4: param 7 is the altitude above mean sea level (home's plus the climb).
             Command(
                 mav.MAV_CMD_NAV_TAKEOFF,
