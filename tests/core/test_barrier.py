@@ -55,7 +55,9 @@ class Harness:
 
     def __init__(self, *, live: int = 10, ready: bool = True, **config: Any) -> None:
         self.live = live
-        self.master = BarrierMaster(CoreConfig(**config), resolve_all=lambda k, p: self.live)
+        self.master = BarrierMaster(
+            CoreConfig(**config), resolve_need=lambda k, p, n: self.live if n == NEED_ALL else n
+        )
         if ready:
             self.master.become_ready(0.0, EPOCH)
 

@@ -56,8 +56,10 @@ RECENT_RELEASES = 32
 #: Of those, how many carry their whole assignment in a report (bounds the report's size).
 RECENT_ASSIGNMENTS = 4
 
-#: Resolves a need of NEED_ALL for (key, part) to a count (default: live platforms).
-AllResolver = Callable[[int, int], int]
+#: Resolves the need ``count`` (a number, or NEED_ALL) of (key, part) to the number of
+#: candidates the part waits for now; 0: the part cannot have candidates and does not hold
+#: the barrier back (default: ``count``, and every live platform for NEED_ALL).
+NeedResolver = Callable[[int, int, int], int]
 #: Computes per-participant scatter data: (key, generation, chosen) -> {platform: data}.
 Scatter = Callable[[int, int, list[tuple[int, int, int, BarrierRequest]]], dict[int, Any]]
 
@@ -142,14 +144,14 @@ class BarrierMaster:
         self,
         config: CoreConfig,
         *,
-        resolve_all: AllResolver,
+        resolve_need: NeedResolver,
         scatter: Scatter | None = None,
         platform: int = 0,
     ) -> None:
         self._config = config
         #: This master's ID: with the epoch, the name of the firings it decides.
         self.platform = platform
-        self._resolve_all = resolve_all
+        self._resolve_need = resolve_need
         #: First retransmission delay of a release (the node plugs in its measured RTT).
         self.first_retry: Callable[[], float] = lambda: config.retry_base
         self.scatter = scatter
@@ -421,25 +423,53 @@ class BarrierMaster:
 
     # --- decisions ---------------------------------------------------------------------
 
-    def _needs(self, key: int, inst: _Instance) -> dict[int, int]:
+    def _needs(
+        self, key: int, inst: _Instance, by_part: dict[int, list[tuple[int, BarrierRequest]]]
+    ) -> dict[int, int]:
+        """What each part waits for now. A need of NEED_ALL is never below the part's
+        candidates: a candidate runs the part's actor, even while the resolver's view of who
+        runs what lags behind."""
         needs: dict[int, int] = {}
+        resolved: dict[tuple[int, int], int] = {}
         for req in inst.requests.values():
             for part, count in req.need.items():
-                resolved = self._resolve_all(key, part) if count == NEED_ALL else count
-                needs[part] = min(needs.get(part, resolved), resolved)
+                n = resolved.get((part, count))
+                if n is None:
+                    n = resolved[(part, count)] = self._resolve_need(key, part, count)
+                    if count == NEED_ALL:
+                        n = resolved[(part, count)] = max(n, len(by_part.get(part, ())))
+                needs[part] = min(needs.get(part, n), n)
         return needs
 
+    def needs_changed(self, now: float, epoch: int) -> None:
+        """What some parts wait for may have changed (a platform entered or left an actor):
+        fire every open barrier that is now complete."""
+        if self.ready:
+            for key in list(self.open):
+                self.try_fire(key, now, epoch)
+
+    def waiting_occasions(self, key: int) -> tuple[str, ...]:
+        """The occasions of the requests waiting at the open generation of ``key``."""
+        inst = self.open.get(key)
+        if inst is None:
+            return ()
+        return tuple(sorted({r.occasion for r in inst.requests.values() if r.occasion}))
+
     def try_fire(self, key: int, now: float, epoch: int) -> None:
+        """Fire ``key`` when every part that waits for candidates (need >= 1) has them;
+        a part that waits for none (no platform can be its candidate) holds nothing back,
+        but at least one part must wait for someone."""
         inst = self.open.get(key)
         if inst is None or not inst.requests or not self.ready:
             return
-        needs = self._needs(key, inst)
         by_part: dict[int, list[tuple[int, BarrierRequest]]] = {}
         for platform, req in inst.requests.items():
             by_part.setdefault(req.part, []).append((platform, req))
-        if not needs or any(n < 1 for n in needs.values()):
+        needs = self._needs(key, inst, by_part)
+        waiting = {part: n for part, n in needs.items() if n >= 1}
+        if not waiting:
             return
-        if any(len(by_part.get(part, ())) < n for part, n in needs.items()):
+        if any(len(by_part.get(part, ())) < n for part, n in waiting.items()):
             return
         assigned: dict[int, tuple[int, int]] = {}
         for part, items in by_part.items():

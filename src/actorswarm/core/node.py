@@ -289,6 +289,18 @@ class Node(NodeElection):
         )
         self._flush_bulletins()
 
+    def needs_changed(self, now: float) -> None:
+        """Master: what the barriers' parts wait for may have changed (the task engine
+        learnt that a platform entered or left an actor): fire what is now complete."""
+        if self.is_master:
+            self._bmaster.needs_changed(now, self.epoch)
+            self._flush_master(now)
+
+    def waiting_occasions(self, key: int) -> tuple[str, ...]:
+        """Master: the occasions of the requests waiting at barrier ``key`` (none on a
+        member)."""
+        return self._bmaster.waiting_occasions(key) if self.is_master else ()
+
     def role_holders(self, role: str) -> tuple[int, ...]:
         """Master only: who holds ``role`` according to the master's table."""
         return self._rmaster.holders(role)

@@ -17,7 +17,7 @@ from collections import Counter
 from dataclasses import dataclass
 
 from actorswarm.core import wire
-from actorswarm.core.barrier import BarrierMaster, BarrierMember, Scatter
+from actorswarm.core.barrier import BarrierMaster, BarrierMember, NeedResolver, Scatter
 from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.election import OnHeartbeat, on_heartbeat
@@ -34,6 +34,7 @@ from actorswarm.core.roles import RoleMaster, RoleMember
 from actorswarm.core.roster import RosterLog, RosterView
 from actorswarm.core.wire import (
     BULLETIN_STREAM,
+    NEED_ALL,
     NORMAL,
     BarrierRequest,
     BarrierStale,
@@ -165,9 +166,11 @@ class NodeBase:
         #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
         #: tests require it to stay empty).
         self.errors: list[str] = []
-        #: Hook for the task engine: resolves a barrier need of NEED_ALL (default: every
-        #: live platform in the master's view).
-        self.resolve_all = self._all_live
+        #: Hook for the task engine: what part ``part`` of barrier ``key`` waits for, given
+        #: its need (a number or NEED_ALL): :data:`~actorswarm.core.barrier.NeedResolver`.
+        #: Default: the number asked for, and every live platform in the master's view for
+        #: NEED_ALL.
+        self.resolve_need: NeedResolver = self._default_need
         #: Hook for the task engine: per-participant data a release scatters (default: none,
         #: each participant learns only its index). Used whenever this platform is master.
         self.scatter: Scatter | None = None
@@ -192,14 +195,14 @@ class NodeBase:
         """Extra patience of every leave decision while this host ticks late."""
         return self._health * self.config.heartbeat_interval
 
-    def _all_live(self, key: int, part: int) -> int:
-        return len(self.members) + 1
+    def _default_need(self, key: int, part: int, count: int) -> int:
+        return len(self.members) + 1 if count == NEED_ALL else count
 
     def _new_barrier_master(self) -> BarrierMaster:
-        # Late-bound, so the engine may replace ``resolve_all`` after construction.
+        # Late-bound, so the engine may replace ``resolve_need`` after construction.
         master = BarrierMaster(
             self.config,
-            resolve_all=lambda k, p: self.resolve_all(k, p),  # noqa: PLW0108
+            resolve_need=lambda k, p, n: self.resolve_need(k, p, n),  # noqa: PLW0108
             platform=self.platform,
         )
         master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}

@@ -79,6 +79,8 @@ class Infeasible:
     message: str
     #: Where to point (None: the group's first transition).
     where: Position | None = None
+    #: Not an error: the group can fire, but one of its transitions never takes part.
+    warning: bool = False
 
 
 def groups(script: TaskScript) -> list[Group]:
@@ -292,6 +294,26 @@ def check_group(group: Group, swarm: Reach, everywhere: set[str]) -> Infeasible 
     if all(t.actor not in everywhere for t in group.members):
         return None
     what = group.describe()
+    empty = [t for t in group.members if not swarm.holders.get(t.actor)]
+    if empty and len(empty) < len(group.members):
+        # A transition whose actor nobody can be running while the group waits has no
+        # candidates and holds the group back from nothing: the rest decide.
+        rest = Group(group.key, tuple(t for t in group.members if t not in empty))
+        found = check_group(rest, swarm, everywhere)
+        if found is not None:
+            return Infeasible(group, found.message, found.where, found.warning)
+        quiet = [t for t in empty if t.actor in everywhere]  # else "never runs" says it
+        if not quiet:
+            return None
+        t = quiet[0]
+        return Infeasible(
+            group,
+            f"{t.event} of {t.actor} never takes part in {what}: {t.actor} is only entered "
+            "through this group itself, so no platform runs it while the group waits, and "
+            "the group fires without it",
+            t.pos,
+            warning=True,
+        )
     for transition in group.members:
         need = demand(transition)
         platforms = swarm.holders.get(transition.actor, [])

@@ -400,7 +400,8 @@ def check_whole(script: TaskScript, report: Report) -> None:
                 "to it, or delete it",
             )
     for found in infeasible_groups(script):
-        report.error(found.where or found.group.members[0].pos, found.message)
+        say = report.warning if found.warning else report.error
+        say(found.where or found.group.members[0].pos, found.message)
     handled = {t.event for t in script.all_transitions()}
     for actor in script.actors:
         for _, plugin in actor.plugins():

@@ -13,12 +13,13 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
   transition for the event becomes a *candidate*: it asks to pass the core barrier of the
   transition's group, in the transition's part, with its bid and data. Otherwise the event
   is ignored and logged.
-* **Firing.** The master fires a group once every part has its ``sysNum`` candidates
-  (``all``: every holder of the part's actor in the master's view, from the actor table the
-  members keep it informed of); the release gives each chosen candidate its index and
-  scatters its successor and slot (the master sees every part of a group); a member uses
-  them, and computes the branch with :meth:`Plan.successor` only when a release carries
-  none. Candidates not chosen stay where they are.
+* **Firing.** The master fires a group once every part that can have candidates has its
+  ``sysNum`` of them (``all``: every holder of the part's actor in the master's view, from
+  the actor table the members keep it informed of; a part nobody holds, or nobody can
+  reach, waits for nobody: :mod:`actorswarm.engine.groups`); the release gives each chosen
+  candidate its index and scatters its successor and slot (the master sees every part of
+  a group); a member uses them, and computes the branch with :meth:`Plan.successor` only
+  when a release carries none. Candidates not chosen stay where they are.
 * **Relays.** The master relays an event (and tells what it runs) to every member as one
   broadcast bulletin, resent only to the members that do not acknowledge it.
 * **Timeouts.** The master releases the waiting candidates of an overdue group with outcome
@@ -59,10 +60,11 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.node import Node
-from actorswarm.core.wire import GROUND_STATION, BarrierRequest
+from actorswarm.core.wire import GROUND_STATION, NEED_ALL, BarrierRequest
 from actorswarm.dsl.model import Transition
 from actorswarm.engine import commands as cmds
 from actorswarm.engine.assign import assign_slots
+from actorswarm.engine.groups import SharedEvents, part_need, reaching
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
 from actorswarm.runtime.collective import PLUGIN_KEY_BASE, plugin_view
@@ -178,7 +180,10 @@ class TaskEngine:
         #: hash when a script starts: a daemon keeps both in its state directory.
         self.on_deployed: Callable[[str, bytes], None] | None = None
         self.on_started: Callable[[str], None] | None = None
-        node.resolve_all = self._holders
+        # Master side: what each group waits for (engine/groups.py).
+        self._reach: tuple[Plan, dict[str, frozenset[str]]] = (plan, reaching(plan.script))
+        self._shared = SharedEvents()
+        node.resolve_need = self._need
         node.scatter = self._scatter
         runtime.use_script(plan.script)
 
@@ -254,9 +259,14 @@ class TaskEngine:
         data: Any = None,
         bid: float | None = None,
         occasion: str = "",
+        shared: bool = False,
     ) -> None:
         """An event from the ground station reached this platform; ``occasion`` names this
-        sending of it (the same on every platform it reached)."""
+        sending of it (the same on every platform it reached). ``shared``: it was sent to
+        the whole swarm, so a master may forward it to a platform that enters an actor
+        while a group waits on it (engine/groups.py); a local event is not."""
+        if shared:
+            self._shared.remember(occasion, event, GROUND_STATION, data)
         self._on_event(event, now, bid=bid, data=data, occasion=occasion)
 
     def _new_occasion(self) -> str:
@@ -446,9 +456,11 @@ class TaskEngine:
     def _announce(self, now: float) -> None:
         running = self.runtime.running()
         if self.node.is_master:
+            before = self._table.get(self.node.platform)
             self._table[self.node.platform] = running
             # One broadcast to every member, not one message each: O(1) packets per switch.
             self.node.post_bulletin(TOPIC_MASTER_ACTORS, _ENCODE.encode(list(running)), now)
+            self._entered(self.node.platform, before, now)
         else:
             self.node.send_app(None, TOPIC_ACTORS, _ENCODE.encode(list(running)), now)
 
@@ -459,7 +471,10 @@ class TaskEngine:
                     self._command(cmds.decode_command(msg.body), now)
                 return
             if msg.topic == TOPIC_ACTORS:
+                before = self._table.get(msg.sender)
                 self._table[msg.sender] = tuple(_DECODE_ACTORS.decode(msg.body))
+                if self.node.is_master:
+                    self._entered(msg.sender, before, now)
             elif msg.topic == TOPIC_MASTER_ACTORS:
                 self._master_actors = (msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
             elif msg.topic == TOPIC_SWARM_EVENT and self.node.is_master:
@@ -467,6 +482,7 @@ class TaskEngine:
                 self._relay(ev.event, ev.data, origin=ev.origin, now=now, occasion=ev.occasion)
             elif msg.topic == TOPIC_EVENT:
                 ev = _DECODE_EVENT.decode(msg.body)
+                self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data)
                 self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
         except (msgspec.DecodeError, cmds.CommandError):
             self.ignored.append((now, msg.topic, f"undecodable message from {msg.sender}"))
@@ -475,20 +491,44 @@ class TaskEngine:
         """Master: send ``event`` to every member but its origin (one broadcast, resent only
         to those that do not acknowledge), and handle it here."""
         occasion = occasion or self._new_occasion()
+        self._shared.remember(occasion, event, origin, data)
         body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
         self.node.post_bulletin(TOPIC_EVENT, body, now, skip=(origin,) if origin else ())
         if origin != self.node.platform:
             self._on_event(event, now, bid=None, data=data, occasion=occasion)
 
-    def _holders(self, key: int, part: int) -> int:
-        """``sysNum="all"``: live platforms running the part's actor, in the master's view."""
+    def _need(self, key: int, part: int, count: int) -> int:
+        """What part ``part`` of group ``key`` waits for (engine/groups.py); a plugin's
+        barrier (no transition) waits for its number, or every live platform."""
+        live = (*self.node.members.peers, self.node.platform)
         transition = self.plan.transition(key, part)
         if transition is None:
-            return 0
-        live = set(self.node.members.peers) | {self.node.platform}
-        # A live member that has not told this master what it runs yet (it does on following
-        # it) may be a holder: count it, so that the group waits rather than fires short.
-        return sum(1 for p in live if p not in self._table or transition.actor in self._table[p])
+            return len(live) if count == NEED_ALL else count
+        if self._reach[0] is not self.plan:
+            self._reach = (self.plan, reaching(self.plan.script))
+        return part_need(transition, count, self._table, live, self._reach[1])
+
+    def _entered(self, platform: int, before: tuple[str, ...] | None, now: float) -> None:
+        """Master: ``platform`` now runs what the table says. A group whose part it left or
+        entered may be complete now; one it entered that waits on a shared event gets it
+        forwarded (engine/groups.py)."""
+        running = self._table.get(platform, ())
+        entered = set(running) - set(before or ())
+        if before is not None and entered:
+            for key, group in self.plan.groups.items():
+                if not any(t.actor in entered for t in group.parts):
+                    continue
+                for occasion in self.node.waiting_occasions(key):
+                    shared = self._shared.get(occasion)
+                    if shared is None or not any(t.event == shared[0] for t in group.parts):
+                        continue
+                    event, origin, data = shared
+                    if platform == self.node.platform:
+                        self._on_event(event, now, bid=None, data=data, occasion=occasion)
+                    else:
+                        body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
+                        self.node.send_app(platform, TOPIC_EVENT, body, now)
+        self.node.needs_changed(now)
 
     def _scatter(
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
@@ -573,6 +613,8 @@ class TaskEngine:
             return self._start_script(command.sha256, now)
         if isinstance(command, cmds.Inject):
             running = set(self.runtime.running())
+            if not command.actors:
+                self._shared.remember(command.occasion, command.event, GROUND_STATION, command.data)
             if command.actors and not running & set(command.actors):
                 return f"not running {', '.join(command.actors)}: event {command.event} skipped"
             self.inject(command.event, now, data=command.data, occasion=command.occasion)

@@ -289,11 +289,14 @@ class TaskSim:
         occasion = f"gs:{self._sent}"
         for p in sorted(self.hosts):
             if event.ids is None or p in event.ids:
-                self._inject(p, event.name, occasion)
+                self._inject(p, event.name, occasion, shared=event.ids is None)
 
-    def _inject(self, platform: int, event: str, occasion: str) -> None:
+    def _inject(self, platform: int, event: str, occasion: str, *, shared: bool) -> None:
         engine = self.hosts[platform].engine
-        self.swarm.call(platform, lambda n: engine.inject(event, self.swarm.now, occasion=occasion))
+        self.swarm.call(
+            platform,
+            lambda n: engine.inject(event, self.swarm.now, occasion=occasion, shared=shared),
+        )
         self._arm(platform)
 
     def fault(self, fault: Fault) -> None:
