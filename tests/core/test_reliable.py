@@ -8,7 +8,16 @@ import pytest
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.reliable import DeliveryFailure, Reliable
-from actorswarm.core.wire import NORMAL, TO_MASTER, URGENT, Ack, AppMessage, Data, Payload
+from actorswarm.core.wire import (
+    NORMAL,
+    TO_MASTER,
+    URGENT,
+    Ack,
+    AppMessage,
+    Data,
+    Payload,
+    RoleClaim,
+)
 
 SENDER, RECEIVER = 1, 2
 EPOCH = 1
@@ -329,6 +338,24 @@ def test_retarget_moves_unacked_in_order_to_new_master() -> None:
     r.on_ack(5, Ack(dst=SENDER, dst_incarnation=0, channel=TO_MASTER, seq=3), 0.1)
     log = _run(r, 0.2)
     assert {seq for _, seq in log} == {2, 3}, "the old master's ack no longer counts"
+
+
+def test_retarget_to_a_newer_epoch_drops_only_the_stale_kinds_of_that_older_epoch() -> None:
+    # A new master ignores barrier and role traffic of an older epoch (the member's report
+    # restates it): dropped at once, it does not hold up the stream's order; app messages
+    # are delivered whatever their epoch, so they stay.
+    r = Reliable(CoreConfig())
+    r.retarget(5, 0.0)
+    old = RoleClaim(role="leader", quota=1, bid=1.0)
+    r.send_to_master(old, 0.0, EPOCH)
+    r.send_to_master(_msg(1), 0.0, EPOCH)
+    r.send_to_master(_msg(2), 0.0, EPOCH + 1)
+    _sent(r)
+    r.retarget(6, 0.1, EPOCH + 1, (RoleClaim,))
+    assert [(dst, d.payload, d.epoch) for dst, d in _sent(r)] == [
+        (6, _msg(1), EPOCH),
+        (6, _msg(2), EPOCH + 1),
+    ]
 
 
 def test_retarget_never_delivers_twice_to_same_master() -> None:

@@ -416,7 +416,9 @@ class NodeBase:
     def _report(self, now: float) -> None:
         if self.master is None or self.master == self.platform:
             return
-        self.reliable.send(self.master, self._own_report(now), now, self.epoch)
+        # On the master-bound stream, in order with the claims and requests: a report made
+        # before a claim must not reach the master after the claim's grant and erase it.
+        self.reliable.send_to_master(self._own_report(now), now, self.epoch)
 
     def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
         for item in items:

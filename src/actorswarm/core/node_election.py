@@ -11,6 +11,7 @@ from actorswarm.core.events import (
     MasterChanged,
     SteppedDown,
 )
+from actorswarm.core.node_base import MASTER_BOUND
 from actorswarm.core.node_membership import NodeMembership
 from actorswarm.core.roles import RoleMaster
 from actorswarm.core.wire import (
@@ -201,7 +202,7 @@ class NodeElection(NodeMembership):
             self._lowest_peer = master if master in self.members else None
             self._probe_due = {p: t for p, t in self._probe_due.items() if p == master}
         self._events.append(MasterChanged(master=master, epoch=epoch))
-        self.reliable.retarget(master, now)
+        self.reliable.retarget(master, now, epoch, MASTER_BOUND)
         self._inbox.follow(master)
         # Always report: requests and claims made while no master was followed were not sent
         # (the report states them), and a resumed master may have dropped us meanwhile.

@@ -199,16 +199,31 @@ class Reliable:
         item.sent = True
         heapq.heappush(self._timers, (min(item.due, item.deadline), key[0], key[1], item.seq))
 
-    def retarget(self, master: int | None, now: float) -> None:
+    def retarget(
+        self,
+        master: int | None,
+        now: float,
+        epoch: int | None = None,
+        stale: tuple[type, ...] = (),
+    ) -> None:
         """The master changed: master-bound messages go to ``master`` from now on, in order.
 
         ``master=None`` means "no remote master" (none known, or this platform is the master):
-        the messages wait, and a master takes them with :meth:`take_unrouted`.
+        the messages wait, and a master takes them with :meth:`take_unrouted`. ``epoch``:
+        the new master's; messages of the types ``stale`` names that are stamped with an
+        older one are dropped here (a master ignores them, and the report that follows
+        restates what they asked), so they do not hold up the stream for the ones that count.
         """
         stream = self._master_stream
         if stream.dst == master:
             return
         stream.dst = master
+        if epoch is not None:
+            stream.items = deque(
+                item
+                for item in stream.items
+                if item.epoch >= epoch or not isinstance(item.payload, stale)
+            )
         for item in stream.items:
             item.retries = 0
             item.sent = False
