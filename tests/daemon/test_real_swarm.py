@@ -141,8 +141,13 @@ def test_forged_wrongly_keyed_replayed_and_random_packets_are_rejected_and_count
     master = swarm.agreed_master((1, 2))
     captured: list[bytes] = []
     settings = ZenohSettings(connect=tuple(swarm.endpoints[:2]), multicast=False)
-    with ZenohTransport(swarm.swarm, 9, captured.append, settings) as intruder:
-        swarm.wait("a packet heard", lambda: len(captured) > 5)
+    with ZenohTransport(swarm.swarm, 9, settings) as intruder:
+
+        def heard() -> bool:
+            captured.extend(intruder.drain(100))
+            return len(captured) > 5
+
+        swarm.wait("a packet heard", heard)
         init_keys(tmp_path / "other")
         other = PacketGuard.from_keys(load_keys(tmp_path / "other"))
         heartbeat = encode(
