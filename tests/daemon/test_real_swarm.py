@@ -53,6 +53,16 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
     assert {p: row["actors"] for p, row in platforms.items()} == {p: ["B"] for p in "123"}
     assert [p for p, row in platforms.items() if row["master"]] == [str(master)]
     assert {row["incarnation"] for row in platforms.values()} == {0}
+    # Every packet taken in went through the pipeline, in batches of one wake each.
+    for p in (1, 2, 3):
+        meters = swarm.status(p)
+        receive = meters["receive"]
+        assert set(receive) == {
+            "batches", "packets", "largest_batch", "cut_batches", "bursts", "ring_full"
+        }  # fmt: skip
+        assert receive["packets"] == meters["traffic"]["recv_packets"] > 0
+        assert 0 < receive["batches"] <= receive["packets"]
+        assert receive["largest_batch"] >= 1
 
     # A daemon stopped cleanly and started again from its state directory comes back in a
     # new incarnation, in the script and the actor it ran.
