@@ -148,6 +148,7 @@ def test_a_burst_arrives_whole_in_a_few_batches() -> None:
         assert 1 <= receiver.bursts <= 10, receiver.receive_counters()
         assert inbox.packets == burst and inbox.largest_batch > 1
         assert inbox.cut_batches == 0 and receiver.ring_full == 0
+        assert swarm.drain(BATCH_LIMIT) == [], "a platform does not hear its own broadcasts"
 
 
 def test_the_ground_stations_packets_come_first_in_a_batch() -> None:
