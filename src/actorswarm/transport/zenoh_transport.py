@@ -6,10 +6,10 @@ Every platform opens one Zenoh session in *peer* mode and uses two key expressio
 its swarm's namespace ``actorswarm/<swarm>/``:
 
 * ``all/<sender>`` — broadcasts (heartbeats, barrier releases, swarm events). Every
-  platform subscribes to ``all/*`` and drops its own (the sender is in the key, so no
-  payload has to be decoded to tell).
-* ``to/<dst>`` — unicasts (reliable control traffic to one platform). A platform subscribes
-  to its own ``to/<id>`` only.
+  platform subscribes to ``all/*`` for the other sessions' samples only: Zenoh itself
+  leaves its own broadcasts out, no sample is looked at to tell.
+* ``to/<dst>`` — unicasts (reliable control traffic to one platform, every command of the
+  ground station). A platform subscribes to its own ``to/<id>`` only.
 
 Everything is put **best effort** with congestion control *drop*: the collective core has
 its own acknowledgements and retransmissions (as the paper runs Fast DDS in its unreliable
