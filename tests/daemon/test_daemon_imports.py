@@ -206,10 +206,9 @@ def test_packets_larger_than_a_batch_cross_to_and_from_a_peer_left_at_zenohs_def
     packets = [bytes([n % 251]) * n for n in (200, 16_000, 60_000)]
     swarm = f"batch{os.getpid()}"
     with (
-        ZenohTransport(swarm, 1, small.append, ZenohSettings(listen=(first,), multicast=False)),
+        ZenohTransport(swarm, 1, ZenohSettings(listen=(first,), multicast=False)) as one,
         ZenohTransport(
-            swarm, 2, default.append,
-            ZenohSettings(connect=(first,), multicast=False, extra=zenoh_defaults),
+            swarm, 2, ZenohSettings(connect=(first,), multicast=False, extra=zenoh_defaults),
         ) as other,
     ):  # fmt: skip
         end = time.monotonic() + 15
@@ -217,19 +216,18 @@ def test_packets_larger_than_a_batch_cross_to_and_from_a_peer_left_at_zenohs_def
             for data in packets:
                 other.send(1, data)
             time.sleep(0.2)
+            small += one.drain(100)
         assert set(packets) <= set(small)
     with (
         ZenohTransport(
-            swarm, 3, default.append,
-            ZenohSettings(listen=(second,), multicast=False, extra=zenoh_defaults),
-        ),
-        ZenohTransport(
-            swarm, 4, lambda _: None, ZenohSettings(connect=(second,), multicast=False)
-        ) as ours,
+            swarm, 3, ZenohSettings(listen=(second,), multicast=False, extra=zenoh_defaults),
+        ) as three,
+        ZenohTransport(swarm, 4, ZenohSettings(connect=(second,), multicast=False)) as ours,
     ):  # fmt: skip
         end = time.monotonic() + 15
         while time.monotonic() < end and not (set(packets) <= set(default)):
             for data in packets:
                 ours.send(3, data)
             time.sleep(0.2)
+            default += three.drain(100)
         assert set(packets) <= set(default)

@@ -53,6 +53,16 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
     assert {p: row["actors"] for p, row in platforms.items()} == {p: ["B"] for p in "123"}
     assert [p for p, row in platforms.items() if row["master"]] == [str(master)]
     assert {row["incarnation"] for row in platforms.values()} == {0}
+    # Every packet taken in went through the pipeline, in batches of one wake each.
+    for p in (1, 2, 3):
+        meters = swarm.status(p)
+        receive = meters["receive"]
+        assert set(receive) == {
+            "batches", "packets", "largest_batch", "cut_batches", "bursts", "ring_full"
+        }  # fmt: skip
+        assert receive["packets"] == meters["traffic"]["recv_packets"] > 0
+        assert 0 < receive["batches"] <= receive["packets"]
+        assert receive["largest_batch"] >= 1
 
     # A daemon stopped cleanly and started again from its state directory comes back in a
     # new incarnation, in the script and the actor it ran.
@@ -141,8 +151,13 @@ def test_forged_wrongly_keyed_replayed_and_random_packets_are_rejected_and_count
     master = swarm.agreed_master((1, 2))
     captured: list[bytes] = []
     settings = ZenohSettings(connect=tuple(swarm.endpoints[:2]), multicast=False)
-    with ZenohTransport(swarm.swarm, 9, captured.append, settings) as intruder:
-        swarm.wait("a packet heard", lambda: len(captured) > 5)
+    with ZenohTransport(swarm.swarm, 9, settings) as intruder:
+
+        def heard() -> bool:
+            captured.extend(intruder.drain(100))
+            return len(captured) > 5
+
+        swarm.wait("a packet heard", heard)
         init_keys(tmp_path / "other")
         other = PacketGuard.from_keys(load_keys(tmp_path / "other"))
         heartbeat = encode(

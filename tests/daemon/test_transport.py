@@ -15,11 +15,12 @@ def test_peers_without_endpoints_find_each_other_by_multicast_scouting() -> None
     settings = ZenohSettings(multicast=True)
     swarm = f"scout{os.getpid()}"
     with (
-        ZenohTransport(swarm, 1, got.append, settings),
-        ZenohTransport(swarm, 2, lambda _: None, settings) as sender,
+        ZenohTransport(swarm, 1, settings) as receiver,
+        ZenohTransport(swarm, 2, settings) as sender,
     ):
         end = time.monotonic() + 15
         while not got and time.monotonic() < end:
             sender.send(None, b"hello")
             time.sleep(0.1)
+            got += receiver.drain(100)
     assert got and got[0] == b"hello"

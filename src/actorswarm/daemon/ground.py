@@ -82,8 +82,8 @@ class GroundSession:
         self._transport: ZenohTransport | None = None
 
     async def __aenter__(self) -> GroundSession:
-        inbox = self._inbox = Inbox(asyncio.get_running_loop())
-        self._transport = ZenohTransport(self.swarm, 0, inbox.put, self.settings)
+        self._transport = ZenohTransport(self.swarm, 0, self.settings)
+        inbox = self._inbox = Inbox(asyncio.get_running_loop(), self._transport)
         # The incarnation is taken now, when the session is about to speak, not when it was
         # made: opening Zenoh takes a while, and a long-lived session (gs record) that
         # renewed itself meanwhile would otherwise outrank this one before it said a word.

@@ -1,12 +1,13 @@
 """The asyncio host loop: one endpoint, one transport, the wall clock.
 
 :func:`serve` is the only place a daemon (or a ground-station command) meets time and the
-network. Packets arrive on the transport's threads and are queued in an :class:`Inbox`,
-which wakes the loop once per batch; the loop wakes for packets or for the endpoint's next
-deadline, hands over the bytes and ticks it with the current time, and sends what it
-produced. The
-endpoint itself never sees a clock or a socket, which is why the same objects run in the
-simulator.
+network. Packets wait at the transport (Zenoh's receive channels,
+:class:`~actorswarm.transport.base.Receiver`) and an :class:`Inbox` wakes the loop once per
+burst; the loop wakes for packets or for the endpoint's next deadline, takes every packet
+that waits (at most :data:`BATCH_LIMIT`, the ground station's first) as one batch, hands
+it to the endpoint, ticks it with the current time, and sends what it produced, once per
+wake. The endpoint itself never sees a clock or a socket, which is why the same objects run
+in the simulator.
 
 Packets go in and out through one :class:`~actorswarm.security.pipeline.Pipeline`, the
 same the simulator uses: sealed once on the way out, checked over the raw bytes before
@@ -20,6 +21,7 @@ corrections (NTP), and the swarm never compares clocks across platforms.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
 import time
 from collections import deque
@@ -28,12 +30,20 @@ from collections.abc import Callable
 from actorswarm.daemon.endpoint import Endpoint
 from actorswarm.security.guard import PacketGuard
 from actorswarm.security.pipeline import Pipeline, Traffic
-from actorswarm.transport.base import Transport
+from actorswarm.transport.base import Receiver, Transport
 
-__all__ = ["Inbox", "Traffic", "Transport", "clock", "flush", "serve"]
+__all__ = ["BATCH_LIMIT", "Inbox", "Traffic", "Transport", "clock", "flush", "serve"]
 
 #: Longest sleep between two looks at the endpoint (seconds), even with no deadline.
 _IDLE = 0.5
+
+#: Most packets one wake takes in: a flood is handled in slices with the endpoint's ticks,
+#: its output and the loop's other tasks in between (a slice of heartbeats is some 7 ms of
+#: checking, decoding and handling at 28 µs each, docs/deploying.md), never in one
+#: stretch. Twice a Zenoh receive channel
+#: (:data:`~actorswarm.transport.zenoh_transport.RX_CAPACITY`): what waits in both is one
+#: batch.
+BATCH_LIMIT = 256
 
 
 def clock() -> float:
@@ -42,30 +52,51 @@ def clock() -> float:
 
 
 class Inbox:
-    """Packets handed from the transport's threads to the loop.
+    """What wakes the loop, and the packets it takes when it wakes.
 
-    :meth:`put` may be called from any thread; it wakes the loop once per batch, not once
-    per packet. :meth:`wait` is the loop's one way to sleep: one future and one timer per
-    wake, nothing else — with 30 peers heartbeating at 10 Hz the loop wakes hundreds of
-    times a second, and ``asyncio.wait`` over several tasks cost more than the protocol.
+    Packets come from ``source`` (a transport that keeps them until drained: Zenoh's
+    receive channels), which calls :meth:`notify` once per burst, or are :meth:`put` one by
+    one (an in-process transport, tests). Both are thread-safe and schedule one wake of the
+    loop however many calls come before it runs. :meth:`wait` is the loop's one way to
+    sleep: one future and one timer per wake, nothing else — with 30 peers heartbeating at
+    10 Hz the loop wakes hundreds of times a second, and ``asyncio.wait`` over several
+    tasks cost more than the protocol.
+
+    Counters (for a status report, :meth:`as_dict`): ``batches`` taken that held a packet,
+    ``packets`` in them, the ``largest_batch``, and ``cut_batches``: batches that stopped
+    at their limit with more waiting (the loop then drains again before it sleeps).
     """
 
-    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
+    def __init__(self, loop: asyncio.AbstractEventLoop, source: Receiver | None = None) -> None:
         self._loop = loop
         self._packets: deque[bytes] = deque()
         self._lock = threading.Lock()
         self._armed = False
         self._poked = False
+        self._more = False
         self._waiter: asyncio.Future[None] | None = None
+        self.source = source
+        self.batches = 0
+        self.packets = 0
+        self.largest_batch = 0
+        self.cut_batches = 0
+        if source is not None:
+            source.watch(self.notify)
 
     def put(self, data: bytes) -> None:
         """Queue ``data`` (thread-safe)."""
         self._packets.append(data)
+        self.notify()
+
+    def notify(self) -> None:
+        """Packets wait: wake the loop (thread-safe; one wake however many calls)."""
         with self._lock:
             if self._armed:
                 return  # a wake-up is already on its way
             self._armed = True
-        self._loop.call_soon_threadsafe(self._wake)
+        # A closed loop raises: nobody is left to take the packets then.
+        with contextlib.suppress(RuntimeError):
+            self._loop.call_soon_threadsafe(self._wake)
 
     def poke(self) -> None:
         """End the current (or next) :meth:`wait` now (on the loop's thread)."""
@@ -75,7 +106,7 @@ class Inbox:
     def _wake(self) -> None:
         with self._lock:
             self._armed = False
-        self._release()
+        self.poke()
 
     def _release(self) -> None:
         waiter = self._waiter
@@ -83,8 +114,14 @@ class Inbox:
             waiter.set_result(None)
 
     async def wait(self, timeout: float) -> None:
-        """Return when packets are queued, :meth:`poke` was called, or ``timeout`` seconds
-        passed, whichever comes first."""
+        """Return when packets are queued, :meth:`notify` or :meth:`poke` was called, the
+        last :meth:`take` left packets waiting, or ``timeout`` seconds passed, whichever
+        comes first. A :meth:`take` that left packets waiting is followed by one turn of
+        the event loop only, so other tasks run between two slices of a flood."""
+        if self._more:
+            self._more = False
+            await asyncio.sleep(0)
+            return
         if self._packets or self._poked:
             self._poked = False
             return
@@ -97,13 +134,33 @@ class Inbox:
             self._waiter = None
             self._poked = False
 
-    def take(self) -> list[bytes]:
-        """Every packet queued so far, oldest first (on the loop's thread)."""
-        out = []
+    def take(self, limit: int = BATCH_LIMIT) -> list[bytes]:
+        """The packets that wait, at most ``limit``: those :meth:`put` first, oldest first,
+        then the source's (its unicasts, the ground station's, before its broadcasts). On
+        the loop's thread."""
+        out: list[bytes] = []
         packets = self._packets
-        while packets:
+        while packets and len(out) < limit:
             out.append(packets.popleft())
+        if self.source is not None and len(out) < limit:
+            out += self.source.drain(limit - len(out))
+        self._more = len(out) >= limit
+        if out:
+            self.batches += 1
+            self.packets += len(out)
+            self.largest_batch = max(self.largest_batch, len(out))
+            if self._more:
+                self.cut_batches += 1
         return out
+
+    def as_dict(self) -> dict[str, int]:
+        """The counters: ``batches``, ``packets``, ``largest_batch``, ``cut_batches``."""
+        return {
+            "batches": self.batches,
+            "packets": self.packets,
+            "largest_batch": self.largest_batch,
+            "cut_batches": self.cut_batches,
+        }
 
 
 async def serve(
@@ -117,8 +174,9 @@ async def serve(
     guard: PacketGuard | None = None,
     traffic: Traffic | None = None,
 ) -> None:
-    """Drive ``endpoint`` until ``stop`` is set: feed it the packets put in ``inbox`` (by
-    the transport's callback), tick it at its deadlines, send what it produces.
+    """Drive ``endpoint`` until ``stop`` is set: feed it, one batch per wake, the packets
+    ``inbox`` takes (from the transport's receive channels, or put there), tick it at its
+    deadlines, send what it produces.
     ``on_wake(now)`` runs after every wake (a daemon's status file, a command's progress).
 
     Every packet goes through one :class:`~actorswarm.security.pipeline.Pipeline`: sealed by

@@ -14,11 +14,17 @@ an operator wants to see: start, master changes, transitions, stop.
 Files are written only when what they say changed
 (:class:`~actorswarm.daemon.state.WritePacer`): ``status.json`` within a second of a change
 of the platform's state (master, members, actors, transitions, packets rejected...), but
-when only the packet counters moved (``traffic``, ``accepted``, ``dropped``) at most every
-:data:`_METERS_EVERY` seconds; its ``t`` is when it was written. The replay windows are
+when only the packet counters moved (``traffic``, ``accepted``, ``dropped``, ``receive``) at
+most every :data:`_METERS_EVERY` seconds; its ``t`` is when it was written. The replay windows are
 saved at most every :data:`_REPLAY_EVERY` seconds, when a packet was accepted since. A
 platform alone rewrites only its status, every :data:`_METERS_EVERY` seconds (the heartbeats
 it sent).
+
+``receive`` counts how packets were taken in: ``batches`` (wakes that took packets),
+``packets``, ``largest_batch``, ``cut_batches`` (batches cut at
+:data:`~actorswarm.daemon.loop.BATCH_LIMIT`), ``bursts`` (wake-ups Zenoh's receive channels
+asked for) and ``ring_full`` (drains that found a receive channel full: packets were
+probably lost), see :mod:`actorswarm.transport.zenoh_transport`.
 
 The lines a benchmark reads (``t`` is when the line was written; ``at`` the loop's time
 when the thing happened; ``traffic`` the cumulative ``[sent packets, sent bytes, received
@@ -56,6 +62,7 @@ import logging
 import os
 import signal
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -122,6 +129,7 @@ def _status(
     guard: PacketGuard,
     traffic: Traffic,
     autopilot: MavlinkVehicle | None = None,
+    receive: Callable[[], dict[str, int]] | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """What ``status.json`` says: the platform's state, and the packet counters that move
     all the time (written less often when nothing else changed)."""
@@ -154,6 +162,8 @@ def _status(
         "dropped": dict(node.counters),
         "traffic": traffic.as_dict(),
     }
+    if receive is not None:
+        meters["receive"] = receive()
     return state, meters
 
 
@@ -176,6 +186,8 @@ class DaemonFiles:
         guard: PacketGuard,
         traffic: Traffic,
         autopilot: MavlinkVehicle | None = None,
+        *,
+        receive: Callable[[], dict[str, int]] | None = None,
     ) -> None:
         self.state = state
         self.status_file = state.path / "status.json"
@@ -183,6 +195,7 @@ class DaemonFiles:
         self.guard = guard
         self.traffic = traffic
         self.autopilot = autopilot
+        self.receive = receive
         self.status = WritePacer(_STATUS_EVERY, _METERS_EVERY)
         self.replay = WritePacer(_REPLAY_EVERY, seen=guard.replay_snapshot())
 
@@ -200,7 +213,9 @@ class DaemonFiles:
         self._save_replay(now, closing=True)
 
     def _save_status(self, now: float, *, closing: bool = False) -> None:
-        content, meters = _status(self.endpoint, self.guard, self.traffic, self.autopilot)
+        content, meters = _status(
+            self.endpoint, self.guard, self.traffic, self.autopilot, self.receive
+        )
         if self.status.changed(now, content, meters, closing=closing):
             _write_status(self.status_file, content, meters, now)
 
@@ -256,12 +271,12 @@ async def _main(options: DaemonOptions) -> int:
             resumed = engine.rejoin(running, now)
             _log("rejoined", script=running[:12], resumed=resumed)
     loop = asyncio.get_running_loop()
-    inbox = Inbox(loop)
     stop = asyncio.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(sig, stop.set)
 
-    transport = ZenohTransport(options.swarm, options.platform, inbox.put, options.zenoh)
+    transport = ZenohTransport(options.swarm, options.platform, options.zenoh)
+    inbox = Inbox(loop, transport)
     _log(
         "started",
         platform=options.platform,
@@ -273,7 +288,14 @@ async def _main(options: DaemonOptions) -> int:
     )
     seen = _Seen()
     traffic = Traffic()
-    files = DaemonFiles(state, endpoint, guard, traffic, autopilot)
+    files = DaemonFiles(
+        state,
+        endpoint,
+        guard,
+        traffic,
+        autopilot,
+        receive=lambda: {**inbox.as_dict(), **transport.receive_counters()},
+    )
     raised = 0
 
     def on_wake(t: float) -> None:

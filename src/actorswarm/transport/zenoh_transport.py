@@ -6,10 +6,10 @@ Every platform opens one Zenoh session in *peer* mode and uses two key expressio
 its swarm's namespace ``actorswarm/<swarm>/``:
 
 * ``all/<sender>`` — broadcasts (heartbeats, barrier releases, swarm events). Every
-  platform subscribes to ``all/*`` and drops its own (the sender is in the key, so no
-  payload has to be decoded to tell).
-* ``to/<dst>`` — unicasts (reliable control traffic to one platform). A platform subscribes
-  to its own ``to/<id>`` only.
+  platform subscribes to ``all/*`` for the other sessions' samples only: Zenoh itself
+  leaves its own broadcasts out, no sample is looked at to tell.
+* ``to/<dst>`` — unicasts (reliable control traffic to one platform, every command of the
+  ground station). A platform subscribes to its own ``to/<id>`` only.
 
 Everything is put **best effort** with congestion control *drop*: the collective core has
 its own acknowledgements and retransmissions (as the paper runs Fast DDS in its unreliable
@@ -28,15 +28,35 @@ Memory: Zenoh's buffers are sized for a small robot (:data:`SMALL_ROBOT`, the fi
 ``docs/deploying.md``): no shared-memory transport, 8 KiB batches instead of 64 KiB, and a
 1 MiB cap on a reassembled message.
 
-Threads: Zenoh calls the receive callback on its own threads. The callback given here must
-be thread-safe; the daemon's passes the bytes to its asyncio loop with
-``call_soon_threadsafe`` and nothing else.
+Receiving: no Python runs per packet on Zenoh's threads. Each subscriber has a
+:class:`zenoh.handlers.RingChannel` of :data:`RX_CAPACITY` samples that Zenoh fills on its
+own threads; the host's loop takes them in batches with :meth:`ZenohTransport.drain`, the
+unicast channel (``to/<id>``, which carries every ground-station command) first. A burst
+beyond a channel's capacity overwrites its *oldest* samples: Zenoh's threads never block on
+a busy loop (a blocked receive thread would stall the whole link, keep-alives included),
+and the newest heartbeat is worth more than an old one; the core retransmits what must
+arrive. A drain that finds a channel full counts one in ``ring_full`` (Zenoh does not count
+what the ring overwrote, so this says that packets were probably lost, not how many).
+
+Wake-ups (:meth:`ZenohTransport.watch`): one thread per channel blocks in the channel's
+``recv()`` (Zenoh releases the GIL there). When a sample arrives it *parks*: it holds that
+sample for the loop, calls ``wake()`` once and waits until the loop has drained the
+channel empty; meanwhile the burst piles up in the ring, with no Python per sample. The
+loop drains only a parked channel (so it and the thread never take from one channel at
+once, and the order stays the channel's), and releases the thread only after ``try_recv``
+found the ring empty. No packet can be stranded: a sample that arrives after that empty
+``try_recv`` is in the ring when the released thread calls ``recv()``, which returns at
+once and wakes the loop again; a drain cut short by its limit keeps the thread parked,
+and the loop drains again without waiting for a wake-up. The daemon's ``wake`` is
+:meth:`actorswarm.daemon.loop.Inbox.notify`, which schedules at most one wake of the
+asyncio loop however many channels park before it runs.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
@@ -44,7 +64,7 @@ from typing import Any
 
 import zenoh
 
-__all__ = ["SMALL_ROBOT", "ZenohSettings", "ZenohTransport", "key_prefix"]
+__all__ = ["RX_CAPACITY", "SMALL_ROBOT", "ZenohSettings", "ZenohTransport", "key_prefix"]
 
 log = logging.getLogger("actorswarm.transport")
 
@@ -73,6 +93,14 @@ SMALL_ROBOT: dict[str, Any] = {
     "transport/link/rx/buffer_size": 8192,
     "transport/link/rx/max_message_size": 1 << 20,
 }
+
+
+#: Samples each receive channel (unicasts, broadcasts) holds before the oldest is
+#: overwritten. 30 peers heartbeating at 10 Hz fill the broadcast channel in about 0.4 s of
+#: a loop that does not drain it; packets are a few hundred bytes, so a full channel holds
+#: some 40 KiB (a ring of 16 KB deploy chunks, 2 MiB). The daemon's loop takes up to 256
+#: packets per wake (:data:`actorswarm.daemon.loop.BATCH_LIMIT`): both channels at once.
+RX_CAPACITY = 128
 
 
 def key_prefix(swarm: str) -> str:
@@ -120,34 +148,70 @@ class ZenohSettings:
         return cfg
 
 
+class _Channel:
+    """One subscriber's ring and the thread that watches it (see the module's docstring)."""
+
+    __slots__ = ("bursts", "capacity", "full", "held", "parked", "resume", "subscriber", "thread")
+
+    def __init__(self, subscriber: zenoh.Subscriber[zenoh.Handler[zenoh.Sample]], capacity: int):
+        self.subscriber = subscriber
+        self.capacity = capacity
+        #: The sample the watching thread took with ``recv()``, for the loop to take first.
+        self.held: zenoh.Sample | None = None
+        #: True from the thread's ``recv()`` returning until the loop drained the ring empty:
+        #: only then does the loop take from it.
+        self.parked = False
+        self.resume = threading.Event()
+        self.thread: threading.Thread | None = None
+        self.bursts = 0  # wake-ups this channel's thread asked for (written by it only)
+        self.full = 0  # drains that found the ring full (written by the loop only)
+
+
 class ZenohTransport:
-    """Platform ``platform`` of swarm ``swarm`` on Zenoh; ``on_receive(data)`` gets every
-    packet addressed to it or broadcast by another platform (on a Zenoh thread).
+    """Platform ``platform`` of swarm ``swarm`` on Zenoh: every packet addressed to it or
+    broadcast by another platform waits in a ring of ``capacity`` samples per channel
+    (:data:`RX_CAPACITY`) until :meth:`drain` takes it; :meth:`watch` says when to.
 
     Opening fails with :class:`zenoh.ZError` (an endpoint that cannot be bound, a bad
-    locator); sending after :meth:`close` is ignored.
+    locator); sending or draining after :meth:`close` is ignored.
     """
 
     def __init__(
         self,
         swarm: str,
         platform: int,
-        on_receive: Callable[[bytes], None],
         settings: ZenohSettings | None = None,
+        *,
+        capacity: int = RX_CAPACITY,
     ) -> None:
+        if capacity < 1:
+            raise ValueError(f"receive capacity {capacity}: at least one packet per channel")
         self.swarm = swarm
         self.platform = platform
         self.settings = settings or ZenohSettings()
         self._prefix = key_prefix(swarm)
-        self._on_receive = on_receive
         self._me = str(platform)
         self.sent = 0
+        #: Packets :meth:`drain` handed over.
         self.received = 0
+        self._wake: Callable[[], None] | None = None
         self._session: zenoh.Session | None = zenoh.open(self.settings.config())
-        self._subscribers = [
-            self._session.declare_subscriber(f"{self._prefix}/all/*", self._broadcast_in),
-            self._session.declare_subscriber(f"{self._prefix}/to/{platform}", self._unicast_in),
-        ]
+        ring = zenoh.handlers.RingChannel
+        # Unicasts first: the ground station only ever sends to one platform (``to/<id>``),
+        # so its commands are in the first channel a drain empties. Our own broadcasts are
+        # left out by Zenoh itself (REMOTE), not looked at per sample.
+        self._channels = (
+            _Channel(
+                self._session.declare_subscriber(f"{self._prefix}/to/{platform}", ring(capacity)),
+                capacity,
+            ),
+            _Channel(
+                self._session.declare_subscriber(
+                    f"{self._prefix}/all/*", ring(capacity), allowed_origin=zenoh.Locality.REMOTE
+                ),
+                capacity,
+            ),
+        )
         # One publisher per destination and priority, declared on first use ("all" for
         # broadcasts): a declared publisher is cheaper per put than a bare session.put.
         self._publishers: dict[tuple[str, bool], zenoh.Publisher] = {}
@@ -167,19 +231,89 @@ class ZenohTransport:
     ) -> None:
         self.close()
 
-    # --- receiving (Zenoh threads) ----------------------------------------------------------
+    # --- receiving ----------------------------------------------------------------------------
 
-    def _broadcast_in(self, sample: zenoh.Sample) -> None:
-        if str(sample.key_expr).rsplit("/", 1)[-1] == self._me:
-            return  # our own broadcast
-        self._deliver(sample)
+    @property
+    def bursts(self) -> int:
+        """Wake-ups asked for: one per burst of packets, however many it held."""
+        return sum(ch.bursts for ch in self._channels)
 
-    def _unicast_in(self, sample: zenoh.Sample) -> None:
-        self._deliver(sample)
+    @property
+    def ring_full(self) -> int:
+        """Drains that found a channel full (its oldest packets were probably overwritten)."""
+        return sum(ch.full for ch in self._channels)
 
-    def _deliver(self, sample: zenoh.Sample) -> None:
-        self.received += 1
-        self._on_receive(sample.payload.to_bytes())
+    def receive_counters(self) -> dict[str, int]:
+        """``bursts`` and ``ring_full``, for a status report."""
+        return {"bursts": self.bursts, "ring_full": self.ring_full}
+
+    def watch(self, wake: Callable[[], None]) -> None:
+        """Call ``wake()`` (on a thread of this transport's) whenever packets start waiting
+        after a drain emptied their channel: once per burst. Once per transport; packets
+        that arrived before are announced at once."""
+        if self._wake is not None:
+            raise RuntimeError(f"{self!r} is already watched")
+        if self._session is None:
+            return
+        self._wake = wake
+        for n, ch in enumerate(self._channels):
+            ch.thread = threading.Thread(
+                target=self._watch, args=(ch, wake), name=f"zenoh-rx-{n}", daemon=True
+            )
+            ch.thread.start()
+
+    def _watch(self, ch: _Channel, wake: Callable[[], None]) -> None:
+        recv = ch.subscriber.handler.recv
+        while True:
+            try:
+                sample = recv()  # blocks without the GIL
+            except zenoh.ZError:
+                return  # the subscriber was undeclared: the transport closed
+            ch.held = sample
+            ch.parked = True  # after ``held``: a parked channel's held sample is set
+            ch.bursts += 1
+            wake()
+            ch.resume.wait()
+            ch.resume.clear()
+            if self._session is None:
+                return
+
+    def drain(self, limit: int) -> list[bytes]:
+        """Up to ``limit`` packets that wait, unicasts before broadcasts, each channel's
+        oldest first (on the loop's thread). Never blocks. Without :meth:`watch`, simply
+        what the channels hold; with it, only the channels whose thread asked for a wake-up
+        (see the module's docstring)."""
+        out: list[bytes] = []
+        if self._session is None:
+            return out
+        watched = self._wake is not None
+        for ch in self._channels:
+            if len(out) >= limit:
+                break
+            if watched:
+                if not ch.parked:
+                    continue  # its thread is in recv(): anything new wakes the loop
+                held = ch.held
+                if held is not None:
+                    ch.held = None
+                    out.append(held.payload.to_bytes())
+            try_recv = ch.subscriber.handler.try_recv
+            taken = 0
+            emptied = False
+            while len(out) < limit:
+                sample = try_recv()
+                if sample is None:
+                    emptied = True
+                    break
+                out.append(sample.payload.to_bytes())
+                taken += 1
+            if taken >= ch.capacity:
+                ch.full += 1
+            if watched and emptied:
+                ch.parked = False
+                ch.resume.set()
+        self.received += len(out)
+        return out
 
     # --- sending ----------------------------------------------------------------------------
 
@@ -207,8 +341,15 @@ class ZenohTransport:
         session, self._session = self._session, None
         if session is None:
             return
-        for sub in self._subscribers:
-            sub.undeclare()  # type: ignore[no-untyped-call]
+        # Undeclaring ends a watching thread's recv() (ZError); a parked one is released
+        # and sees the session gone.
+        for ch in self._channels:
+            ch.subscriber.undeclare()  # type: ignore[no-untyped-call]
+        for ch in self._channels:
+            ch.resume.set()
+        for ch in self._channels:
+            if ch.thread is not None:
+                ch.thread.join(timeout=1.0)
         for pub in self._publishers.values():
             pub.undeclare()  # type: ignore[no-untyped-call]
         self._publishers.clear()
