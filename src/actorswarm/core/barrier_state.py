@@ -1,0 +1,259 @@
+"""The master's barrier table and the releases in flight (see :mod:`actorswarm.core.barrier`).
+
+The state every part of the master's side shares: the open generation of each key, the
+firings it knows, the releases it retransmits, and what the node drains. The decisions live
+in :mod:`~actorswarm.core.barrier_master` (requests, firing, time) and
+:mod:`~actorswarm.core.barrier_completion` (late requests and failover completion).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.events import BarrierFired
+from actorswarm.core.wire import (
+    COMPLETE,
+    TIMEOUT,
+    BarrierRequest,
+    BarrierStale,
+    Release,
+    ReleaseEntry,
+    ReleaseRecord,
+)
+
+OUTCOME_NAMES = {COMPLETE: "complete", TIMEOUT: "timeout"}
+#: How many past generations a master remembers per key, and members report: a partition
+#: whose other side fired more generations than this cannot be reconciled exactly.
+RECENT_RELEASES = 32
+#: Of those, how many carry their whole assignment in a report (bounds the report's size).
+RECENT_ASSIGNMENTS = 4
+
+#: Resolves the need ``count`` (a number, or NEED_ALL) of (key, part) to the number of
+#: candidates the part waits for now; 0: the part cannot have candidates and does not hold
+#: the barrier back (default: ``count``, and every live platform for NEED_ALL).
+NeedResolver = Callable[[int, int, int], int]
+#: Computes per-participant scatter data: (key, generation, chosen) -> {platform: data}.
+Scatter = Callable[[int, int, list[tuple[int, int, int, BarrierRequest]]], dict[int, Any]]
+
+
+def bid_order(item: tuple[int, BarrierRequest]) -> tuple[float, int]:
+    """Candidates in the order a firing chooses them: lower bid, then lower platform ID."""
+    return (item[1].bid, item[0])
+
+
+@dataclass(slots=True)
+class OpenGeneration:
+    """The open generation of a key: the requests waiting for it and since when."""
+
+    generation: int
+    requests: dict[int, BarrierRequest] = field(default_factory=dict)
+    first_at: float | None = None
+
+
+@dataclass(slots=True)
+class Firing:
+    """What the master knows of the last firing of a key (for completions and late repeats)."""
+
+    generation: int
+    origin: int  # epoch of the master that decided it
+    master: int  # ID of that master: two partitions' masters may claim one epoch number
+    outcome: int
+    sizes: dict[int, int]
+    assigned: dict[int, tuple[int, int]]  # platform -> (part, index); index 0 = not chosen
+    complete_knowledge: bool  # False when rebuilt from member reports after a failover
+    occasions: frozenset[str] = frozenset()  # what the firing's requests were made for
+    entries: dict[int, ReleaseEntry] = field(default_factory=dict)
+    gathered: list[tuple[int, Any]] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class OutgoingRelease:
+    """A release in flight: retransmitted to ``unacked`` until they acknowledge or leave."""
+
+    key: int
+    generation: int
+    origin: int
+    master: int
+    epoch: int
+    outcome: int
+    sizes: dict[int, int]
+    entries: dict[int, ReleaseEntry]
+    gathered: list[tuple[int, Any]]
+    unacked: set[int]
+    deadline: float
+    retries: int = 0
+    due: float = 0.0
+
+    def packets(self, only: Iterable[int] | None, chunk: int) -> list[Release]:
+        """The release as broadcast packets of at most ``chunk`` entries each."""
+        targets = sorted(self.entries) if only is None else sorted(only)
+        out = []
+        for start in range(0, max(len(targets), 1), chunk):
+            part = targets[start : start + chunk]
+            out.append(
+                Release(
+                    epoch=self.epoch,
+                    key=self.key,
+                    generation=self.generation,
+                    outcome=self.outcome,
+                    sizes=self.sizes,
+                    entries=[self.entries[p] for p in part],
+                    gathered=self.gathered,
+                    origin=self.origin,
+                    total=len(self.entries),
+                    origin_master=self.master,
+                )
+            )
+        return out
+
+
+class MasterState:
+    """The master's barrier table; decisions are made by the subclasses."""
+
+    def __init__(
+        self,
+        config: CoreConfig,
+        *,
+        resolve_need: NeedResolver,
+        scatter: Scatter | None = None,
+        platform: int = 0,
+    ) -> None:
+        self._config = config
+        #: This master's ID: with the epoch, the name of the firings it decides.
+        self.platform = platform
+        self._resolve_need = resolve_need
+        #: First retransmission delay of a release (the node plugs in its measured RTT).
+        self.first_retry: Callable[[], float] = lambda: config.retry_base
+        self.scatter = scatter
+        self.open: dict[int, OpenGeneration] = {}
+        # Known firings per key and generation (a generation may have two: partitions that
+        # each fired it). Only the last few generations are kept.
+        self.fired: dict[int, dict[int, list[Firing]]] = {}
+        self.inflight: dict[tuple[int, int, int, int], OutgoingRelease] = {}
+        self.ready = False
+        #: (platform, notice) stale notices to send; drained by the node.
+        self.notices: list[tuple[int, BarrierStale]] = []
+        #: releases to broadcast now; drained by the node.
+        self.broadcasts: list[Release] = []
+        self.events: list[BarrierFired] = []
+        self.failed: list[tuple[int, int, set[int]]] = []
+        # Requests for a generation a previous master fired, waiting to be completed.
+        self._completion_waiting: dict[int, dict[int, BarrierRequest]] = {}
+        # The newest open generation members reported per key.
+        self._known: dict[int, int] = {}
+        # Requests refused while reports may still be on their way (see _refuse).
+        self._doubtful: dict[tuple[int, int], BarrierRequest] = {}
+        self._hold_fire = False
+        self._changed_at = -float("inf")
+        # Requests received during the handshake, with their arrival time.
+        self._staged: dict[tuple[int, int], tuple[BarrierRequest, float]] = {}
+        # Requests older than every firing known of their generation, with how long they
+        # wait for a report of the firing that may have chosen them (see _late_request).
+        self._parked: dict[tuple[int, int], tuple[BarrierRequest, float]] = {}
+
+    def _instance(self, key: int) -> OpenGeneration:
+        inst = self.open.get(key)
+        if inst is None:
+            gens = self.fired.get(key)
+            inst = self.open[key] = OpenGeneration(max(gens) + 1 if gens else 0)
+        return inst
+
+    def _launch(self, key: int, fired: Firing, targets: set[int], now: float, epoch: int) -> None:
+        ident = (key, fired.generation, fired.origin, fired.master)
+        rel = self.inflight.get(ident)
+        if rel is None:
+            rel = OutgoingRelease(
+                key=key,
+                generation=fired.generation,
+                origin=fired.origin,
+                master=fired.master,
+                epoch=epoch,
+                outcome=fired.outcome,
+                sizes=fired.sizes,
+                entries=fired.entries,
+                gathered=fired.gathered,
+                unacked=set(),
+                deadline=now + self._config.delivery_deadline,
+            )
+            self.inflight[ident] = rel
+        rel.epoch = epoch
+        rel.unacked |= targets
+        rel.due = now + self._config.retry_delay(0, self.first_retry())
+        self.broadcasts.extend(rel.packets(targets, self._config.release_chunk))
+
+    def _resend(self, key: int, fired: Firing, platform: int, now: float, epoch: int) -> None:
+        if platform not in fired.entries:
+            part, index = fired.assigned[platform]
+            fired.entries[platform] = ReleaseEntry(platform=platform, part=part, index=index)
+        self._launch(key, fired, {platform}, now, epoch)
+
+    def _prune(self, key: int, keep: int = RECENT_RELEASES) -> None:
+        gens = self.fired.get(key, {})
+        for old in sorted(gens)[:-keep]:
+            del gens[old]
+
+    def _prune_inflight(self) -> None:
+        for k in [k for k, r in self.inflight.items() if not r.unacked]:
+            del self.inflight[k]
+
+    @staticmethod
+    def _free_slot(fired: Firing, part: int) -> int | None:
+        """An index of ``part`` nobody holds in ``fired``; a timeout firing grows instead
+        (everyone waiting passes a timeout)."""
+        used = {i for (p, i) in fired.assigned.values() if p == part and i > 0}
+        size = fired.sizes.get(part, 0)
+        for index in range(1, size + 1):
+            if index not in used:
+                return index
+        if fired.outcome == TIMEOUT:
+            fired.sizes[part] = size + 1
+            return size + 1
+        return None
+
+    def decided(self, platform: int) -> list[ReleaseRecord]:
+        """The firings this master decided or knows in full, as records for a report to its
+        successor: a master that steps down right after a firing may be the only one that
+        knows it (its release may not have reached anyone yet), and without this record its
+        successor could fire the generation again without the first firing's candidates."""
+        out = []
+        for key, gens in self.fired.items():
+            for generation in sorted(gens)[-RECENT_ASSIGNMENTS:]:
+                for fired in gens[generation]:
+                    if not fired.complete_knowledge or not fired.assigned:
+                        continue
+                    part, index = fired.assigned.get(platform, (min(fired.sizes, default=0), 0))
+                    out.append(
+                        ReleaseRecord(
+                            key=key,
+                            generation=generation,
+                            part=part,
+                            index=index,
+                            size=fired.sizes.get(part, 0),
+                            outcome=fired.outcome,
+                            origin=fired.origin,
+                            assignment=dict(fired.assigned),
+                            origin_master=fired.master,
+                        )
+                    )
+        return out
+
+    def request(self, platform: int, req: BarrierRequest, now: float, epoch: int) -> None:
+        """A member's request (:class:`~actorswarm.core.barrier_master.BarrierMaster`)."""
+        raise NotImplementedError
+
+
+__all__ = [
+    "OUTCOME_NAMES",
+    "RECENT_ASSIGNMENTS",
+    "RECENT_RELEASES",
+    "Firing",
+    "MasterState",
+    "NeedResolver",
+    "OpenGeneration",
+    "OutgoingRelease",
+    "Scatter",
+    "bid_order",
+]
