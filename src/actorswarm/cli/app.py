@@ -648,8 +648,14 @@ def demo(
     token: TokenOpt = None,
     speed: SpeedOpt = 1.0,
 ) -> None:
-    """The main job: a shipped mission in the simulator, with progress and pictures."""
-    from actorswarm.cli.demo import run_demo
+    """The main job: a shipped mission in the simulator, with progress and pictures.
+
+    Exit status, as ``sim --expect-complete`` gives it: 0 when the mission went as asked; 1
+    when an invariant was violated; 2 on an unknown mission or a malformed --kill (nothing
+    ran); 3 when a plugin failed during the run (each failure is listed); 4 when the
+    mission did not complete. The summary says which.
+    """
+    from actorswarm.cli.demo import demo_status, run_demo
     from actorswarm.missions import mission as find_mission
     from actorswarm.sim.tasksim import parse_fault
 
@@ -686,8 +692,10 @@ def demo(
         kills=kills,
         console=console,
     )
-    if report["violations"] or not report["completed"]:
-        raise typer.Exit(1)
+    status, lines = demo_status(report, console)
+    for line in lines:
+        typer.echo(line, err=True)
+    raise typer.Exit(status)
 
 
 @app.command("plot")
