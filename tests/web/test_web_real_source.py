@@ -128,3 +128,25 @@ def test_real_source_polls_status_and_sees_the_switch() -> None:
     assert swarm["master"] == 1 and swarm["epoch"] == 2
     assert [m["actors"][0]["name"] for m in swarm["members"][:3]] == ["B", "B", "B"]
     assert result["refused"]["ok"] is False and "simulation" in result["refused"]["message"]
+
+
+def test_a_real_swarm_given_its_world_draws_its_areas_and_judges_area_names() -> None:
+    from actorswarm.world.config import Area, WorldConfig
+
+    world = WorldConfig(areas=(Area.rect("search", 0, 0, 100, 50),))
+    good = (ROOT / "examples" / "search_track_10.xml").read_text()
+    bad = good.replace('value="search"', 'value="serch"')
+
+    async def scenario() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+        source = RealSource(FakeSession(), world=world)  # type: ignore[arg-type]
+        blind = RealSource(FakeSession())  # type: ignore[arg-type]
+        refused = await source.execute(proto.Deploy(id="d", script=bad, name="serch.xml"))
+        unjudged = await blind.execute(proto.Check(id="c", script=bad, name="serch.xml"))
+        return source.hello(), refused, unjudged
+
+    with ThreadPoolExecutor(1) as thread:
+        hello, refused, unjudged = thread.submit(asyncio.run, scenario()).result()
+    assert hello["areas"] == {"search": [[0.0, 0.0], [100.0, 0.0], [100.0, 50.0], [0.0, 50.0]]}
+    assert refused["ok"] is False and refused["targets"] == []
+    assert any("the world has no area 'serch'" in d["message"] for d in refused["diagnostics"])
+    assert unjudged["ok"], unjudged["message"]

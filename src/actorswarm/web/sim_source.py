@@ -154,6 +154,11 @@ class SimSource(SwarmSource):
             for name, polygon in self.sim.world.area_polygons().items()
         }
 
+    def area_names(self) -> list[str] | None:
+        if self.sim.world is None:
+            return None
+        return list(self.sim.world.area_polygons())
+
     # --- stepping ------------------------------------------------------------------------
 
     def _chunk(self) -> float:

@@ -166,6 +166,7 @@ class SwarmSource(abc.ABC):
             publish=self._published,
             on_started=self.use_script,
             timeouts=timeouts,
+            areas=self.area_names,
         )
         self._task: asyncio.Task[None] | None = None
         self._frame_cache: tuple[tuple[Any, ...], dict[str, Any]] | None = None
@@ -217,6 +218,11 @@ class SwarmSource(abc.ABC):
     def areas(self) -> dict[str, list[list[float]]]:
         """The world's areas: name -> polygon."""
         return {}
+
+    def area_names(self) -> list[str] | None:
+        """The names a script deployed from the page must give its ``area`` params: the
+        world's areas, or None when no world is known (the names are then not checked)."""
+        return None
 
     def expected(self) -> Iterable[int]:
         """Platforms to list even when never heard."""
