@@ -165,22 +165,10 @@ def gs_start(
 
 def _vehicle_line(vehicle: dict[str, Any]) -> str:
     """``; vehicle: link up, ardupilot GUIDED, armed, battery 87 %`` (empty without one)."""
-    if not vehicle:
-        return ""
-    parts = [f"link {vehicle['link']}"] if "link" in vehicle else []
-    kind = " ".join(str(vehicle[k]) for k in ("autopilot", "mode") if vehicle.get(k))
-    if kind:
-        parts.append(kind)
-    if "armed" in vehicle:
-        parts.append("armed" if vehicle["armed"] else "disarmed")
-    battery = vehicle.get("battery")
-    if isinstance(battery, int | float) and not isinstance(battery, bool):
-        parts.append(f"battery {100 * battery:.0f} %")
-    if vehicle.get("override"):
-        parts.append(f"operator {vehicle['override']}")
-    if "error" in vehicle:
-        parts.append(f"status failed: {vehicle['error']}")
-    return "; vehicle: " + ", ".join(parts) if parts else ""
+    from actorswarm.ground.vehicle import describe
+
+    said = describe(vehicle)
+    return f"; vehicle: {said}" if said else ""
 
 
 @gs_app.command("status")

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 from actorswarm.daemon.loop import clock
@@ -139,6 +139,10 @@ class RealSource(SwarmSource):
     def script_of(self, platform: int) -> str:
         status = self._status.get(platform)
         return "" if status is None else status.script
+
+    def vehicle_of(self, platform: int) -> Mapping[str, object]:
+        status = self._status.get(platform)
+        return {} if status is None else status.vehicle
 
     def areas(self) -> dict[str, list[list[float]]]:
         if self.world is None:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, Literal, TypeVar
 
 from actorswarm.ground.station import GroundStation
@@ -137,6 +137,11 @@ class SimSource(SwarmSource):
             return ""
         # A platform started by the simulator runs the script it was given, not a deployed one.
         return host.engine.script_sha or self.initial_sha
+
+    def vehicle_of(self, platform: int) -> Mapping[str, object]:
+        # What a status reply would carry: the world's vehicles say nothing of themselves.
+        host = self.sim.hosts.get(platform)
+        return {} if host is None else host.engine.runtime.vehicle_state()
 
     def targets(self) -> list[dict[str, Any]]:
         if self.sim.world is None:
