@@ -219,3 +219,29 @@ def test_demo_refuses_bad_options_clearly(args: list[str], message: str) -> None
     result = runner.invoke(app, ["demo", *args])
     assert result.exit_code == 2
     assert message in result.output
+
+
+def test_demo_lists_plugin_failures_and_exits_3_as_sim_does(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A plugin that raises on every platform: the mission still ends in Return, and the
+    demo lists each failure and exits with sim's plugin-failure status."""
+    from actorswarm.plugins.flight import ReturnHome
+    from actorswarm.sim.verdict import EXIT_PLUGIN_FAILED
+
+    def broken(self: ReturnHome, ctx: object) -> None:
+        raise RuntimeError("the [home] beacon is silent")
+
+    monkeypatch.setattr(ReturnHome, "step", broken)
+    out = tmp_path / "demo"
+    result = runner.invoke(
+        app, ["demo", "--mission", "search-track", "--platforms", "2", "--out", str(out)]
+    )
+    assert result.exit_code == EXIT_PLUGIN_FAILED, result.output
+    assert "PLUGIN FAILURES: 2" in result.stdout
+    lines = [line for line in result.stdout.splitlines() if "plugin flight.return_home" in line]
+    assert len(lines) == 2
+    assert all("actor Return" in line and "the [home] beacon is silent" in line for line in lines)
+    assert "run failed (exit 3): 2 plugin failure(s)" in result.stderr
+    report = json.loads((out / "report.json").read_text())
+    assert sorted(f["platform"] for f in report["plugin_failures"]) == [1, 2]

@@ -26,3 +26,12 @@ def test_the_status_reply_carries_the_vehicle_both_ways() -> None:
     assert isinstance(again, cmds.StatusReply) and again.vehicle == {"link": "up", "armed": False}
     old = cmds.StatusReply(actors={}, master=False, epoch=1, incarnation=0)
     assert cmds.decode_reply(cmds.encode(old)) == old
+
+
+def test_a_lost_link_or_a_failed_status_is_an_alarm() -> None:
+    from actorswarm.ground.vehicle import alarm, describe
+
+    assert alarm({"link": "lost", "armed": True})
+    assert alarm({"error": "RuntimeError: no port"})
+    assert describe({"error": "RuntimeError: no port"}) == "status failed: RuntimeError: no port"
+    assert not alarm({"link": "up", "mode": "GUIDED"}) and not alarm({})

@@ -3,6 +3,8 @@ before they open a session."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from typer.testing import CliRunner
 
@@ -66,3 +68,70 @@ def test_sessions_opened_within_one_second_are_new_incarnations(
     third = ground.session_incarnation()  # the same microsecond, in one process
     assert first < second < third
     assert second == now[0] // 1_000
+
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def _unwarned(stderr: str) -> str:
+    """``stderr`` without the warning every --insecure command prints first."""
+    return "".join(
+        line for line in stderr.splitlines(keepends=True) if not line.startswith("WARNING: ")
+    )
+
+
+class _Sent(Exception):
+    """Raised where gs deploy would open its session: the script got past the checks."""
+
+
+def test_deploy_with_a_world_refuses_an_unknown_area_before_sending(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from actorswarm.cli.swarm_options import Link
+
+    opened: list[str] = []
+
+    def session(self: Link, patience: float | None = None) -> object:
+        opened.append(self.swarm)
+        raise _Sent
+
+    monkeypatch.setattr(Link, "session", session)
+    world = str(EXAMPLES / "worlds" / "search_track_10.toml")
+    good = EXAMPLES / "search_track_10.xml"
+    bad = tmp_path / "serch.xml"
+    bad.write_text(
+        good.read_text().replace(
+            '<param key="area" value="search"/><param key="altitude"',
+            '<param key="area" value="serch"/><param key="altitude"',
+        )
+    )
+    deploy = ["gs", "deploy", "--expect", "10", "--insecure", "--state", str(tmp_path / "s.json")]
+    refused = runner.invoke(app, [*deploy, "--world", world, str(bad)])
+    assert refused.exit_code == 1, refused.output
+    assert opened == [] and not (tmp_path / "s.json").exists()
+    # The very lines task check prints for the same script and world.
+    checked = runner.invoke(app, ["task", "check", "--world", world, str(bad)])
+    assert checked.exit_code == 1
+    assert _unwarned(refused.stderr) == checked.stderr
+    assert "search.area: the world has no area 'serch' (did you mean \"search\"?)" in (
+        refused.stderr
+    )
+    # Without the world the name cannot be judged, and the script goes on to be sent; so
+    # does the right script with the world.
+    for args in ([str(bad)], ["--world", world, str(good)]):
+        result = runner.invoke(app, [*deploy, *args])
+        assert isinstance(result.exception, _Sent), result.output
+    assert opened == ["swarm", "swarm"]
+
+
+def test_deploy_refuses_an_unreadable_world_or_script_with_exit_2(tmp_path: Path) -> None:
+    world = tmp_path / "w.toml"
+    world.write_text("[world]\nstep = -1\n")
+    script = str(EXAMPLES / "branch_merge.xml")
+    deploy = ["gs", "deploy", "--expect", "2", "--insecure"]
+    result = runner.invoke(app, [*deploy, "--world", str(world), script])
+    assert result.exit_code == 2 and str(world) in result.stderr
+    missing = tmp_path / "nope.xml"
+    result = runner.invoke(app, [*deploy, str(missing)])
+    assert result.exit_code == 2
+    assert _unwarned(result.stderr).startswith(f"{missing}: cannot read the file")

@@ -110,3 +110,31 @@ def test_the_writer_refuses_what_the_format_cannot_hold(tmp_path: Path) -> None:
         with pytest.raises(ValueError, match=r"'type'"):
             writer.transition({"type": "x", "t": 0.0})
     assert read_record(tmp_path / "y.jsonl").transitions == []
+
+
+def test_answers_to_the_operators_commands_are_recorded_as_the_platforms_worded_them(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "commands.jsonl"
+    sha = "ab" * 32
+    with RecordWriter(out, {"name": "ops"}) as writer:
+        rec = SwarmRecorder(writer, 10.0)
+        rec.reply(11.0, 1, cmds.DeployAck(sha256=sha))
+        rec.reply(11.5, 2, cmds.Result(command="DeployChunk", ok=False, message="script refused"))
+        started = f"started script {sha[:12]}"
+        rec.reply(12.0, 1, cmds.Result(command="Start", ok=True, message=started))
+        rec.reply(12.25, 2, cmds.Result(command="Force", ok=False, message="no actor 'Z'"))
+        rec.reply(13.0, 1, cmds.BackupReply(generation=4, size=120))
+        # A status reply is the recorder's own business: a transition, not a command.
+        rec.reply(13.5, 1, _status({"Up": "running"}, None))
+        assert rec.commands == 5
+    back = read_record(out)
+    said = [(e["t"], e["what"], e["platform"], e["text"]) for e in back.events]
+    assert said == [
+        (1.0, "command", 1, f"Deploy: confirmed {sha[:12]}"),
+        (1.5, "command", 2, "Deploy FAILED: script refused"),
+        (2.0, "command", 1, f"Start: started script {sha[:12]}"),
+        (2.25, "command", 2, "Force FAILED: no actor 'Z'"),
+        (3.0, "command", 1, "Backup: generation 4, 120 bytes"),
+    ]
+    assert [(tr["t"], tr["to"]) for tr in back.transitions] == [(3.5, "Up")]

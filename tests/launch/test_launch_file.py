@@ -89,6 +89,32 @@ def test_overrides_and_defaults_make_each_daemon_command(tmp_path: Path) -> None
     )
 
 
+def test_the_web_page_gets_the_world_the_simulated_vehicles_share(tmp_path: Path) -> None:
+    for name in ("w.toml", "v.toml"):
+        (tmp_path / name).write_text("[fleet]\ncolumns = 2\n")
+    head = 'swarm = "s1"\nplatforms = "1-4"\ninsecure = true\n'
+
+    def world(text: str) -> Path | None:
+        path = tmp_path / "swarm.toml"
+        path.write_text(head + text)
+        return load_launch(path).shared_world()
+
+    shared = 'vehicle = "sim"\nworld = "w.toml"\n[platform."3-4"]\nvehicle = "none"\n'
+    assert world(shared) == tmp_path / "w.toml"
+    from rich.console import Console
+
+    from actorswarm.launch.runner import Launcher
+
+    path = tmp_path / "web.toml"
+    path.write_text(head + "ports = 7601\nweb = 7700\n" + shared)
+    command = Launcher(load_launch(path), None, Console()).web_command()
+    assert command[command.index("--world") + 1] == str(tmp_path / "w.toml")
+    assert not (tmp_path / "run").exists(), "a launcher starts nothing until it runs"
+    assert world('vehicle = "sim"\nworld = "w.toml"\n[platform.4]\nworld = "v.toml"\n') is None
+    assert world('vehicle = "sim"\n') is None  # the default world: no file to name
+    assert world("") is None  # no simulated vehicle
+
+
 def test_the_shipped_example_starts_ten_platforms_of_the_branch_and_merge_swarm() -> None:
     plan = load_launch(EXAMPLE)
     assert plan.platforms == list(range(1, 11)) and plan.swarm == "branch-merge"

@@ -275,3 +275,63 @@ def test_off_the_loopback_every_request_needs_the_token(
         assert client.get("/api/state", headers=headers).status_code == 200
         with connect(client, f"/ws?token={TOKEN}") as ws:
             assert json.loads(ws.receive_text())["type"] == "hello"
+
+
+def test_a_script_naming_an_area_the_world_lacks_is_refused_before_sending() -> None:
+    """The simulation runs in a world with two areas: a script naming another is refused,
+    checked or deployed, with task check --world's message; the same script is not judged
+    where no world is known."""
+    import dataclasses
+
+    from actorswarm.dsl import load
+    from actorswarm.sim.tasksim import TaskSim
+    from actorswarm.web import Timeouts
+    from actorswarm.world.config import Area, WorldConfig
+
+    good = (ROOT / "examples" / "search_track_10.xml").read_text()
+    bad = good.replace(
+        '<param key="area" value="search"/><param key="altitude"',
+        '<param key="area" value="serch"/><param key="altitude"',
+    )
+    assert bad != good
+    areas = (Area.rect("field", -50, -50, 450, 450), Area.rect("search", 0, 0, 400, 400))
+    world = dataclasses.replace(WorldConfig.defaults(range(1, 11)), areas=areas)
+    expected = [
+        (d.line, d.col, d.message)
+        for d in check(bad, path="serch.xml", areas=["field", "search"]).errors
+    ]
+    assert len(expected) == 1 and "the world has no area 'serch'" in expected[0][2]
+    sim = TaskSim(load(BRANCH_MERGE), seed=1, auto_start=False, world_config=world)
+    source = SimSource(sim, speed=4.0, timeouts=Timeouts(deploy=5.0, command=4.0))
+    with served(source) as client, connect(client) as ws:
+        for op, text, name in [("check", good, "good.xml"), ("check", bad, "serch.xml"),
+                               ("deploy", bad, "serch.xml")]:  # fmt: skip
+            ws.send_text(json.dumps({"op": op, "id": op + name, "script": text, "name": name}))
+            outcome = until(ws, done(op + name))
+            if name == "good.xml":
+                assert outcome["ok"], outcome["message"]
+                continue
+            assert outcome["ok"] is False
+            got = [
+                (d["line"], d["col"], d["message"])
+                for d in outcome["diagnostics"]
+                if d["severity"] == "error"
+            ]
+            assert got == expected
+            assert f"line {expected[0][0]}, column {expected[0][1]}" in outcome["message"]
+            assert outcome["targets"] == []
+        assert source.station.deployed_sha == ""  # nothing was sent
+
+
+def test_without_a_world_area_names_are_not_judged(
+    branch_merge: Callable[..., SimSource],
+) -> None:
+    text = (
+        (ROOT / "examples" / "search_track_10.xml")
+        .read_text()
+        .replace('value="search"', 'value="serch"')
+    )
+    with served(branch_merge()) as client, connect(client) as ws:
+        ws.send_text(json.dumps({"op": "check", "id": "c", "script": text, "name": "s.xml"}))
+        outcome = until(ws, done("c"))
+    assert outcome["ok"], outcome["message"]

@@ -55,6 +55,8 @@ def test_map_counts_platforms_and_an_event_from_the_page_switches_the_swarm(
         _wait(page, "document.querySelector('#map').dataset.platforms === '10'")
         _wait(page, "document.querySelectorAll('#swarm-table tr[data-state=joined]').length === 10")
         assert page.get_attribute("#map", "data-mode") == "schematic"
+        # The simulated vehicles say nothing of themselves: no vehicle column.
+        assert not page.is_visible("#swarm-table th.vehicle")
         _wait(page, "document.querySelector('#graph .node[data-actor=A]').dataset.count === '10'")
 
         page.fill("#event-name", "AtoBC_branch_event")
@@ -175,3 +177,41 @@ def test_the_state_machine_of_a_recall_from_every_actor_is_drawn_apart(page: Any
         x, _, w, _ = n["text"]
         rx = n["rect"][0]
         assert rx < x and x + w <= n["pill"][0] + 0.5, f"{n['actor']} drawn whole: {n}"
+
+
+def test_a_vehicle_whose_link_is_lost_is_shown_in_red(page: Any) -> None:
+    """A real swarm (the stand-in session of test_web_real_source) whose platform 2 lost
+    the link to its autopilot: its row says so in red, the summary counts it, the map
+    rings it; a simulated swarm's table has no vehicle column (its vehicles say nothing)."""
+    import threading
+
+    from test_web_real_source import FakeSession
+
+    from actorswarm.web import RealSource
+
+    session = FakeSession()
+    session.platforms.vehicles = {
+        1: {"link": "up", "autopilot": "ardupilot", "mode": "GUIDED", "armed": True},
+        2: {"link": "lost", "autopilot": "ardupilot", "mode": "GUIDED", "armed": True},
+    }
+    stop = threading.Event()
+
+    def heartbeats() -> None:
+        while not stop.wait(0.05):
+            session.platforms.beat()
+
+    beating = threading.Thread(target=heartbeats, daemon=True)
+    beating.start()
+    try:
+        with Server(RealSource(session, poll=0.2)) as server:  # type: ignore[arg-type]
+            page.goto(server.url)
+            cell = page.wait_for_selector("#swarm-table tr[data-platform='2'] td.vehicle.alarm")
+            assert cell.inner_text() == "link lost, ardupilot GUIDED, armed"
+            ok = page.inner_text("#swarm-table tr[data-platform='1'] td.vehicle")
+            assert ok == "link up, ardupilot GUIDED, armed"
+            assert page.inner_text("#swarm-table tr[data-platform='3'] td.vehicle") == "—"
+            assert "1 vehicle not answering" in page.inner_text("#swarm-summary .vehicle-alarms")
+            _wait(page, "document.querySelector('#map').dataset.vehicleAlarms === '1'")
+    finally:
+        stop.set()
+        beating.join()

@@ -27,6 +27,8 @@ class FakeSwarm:
     def __init__(self, station: GroundStation) -> None:
         self.station = station
         self.actors = {p: {"A": "running"} for p in (1, 2, 3)}
+        #: What each platform's vehicle adapter says of itself (none: nothing).
+        self.vehicles: dict[int, dict[str, Any]] = {}
         station.send = self.answer  # type: ignore[method-assign]
 
     def beat(self) -> None:
@@ -44,7 +46,12 @@ class FakeSwarm:
                     for a, s in self.actors[p].items()
                 }
                 reply = cmds.StatusReply(
-                    actors=dict(self.actors[p]), master=p == 1, epoch=2, incarnation=0, acbs=acbs
+                    actors=dict(self.actors[p]),
+                    master=p == 1,
+                    epoch=2,
+                    incarnation=0,
+                    acbs=acbs,
+                    vehicle=self.vehicles.get(p, {}),
                 )
             elif isinstance(command, cmds.Inject):
                 self.actors[p] = {"B": "running"}
@@ -128,3 +135,58 @@ def test_real_source_polls_status_and_sees_the_switch() -> None:
     assert swarm["master"] == 1 and swarm["epoch"] == 2
     assert [m["actors"][0]["name"] for m in swarm["members"][:3]] == ["B", "B", "B"]
     assert result["refused"]["ok"] is False and "simulation" in result["refused"]["message"]
+
+
+def test_a_real_swarm_given_its_world_draws_its_areas_and_judges_area_names() -> None:
+    from actorswarm.world.config import Area, WorldConfig
+
+    world = WorldConfig(areas=(Area.rect("search", 0, 0, 100, 50),))
+    good = (ROOT / "examples" / "search_track_10.xml").read_text()
+    bad = good.replace('value="search"', 'value="serch"')
+
+    async def scenario() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+        source = RealSource(FakeSession(), world=world)  # type: ignore[arg-type]
+        blind = RealSource(FakeSession())  # type: ignore[arg-type]
+        refused = await source.execute(proto.Deploy(id="d", script=bad, name="serch.xml"))
+        unjudged = await blind.execute(proto.Check(id="c", script=bad, name="serch.xml"))
+        return source.hello(), refused, unjudged
+
+    with ThreadPoolExecutor(1) as thread:
+        hello, refused, unjudged = thread.submit(asyncio.run, scenario()).result()
+    assert hello["areas"] == {"search": [[0.0, 0.0], [100.0, 0.0], [100.0, 50.0], [0.0, 50.0]]}
+    assert refused["ok"] is False and refused["targets"] == []
+    assert any("the world has no area 'serch'" in d["message"] for d in refused["diagnostics"])
+    assert unjudged["ok"], unjudged["message"]
+
+
+def test_the_swarm_view_says_what_each_vehicle_says_and_flags_a_lost_link() -> None:
+    from actorswarm.ground.vehicle import describe
+
+    up = {"link": "up", "autopilot": "ardupilot", "mode": "GUIDED", "armed": True,
+          "battery": 0.5}  # fmt: skip
+    lost = {"link": "lost", "autopilot": "px4", "mode": "", "armed": False, "battery": None}
+
+    async def scenario() -> dict[str, Any]:
+        session = FakeSession()
+        session.platforms.vehicles = {1: up, 2: lost}
+        source = RealSource(session, poll=0.1)  # type: ignore[arg-type]
+        await source.start()
+        try:
+            for _ in range(200):
+                session.platforms.beat()
+                if all(source.acbs(p) is not None for p in (1, 2, 3)):
+                    break
+                await asyncio.sleep(0.02)
+            return source.swarm_view()
+        finally:
+            await source.stop()
+
+    with ThreadPoolExecutor(1) as thread:
+        swarm = thread.submit(asyncio.run, scenario()).result()
+    said = {m["id"]: (m["vehicle"], m["vehicle_alarm"]) for m in swarm["members"]}
+    assert said == {
+        1: ("link up, ardupilot GUIDED, armed, battery 50 %", False),
+        2: ("link lost, px4, disarmed", True),
+        3: ("", False),
+    }
+    assert said[1][0] == describe(up)  # the words of gs status, from the one builder

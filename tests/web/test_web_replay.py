@@ -5,6 +5,7 @@ browser, with pause, pace and seek."""
 
 from __future__ import annotations
 
+import hashlib
 import signal
 import subprocess
 import sys
@@ -112,6 +113,13 @@ def test_a_real_flight_is_recorded_and_plotted(
     assert {(p, "", "Up") for p in (1, 2, 3)} <= moves
     assert {(p, "Up", "Hover") for p in (1, 2, 3)} <= moves
     assert data.masters and len(data.masters[0]["masters"]) == 1
+    # The operator's gs deploy and gs start, as the platforms answered them (gs start
+    # deploys again, idempotently, to learn who has the script: confirmed twice).
+    sha = hashlib.sha256(FLY3.encode()).hexdigest()[:12]
+    answers = [(e["platform"], e["text"]) for e in data.events if e["what"] == "command"]
+    for p in (1, 2, 3):
+        assert answers.count((p, f"Deploy: confirmed {sha}")) == 2, answers
+        assert answers.count((p, f"Start: started script {sha}")) == 1, answers
     assert {(e["what"], e["platform"]) for e in data.events} >= {("joined", p) for p in (1, 2, 3)}
     plotted = subprocess.run(
         [sys.executable, "-m", "actorswarm", "plot", str(out), "--out", str(tmp_path)],
@@ -156,6 +164,10 @@ def test_the_page_plays_the_real_recording_back_with_pause_pace_and_seek(
         # replay pauses itself there.
         page.click("#replay-play")
         page.wait_for_selector("#timeline li[data-from=Up][data-to=Hover]", timeout=30_000)
+        # The operator's start, answered by all three, is on the timeline too.
+        start = page.wait_for_selector("#timeline li.command[data-event^='Start: started']")
+        assert start.get_attribute("data-count") == "3"
+        assert "answered by 3 platforms: 1-3" in start.inner_text()
         _wait_page(page, "document.querySelector('#legend').textContent.includes('Hover3')")
         # Paused at the end, the slider there (its step is 0.1 s).
         _wait_page(
@@ -171,6 +183,41 @@ def test_the_page_plays_the_real_recording_back_with_pause_pace_and_seek(
         )
         _wait_page(page, "document.querySelectorAll('#timeline li').length === 0")
         assert page.is_hidden("#tab-event"), "a replay takes no command"
+
+
+def test_a_replay_puts_the_operators_commands_on_the_timeline(tmp_path: Path) -> None:
+    from actorswarm.sim.record import RecordWriter
+    from actorswarm.web import ReplaySource
+
+    path = tmp_path / "ops.jsonl"
+    with RecordWriter(path, {"name": "ops", "swarm": "s"}) as out:
+        for p in (1, 2):
+            out.event(0.0, "joined", p)
+            out.transition({"t": 0.0, "platform": p, "from": "", "to": "A", "event": "",
+                            "cause": "start"})  # fmt: skip
+        out.event(2.0, "command", 1, "Inject: event go delivered")
+        out.event(2.2, "command", 2, "Inject: event go delivered")
+        for p in (1, 2):
+            out.transition({"t": 2.5, "platform": p, "from": "A", "to": "B", "event": "go",
+                            "cause": "barrier"})  # fmt: skip
+        out.event(5.0, "command", 2, "Pause FAILED: no actor 'C'")
+        out.pose(6.0, 1, 0.0, 0.0, 0.0)
+    source = ReplaySource(read_record(path), playing=False)
+    source.step(3.0)
+    shown = [(s.cause, s.event, s.src, s.dst, s.platforms) for s in source.timeline.steps]
+    assert shown == [
+        ("command", "Inject: event go delivered", "", "", [1, 2]),
+        ("barrier", "go", "A", "B", [1, 2]),
+    ]
+    source.step(3.0)
+    last = source.timeline.steps[-1].to_json()
+    assert (last["cause"], last["event"], last["platforms"]) == (
+        "command", "Pause FAILED: no actor 'C'", [2],
+    )  # fmt: skip
+    # A command is no switch: the actors are the transitions' alone.
+    assert source.frame()["counts"] == {"B": 2}
+    source.seek(2.1)
+    assert [(s.cause, s.platforms) for s in source.timeline.steps] == [("command", [1])]
 
 
 def _wait_page(page: Any, script: str) -> None:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import sys
-from collections.abc import Collection
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -20,6 +19,7 @@ import typer
 from rich.console import Console
 
 from actorswarm import __version__
+from actorswarm.cli.common import check_script, read_world
 from actorswarm.cli.web_cmd import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -29,7 +29,7 @@ from actorswarm.cli.web_cmd import (
     SpeedOpt,
     TokenOpt,
 )
-from actorswarm.dsl import DEFAULT_MAX_BYTES, TaskScript, check_file, to_dot, to_mermaid
+from actorswarm.dsl import DEFAULT_MAX_BYTES, to_dot, to_mermaid
 
 if TYPE_CHECKING:
     from actorswarm.core.config import MembershipKind
@@ -530,7 +530,7 @@ def sim(
             raise typer.Exit(2) from None
     # The world is known here, so the script's area names are checked against it.
     areas = None if world_config is None else [a.name for a in world_config.areas]
-    code, script = _check_script(file, DEFAULT_MAX_BYTES, areas)
+    code, script = check_script(file, DEFAULT_MAX_BYTES, areas)
     if script is None:
         raise typer.Exit(code or 1)
     try:
@@ -648,8 +648,14 @@ def demo(
     token: TokenOpt = None,
     speed: SpeedOpt = 1.0,
 ) -> None:
-    """The main job: a shipped mission in the simulator, with progress and pictures."""
-    from actorswarm.cli.demo import run_demo
+    """The main job: a shipped mission in the simulator, with progress and pictures.
+
+    Exit status, as ``sim --expect-complete`` gives it: 0 when the mission went as asked; 1
+    when an invariant was violated; 2 on an unknown mission or a malformed --kill (nothing
+    ran); 3 when a plugin failed during the run (each failure is listed); 4 when the
+    mission did not complete. The summary says which.
+    """
+    from actorswarm.cli.demo import demo_status, run_demo
     from actorswarm.missions import mission as find_mission
     from actorswarm.sim.tasksim import parse_fault
 
@@ -686,8 +692,10 @@ def demo(
         kills=kills,
         console=console,
     )
-    if report["violations"] or not report["completed"]:
-        raise typer.Exit(1)
+    status, lines = demo_status(report, console)
+    for line in lines:
+        typer.echo(line, err=True)
+    raise typer.Exit(status)
 
 
 @app.command("plot")
@@ -730,22 +738,6 @@ class GraphFormat(StrEnum):
     dot = "dot"
 
 
-def _check_script(
-    path: Path, max_bytes: int, areas: Collection[str] | None = None
-) -> tuple[int, TaskScript | None]:
-    """Check one script, printing its diagnostics on stderr: (exit status, model or None).
-    Status 2 when the file cannot be read, 1 when the script has errors. ``areas``: the
-    world's area names, which every ``area`` param must use (None: not checked)."""
-    try:
-        result = check_file(path, max_bytes=max_bytes, areas=areas)
-    except OSError as exc:
-        typer.echo(f"{path}: cannot read the file: {exc.strerror or exc}", err=True)
-        return 2, None
-    for diagnostic in result.diagnostics:
-        typer.echo(str(diagnostic), err=True)
-    return (0 if result.ok else 1), result.script
-
-
 @task_app.command("check")
 def task_check(
     files: Annotated[list[Path], typer.Argument(help="Task scripts to check.")],
@@ -764,19 +756,10 @@ def task_check(
     plugin names must be one of that world's [[areas]]. Exit status: 0 when every script
     is valid, 1 when any has an error, 2 when a file (or the world) cannot be read.
     """
-    areas: list[str] | None = None
-    if world is not None:
-        from actorswarm.world.config import WorldError, load_world
-
-        try:
-            loaded = load_world(world)
-        except (WorldError, OSError) as exc:
-            typer.echo(str(exc), err=True)
-            raise typer.Exit(2) from None
-        areas = [area.name for area in loaded.areas]
+    areas = None if world is None else [area.name for area in read_world(world).areas]
     status = 0
     for path in files:
-        code, _ = _check_script(path, max_bytes, areas)
+        code, _ = check_script(path, max_bytes, areas)
         if code == 0:
             typer.echo(f"{path}: ok")
         status = max(status, code)
@@ -799,7 +782,7 @@ def task_graph(
     edges are marked (dashed in dot). A script with errors prints its diagnostics on stderr
     and exits 1 (2 when the file cannot be read).
     """
-    code, script = _check_script(file, max_bytes)
+    code, script = check_script(file, max_bytes)
     if script is None:
         raise typer.Exit(code or 1)
     typer.echo(to_mermaid(script) if fmt is GraphFormat.mermaid else to_dot(script), nl=False)

@@ -1,10 +1,20 @@
-"""Small parsers the command-line modules share."""
+"""Small parsers and checks the command-line modules share."""
 
 from __future__ import annotations
 
+from collections.abc import Collection
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 import typer
 
-__all__ = ["id_list", "int_list_or_count"]
+from actorswarm.dsl import DEFAULT_MAX_BYTES
+
+if TYPE_CHECKING:
+    from actorswarm.dsl import TaskScript
+    from actorswarm.world.config import WorldConfig
+
+__all__ = ["check_script", "id_list", "int_list_or_count", "read_world"]
 
 
 def id_list(text: str, flag: str) -> list[int]:
@@ -30,3 +40,34 @@ def int_list_or_count(text: str, flag: str) -> list[int]:
             raise typer.Exit(2)
         return list(range(1, count + 1))
     return id_list(stripped, flag)
+
+
+def read_world(path: Path) -> WorldConfig:
+    """The world file at ``path``; its problem (naming the file and the key) and exit 2
+    when it cannot be read or is not a valid world."""
+    from actorswarm.world.config import WorldError, load_world
+
+    try:
+        return load_world(path)
+    except (WorldError, OSError) as exc:
+        typer.echo(str(exc), err=True)
+        raise typer.Exit(2) from None
+
+
+def check_script(
+    path: Path, max_bytes: int = DEFAULT_MAX_BYTES, areas: Collection[str] | None = None
+) -> tuple[int, TaskScript | None]:
+    """Check one script, printing its diagnostics on stderr as ``FILE:LINE:COL: message``:
+    (exit status, model or None). Status 2 when the file cannot be read, 1 when the script
+    has errors. ``areas``: the world's area names, which every ``area`` param must use
+    (None: not checked)."""
+    from actorswarm.dsl import check_file
+
+    try:
+        result = check_file(path, max_bytes=max_bytes, areas=areas)
+    except OSError as exc:
+        typer.echo(f"{path}: cannot read the file: {exc.strerror or exc}", err=True)
+        return 2, None
+    for diagnostic in result.diagnostics:
+        typer.echo(str(diagnostic), err=True)
+    return (0 if result.ok else 1), result.script

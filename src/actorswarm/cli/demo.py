@@ -6,6 +6,9 @@ actor to which, on what event, and how long the switch took from the first platf
 last), then the pictures (trajectories and timeline), the recording and the JSON report in
 the output directory, and a one-screen summary. ``realtime`` paces the run to the wall
 clock; by default it runs as fast as the machine allows.
+
+The exit status is :func:`actorswarm.sim.verdict.verdict`'s, with completion expected (a
+shipped mission is meant to complete): :func:`demo_status` says it and why.
 """
 
 from __future__ import annotations
@@ -23,10 +26,11 @@ from rich.table import Table
 from actorswarm.missions import Mission
 from actorswarm.sim.mission import prepare, run_slices
 from actorswarm.sim.record import read_record, write_record
-from actorswarm.sim.tasksim import steps
+from actorswarm.sim.tasksim import failure_lines, steps
+from actorswarm.sim.verdict import verdict
 from actorswarm.viz import timeline_png, trajectory_png
 
-__all__ = ["describe_steps", "run_demo"]
+__all__ = ["demo_status", "describe_steps", "run_demo"]
 
 
 def describe_steps(records: list[dict[str, Any]]) -> list[str]:
@@ -39,6 +43,18 @@ def describe_steps(records: list[dict[str, Any]]) -> list[str]:
             f"switched within {(last - first) * 1000.0:.0f} ms"
         )
     return lines
+
+
+def demo_status(report: dict[str, Any], console: Console) -> tuple[int, list[str]]:
+    """Print every plugin failure of a finished mission's ``report`` on ``console`` (one
+    line each, as ``actorswarm sim`` lists them) and return the exit status with why the
+    run failed, one line (none when it went as asked). The status is the one
+    ``actorswarm sim --expect-complete`` gives the same run: 0 as asked, 1 an invariant
+    violated, 3 a plugin failed, 4 the mission did not complete."""
+    for line in failure_lines(report["plugin_failures"]):
+        # Not markup: an error message may hold brackets.
+        console.print(line, markup=False, highlight=False, soft_wrap=True, style="red")
+    return verdict(report, expect_complete=True)
 
 
 def _summary_table(report: dict[str, Any], mission: Mission) -> Table:

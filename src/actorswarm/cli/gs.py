@@ -18,7 +18,7 @@ from typing import Annotated, Any
 
 import typer
 
-from actorswarm.cli.common import int_list_or_count
+from actorswarm.cli.common import check_script, int_list_or_count, read_world
 from actorswarm.cli.swarm_options import (
     ConnectOpt,
     InsecureOpt,
@@ -50,18 +50,30 @@ def gs_deploy(
     state: Annotated[Path | None, typer.Option(help="Where to remember the deployment.")] = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
+    world: Annotated[
+        Path | None,
+        typer.Option(
+            help="The world (TOML) the swarm flies in: refuse a script naming an area it "
+            "does not have, before anything is sent."
+        ),
+    ] = None,
 ) -> None:
-    """Send a script to the swarm and wait until every expected platform confirmed it."""
-    from actorswarm.dsl import check_file
+    """Send a script to the swarm and wait until every expected platform confirmed it.
 
+    The script is checked first, as task check does (with --world, its area names too):
+    a script with errors is not sent, its diagnostics go to stderr as FILE:LINE:COL:
+    message, and the exit status is 1 (2 when the script or the world cannot be read)."""
     ln = link(swarm, connect, listen, multicast, keys, insecure)
     platforms = int_list_or_count(expect, "--expect")
-    result = check_file(file)
-    if result.script is None or not result.ok:
-        for d in result.diagnostics:
-            typer.echo(str(d), err=True)
-        raise typer.Exit(1)
-    data = file.read_bytes()
+    areas = None if world is None else [area.name for area in read_world(world).areas]
+    code, script = check_script(file, areas=areas)
+    if script is None or code:
+        raise typer.Exit(code or 1)
+    try:
+        data = file.read_bytes()
+    except OSError as exc:  # removed or made unreadable since it was checked
+        typer.echo(f"{file}: cannot read the file: {exc.strerror or exc}", err=True)
+        raise typer.Exit(2) from None
 
     async def go() -> tuple[str, list[int], list[int], list[str]]:
         async with ln.session(timeout) as gs:
@@ -153,22 +165,10 @@ def gs_start(
 
 def _vehicle_line(vehicle: dict[str, Any]) -> str:
     """``; vehicle: link up, ardupilot GUIDED, armed, battery 87 %`` (empty without one)."""
-    if not vehicle:
-        return ""
-    parts = [f"link {vehicle['link']}"] if "link" in vehicle else []
-    kind = " ".join(str(vehicle[k]) for k in ("autopilot", "mode") if vehicle.get(k))
-    if kind:
-        parts.append(kind)
-    if "armed" in vehicle:
-        parts.append("armed" if vehicle["armed"] else "disarmed")
-    battery = vehicle.get("battery")
-    if isinstance(battery, int | float) and not isinstance(battery, bool):
-        parts.append(f"battery {100 * battery:.0f} %")
-    if vehicle.get("override"):
-        parts.append(f"operator {vehicle['override']}")
-    if "error" in vehicle:
-        parts.append(f"status failed: {vehicle['error']}")
-    return "; vehicle: " + ", ".join(parts) if parts else ""
+    from actorswarm.ground.vehicle import describe
+
+    said = describe(vehicle)
+    return f"; vehicle: {said}" if said else ""
 
 
 @gs_app.command("status")

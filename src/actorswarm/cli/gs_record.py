@@ -4,8 +4,10 @@ simulation.
 A ground-station session (the same one the other ``gs`` commands open, with their swarm,
 endpoint and key options) listens to the heartbeats and asks every platform heard for its
 status every ``--poll`` seconds; a :class:`~actorswarm.ground.recorder.SwarmRecorder`
-writes the poses, the actors' switches, the masters and the joins and leaves to OUT as
-they come (:class:`~actorswarm.sim.record.RecordWriter`). A progress line on stderr says
+writes the poses, the actors' switches, the masters, the joins and leaves, and the
+platforms' answers to the operator's commands (what a recorder can see of those: see
+:mod:`actorswarm.ground.recorder`) to OUT as they come
+(:class:`~actorswarm.sim.record.RecordWriter`). A progress line on stderr says
 how much was recorded. Ctrl-C (or ``--duration``) ends the recording; every line written
 is whole and flushed, so the file is a well-formed recording however it stops.
 
@@ -66,8 +68,9 @@ def gs_record(
         str, typer.Option(help="The recording's name (plot titles); default: the swarm's.")
     ] = "",
 ) -> None:
-    """Record a real swarm (poses, actors' switches, masters, joins and leaves) until Ctrl-C,
-    in the format sim --record writes: draw it with plot, replay it with web --replay."""
+    """Record a real swarm (poses, actors' switches, masters, joins and leaves, the
+    platforms' answers to the operator's commands) until Ctrl-C, in the format sim --record
+    writes: draw it with plot, replay it with web --replay."""
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
     from actorswarm.ground.recorder import SwarmRecorder
@@ -97,7 +100,8 @@ def gs_record(
         text = (
             f"recording {out}: {clock() - recorder.t0:6.1f} s, "
             f"{len(membership.alive())} platforms up, {lines.get('pose', 0)} poses, "
-            f"{lines.get('transition', 0)} transitions, {lines.get('master', 0)} master changes"
+            f"{lines.get('transition', 0)} transitions, {lines.get('master', 0)} master changes, "
+            f"{recorder.commands} command answers"
         )
         if show or final:
             typer.echo(("\r" if show else "") + text, err=True, nl=final)
@@ -116,8 +120,9 @@ def gs_record(
             answered = clock()
             while end is None or clock() < end:
                 for record in station.replies:
+                    # Besides status: other sessions' commands answered (the module doc).
+                    recorder.reply(record.t, record.platform, record.reply)
                     if isinstance(record.reply, cmds.StatusReply):
-                        recorder.status(record.t, record.platform, record.reply)
                         answered = record.t
                 station.replies.clear()
                 now = clock()

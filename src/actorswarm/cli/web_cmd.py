@@ -211,14 +211,24 @@ def gs_web(
     host: HostOpt = DEFAULT_HOST,
     port: PortOpt = DEFAULT_PORT,
     token: TokenOpt = None,
+    world: Annotated[
+        Path | None,
+        typer.Option(
+            help="The world (TOML) the swarm flies in: its areas are drawn, and a script "
+            "deployed from the page must name only those."
+        ),
+    ] = None,
 ) -> None:
     """The web ground station for a real swarm: a live view and the operator's controls
     in the browser. Open the address it prints."""
+    from actorswarm.cli.common import read_world
+
     ln = link(swarm, connect, listen, multicast, keys, insecure)
+    known_world = None if world is None else read_world(world)
     drawn, sha = _known_script(script, state or default_state_file(swarm))
     from actorswarm.web.real_source import RealSource
 
-    source = RealSource(ln.session(), script=drawn, sha=sha, poll=poll)
+    source = RealSource(ln.session(), script=drawn, sha=sha, poll=poll, world=known_world)
     _serve(source, host, port, token)
 
 

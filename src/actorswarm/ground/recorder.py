@@ -12,7 +12,23 @@ recording (:mod:`actorswarm.sim.record`, the format ``actorswarm sim --record`` 
 * the heartbeats (the station's ``heard`` and ``state``, through a
   :class:`~actorswarm.web.membership.Membership`) give ``master`` lines when the platforms
   claiming mastership or the epoch change, and ``event`` lines when a platform joins or
-  leaves.
+  leaves;
+* every other reply is a platform's answer to an operator's command — another ``gs``
+  command, or the web ground station, since the recorder itself only asks for status —
+  and gives an ``event`` line ``command`` (:func:`command_text`: the command, whether it
+  was carried out, what the platform said).
+
+What the recorder can know of the operator's commands is what the platforms answer, not
+what was sent. A platform's replies go to the ground station's one key (``to/0``) as one
+reliable stream, whichever session they answer, so every session listening hears them
+all; the commands themselves go to each platform's own key and carry the sending
+session's signature, so no other session hears them. Hence a command is recorded once per
+platform that answered it, dated by the answer's arrival, as the platform worded it
+(``Inject: event go_event delivered``; the targets, the ``--actors`` filter and a force's
+params are not in an answer). A command no platform answered is not recorded; nor is an
+operator's ``gs status`` (a status reply cannot be told from one to the recorder's own
+request); and an answer the recorder missed on the radio while the session it answered
+acknowledged it is not sent again (the reliable stream then skips it).
 
 Times are seconds since the recording began (``t0`` on the station's clock). The recorder
 is sans-IO: the caller polls and feeds it (:mod:`actorswarm.cli.gs_record`).
@@ -29,7 +45,7 @@ if TYPE_CHECKING:
     from actorswarm.sim.record import RecordWriter
     from actorswarm.web.membership import Membership
 
-__all__ = ["SwarmRecorder", "observed"]
+__all__ = ["SwarmRecorder", "command_text", "observed"]
 
 
 def observed(
@@ -55,6 +71,21 @@ def observed(
     return out
 
 
+def command_text(reply: cmds.Reply) -> str | None:
+    """How a platform's answer to an operator's command reads in a recording: the command,
+    ``FAILED`` when it was not carried out, and what the platform said (``Start: started
+    script 3f2a9c01b7e4``, ``Inject: event go delivered``). None for a status reply."""
+    if isinstance(reply, cmds.StatusReply):
+        return None
+    if isinstance(reply, cmds.DeployAck):
+        return f"Deploy: confirmed {reply.sha256[:12]}"
+    if isinstance(reply, cmds.BackupReply):
+        return f"Backup: generation {reply.generation}, {reply.size} bytes"
+    # A script refused is a failed chunk: the operator asked for a deployment.
+    command = "Deploy" if reply.command == "DeployChunk" else reply.command
+    return f"{command}{'' if reply.ok else ' FAILED'}: {reply.message}"
+
+
 #: A platform that moved less than this (m) between two replies keeps its heading.
 _MOVED = 0.3
 
@@ -69,10 +100,23 @@ class SwarmRecorder:
         self._where: dict[int, tuple[float, float, float, float]] = {}
         self._masters: tuple[tuple[int, ...], int | None] | None = None
         self._states: dict[int, str] = {}
+        #: Answers to operator commands recorded.
+        self.commands = 0
 
     def t(self, now: float) -> float:
         """The recording's time of station time ``now``."""
         return round(max(0.0, now - self.t0), 3)
+
+    def reply(self, now: float, platform: int, reply: cmds.Reply) -> None:
+        """Any reply of ``platform`` received at ``now``: a status reply (:meth:`status`),
+        or an answer to an operator's command (an ``event`` line ``command``)."""
+        if isinstance(reply, cmds.StatusReply):
+            self.status(now, platform, reply)
+            return
+        text = command_text(reply)
+        if text is not None:
+            self.out.event(self.t(now), "command", platform, text)
+            self.commands += 1
 
     def status(self, now: float, platform: int, reply: cmds.StatusReply) -> None:
         """A status reply of ``platform`` received at ``now`` (station clock)."""

@@ -89,6 +89,13 @@ class LaunchFile:
     def platforms(self) -> list[int]:
         return [plan.platform for plan in self.plans]
 
+    def shared_world(self) -> Path | None:
+        """The world file every simulated vehicle flies in, when they share one (what the
+        web ground station launched beside them draws and checks deployed scripts against);
+        None when no vehicle is simulated, one flies the default world, or they differ."""
+        worlds = {plan.world for plan in self.plans if plan.vehicle == "sim"}
+        return worlds.pop() if len(worlds) == 1 else None
+
     def daemon_args(self, plan: PlatformPlan) -> list[str]:
         """The daemon options of ``plan`` that the file sets (the swarm, endpoints, keys
         and state directory come from :class:`~actorswarm.daemon.launch.LocalSwarm`)."""

@@ -89,11 +89,15 @@ class Launcher:
     # --- the web ground station ---------------------------------------------------------
 
     def web_command(self) -> list[str]:
-        """``actorswarm gs web`` for this swarm (its name, keys and endpoints)."""
+        """``actorswarm gs web`` for this swarm (its name, keys and endpoints, and the world
+        its simulated vehicles share)."""
         assert self.plan.web is not None
         cmd = [sys.executable, "-m", "actorswarm", "gs", "web", "--swarm", self.plan.swarm,
                "--port", str(self.plan.web)]  # fmt: skip
         cmd += ["--insecure"] if self.plan.insecure else ["--keys", str(self._keys)]
+        world = self.plan.shared_world()
+        if world is not None:
+            cmd += ["--world", str(world)]
         if self.swarm.endpoints:
             cmd.append("--no-multicast")
         for endpoint in self.swarm.endpoints:

@@ -21,7 +21,7 @@ import contextlib
 import hashlib
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol, TypeVar
 
@@ -145,7 +145,10 @@ class Operator:
 
     ``heard()`` lists the platforms a request without a platform list goes to;
     ``publish(outcome)`` is called on every change of an outcome; ``on_started(script)``
-    when a script deployed from the page was started by at least one platform.
+    when a script deployed from the page was started by at least one platform. ``areas()``
+    names the areas of the world the swarm flies in (None: no world known): a script
+    checked or deployed from the page must name only those, as ``actorswarm task check
+    --world`` demands, or it is refused before anything is sent.
     """
 
     def __init__(
@@ -157,6 +160,7 @@ class Operator:
         publish: Callable[[Outcome], None],
         on_started: Callable[[TaskScript, str], None] | None = None,
         timeouts: Timeouts | None = None,
+        areas: Callable[[], Collection[str] | None] | None = None,
     ) -> None:
         self.driver = driver
         self.now = now
@@ -164,6 +168,7 @@ class Operator:
         self.publish = publish
         self.on_started = on_started
         self.timeouts = timeouts or Timeouts()
+        self.areas = areas or (lambda: None)
         self.scripts: dict[str, TaskScript] = {}
         self._lock = asyncio.Lock()
         self._waiting: _Waiting | None = None
@@ -294,7 +299,7 @@ class Operator:
             st.send(command, targets, now)
 
     def _checked(self, text: str, name: str, outcome: Outcome) -> tuple[TaskScript | None, Outcome]:
-        result = check(text, path=name)
+        result = check(text, path=name, areas=self.areas())
         outcome.diagnostics = [
             {"line": d.line, "col": d.col, "message": d.message, "severity": d.severity}
             for d in result.diagnostics

@@ -11,13 +11,17 @@ Where the platforms are comes with their status replies (position and velocity, 
 platforms with a vehicle; the map lays the others out by actor). What a real swarm does
 not tell is when exactly each switch happened: the timeline's steps of a real swarm are
 the changes between two status replies (cause ``observed``), as coarse as the polling.
+
+Nor does a real swarm tell which world it flies in: given one (``world``, what ``gs web
+--world`` reads), the map draws its areas and a script deployed from the page must name
+only those areas, as ``actorswarm task check --world`` demands.
 """
 
 from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 from actorswarm.daemon.loop import clock
@@ -30,6 +34,7 @@ from actorswarm.web.source import PlatformRow, SwarmSource
 
 if TYPE_CHECKING:
     from actorswarm.daemon.ground import GroundSession
+    from actorswarm.world.config import WorldConfig
 
 __all__ = ["RealSource", "observed"]
 
@@ -73,11 +78,13 @@ class RealSource(SwarmSource):
         sha: str = "",
         poll: float = 1.0,
         timeouts: Timeouts | None = None,
+        world: WorldConfig | None = None,
     ) -> None:
         if poll <= 0:
             raise ValueError(f"poll must be > 0 seconds, not {poll}")
         self.session = session
         self.poll = poll
+        self.world = world
         #: When the session started, on the station's clock (what the page counts from).
         self.t0 = clock()
         self._status: dict[int, cmds.StatusReply] = {}
@@ -132,6 +139,18 @@ class RealSource(SwarmSource):
     def script_of(self, platform: int) -> str:
         status = self._status.get(platform)
         return "" if status is None else status.script
+
+    def vehicle_of(self, platform: int) -> Mapping[str, object]:
+        status = self._status.get(platform)
+        return {} if status is None else status.vehicle
+
+    def areas(self) -> dict[str, list[list[float]]]:
+        if self.world is None:
+            return {}
+        return {a.name: [[x, y] for x, y in a.polygon] for a in self.world.areas}
+
+    def area_names(self) -> list[str] | None:
+        return None if self.world is None else [a.name for a in self.world.areas]
 
     def on_reply(self, record: ReplyRecord) -> None:
         reply = record.reply

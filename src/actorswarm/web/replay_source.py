@@ -11,7 +11,12 @@ the recording holds at the replay's time:
 * actors from the transitions (:func:`~actorswarm.sim.record.actor_timeline`);
 * masters from the ``master`` lines, membership from the ``event`` lines (``joined``,
   ``left``): without them (a simulation's recording), a platform counts as joined from its
-  first line on.
+  first line on;
+* the operator's commands from the ``event`` lines ``command`` (``gs record`` writes one
+  per platform that answered a command, :mod:`actorswarm.ground.recorder`): on the
+  timeline among the collective transitions, as steps of cause ``command`` named by the
+  answer (``Inject: event go delivered``), one step for the platforms that answered alike
+  within a second.
 
 Nothing can be commanded: a recording is the past. Seeking backwards rebuilds the
 timeline up to the new time and tells every page afresh (``hello``).
@@ -75,8 +80,11 @@ class ReplaySource(SwarmSource):
         self._transitions = sorted(recording.transitions, key=lambda tr: float(tr["t"]))
         self._events = sorted(recording.events, key=lambda e: float(e["t"]))
         self._master_lines = sorted(recording.masters, key=lambda m: float(m["t"]))
-        self._times = [float(tr["t"]) for tr in self._transitions]
-        self._shown = 0  # transitions handed to the timeline
+        #: What the timeline shows, in time order: the transitions and the commands.
+        commands = [_command_record(e) for e in self._events if e["what"] == "command"]
+        self._on_timeline = sorted([*self._transitions, *commands], key=lambda r: float(r["t"]))
+        self._times = [float(r["t"]) for r in self._on_timeline]
+        self._shown = 0  # records handed to the timeline
         self._spans = actor_timeline(self._transitions)
         self._paths = {p: recording.path(p) for p in recording.platforms()}
         self._headings = {
@@ -251,10 +259,10 @@ class ReplaySource(SwarmSource):
         return set(latest["masters"]), latest["epoch"]
 
     def _advance(self) -> None:
-        """Hand the timeline the transitions up to now."""
+        """Hand the timeline the transitions and commands up to now."""
         upto = bisect.bisect_right(self._times, self._t)
         if upto > self._shown:
-            self.record(self._transitions[self._shown : upto])
+            self.record(self._on_timeline[self._shown : upto])
             self._shown = upto
         self._hear(self._t)
 
@@ -275,3 +283,16 @@ class ReplaySource(SwarmSource):
             self._advance()
             self.look()
             await asyncio.sleep(self.period)
+
+
+def _command_record(event: dict[str, Any]) -> dict[str, Any]:
+    """A ``command`` event line as a timeline record: no actor left or entered, the
+    platform's answer as the event, cause ``command``."""
+    return {
+        "t": float(event["t"]),
+        "platform": int(event["platform"]),
+        "from": "",
+        "to": "",
+        "event": str(event["text"]),
+        "cause": "command",
+    }

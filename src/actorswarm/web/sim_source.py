@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, Literal, TypeVar
 
 from actorswarm.ground.station import GroundStation
@@ -138,6 +138,11 @@ class SimSource(SwarmSource):
         # A platform started by the simulator runs the script it was given, not a deployed one.
         return host.engine.script_sha or self.initial_sha
 
+    def vehicle_of(self, platform: int) -> Mapping[str, object]:
+        # What a status reply would carry: the world's vehicles say nothing of themselves.
+        host = self.sim.hosts.get(platform)
+        return {} if host is None else host.engine.runtime.vehicle_state()
+
     def targets(self) -> list[dict[str, Any]]:
         if self.sim.world is None:
             return []
@@ -153,6 +158,11 @@ class SimSource(SwarmSource):
             name: [[x, y] for x, y in polygon]
             for name, polygon in self.sim.world.area_polygons().items()
         }
+
+    def area_names(self) -> list[str] | None:
+        if self.sim.world is None:
+            return None
+        return list(self.sim.world.area_polygons())
 
     # --- stepping ------------------------------------------------------------------------
 

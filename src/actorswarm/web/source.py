@@ -51,11 +51,12 @@ import asyncio
 import contextlib
 import logging
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal, TypeVar
 
 from actorswarm.dsl.model import TaskScript
+from actorswarm.ground import vehicle as vehicles
 from actorswarm.ground.station import GroundStation, ReplyRecord
 from actorswarm.web import protocol as proto
 from actorswarm.web.graph_layout import layout
@@ -166,6 +167,7 @@ class SwarmSource(abc.ABC):
             publish=self._published,
             on_started=self.use_script,
             timeouts=timeouts,
+            areas=self.area_names,
         )
         self._task: asyncio.Task[None] | None = None
         self._frame_cache: tuple[tuple[Any, ...], dict[str, Any]] | None = None
@@ -210,6 +212,11 @@ class SwarmSource(abc.ABC):
         """The SHA-256 of the script ``platform`` runs ("" when unknown)."""
         return ""
 
+    def vehicle_of(self, platform: int) -> Mapping[str, object]:
+        """What ``platform``'s vehicle adapter says of itself (a status reply's ``vehicle``:
+        link, autopilot, mode...); empty when it says nothing or is unknown."""
+        return {}
+
     def targets(self) -> list[dict[str, Any]]:
         """Moving targets: ``{"name", "x", "y"}``."""
         return []
@@ -217,6 +224,11 @@ class SwarmSource(abc.ABC):
     def areas(self) -> dict[str, list[list[float]]]:
         """The world's areas: name -> polygon."""
         return {}
+
+    def area_names(self) -> list[str] | None:
+        """The names a script deployed from the page must give its ``area`` params: the
+        world's areas, or None when no world is known (the names are then not checked)."""
+        return None
 
     def expected(self) -> Iterable[int]:
         """Platforms to list even when never heard."""
@@ -412,6 +424,7 @@ class SwarmSource(abc.ABC):
                     "epoch": m.epoch,
                     "script": self.script_of(p)[:12],
                     "actors": [_summary(a) for a in acbs.values()],
+                    **_vehicle(self.vehicle_of(p)),
                 }
             )
         return {
@@ -479,3 +492,10 @@ def _summary(acb: dict[str, Any]) -> dict[str, Any]:
         "steps": stats.get("steps", 0),
         "errors": stats.get("error_count", 0),
     }
+
+
+def _vehicle(said: Mapping[str, object]) -> dict[str, Any]:
+    """What the swarm table and the map's tooltip show of a platform's vehicle: the words
+    of ``actorswarm gs status`` ("" when it said nothing), and whether it is an alarm (the
+    link lost, its status failed)."""
+    return {"vehicle": vehicles.describe(said), "vehicle_alarm": vehicles.alarm(said)}

@@ -8,6 +8,10 @@ incrementally: a step can grow after it was first shown, so each has an ``id`` a
 replaces it). Each step names its barrier group — the ``barrierKey`` of the transition it
 came from, looked up in the running script — and its switch time, from the first
 participant to the last. Starts are not steps; a long run keeps the last :data:`KEEP`.
+
+A recording's operator commands come as records of cause ``command`` (no ``from`` or
+``to``, the platform's answer as the ``event``): the platforms that answered alike make one
+step, shown as a command rather than a switch.
 """
 
 from __future__ import annotations

@@ -148,6 +148,7 @@ function frame(m) {
 
 function swarmView(m) {
   swarm.update(m, state.names, state.t0);
+  map.setVehicles(m.members);
   const joined = m.members.filter((x) => x.state === "joined").length;
   $("master").textContent = m.master == null ? "none" : String(m.master);
   $("epoch").textContent = m.epoch == null ? "—" : String(m.epoch);

@@ -7,14 +7,19 @@
 // lays the platforms out by actor, one cluster per actor, and moves them between clusters
 // as they switch — the collective transitions are still there to see.
 //
+// A platform whose vehicle does not answer (the link to it lost, as the swarm table says
+// in red) gets a red dashed ring, and its tooltip says what the vehicle said last.
+//
 // The canvas carries what it drew in data attributes (data-platforms, data-alive, data-t,
-// data-mode, data-draw-ms), so tests and scripts can read the rendered state.
+// data-mode, data-draw-ms, data-vehicle-alarms), so tests and scripts can read the
+// rendered state.
 
 import { colour } from "./util.js";
 
 const TRAIL_SECONDS = 30; // of the source's time
 const TRAIL_POINTS = 200;
 const MASTER_RING = "#ffd166";
+const ALARM_RING = "#ff5d6c";
 
 function lerp(a, b, t) {
   return a + (b - a) * t;
@@ -46,6 +51,7 @@ export class SwarmMap {
     this.curAt = 0;
     this.interval = 100;
     this.areas = {};
+    this.vehicles = new Map();
     this.trails = new Map();
     this.view = { cx: 0, cy: 0, scale: 2 };
     this.fitted = false;
@@ -67,6 +73,12 @@ export class SwarmMap {
   setHistory(samples) {
     this.trails.clear();
     for (const s of samples || []) this.addTrails(s);
+  }
+
+  /** The swarm message's members: what each platform's vehicle said, for the rings and
+   * the tooltip. */
+  setVehicles(members) {
+    this.vehicles = new Map(members.map((m) => [m.id, { text: m.vehicle || "", alarm: !!m.vehicle_alarm }]));
   }
 
   setAreas(areas) {
@@ -271,6 +283,13 @@ export class SwarmMap {
     if (f.x && f.x[i] != null) {
       const hd = ((90 - (f.hd[i] * 180) / Math.PI) % 360 + 360) % 360; // compass heading
       bits.push(`x ${f.x[i].toFixed(0)} m, y ${f.y[i].toFixed(0)} m, heading ${hd.toFixed(0)}°`);
+    }
+    const vehicle = this.vehicles.get(hit.id);
+    if (vehicle && vehicle.text) {
+      const span = document.createElement("span"); // the adapter's words, as text
+      span.textContent = `vehicle: ${vehicle.text}`;
+      if (vehicle.alarm) span.style.color = ALARM_RING;
+      bits.push(span.outerHTML);
     }
     tip.innerHTML = bits.join(" · ");
     tip.hidden = false;
@@ -480,6 +499,7 @@ export class SwarmMap {
     const labels = this.showIds && (n <= 60 || this.view.scale > 4);
     this.drawn = [];
     ctx.font = "10px ui-monospace, monospace";
+    let alarms = 0;
     for (let i = 0; i < n; i++) {
       const pose = this.pose(f, i);
       if (!pose) continue;
@@ -528,6 +548,14 @@ export class SwarmMap {
         }
       }
       ctx.restore();
+      if (this.vehicles.get(id)?.alarm) {
+        alarms++;
+        ctx.strokeStyle = ALARM_RING;
+        ctx.setLineDash([4, 3]);
+        ctx.lineWidth = 2;
+        ctx.beginPath(); ctx.arc(sx, sy, size * 2.3, 0, 2 * Math.PI); ctx.stroke();
+        ctx.setLineDash([]);
+      }
       if (id === this.selected) {
         ctx.strokeStyle = "#ffffff";
         ctx.setLineDash([3, 3]);
@@ -540,6 +568,7 @@ export class SwarmMap {
         ctx.fillText(flags & 1 ? `${id} M` : `${id}`, sx + size + 3, sy - size + 1);
       }
     }
+    this.canvas.dataset.vehicleAlarms = String(alarms);
   }
 }
 

@@ -1,7 +1,9 @@
 // The swarm panel: who is there (joined, left, never heard; last heard), the master and
-// epoch, each platform's actors with their control block's status and statistics, and —
-// for the platform picked on the map or in the table — every control block in full.
-// Without a pick, the side shows when platforms joined and left.
+// epoch, each platform's actors with their control block's status and statistics, what its
+// vehicle says of itself (link, autopilot and mode, arming, battery — in red when the link
+// is lost; the column shows only when some vehicle says anything), and — for the platform
+// picked on the map or in the table — every control block in full. Without a pick, the
+// side shows when platforms joined and left.
 
 import { actorColour, chip, clock, el } from "./util.js";
 
@@ -46,10 +48,14 @@ export class SwarmPanel {
     const left = members.filter((m) => m.state === "left").length;
     const unheard = members.filter((m) => m.state === "unheard").length;
     const masters = swarm.masters.length > 1 ? ` · ${swarm.masters.length} masters (partition?)` : "";
-    this.summary.textContent =
-      `${joined} joined · ${left} left` + (unheard ? ` · ${unheard} never heard` : "") + masters;
+    const alarms = members.filter((m) => m.vehicle_alarm).length;
+    this.summary.replaceChildren(
+      `${joined} joined · ${left} left` + (unheard ? ` · ${unheard} never heard` : "") + masters,
+      alarms ? el("span", { class: "vehicle-alarms" }, ` · ${alarms} vehicle${alarms > 1 ? "s" : ""} not answering`) : "",
+    );
     const rows = members.map((m) => this.row(m));
     this.tbody.replaceChildren(...rows);
+    this.tbody.closest("table").classList.toggle("no-vehicles", !members.some((m) => m.vehicle));
     if (this.selected == null) this.showLog(swarm.log);
   }
 
@@ -87,6 +93,7 @@ export class SwarmPanel {
       el("td", { class: "num" }, m.epoch ?? "—"),
       el("td", { class: "num" }, m.inc ?? "—"),
       el("td", { class: "num", title: m.script || "" }, m.script ? m.script.slice(0, 8) : "—"),
+      el("td", { class: m.vehicle_alarm ? "vehicle alarm" : "vehicle", title: m.vehicle || "" }, m.vehicle || "—"),
     );
   }
 

@@ -2,6 +2,8 @@
 // barrier group, from which actor to which, who took part, and how long the switch took
 // from the first participant to the last. A step can still grow after it first shows
 // (a retransmitted release reaches a platform late), so steps are kept by id and redrawn.
+// A replayed recording's operator commands (cause "command") are rows of their own: the
+// platforms' answer and who gave it.
 
 import { chip, clock, el, idRanges } from "./util.js";
 
@@ -72,8 +74,23 @@ export class Timeline {
     this.count.textContent = `(${this.rows.length})`;
   }
 
+  /** An operator's command seen in a recording: the answer, and who answered so. */
+  command(s, fresh) {
+    const k = s.platforms.length;
+    const failed = s.event.includes(" FAILED: ");
+    return el(
+      "li",
+      { class: `command${fresh ? " fresh" : ""}`, dataset: { id: s.id, event: s.event, count: k, cause: s.cause, parts: 1 } },
+      el("span", { class: "t" }, clock(s.t - this.t0)),
+      el("span", { class: "ev" }, el("span", { class: `name${failed ? " failed" : ""}`, title: s.event }, s.event), el("span", { class: "badge command" }, "command")),
+      el("span", { class: "sw" }, ""),
+      el("span", { class: "line" }, el("span", { class: "who", title: idRanges(s.platforms) }, `answered by ${k} platform${k === 1 ? "" : "s"}: ${idRanges(s.platforms)}`)),
+    );
+  }
+
   item(parts, fresh) {
     const s = parts[0];
+    if (s.cause === "command") return this.command(s, fresh);
     const n = parts.reduce((sum, p) => sum + p.platforms.length, 0);
     const t = Math.min(...parts.map((p) => p.t));
     const ms = Math.max(...parts.map((p) => p.t_last)) - t;
