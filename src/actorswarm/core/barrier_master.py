@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import msgspec
 
 from actorswarm.core.barrier_completion import Completion
@@ -126,11 +128,11 @@ class BarrierMaster(Completion):
                 needs[part] = min(needs.get(part, n), n)
         return needs
 
-    def needs_changed(self, now: float, epoch: int) -> None:
-        """What some parts wait for may have changed (a platform entered or left an actor):
-        fire every open barrier that is now complete."""
+    def needs_changed(self, now: float, epoch: int, keys: Iterable[int] | None = None) -> None:
+        """What some parts of ``keys`` (None: every key) wait for may have changed (a
+        platform entered or left an actor): fire those that are now complete."""
         if self.ready:
-            for key in list(self.open):
+            for key in list(self.open) if keys is None else [k for k in keys if k in self.open]:
                 self.try_fire(key, now, epoch)
 
     def waiting_occasions(self, key: int) -> tuple[str, ...]:

@@ -29,6 +29,7 @@ platform nor change its state.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 from actorswarm.core import wire
@@ -289,11 +290,12 @@ class Node(NodeElection):
         )
         self._flush_bulletins()
 
-    def needs_changed(self, now: float) -> None:
-        """Master: what the barriers' parts wait for may have changed (the task engine
-        learnt that a platform entered or left an actor): fire what is now complete."""
+    def needs_changed(self, now: float, keys: Iterable[int] | None = None) -> None:
+        """Master: what the parts of barriers ``keys`` (None: all) wait for may have changed
+        (the task engine learnt that a platform entered or left an actor): fire what is now
+        complete."""
         if self.is_master:
-            self._bmaster.needs_changed(now, self.epoch)
+            self._bmaster.needs_changed(now, self.epoch, keys)
             self._flush_master(now)
 
     def waiting_occasions(self, key: int) -> tuple[str, ...]:

@@ -504,9 +504,13 @@ class TaskEngine:
         transition = self.plan.transition(key, part)
         if transition is None:
             return len(live) if count == NEED_ALL else count
+        return part_need(transition, count, self._table, live, self._reaching())
+
+    def _reaching(self) -> dict[str, frozenset[str]]:
+        """:func:`~actorswarm.engine.groups.reaching` of the script that runs now."""
         if self._reach[0] is not self.plan:
             self._reach = (self.plan, reaching(self.plan.script))
-        return part_need(transition, count, self._table, live, self._reach[1])
+        return self._reach[1]
 
     def _entered(self, platform: int, before: tuple[str, ...] | None, now: float) -> None:
         """Master: ``platform`` now runs what the table says. A group whose part it left or
@@ -514,6 +518,14 @@ class TaskEngine:
         forwarded (engine/groups.py)."""
         running = self._table.get(platform, ())
         entered = set(running) - set(before or ())
+        changed = entered | (set(before or ()) - set(running))
+        reach = self._reaching()
+        # Groups whose need may have moved: a part's actor, or one leading to it, changed.
+        touched = [
+            key
+            for key, group in self.plan.groups.items()
+            if any(not reach.get(t.actor, {t.actor}).isdisjoint(changed) for t in group.parts)
+        ]
         if before is not None and entered:
             for key, group in self.plan.groups.items():
                 if not any(t.actor in entered for t in group.parts):
@@ -528,7 +540,8 @@ class TaskEngine:
                     else:
                         body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
                         self.node.send_app(platform, TOPIC_EVENT, body, now)
-        self.node.needs_changed(now)
+        if touched or before is None:
+            self.node.needs_changed(now, None if before is None else touched)
 
     def _scatter(
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
