@@ -111,7 +111,8 @@ def radio_model(settings: SimSettings, config: CoreConfig | None = None) -> dict
         "t_leave_ms": config.t_leave * 1000,
         "retransmit_ms": f"{config.retry_base * 1000:g} + k·{config.retry_step * 1000:g} "
         f"(cap {config.retry_cap * 1000:g})",
-        "authentication": "none (packets in the simulator are not sealed)",
+        "authentication": "every packet sealed and checked by the receiver's guard, as on a "
+        "daemon (keys derived from the seed)",
     }
 
 
