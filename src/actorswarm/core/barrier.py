@@ -25,6 +25,10 @@ master crash in the middle of a release.
 
 A timeout (seconds from the group's first request) releases every waiting candidate with
 outcome ``timeout``.
+
+A *hold* (:meth:`BarrierMaster.hold`) keeps a key from firing until a given time while its
+requests gather, so that the best bids win rather than the first to arrive: a ``need`` of 1
+would otherwise fire on the first request, whatever the bids of those still on their way.
 """
 
 from __future__ import annotations
@@ -172,6 +176,8 @@ class BarrierMaster:
         # Requests refused while reports may still be on their way (see _refuse).
         self._doubtful: dict[tuple[int, int], BarrierRequest] = {}
         self._hold_fire = False
+        # Keys that do not fire before a time (hold), whatever requests they have.
+        self._holds: dict[int, float] = {}
         self._changed_at = -float("inf")
         # Requests received during the handshake, with their arrival time.
         self._staged: dict[tuple[int, int], tuple[BarrierRequest, float]] = {}
@@ -429,10 +435,21 @@ class BarrierMaster:
                 needs[part] = min(needs.get(part, resolved), resolved)
         return needs
 
+    def hold(self, key: int, until: float) -> None:
+        """Fire nothing of ``key`` before ``until`` (the latest of the holds asked): its
+        requests gather meanwhile, and then the best bids are chosen among all of them.
+        A timeout still releases the key on time."""
+        self._holds[key] = max(until, self._holds.get(key, until))
+
     def try_fire(self, key: int, now: float, epoch: int) -> None:
         inst = self.open.get(key)
         if inst is None or not inst.requests or not self.ready:
             return
+        until = self._holds.get(key)
+        if until is not None:
+            if now < until:
+                return
+            del self._holds[key]
         needs = self._needs(key, inst)
         by_part: dict[int, list[tuple[int, BarrierRequest]]] = {}
         for platform, req in inst.requests.items():
@@ -636,6 +653,9 @@ class BarrierMaster:
         """Fire timeouts; retransmit releases to whoever has not acknowledged."""
         if self.ready:
             self._recheck_doubtful(now, epoch)
+            for key in [k for k, until in self._holds.items() if now >= until]:
+                self.try_fire(key, now, epoch)
+                self._holds.pop(key, None)  # over, whether or not the key had requests
             for ident, (req, until) in list(self._parked.items()):
                 if now >= until:
                     self.request(ident[0], req, now, epoch)  # refused now, its wait is over
@@ -684,6 +704,9 @@ class BarrierMaster:
             best = t if best is None or t < best else best
         if self._parked and self.ready:
             t = min(until for _, until in self._parked.values())
+            best = t if best is None or t < best else best
+        if self._holds and self.ready:
+            t = min(self._holds.values())
             best = t if best is None or t < best else best
         return best
 
