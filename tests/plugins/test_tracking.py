@@ -316,6 +316,104 @@ def test_tracker_claims_the_role_once_and_releases_it_on_stop() -> None:
     assert quiet.claims == []
 
 
+LOST_TRACKER = {
+    "to": "Track",
+    "slot": 1,
+    "slots": 1,
+    "event": {"platform": 9, "at": [600.0, 50.0, 15.0], "roles": ["other", "track:jeep"]},
+}
+
+
+def test_a_tracker_promoted_by_x_lost_claims_the_lost_tracker_s_role_at_once() -> None:
+    """Before it has seen anything: a searcher that sees the jeep meanwhile is denied."""
+    collective = FakeCollective()
+    vehicle = hovering()
+    ctx = make_context(
+        TrackTarget,
+        params={"area": "0 0 100 100"},
+        vehicle=vehicle,
+        camera=FakeCamera(vehicle),
+        collective=collective,
+        data=LOST_TRACKER,
+    )
+    plugin = TrackTarget()
+    plugin._drive_start(ctx)
+    assert collective.claims == [("track:jeep", 1, None)]
+    assert vehicle.commands[-1][0] == "goto", "and it sweeps the area for the jeep"
+    assert plugin.last is None, "the lost tracker's position is not the target's"
+
+
+@pytest.mark.parametrize(
+    ("params", "event"),
+    [
+        ({"target": "car"}, LOST_TRACKER["event"]),  # another target than it is after
+        ({}, {"platform": 9, "at": None, "roles": ["track:"]}),
+        ({}, {"platform": 9, "at": None, "roles": "track:jeep"}),  # not a list
+        ({}, 9),  # a bare ID
+    ],
+)
+def test_a_promoted_tracker_claims_nothing_without_a_tracker_role_to_take_over(
+    params: dict[str, str], event: Any
+) -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    ctx = make_context(
+        TrackTarget,
+        params=params,
+        vehicle=vehicle,
+        camera=FakeCamera(vehicle),
+        collective=collective,
+        data={"to": "Track", "slot": 1, "slots": 1, "event": event},
+    )
+    run_plugin(TrackTarget(), ctx, steps=3)
+    assert [c[0] for c in collective.claims] == (["track:car"] if params else [])
+
+
+@pytest.mark.parametrize("state", ["denied", "revoked"])
+def test_a_tracker_refused_the_role_yields_once(state: str) -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (1.0, 0.0, 0.0))})
+    params = {"yield_event": "track_yield_event"}
+    ctx = make_context(
+        TrackTarget, params=params, vehicle=vehicle, camera=camera, collective=collective
+    )
+    plugin = TrackTarget()
+    assert run_plugin(plugin, ctx, steps=5) == []
+    answer(ctx, "track:other", state)  # not its role
+    answer(ctx, "track:jeep", "granted")
+    assert run_plugin(plugin, ctx, steps=5) == [], "granted (or another role's answer): stays"
+    answer(ctx, "track:jeep", state)
+    events = run_plugin(plugin, ctx, steps=5)
+    assert names(events) == ["track_yield_event"] and events[0].scope == "local"
+    answer(ctx, "track:jeep", state)
+    assert run_plugin(plugin, ctx, steps=5) == [], "once per start"
+
+
+def test_without_a_yield_event_a_refused_tracker_keeps_tracking() -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (1.0, 0.0, 0.0))})
+    ctx = make_context(TrackTarget, vehicle=vehicle, camera=camera, collective=collective)
+    plugin = TrackTarget()
+    run_plugin(plugin, ctx, steps=5)
+    answer(ctx, "track:jeep", "denied")
+    assert run_plugin(plugin, ctx, steps=5) == []
+    assert plugin.last == (1.0, 0.0, 0.0)
+
+
+def test_an_answer_from_before_the_claim_is_not_the_claim_s() -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (1.0, 0.0, 0.0))})
+    params = {"yield_event": "track_yield_event"}
+    ctx = make_context(
+        TrackTarget, params=params, vehicle=vehicle, camera=camera, collective=collective
+    )
+    answer(ctx, "track:jeep", "denied")  # what the detector of this actor was told before
+    assert run_plugin(TrackTarget(), ctx, steps=5) == []
+
+
 def test_tracker_keeps_to_the_target_it_locked_on() -> None:
     vehicle = hovering()
     camera = FakeCamera(vehicle, {"a": (2.0, 0.0, 0.0)})

@@ -20,10 +20,11 @@ import numpy as np
 import pytest
 
 from actorswarm.dsl import check_file
+from actorswarm.engine.engine import TaskEngine
 from actorswarm.missions import MISSIONS, Mission, mission
 from actorswarm.plugins.formation import Formation
 from actorswarm.sim.mission import prepare, run_slices
-from actorswarm.sim.tasksim import TaskSim
+from actorswarm.sim.tasksim import Fault, TaskSim
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 #: The least 3-D distance between two airborne vehicles the shipped missions keep, metres.
@@ -284,6 +285,83 @@ def test_search_track_completes_with_a_searcher_killed() -> None:
 
 
 # --- reorganization ------------------------------------------------------------------------
+
+
+class TrackerDown:
+    """The search-track mission, the tracker taken away 2 s after it starts tracking —
+    crashed (``kill``) or cut off for 5 s (``partition``, then healed: a false loss) — and
+    run to 175 s, past the moment another searcher's camera sees the jeep (about 170 s)."""
+
+    DURATION = 175.0
+
+    def __init__(self, seed: int, how: str) -> None:
+        self.sim = prepare(mission("search-track"), seed=seed)
+        self.tracker: int | None = None
+        self.down_at: float | None = None
+        #: Platform -> horizontal distance to the tracker when it went down (the others).
+        self.distances: dict[int, float] = {}
+        heal_at: float | None = None
+
+        def on_slice(t: float, new: list[dict[str, Any]]) -> None:
+            nonlocal heal_at
+            world = self.sim.world
+            assert world is not None
+            if self.tracker is None:
+                first = [r for r in new if r["to"] == "Track"]
+                if first:
+                    self.tracker, self.down_at = first[0]["platform"], t + 2.0
+            elif self.down_at is not None and t == self.down_at:
+                down = world.vehicle(self.tracker).position()
+                for p in self.sim.hosts:
+                    if p != self.tracker:
+                        here = world.vehicle(p).position()
+                        self.distances[p] = math.dist(down[:2], here[:2])
+                ids = frozenset({self.tracker})
+                self.sim.fault(Fault("kill" if how == "kill" else "partition", t, ids))
+                heal_at = t + 5.0 if how == "partition" else None
+            elif heal_at is not None and t == heal_at:
+                self.sim.fault(Fault("heal", t))
+
+        self.report = run_slices(self.sim, self.DURATION, slice_s=0.5, on_slice=on_slice)
+
+    def holders(self, actor: str) -> list[int]:
+        return sorted(int(p) for p, a in self.report["final_actors"].items() if actor in a)
+
+    def master_engine(self) -> TaskEngine:
+        (engine,) = [h.engine for h in self.sim.hosts.values() if h.engine.node.is_master]
+        return engine
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_crashed_tracker_is_replaced_by_the_nearest_searcher_and_stays_one(seed: int) -> None:
+    run = TrackerDown(seed, "kill")
+    assert run.report["violations"] == [] and run.report["plugin_failures"] == []
+    assert run.tracker is not None and run.down_at is not None
+    promoted = [t for t in run.report["transitions"] if t["event"] == "Track_lost"]
+    assert len(promoted) == 1, promoted
+    nearest = min(run.distances, key=run.distances.__getitem__)
+    assert promoted[0]["platform"] == nearest, f"promoted {promoted}, distances {run.distances}"
+    assert run.down_at < promoted[0]["t"] < run.down_at + 2.0
+    # A searcher that saw the jeep afterwards was refused the role: one tracker at the end,
+    # holding the role.
+    later = [t for t in run.report["transitions"] if t["to"] == "Track" and t["t"] > run.down_at]
+    assert later == promoted, later
+    assert run.holders("Track") == [nearest]
+    assert run.master_engine().node.role_holders("track:jeep") == (nearest,)
+
+
+def test_a_tracker_falsely_taken_for_lost_leaves_one_tracker_when_it_is_back() -> None:
+    run = TrackerDown(1, "partition")
+    assert run.report["violations"] == [] and run.report["plugin_failures"] == []
+    assert run.tracker is not None
+    promoted = [t["platform"] for t in run.report["transitions"] if t["event"] == "Track_lost"]
+    assert len(promoted) == 1 and promoted[0] != run.tracker
+    # Back from the partition both claim the role; the master keeps one, the other yields.
+    yielded = [t for t in run.report["transitions"] if t["event"] == "track_yield_event"]
+    assert len(yielded) == 1 and (yielded[0]["from"], yielded[0]["to"]) == ("Track", "Range")
+    (holder,) = run.holders("Track")
+    assert holder in (run.tracker, promoted[0]) and yielded[0]["platform"] != holder
+    assert run.master_engine().node.role_holders("track:jeep") == (holder,)
 
 
 def test_a_tracker_whose_battery_dies_is_replaced_by_track_lost(battery: Run) -> None:

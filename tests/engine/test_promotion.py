@@ -1,0 +1,133 @@
+"""Who replaces a lost platform (actorswarm.engine.promotion): the reports of where watched
+platforms are, the data of ``X_lost``, and the candidates' bids — the nearest wins."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import msgspec
+import pytest
+
+from actorswarm.core.events import AppReceived
+from actorswarm.dsl import load
+from actorswarm.engine.engine import TOPIC_WHEREABOUTS
+from actorswarm.engine.plan import Plan
+from actorswarm.engine.promotion import (
+    NO_POSITION_BID,
+    REPORT_DISTANCE,
+    REPORT_INTERVAL,
+    Whereabouts,
+    lost_bid,
+    lost_data,
+    lost_groups,
+    watched_actors,
+)
+from actorswarm.missions import mission_file
+from actorswarm.sim.tasksim import Fault, TaskSim
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.fixture(scope="module")
+def search_track() -> Plan:
+    return Plan.build(load(mission_file("search_track_10.xml")))
+
+
+def test_the_watched_actors_are_those_a_script_s_x_lost_rule_names(search_track: Plan) -> None:
+    assert watched_actors(search_track) == {"Track"}
+    assert watched_actors(Plan.build(load(mission_file("formation_30.xml")))) == frozenset()
+
+
+def test_the_groups_to_hold_are_those_with_a_transition_on_the_event(search_track: Plan) -> None:
+    assert lost_groups(search_track, ["Track_lost"]) == {4}
+    assert lost_groups(search_track, ["Range_lost", "Standby_lost"]) == set()
+
+
+def test_the_nearest_candidate_bids_lowest() -> None:
+    data = lost_data(9, None) | {"at": [600.0, 50.0, 15.0]}
+    near = lost_bid("Track_lost", data, (660.0, 30.0, 35.0))
+    far = lost_bid("Track_lost", data, (300.0, -200.0, 35.0))
+    assert near == pytest.approx(math.hypot(60.0, 20.0))  # horizontal distance
+    assert far is not None and near is not None and near < far
+    assert lost_bid("Track_lost", data, None) == NO_POSITION_BID
+    assert far < NO_POSITION_BID, "a candidate that knows where it is goes first"
+
+
+@pytest.mark.parametrize(
+    ("event", "data"),
+    [
+        ("Track_lost", {"platform": 9, "at": None, "roles": []}),  # never reported
+        ("Track_lost", 9),  # the bare ID a master before positions sent
+        ("Track_lost", {"at": [1.0, 2.0, 3.0]}),  # no platform: not X_lost data
+        ("Track_lost", {"platform": 9, "at": ["a", 2.0]}),
+        ("Track_lost", {"platform": 9, "at": [math.nan, 2.0, 0.0]}),
+        ("seen_event", {"platform": 9, "at": [1.0, 2.0, 3.0]}),  # not an X_lost
+    ],
+)
+def test_no_position_no_distance_bid(event: str, data: object) -> None:
+    """Every candidate then keeps the default bid (its platform ID)."""
+    assert lost_bid(event, data, (0.0, 0.0, 0.0)) is None
+
+
+def test_a_watched_platform_reports_when_it_moved_or_its_roles_changed() -> None:
+    w = Whereabouts()
+    assert w.due(0.0, watched=False, position=(0.0, 0.0, 20.0), roles=()) is None
+    assert w.next_check(watched=False) is None
+    first = w.due(0.0, watched=True, position=(0.0, 0.0, 20.0), roles=())
+    assert first is not None
+    # Too soon, then not far enough, then far enough.
+    far = (REPORT_DISTANCE + 1.0, 0.0, 20.0)
+    assert w.due(REPORT_INTERVAL / 2, watched=True, position=far, roles=()) is None
+    near = (REPORT_DISTANCE - 1.0, 0.0, 20.0)
+    assert w.due(REPORT_INTERVAL, watched=True, position=near, roles=()) is None
+    assert w.next_check(watched=True) == pytest.approx(2 * REPORT_INTERVAL)
+    assert w.due(2 * REPORT_INTERVAL, watched=True, position=far, roles=()) is not None
+    # Same place, a new role: reported.
+    t = 3 * REPORT_INTERVAL
+    assert w.due(t, watched=True, position=far, roles={"track:jeep"}) is not None
+    # A new master has heard nothing: reported at once.
+    w.reset()
+    assert w.due(t + 0.1, watched=True, position=far, roles={"track:jeep"}) is not None
+
+
+def test_the_master_keeps_the_last_report_and_forgets_it_when_the_platform_is_lost() -> None:
+    member, master = Whereabouts(), Whereabouts()
+    body = member.due(1.0, watched=True, position=(625.7, 55.9, 15.0), roles={"track:jeep"})
+    assert body is not None
+    master.heard(9, body)
+    assert master.lost(9) == {"platform": 9, "at": [625.7, 55.9, 15.0], "roles": ["track:jeep"]}
+    assert master.lost(9) == {"platform": 9, "at": None, "roles": []}, "forgotten"
+
+
+def test_a_platform_without_a_position_reports_none_and_its_roles() -> None:
+    member, master = Whereabouts(), Whereabouts()
+    body = member.due(0.0, watched=True, position=None, roles={"track:jeep"})
+    assert body is not None
+    master.heard(4, body)
+    assert master.lost(4) == {"platform": 4, "at": None, "roles": ["track:jeep"]}
+
+
+@pytest.mark.parametrize("body", [b"", b"\xc1", msgspec.msgpack.encode({"at": "here"})])
+def test_a_report_that_is_not_one_is_refused(body: bytes) -> None:
+    with pytest.raises(msgspec.DecodeError):
+        Whereabouts().heard(3, body)
+
+
+def test_the_engine_logs_an_undecodable_report_and_goes_on() -> None:
+    sim = TaskSim(load(EXAMPLES / "reorganize_lost.xml"), seed=1)
+    engine = sim.hosts[1].engine
+    engine.on_core_event(AppReceived(sender=3, topic=TOPIC_WHEREABOUTS, body=b"\xc1"), 0.0)
+    assert engine.ignored[-1][1:] == (TOPIC_WHEREABOUTS, "undecodable message from 3")
+
+
+def test_x_lost_s_data_reaches_the_promoted_platform() -> None:
+    """Without a world no platform knows where it is: the data says so, and the promoted
+    platform (the lowest ID, the default bids) finds it in its context."""
+    sim = TaskSim(load(EXAMPLES / "reorganize_lost.xml"), seed=7)
+    report = sim.run(6, faults=[Fault("kill", 3.0, frozenset({1}))])
+    promoted = [t for t in report["transitions"] if t["event"] == "Track_lost"]
+    assert [t["platform"] for t in promoted] == [2]
+    context = sim.hosts[2].engine.runtime.acbs()["Track"].context
+    assert isinstance(context.data, dict)
+    assert context.data["event"] == {"platform": 1, "at": None, "roles": []}
