@@ -339,8 +339,33 @@ def test_a_tracker_promoted_by_x_lost_claims_the_lost_tracker_s_role_at_once() -
     plugin = TrackTarget()
     plugin._drive_start(ctx)
     assert collective.claims == [("track:jeep", 1, None)]
-    assert vehicle.commands[-1][0] == "goto", "and it sweeps the area for the jeep"
     assert plugin.last is None, "the lost tracker's position is not the target's"
+
+
+def test_a_promoted_tracker_looks_where_the_lost_one_was_then_sweeps_from_there() -> None:
+    vehicle = FakeVehicle(position=(10.0, 10.0, 30.0), cruise_speed=10.0)
+    camera = FakeCamera(vehicle)
+    params = {"area": "0 0 100 100", "search_altitude": "30", "altitude": "15"}
+    lost = {"platform": 9, "at": [90.0, 20.0, 15.0], "roles": ["track:jeep"]}
+    data = {"to": "Track", "slot": 1, "slots": 1, "event": lost}
+    ctx = make_context(
+        TrackTarget,
+        params=params,
+        vehicle=vehicle,
+        camera=camera,
+        collective=FakeCollective(),
+        data=data,
+    )
+    plugin = TrackTarget()
+    plugin._drive_start(ctx)
+    assert vehicle.commands[-1] == ("goto", 90.0, 20.0, 30.0, None)
+    run_plugin(plugin, ctx, steps=120, dt=0.1)  # there, and on to the nearest lane end
+    x, y, _ = vehicle.position()
+    assert x > 50.0, f"the sweep goes on from the eastern lanes, not from the start: {x, y}"
+    # The target near where the lost tracker was is found.
+    camera.targets["jeep"] = ("jeep", (x, y, 0.0))
+    run_plugin(plugin, ctx, steps=5)
+    assert plugin.last == (x, y, 0.0)
 
 
 @pytest.mark.parametrize(

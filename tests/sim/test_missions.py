@@ -23,6 +23,7 @@ from actorswarm.dsl import check_file
 from actorswarm.engine.engine import TaskEngine
 from actorswarm.missions import MISSIONS, Mission, mission
 from actorswarm.plugins.formation import Formation
+from actorswarm.plugins.tracking import TrackTarget
 from actorswarm.sim.mission import prepare, run_slices
 from actorswarm.sim.tasksim import Fault, TaskSim
 
@@ -348,6 +349,13 @@ def test_a_crashed_tracker_is_replaced_by_the_nearest_searcher_and_stays_one(see
     assert later == promoted, later
     assert run.holders("Track") == [nearest]
     assert run.master_engine().node.role_holders("track:jeep") == (nearest,)
+    # It looked where the lost tracker was, found the jeep and follows it.
+    (follow,) = [
+        p
+        for p in run.sim.hosts[nearest].engine.runtime.plugins("Track")
+        if isinstance(p, TrackTarget)
+    ]
+    assert follow.last is not None and not follow.lost
 
 
 def test_a_tracker_falsely_taken_for_lost_leaves_one_tracker_when_it_is_back() -> None:

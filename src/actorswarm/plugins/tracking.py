@@ -31,7 +31,8 @@ the target over.
 target to follow, but the event's data lists the roles the lost platform held
 (:mod:`actorswarm.engine.promotion`): :class:`TrackTarget` locks on the target of the lost
 ``track:<name>`` and claims that role at once, before it has seen the target, so that a
-searcher that sees it meanwhile is denied the role and keeps searching. Should two
+searcher that sees it meanwhile is denied the role and keeps searching; it looks first
+where the lost tracker last was (it flew over the target), then sweeps its ``area``. Should two
 platforms still both track one target — a searcher won the role before the promoted
 tracker claimed it, or a platform taken for lost comes back still tracking — the master
 grants the role to one only: the other is denied (or, after a partition heals, revoked),
@@ -135,23 +136,29 @@ def _answers_so_far(ctx: PluginContext) -> int:
     return len(answers) if isinstance(answers, list) else 0
 
 
-def _lost_tracker_target(ctx: PluginContext) -> str | None:
-    """The target a lost tracker was following, when this actor was started by its
-    ``X_lost``: the event's data (``ctx.data["event"]``) lists the roles the lost platform
-    held (:func:`actorswarm.engine.promotion.lost_data`), and ``track:<name>`` among them
-    names the target. None when there is no such role (or it names another target than
-    the ``target`` param)."""
+def _lost_tracker(ctx: PluginContext) -> tuple[str, Point | None] | None:
+    """The target a lost tracker was following and where that tracker last was, when this
+    actor was started by its ``X_lost``: the event's data (``ctx.data["event"]``) lists the
+    roles the lost platform held and its last position ``at``
+    (:func:`actorswarm.engine.promotion.lost_data`); ``track:<name>`` among the roles names
+    the target. None when there is no such role (or it names another target than the
+    ``target`` param)."""
     event = ctx.data.get("event") if isinstance(ctx.data, Mapping) else None
-    roles = event.get("roles") if isinstance(event, Mapping) else None
+    if not isinstance(event, Mapping):
+        return None
+    roles, at = event.get("roles"), event.get("at")
     if not isinstance(roles, list):
         return None
+    where: Point | None = None
+    if isinstance(at, list) and len(at) == 3 and all(finite(v) for v in at):
+        where = (float(at[0]), float(at[1]), float(at[2]))
     prefix = track_role("")
     want = ctx.params["target"]
     for role in roles:
         if isinstance(role, str) and role.startswith(prefix) and len(role) > len(prefix):
             name = role[len(prefix) :]
             if want is None or name == want:
-                return name
+                return name, where
     return None
 
 
@@ -399,7 +406,8 @@ class TrackTarget(Plugin):
         The altitude of that sweep (higher: a wider footprint).
 
     A promoted tracker (no position given) that knows the target's name from the lost
-    tracker's role claims the role at start and sweeps ``area`` for it.
+    tracker's role claims the role at start and, with ``area``, flies first to where the
+    lost tracker last was (at ``search_altitude``), then sweeps the area from there.
 
     Where the target is and how it is followed: see the module docstring. A camera is used
     when the platform has one; without one the tracker flies to the last position it was
@@ -473,6 +481,7 @@ class TrackTarget(Plugin):
         self._yielded = False
         self._sweep: list[Point] = []  # the area's lanes, while looking for the target
         self._leg = 0
+        self._hint: Point | None = None  # where a lost tracker last was: looked at first
 
     @property
     def last(self) -> Point | None:
@@ -504,7 +513,13 @@ class TrackTarget(Plugin):
                 self._lock(source.get("target"))
                 break
         self._lock(ctx.params["target"])
-        self._lock(_lost_tracker_target(ctx))
+        self._hint = None
+        taken_over = _lost_tracker(ctx)
+        if taken_over is not None and self._name in (None, taken_over[0]):
+            self._lock(taken_over[0])
+            # The lost tracker flew over the target: look there first (unless the
+            # transition brought where the target itself is).
+            self._hint = taken_over[1] if self._last is None else None
         self._observe(ctx)
         self._command(ctx, force=True)
 
@@ -656,6 +671,15 @@ class TrackTarget(Plugin):
         """Fly the sweep of ``area``, lane after lane and round again, until a sighting;
         it begins at the waypoint nearest the vehicle, not across the area."""
         vehicle = ctx.require_vehicle()
+        if self._hint is not None:
+            point = (self._hint[0], self._hint[1], float(ctx.params["search_altitude"]))
+            if math.dist(vehicle.position(), point) > _SWEEP_TOLERANCE:
+                if force or self._sent != point:
+                    vehicle.goto(*point)
+                    self._sent, self._holding = point, False
+                return
+            # Not there (any more): sweep on from the lane end nearest to here.
+            self._hint, self._sent, self._leg = None, None, 0
         if self._leg == 0 and self._sent is None:
             here = vehicle.position()
             self._leg = min(range(len(self._sweep)), key=lambda i: math.dist(here, self._sweep[i]))
