@@ -385,6 +385,15 @@ def test_a_tracker_whose_battery_dies_is_replaced_by_track_lost(battery: Run) ->
     assert "2" not in battery.report["final_actors"]
     lost = [t for t in battery.report["transitions"] if t["cause"] == "lost"]
     assert [(t["platform"], t["from"], t["t"]) for t in lost] == [(2, "Track", died)]
-    # The promoted tracker started from nothing it was told and found the jeep again.
+    # No searcher became a second tracker, and the promoted one (the nearest: platform 3,
+    # on the next lane) looked where platform 2 fell and is over the jeep at go_home.
     detected = [t for t in trackers if t["event"] == "target_detected_event"]
     assert len(detected) == 1
+    assert promoted[0]["platform"] == 3
+    world = battery.sim.world
+    assert world is not None
+    track = world.track()
+    i = int(np.searchsorted(track.times, 199.5))
+    over = track.positions[i, list(track.platforms).index(3), :2]
+    jeep = track.target_positions[i, 0, :2]
+    assert math.dist(over.tolist(), jeep.tolist()) < 10.0
