@@ -89,6 +89,9 @@ def test_a_watched_platform_reports_when_it_moved_or_its_roles_changed() -> None
     # A new master has heard nothing: reported at once.
     w.reset()
     assert w.due(t + 0.1, watched=True, position=far, roles={"track:jeep"}) is not None
+    # Watched again after a while unwatched: reported at once.
+    assert w.due(t + 0.2, watched=False, position=far, roles=()) is None
+    assert w.due(t + 0.3, watched=True, position=far, roles=()) is not None
 
 
 def test_the_master_keeps_the_last_report_and_forgets_it_when_the_platform_is_lost() -> None:
@@ -131,3 +134,49 @@ def test_x_lost_s_data_reaches_the_promoted_platform() -> None:
     context = sim.hosts[2].engine.runtime.acbs()["Track"].context
     assert isinstance(context.data, dict)
     assert context.data["event"] == {"platform": 1, "at": None, "roles": []}
+
+
+MASTER_SCOUT = (
+    '<TaskScript name="scout" version="1"><_ActorsConfig>'
+    "<Actor><_P_Name>Scout</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>"
+    '<Plugin><_P_Name>flight.goto</_P_Name><param key="target" value="280 0 20"/>'
+    "</Plugin>"
+    "</Bus></OODAConfig></Actor>"
+    "<Actor><_P_Name>Wait</_P_Name></Actor>"
+    '</_ActorsConfig><_TaskConfig><actor name="Wait">'
+    '<transition name="Scout_lost" sysNum="1"><successor actor="Scout"/></transition>'
+    "</actor></_TaskConfig><_PlatformActorConfig>"
+    '<platform id="1" actor="Scout"/><platform id="2-4" actor="Wait"/>'
+    "</_PlatformActorConfig></TaskScript>"
+)
+# Homes 100 m apart along x: 1 at 0, 2 at 100, 3 at 200, 4 at 300.
+ROW = """
+[fleet]
+platforms = "1-4"
+spacing = 100.0
+columns = 4
+[radio]
+range = 2000.0
+"""
+
+
+def test_a_lost_master_is_replaced_by_the_platform_nearest_to_where_it_was() -> None:
+    """The master (platform 1) runs the watched actor and dies near platform 4's home: its
+    successor (platform 2, the lowest ID left) relays Scout_lost from the position the
+    master posted to everyone, and platform 4 is promoted, not the lowest ID."""
+    from actorswarm.dsl import check
+    from actorswarm.world.config import loads_world
+
+    result = check(MASTER_SCOUT, path="scout.xml")
+    assert result.script is not None, [str(d) for d in result.diagnostics]
+    sim = TaskSim(result.script, seed=3, world_config=loads_world(ROW))
+    report = sim.run(70.0, faults=[Fault("kill", 60.0, frozenset({1}))])
+    assert report["violations"] == []
+    assert [m["platform"] for m in report["masters"]] == [1, 2]
+    promoted = [t for t in report["transitions"] if t["event"] == "Scout_lost"]
+    assert [t["platform"] for t in promoted] == [4], promoted
+    context = sim.hosts[4].engine.runtime.acbs()["Scout"].context
+    assert isinstance(context.data, dict)
+    lost = context.data["event"]
+    assert lost["platform"] == 1 and lost["roles"] == []
+    assert math.dist(lost["at"][:2], (280.0, 0.0)) < 20.0, lost

@@ -509,6 +509,10 @@ class TaskEngine:
         """Master: ``platform`` left; relay ``X_lost`` for each of its ``actors``, with
         where it last was, after holding the groups those events fire, so that the
         candidates' bids (their distances to that place) decide rather than who asks first."""
+        if not actors:
+            # Nothing to relay; and a master that has just taken over hears of its
+            # predecessor leaving before it relays its actors lost: keep its whereabouts.
+            return
         data = self._whereabouts.lost(platform)
         events = [f"{actor}{LOST_SUFFIX}" for actor in actors]
         for key in lost_groups(self.plan, events):

@@ -180,7 +180,11 @@ class Whereabouts:
         """The report to send now (encoded), or None when none is due: this platform runs
         no watched actor, or it is close to where it last reported with the same roles, or
         it reported less than :data:`REPORT_INTERVAL` seconds ago."""
-        if not watched or now < max(self._sent_at, self._checked_at) + REPORT_INTERVAL:
+        if not watched:
+            # Whatever it runs next, it reports afresh when that is watched again.
+            self.reset()
+            return None
+        if now < max(self._sent_at, self._checked_at) + REPORT_INTERVAL:
             return None
         self._checked_at = now
         at = _point(position)
