@@ -45,7 +45,8 @@ def test_the_groups_to_hold_are_those_with_a_transition_on_the_event(search_trac
 
 
 def test_the_nearest_candidate_bids_lowest() -> None:
-    data = lost_data(9, None) | {"at": [600.0, 50.0, 15.0]}
+    data = lost_data(9, (600.0, 50.0, 15.0))
+    assert data == {"platform": 9, "at": [600.0, 50.0, 15.0], "roles": []}
     near = lost_bid("Track_lost", data, (660.0, 30.0, 35.0))
     far = lost_bid("Track_lost", data, (300.0, -200.0, 35.0))
     assert near == pytest.approx(math.hypot(60.0, 20.0))  # horizontal distance

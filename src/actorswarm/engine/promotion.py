@@ -4,9 +4,11 @@ Theory of operation
 -------------------
 When a member leaves, the master relays ``X_lost`` for every actor ``X`` it ran, and every
 platform whose running actor has a transition on ``X_lost`` is a candidate. A ``sysNum="1"``
-rule promotes the best bid, and with the default bids that is the lowest platform ID,
+rule promotes the first candidate to ask (the master, a candidate itself, asks at once), or
+the best bid of those asking together — with the default bids the lowest platform ID —
 however far it is from where the lost platform was. So the event carries where the lost
-platform last was, and each candidate bids its distance to that place: the nearest wins.
+platform last was, each candidate bids its distance to that place, and the master waits
+for the bids: the nearest wins.
 
 * **Whereabouts.** A platform running an actor whose loss the script reacts to (some
   transition is on ``X_lost``: :func:`watched_actors`) tells the master where it is and the
@@ -52,6 +54,7 @@ __all__ = [
     "lost_bid",
     "lost_data",
     "lost_groups",
+    "lost_position",
     "watched_actors",
 ]
 
@@ -96,12 +99,15 @@ def lost_groups(plan: Plan, events: Iterable[str]) -> set[int]:
     return {key for (_, event), (key, _) in plan.by_event.items() if event in wanted}
 
 
-def lost_data(platform: int, report: _Report | None) -> dict[str, Any]:
-    """The data of ``X_lost`` for ``platform``, from its last report (None: none heard)."""
+def lost_data(
+    platform: int, at: Sequence[float] | None = None, roles: Iterable[str] = ()
+) -> dict[str, Any]:
+    """The data of ``X_lost`` for ``platform``: where it last was (None: not known) and the
+    roles it held then."""
     return {
         "platform": platform,
-        "at": None if report is None or report.at is None else list(report.at),
-        "roles": [] if report is None else list(report.roles),
+        "at": None if at is None else [float(v) for v in at],
+        "roles": list(roles),
     }
 
 
@@ -214,4 +220,7 @@ class Whereabouts:
     def lost(self, platform: int) -> dict[str, Any]:
         """``platform`` left: the data of its ``X_lost`` (:func:`lost_data`); its report is
         forgotten (it may come back elsewhere, with other roles)."""
-        return lost_data(platform, self._heard.pop(platform, None))
+        report = self._heard.pop(platform, None)
+        if report is None:
+            return lost_data(platform)
+        return lost_data(platform, report.at, report.roles)
