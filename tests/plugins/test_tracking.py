@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from actorswarm.dsl import check
-from actorswarm.plugins.tracking import DetectTarget, TrackTarget, track_role
+from actorswarm.plugins.tracking import UNSEEN_BID, DetectTarget, TrackTarget, track_role
 from actorswarm.runtime.context import CameraUnavailable, CollectiveUnavailable, PluginContext
 from actorswarm.runtime.events import Emitted
 from actorswarm.sim.tasksim import TaskSim
@@ -299,7 +299,8 @@ def test_tracker_claims_the_role_once_and_releases_it_on_stop() -> None:
     ctx = make_context(TrackTarget, vehicle=vehicle, camera=camera, collective=collective)
     plugin = TrackTarget()
     run_plugin(plugin, ctx, steps=10)
-    assert collective.claims == [("track:jeep", 1, None)]
+    # Bidding its horizontal distance to the jeep, 1 m off.
+    assert collective.claims == [("track:jeep", 1, pytest.approx(1.0))]
     plugin._drive_stop(ctx)
     assert collective.releases == ["track:jeep"]
     # Without a swarm, and with exclusive off, no claim (and no error).
@@ -338,7 +339,8 @@ def test_a_tracker_promoted_by_x_lost_claims_the_lost_tracker_s_role_at_once() -
     )
     plugin = TrackTarget()
     plugin._drive_start(ctx)
-    assert collective.claims == [("track:jeep", 1, None)]
+    # Not seen yet: of two holders after a heal, the one that sees the jeep keeps it.
+    assert collective.claims == [("track:jeep", 1, UNSEEN_BID)]
     assert plugin.last is None, "the lost tracker's position is not the target's"
 
 

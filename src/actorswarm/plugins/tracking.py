@@ -74,11 +74,13 @@ if TYPE_CHECKING:
 #: How close to a sweep waypoint (metres) counts as reached.
 _SWEEP_TOLERANCE: Final = 3.0
 
-__all__ = ["CATCH_UP_TIME", "DetectTarget", "TrackTarget", "track_role"]
+__all__ = ["CATCH_UP_TIME", "UNSEEN_BID", "DetectTarget", "TrackTarget", "track_role"]
 
 #: The tracker's commanded speed closes its gap to the target in about this many seconds,
 #: on top of the target's own speed.
 CATCH_UP_TIME: Final = 3.0
+#: The role bid of a tracker that has not seen its target yet: behind any that has.
+UNSEEN_BID: Final = 1e9
 #: The least speed (m/s) the tracker asks for, so a goto near a still target still moves.
 _MIN_SPEED: Final = 1.0
 
@@ -384,7 +386,9 @@ class TrackTarget(Plugin):
         again and lost again emits again). Left out: nothing is emitted.
     ``exclusive`` (bool, default true)
         Claim the role ``track:<name>`` (quota 1) once the name is known (the claim keeps
-        other platforms' detectors quiet), and release it on stop; without a swarm behind
+        other platforms' detectors quiet), bidding the horizontal distance to where the
+        target is known to be (:data:`UNSEEN_BID` when nowhere yet: of two holders after a
+        partition heals, the nearer keeps the role), and release it on stop; without a swarm behind
         ``ctx.collective`` this is skipped silently. Started by an ``X_lost`` whose data
         lists a ``track:<name>`` role of the lost platform, the name is that target's.
     ``yield_event`` (optional)
@@ -616,8 +620,15 @@ class TrackTarget(Plugin):
             return
         role = track_role(self._name)
         before = _answers_so_far(ctx)
+        # The bid ranks the holders when two hold the role (a healed partition): the one
+        # nearer to the target keeps it, and one that has not seen it yet goes last.
+        if self._last is None:
+            bid = UNSEEN_BID
+        else:
+            here = ctx.require_vehicle().position()
+            bid = math.hypot(here[0] - self._last[0], here[1] - self._last[1])
         try:
-            ctx.collective.claim_role(role, 1)
+            ctx.collective.claim_role(role, 1, bid=bid)
         except CollectiveUnavailable:
             return
         self._claimed, self._cursor = role, before
