@@ -168,6 +168,30 @@ def test_requests_collected_during_handshake_choose_best_bids() -> None:
     assert h.notices() == []
 
 
+def test_a_held_key_waits_for_its_bids_then_chooses_the_best() -> None:
+    """Without the hold a need of 1 fires on the first request; with it the best bid among
+    everything that arrived by then passes."""
+    h = Harness()
+    h.master.hold(KEY, 0.5)
+    assert h.master.next_deadline() == 0.5
+    for platform, t, bid in [(2, 0.0, 300.0), (7, 0.1, 40.0), (4, 0.3, 120.0)]:
+        h.master.request(platform, _req(1, bid=bid), t, EPOCH)
+        h.master.tick(t, EPOCH)
+    assert h.broadcasts() == [], "held: nothing fires before 0.5 s"
+    h.master.tick(0.5, EPOCH)
+    assert h.entries() == {7: (0, 1), 2: (0, 0), 4: (0, 0)}
+    # The hold is over: the next generation fires on its first request, as usual.
+    h.master.request(2, _req(1, generation=1, bid=300.0), 0.6, EPOCH)
+    assert h.entries() == {2: (0, 1)}
+
+
+def test_an_unheld_key_fires_on_its_first_request() -> None:
+    h = Harness()
+    h.master.hold(KEY + 1, 0.5)  # another key
+    h.master.request(2, _req(1, bid=300.0), 0.0, EPOCH)
+    assert h.entries() == {2: (0, 1)}, "first come, first chosen: a better bid later is too late"
+
+
 def test_gather_and_scatter() -> None:
     h = Harness()
     h.master.scatter = lambda key, gen, chosen: {p: f"slot-{i}" for p, _, i, _ in chosen}

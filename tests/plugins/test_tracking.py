@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from actorswarm.dsl import check
-from actorswarm.plugins.tracking import DetectTarget, TrackTarget, track_role
+from actorswarm.plugins.tracking import UNSEEN_BID, DetectTarget, TrackTarget, track_role
 from actorswarm.runtime.context import CameraUnavailable, CollectiveUnavailable, PluginContext
 from actorswarm.runtime.events import Emitted
 from actorswarm.sim.tasksim import TaskSim
@@ -299,7 +299,8 @@ def test_tracker_claims_the_role_once_and_releases_it_on_stop() -> None:
     ctx = make_context(TrackTarget, vehicle=vehicle, camera=camera, collective=collective)
     plugin = TrackTarget()
     run_plugin(plugin, ctx, steps=10)
-    assert collective.claims == [("track:jeep", 1, None)]
+    # Bidding its horizontal distance to the jeep, 1 m off.
+    assert collective.claims == [("track:jeep", 1, pytest.approx(1.0))]
     plugin._drive_stop(ctx)
     assert collective.releases == ["track:jeep"]
     # Without a swarm, and with exclusive off, no claim (and no error).
@@ -314,6 +315,130 @@ def test_tracker_claims_the_role_once_and_releases_it_on_stop() -> None:
     )
     run_plugin(TrackTarget(), ctx, steps=3)
     assert quiet.claims == []
+
+
+LOST_TRACKER = {
+    "to": "Track",
+    "slot": 1,
+    "slots": 1,
+    "event": {"platform": 9, "at": [600.0, 50.0, 15.0], "roles": ["other", "track:jeep"]},
+}
+
+
+def test_a_tracker_promoted_by_x_lost_claims_the_lost_tracker_s_role_at_once() -> None:
+    """Before it has seen anything: a searcher that sees the jeep meanwhile is denied."""
+    collective = FakeCollective()
+    vehicle = hovering()
+    ctx = make_context(
+        TrackTarget,
+        params={"area": "0 0 100 100"},
+        vehicle=vehicle,
+        camera=FakeCamera(vehicle),
+        collective=collective,
+        data=LOST_TRACKER,
+    )
+    plugin = TrackTarget()
+    plugin._drive_start(ctx)
+    # Not seen yet: of two holders after a heal, the one that sees the jeep keeps it.
+    assert collective.claims == [("track:jeep", 1, UNSEEN_BID)]
+    assert plugin.last is None, "the lost tracker's position is not the target's"
+
+
+def test_a_promoted_tracker_looks_where_the_lost_one_was_then_sweeps_from_there() -> None:
+    vehicle = FakeVehicle(position=(10.0, 10.0, 30.0), cruise_speed=10.0)
+    camera = FakeCamera(vehicle)
+    params = {"area": "0 0 100 100", "search_altitude": "30", "altitude": "15"}
+    lost = {"platform": 9, "at": [90.0, 20.0, 15.0], "roles": ["track:jeep"]}
+    data = {"to": "Track", "slot": 1, "slots": 1, "event": lost}
+    ctx = make_context(
+        TrackTarget,
+        params=params,
+        vehicle=vehicle,
+        camera=camera,
+        collective=FakeCollective(),
+        data=data,
+    )
+    plugin = TrackTarget()
+    plugin._drive_start(ctx)
+    assert vehicle.commands[-1] == ("goto", 90.0, 20.0, 30.0, None)
+    run_plugin(plugin, ctx, steps=120, dt=0.1)  # there, and on to the nearest lane end
+    x, y, _ = vehicle.position()
+    assert x > 50.0, f"the sweep goes on from the eastern lanes, not from the start: {x, y}"
+    # The target near where the lost tracker was is found.
+    camera.targets["jeep"] = ("jeep", (x, y, 0.0))
+    run_plugin(plugin, ctx, steps=5)
+    assert plugin.last == (x, y, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("params", "event"),
+    [
+        ({"target": "car"}, LOST_TRACKER["event"]),  # another target than it is after
+        ({}, {"platform": 9, "at": None, "roles": ["track:"]}),
+        ({}, {"platform": 9, "at": None, "roles": "track:jeep"}),  # not a list
+        ({}, 9),  # a bare ID
+    ],
+)
+def test_a_promoted_tracker_claims_nothing_without_a_tracker_role_to_take_over(
+    params: dict[str, str], event: Any
+) -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    ctx = make_context(
+        TrackTarget,
+        params=params,
+        vehicle=vehicle,
+        camera=FakeCamera(vehicle),
+        collective=collective,
+        data={"to": "Track", "slot": 1, "slots": 1, "event": event},
+    )
+    run_plugin(TrackTarget(), ctx, steps=3)
+    assert [c[0] for c in collective.claims] == (["track:car"] if params else [])
+
+
+@pytest.mark.parametrize("state", ["denied", "revoked"])
+def test_a_tracker_refused_the_role_yields_once(state: str) -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (1.0, 0.0, 0.0))})
+    params = {"yield_event": "track_yield_event"}
+    ctx = make_context(
+        TrackTarget, params=params, vehicle=vehicle, camera=camera, collective=collective
+    )
+    plugin = TrackTarget()
+    assert run_plugin(plugin, ctx, steps=5) == []
+    answer(ctx, "track:other", state)  # not its role
+    answer(ctx, "track:jeep", "granted")
+    assert run_plugin(plugin, ctx, steps=5) == [], "granted (or another role's answer): stays"
+    answer(ctx, "track:jeep", state)
+    events = run_plugin(plugin, ctx, steps=5)
+    assert names(events) == ["track_yield_event"] and events[0].scope == "local"
+    answer(ctx, "track:jeep", state)
+    assert run_plugin(plugin, ctx, steps=5) == [], "once per start"
+
+
+def test_without_a_yield_event_a_refused_tracker_keeps_tracking() -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (1.0, 0.0, 0.0))})
+    ctx = make_context(TrackTarget, vehicle=vehicle, camera=camera, collective=collective)
+    plugin = TrackTarget()
+    run_plugin(plugin, ctx, steps=5)
+    answer(ctx, "track:jeep", "denied")
+    assert run_plugin(plugin, ctx, steps=5) == []
+    assert plugin.last == (1.0, 0.0, 0.0)
+
+
+def test_an_answer_from_before_the_claim_is_not_the_claim_s() -> None:
+    collective = FakeCollective()
+    vehicle = hovering()
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (1.0, 0.0, 0.0))})
+    params = {"yield_event": "track_yield_event"}
+    ctx = make_context(
+        TrackTarget, params=params, vehicle=vehicle, camera=camera, collective=collective
+    )
+    answer(ctx, "track:jeep", "denied")  # what the detector of this actor was told before
+    assert run_plugin(TrackTarget(), ctx, steps=5) == []
 
 
 def test_tracker_keeps_to_the_target_it_locked_on() -> None:

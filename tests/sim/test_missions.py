@@ -20,10 +20,12 @@ import numpy as np
 import pytest
 
 from actorswarm.dsl import check_file
+from actorswarm.engine.engine import TaskEngine
 from actorswarm.missions import MISSIONS, Mission, mission
 from actorswarm.plugins.formation import Formation
+from actorswarm.plugins.tracking import TrackTarget
 from actorswarm.sim.mission import prepare, run_slices
-from actorswarm.sim.tasksim import TaskSim
+from actorswarm.sim.tasksim import Fault, TaskSim
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 #: The least 3-D distance between two airborne vehicles the shipped missions keep, metres.
@@ -286,6 +288,93 @@ def test_search_track_completes_with_a_searcher_killed() -> None:
 # --- reorganization ------------------------------------------------------------------------
 
 
+class TrackerDown:
+    """The search-track mission, the tracker taken away 2 s after it starts tracking —
+    crashed (``kill``) or cut off for 5 s (``partition``, then healed: a false loss) — and
+    run to 175 s, past the moment another searcher's camera sees the jeep (about 170 s)."""
+
+    DURATION = 175.0
+
+    def __init__(self, seed: int, how: str) -> None:
+        self.sim = prepare(mission("search-track"), seed=seed)
+        self.tracker: int | None = None
+        self.down_at: float | None = None
+        #: Platform -> horizontal distance to the tracker when it went down (the others).
+        self.distances: dict[int, float] = {}
+        heal_at: float | None = None
+
+        def on_slice(t: float, new: list[dict[str, Any]]) -> None:
+            nonlocal heal_at
+            world = self.sim.world
+            assert world is not None
+            if self.tracker is None:
+                first = [r for r in new if r["to"] == "Track"]
+                if first:
+                    self.tracker, self.down_at = first[0]["platform"], t + 2.0
+            elif self.down_at is not None and t == self.down_at:
+                down = world.vehicle(self.tracker).position()
+                for p in self.sim.hosts:
+                    if p != self.tracker:
+                        here = world.vehicle(p).position()
+                        self.distances[p] = math.dist(down[:2], here[:2])
+                ids = frozenset({self.tracker})
+                self.sim.fault(Fault("kill" if how == "kill" else "partition", t, ids))
+                heal_at = t + 5.0 if how == "partition" else None
+            elif heal_at is not None and t == heal_at:
+                self.sim.fault(Fault("heal", t))
+
+        self.report = run_slices(self.sim, self.DURATION, slice_s=0.5, on_slice=on_slice)
+
+    def holders(self, actor: str) -> list[int]:
+        return sorted(int(p) for p, a in self.report["final_actors"].items() if actor in a)
+
+    def master_engine(self) -> TaskEngine:
+        (engine,) = [h.engine for h in self.sim.hosts.values() if h.engine.node.is_master]
+        return engine
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_crashed_tracker_is_replaced_by_the_nearest_searcher_and_stays_one(seed: int) -> None:
+    run = TrackerDown(seed, "kill")
+    assert run.report["violations"] == [] and run.report["plugin_failures"] == []
+    assert run.tracker is not None and run.down_at is not None
+    promoted = [t for t in run.report["transitions"] if t["event"] == "Track_lost"]
+    assert len(promoted) == 1, promoted
+    nearest = min(run.distances, key=run.distances.__getitem__)
+    assert promoted[0]["platform"] == nearest, f"promoted {promoted}, distances {run.distances}"
+    assert run.down_at < promoted[0]["t"] < run.down_at + 2.0
+    # A searcher that saw the jeep afterwards was refused the role: one tracker at the end,
+    # holding the role.
+    later = [t for t in run.report["transitions"] if t["to"] == "Track" and t["t"] > run.down_at]
+    assert later == promoted, later
+    assert run.holders("Track") == [nearest]
+    assert run.master_engine().node.role_holders("track:jeep") == (nearest,)
+    # It looked where the lost tracker was, found the jeep and follows it.
+    (follow,) = [
+        p
+        for p in run.sim.hosts[nearest].engine.runtime.plugins("Track")
+        if isinstance(p, TrackTarget)
+    ]
+    assert follow.last is not None and not follow.lost
+
+
+def test_a_tracker_falsely_taken_for_lost_leaves_one_tracker_when_it_is_back() -> None:
+    run = TrackerDown(1, "partition")
+    assert run.report["violations"] == [] and run.report["plugin_failures"] == []
+    assert run.tracker is not None
+    promoted = [t["platform"] for t in run.report["transitions"] if t["event"] == "Track_lost"]
+    assert len(promoted) == 1 and promoted[0] != run.tracker
+    # Back from the partition both hold the role; the master keeps the better bid — the
+    # tracker that had the jeep in view, not the promoted one still looking for it — and
+    # the other yields and goes back to searching.
+    yielded = [t for t in run.report["transitions"] if t["event"] == "track_yield_event"]
+    assert [(t["platform"], t["from"], t["to"]) for t in yielded] == [
+        (promoted[0], "Track", "Range")
+    ]
+    assert run.holders("Track") == [run.tracker]
+    assert run.master_engine().node.role_holders("track:jeep") == (run.tracker,)
+
+
 def test_a_tracker_whose_battery_dies_is_replaced_by_track_lost(battery: Run) -> None:
     battery.clean()
     assert [w["platform"] for w in battery.report["wrecks"]] == [2]
@@ -299,6 +388,15 @@ def test_a_tracker_whose_battery_dies_is_replaced_by_track_lost(battery: Run) ->
     assert "2" not in battery.report["final_actors"]
     lost = [t for t in battery.report["transitions"] if t["cause"] == "lost"]
     assert [(t["platform"], t["from"], t["t"]) for t in lost] == [(2, "Track", died)]
-    # The promoted tracker started from nothing it was told and found the jeep again.
+    # No searcher became a second tracker, and the promoted one (the nearest: platform 3,
+    # on the next lane) looked where platform 2 fell and is over the jeep at go_home.
     detected = [t for t in trackers if t["event"] == "target_detected_event"]
     assert len(detected) == 1
+    assert promoted[0]["platform"] == 3
+    world = battery.sim.world
+    assert world is not None
+    track = world.track()
+    i = int(np.searchsorted(track.times, 199.5))
+    over = track.positions[i, list(track.platforms).index(3), :2]
+    jeep = track.target_positions[i, 0, :2]
+    assert math.dist(over.tolist(), jeep.tolist()) < 10.0

@@ -26,6 +26,10 @@ master crash in the middle of a release.
 A timeout (seconds from the group's first request) releases every waiting candidate with
 outcome ``timeout``.
 
+A *hold* (:meth:`BarrierMaster.hold`) keeps a key from firing until a given time while its
+requests gather, so that the best bids win rather than the first to arrive: a ``need`` of 1
+would otherwise fire on the first request, whatever the bids of those still on their way.
+
 
 Layout: :mod:`~actorswarm.core.barrier_state` (the master's table and releases in flight),
 :mod:`~actorswarm.core.barrier_master` (requests, firing, time),

@@ -142,6 +142,12 @@ class BarrierMaster(Completion):
             return ()
         return tuple(sorted({r.occasion for r in inst.requests.values() if r.occasion}))
 
+    def hold(self, key: int, until: float) -> None:
+        """Fire nothing of ``key`` before ``until`` (the latest of the holds asked): its
+        requests gather meanwhile, and then the best bids are chosen among all of them.
+        A timeout still releases the key on time."""
+        self._holds[key] = max(until, self._holds.get(key, until))
+
     def try_fire(self, key: int, now: float, epoch: int) -> None:
         """Fire ``key`` when every part that waits for candidates (need >= 1) has them;
         a part that waits for none (no platform can be its candidate) holds nothing back,
@@ -149,6 +155,11 @@ class BarrierMaster(Completion):
         inst = self.open.get(key)
         if inst is None or not inst.requests or not self.ready:
             return
+        until = self._holds.get(key)
+        if until is not None:
+            if now < until:
+                return
+            del self._holds[key]
         by_part: dict[int, list[tuple[int, BarrierRequest]]] = {}
         for platform, req in inst.requests.items():
             by_part.setdefault(req.part, []).append((platform, req))
@@ -221,6 +232,9 @@ class BarrierMaster(Completion):
         """Fire timeouts; retransmit releases to whoever has not acknowledged."""
         if self.ready:
             self._recheck_doubtful(now, epoch)
+            for key in [k for k, until in self._holds.items() if now >= until]:
+                self.try_fire(key, now, epoch)
+                self._holds.pop(key, None)  # over, whether or not the key had requests
             for ident, (req, until) in list(self._parked.items()):
                 if now >= until:
                     self.request(ident[0], req, now, epoch)  # refused now, its wait is over
@@ -269,6 +283,9 @@ class BarrierMaster(Completion):
             best = t if best is None or t < best else best
         if self._parked and self.ready:
             t = min(until for _, until in self._parked.values())
+            best = t if best is None or t < best else best
+        if self._holds and self.ready:
+            t = min(self._holds.values())
             best = t if best is None or t < best else best
         return best
 

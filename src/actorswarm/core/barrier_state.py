@@ -147,6 +147,8 @@ class MasterState:
         # Requests refused while reports may still be on their way (see _refuse).
         self._doubtful: dict[tuple[int, int], BarrierRequest] = {}
         self._hold_fire = False
+        # Keys that do not fire before a time (hold), whatever requests they have.
+        self._holds: dict[int, float] = {}
         self._changed_at = -float("inf")
         # Requests received during the handshake, with their arrival time.
         self._staged: dict[tuple[int, int], tuple[BarrierRequest, float]] = {}

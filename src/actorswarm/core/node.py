@@ -303,6 +303,13 @@ class Node(NodeElection):
         member)."""
         return self._bmaster.waiting_occasions(key) if self.is_master else ()
 
+    def hold_barrier(self, key: int, until: float) -> None:
+        """Master only: fire nothing of barrier ``key`` before ``until``, so that requests
+        on their way are chosen by their bids rather than by who arrives first
+        (:meth:`~actorswarm.core.barrier.BarrierMaster.hold`). Elsewhere it does nothing."""
+        if self.is_master:
+            self._bmaster.hold(key, until)
+
     def role_holders(self, role: str) -> tuple[int, ...]:
         """Master only: who holds ``role`` according to the master's table."""
         return self._rmaster.holders(role)

@@ -27,7 +27,9 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
   hears no release by ``timeout`` plus a grace period falls back to ``timeoutBranch`` on its
   own (it cannot reach any master).
 * **Lost actors.** When a member leaves the master's view, the master relays the swarm event
-  ``X_lost`` (data: the platform ID) for every actor ``X`` it was running.
+  ``X_lost`` for every actor ``X`` it was running, with where the platform last said it was
+  and the roles it held; candidates bid their distance to that place, so the nearest
+  replaces it (:mod:`actorswarm.engine.promotion`).
 * **Ground-station commands** (:mod:`actorswarm.engine.commands`, from platform 0 only):
   deploy in chunks (answered with the script's SHA-256), start (the first script, or a new
   version while running), inject an event, forced transition, forced start / stop, pause /
@@ -66,6 +68,13 @@ from actorswarm.engine import commands as cmds
 from actorswarm.engine.assign import assign_slots
 from actorswarm.engine.groups import SharedEvents, part_need, reaching
 from actorswarm.engine.plan import Plan
+from actorswarm.engine.promotion import (
+    BID_WINDOW,
+    LOST_SUFFIX,
+    Whereabouts,
+    lost_bid,
+    lost_groups,
+)
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
 from actorswarm.runtime.collective import PLUGIN_KEY_BASE, plugin_view
 from actorswarm.runtime.storage import BackupStore, MemoryBackupStore
@@ -80,6 +89,7 @@ TOPIC_ACTORS = "engine.actors"  # member -> master: the actors I run now
 TOPIC_SWARM_EVENT = "engine.swarm-event"  # member -> master: relay this event to all
 TOPIC_EVENT = "engine.event"  # master -> member: an event for you
 TOPIC_MASTER_ACTORS = "engine.master-actors"  # master -> members: the actors I run
+TOPIC_WHEREABOUTS = "engine.whereabouts"  # where I am and my roles (promotion.Whereabouts)
 
 
 class _EventMsg(msgspec.Struct, frozen=True):
@@ -135,6 +145,8 @@ class _Candidacy:
     transition: Transition
     fallback_at: float | None
     occasion: str
+    bid: float | None = None  # asked again with the same bid and data after a stale notice
+    data: Any = None
 
 
 class TaskEngine:
@@ -166,6 +178,8 @@ class TaskEngine:
         # announce its actors lost.
         self._master_actors: tuple[int, tuple[str, ...]] | None = None
         self._occasions = 0
+        # Where platforms running an actor the script's X_lost rules watch last were.
+        self._whereabouts = Whereabouts()
         #: The time of the latest call into the engine: the master's slot assignment asks
         #: where the slots are "now", and the core's scatter hook carries no time.
         self._now = 0.0
@@ -235,6 +249,7 @@ class TaskEngine:
         self._now = now
         for emitted in self.runtime.step(now):
             self._emitted(emitted, now)
+        self._report_whereabouts(now)
         for key, cand in list(self._pending.items()):
             if cand.fallback_at is not None and now >= cand.fallback_at:
                 # No release in time: no master could be reached. Decide alone.
@@ -249,6 +264,11 @@ class TaskEngine:
         runtime = self.runtime.next_deadline()
         if runtime is not None:
             times.append(runtime)
+        report = self._whereabouts.next_check(
+            watched=self._whereabouts.watching(self.plan, self.runtime.running())
+        )
+        if report is not None:
+            times.append(report)
         return min(times) if times else None
 
     def inject(
@@ -298,6 +318,7 @@ class TaskEngine:
                     )
                 )
         elif isinstance(event, MasterChanged):
+            self._whereabouts.reset()
             if event.master is not None and event.master != self.node.platform:
                 self._announce(now)  # the new master must know what I run
         elif isinstance(event, BecameMaster):
@@ -310,17 +331,15 @@ class TaskEngine:
             ):
                 # My predecessor is gone with its actors: nobody else can say so.
                 self._master_actors = None
-                for actor in previous[1]:
-                    self._relay(f"{actor}_lost", previous[0], origin=0, now=now)
+                self._relay_lost(previous[0], previous[1], now)
+            self._whereabouts.reset()
             self._announce(now)
         elif isinstance(event, MemberJoined) and self.node.is_master:
             # A newcomer must know what the master runs, in case it succeeds it.
             body = _ENCODE.encode(list(self.runtime.running()))
             self.node.send_app(event.platform, TOPIC_MASTER_ACTORS, body, now)
         elif isinstance(event, MemberLeft) and self.node.is_master:
-            lost = self._table.pop(event.platform, ())
-            for actor in lost:
-                self._relay(f"{actor}_lost", event.platform, origin=0, now=now)
+            self._relay_lost(event.platform, self._table.pop(event.platform, ()), now)
 
     # --- events and candidacy -----------------------------------------------------------
 
@@ -335,6 +354,8 @@ class TaskEngine:
         self, event: str, now: float, *, bid: float | None, data: Any, occasion: str
     ) -> None:
         handled = False
+        if bid is None:  # X_lost: the nearest to where the lost platform was goes first
+            bid = lost_bid(event, data, self.runtime.position())
         for actor in self.runtime.running():
             found = self.plan.by_event.get((actor, event))
             if found is None:
@@ -363,7 +384,12 @@ class TaskEngine:
         transition = group.parts[part]
         timeout = group.timeout
         self._pending[key] = _Candidacy(
-            actor, transition, None if timeout is None else now + timeout + self.grace, occasion
+            actor,
+            transition,
+            None if timeout is None else now + timeout + self.grace,
+            occasion,
+            bid,
+            data,
         )
         at = self.runtime.position()
         self.node.request_barrier(
@@ -422,7 +448,13 @@ class TaskEngine:
         found = self.plan.by_event.get((cand.actor, cand.transition.event))
         if found is not None:
             self._request(
-                cand.actor, found[0], found[1], now, bid=None, data=None, occasion=cand.occasion
+                cand.actor,
+                found[0],
+                found[1],
+                now,
+                bid=cand.bid,
+                data=cand.data,
+                occasion=cand.occasion,
             )
 
     def _switch(
@@ -475,6 +507,8 @@ class TaskEngine:
                 self._table[msg.sender] = tuple(_DECODE_ACTORS.decode(msg.body))
                 if self.node.is_master:
                     self._entered(msg.sender, before, now)
+            elif msg.topic == TOPIC_WHEREABOUTS:
+                self._whereabouts.heard(msg.sender, msg.body)
             elif msg.topic == TOPIC_MASTER_ACTORS:
                 self._master_actors = (msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
             elif msg.topic == TOPIC_SWARM_EVENT and self.node.is_master:
@@ -486,6 +520,39 @@ class TaskEngine:
                 self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
         except (msgspec.DecodeError, cmds.CommandError):
             self.ignored.append((now, msg.topic, f"undecodable message from {msg.sender}"))
+
+    def _relay_lost(self, platform: int, actors: tuple[str, ...], now: float) -> None:
+        """Master: ``platform`` left; relay ``X_lost`` for each of its ``actors``, with
+        where it last was, after holding the groups those events fire, so that the
+        candidates' bids (their distances to that place) decide rather than who asks first."""
+        if not actors:
+            # Nothing to relay; and a master that has just taken over hears of its
+            # predecessor leaving before it relays its actors lost: keep its whereabouts.
+            return
+        data = self._whereabouts.lost(platform)
+        events = [f"{actor}{LOST_SUFFIX}" for actor in actors]
+        for key in lost_groups(self.plan, events):
+            self.node.hold_barrier(key, now + BID_WINDOW)
+        for event in events:
+            self._relay(event, data, origin=0, now=now)
+
+    def _report_whereabouts(self, now: float) -> None:
+        """Tell the master (the master: every member) where I am and the roles I hold,
+        when :class:`~actorswarm.engine.promotion.Whereabouts` says a report is due."""
+        body = self._whereabouts.due(
+            now,
+            watched=self._whereabouts.watching(self.plan, self.runtime.running()),
+            position=self.runtime.position(),
+            roles=self.node.roles.held,
+        )
+        if body is None:
+            return
+        if self.node.is_master:
+            self.node.post_bulletin(TOPIC_WHEREABOUTS, body, now)
+        elif self.node.master is not None:
+            self.node.send_app(None, TOPIC_WHEREABOUTS, body, now)
+        else:
+            self._whereabouts.reset()  # nobody to tell: report to the next master at once
 
     def _relay(self, event: str, data: Any, *, origin: int, now: float, occasion: str = "") -> None:
         """Master: send ``event`` to every member but its origin (one broadcast, resent only

@@ -27,6 +27,18 @@ re-claim on the platform that won it; a claim that keeps detectors quiet on a pl
 switched in some other way) and releases it when it stops, so another platform may take
 the target over.
 
+**Taking over from a lost tracker.** A tracker promoted by ``X_lost`` was not told which
+target to follow, but the event's data lists the roles the lost platform held
+(:mod:`actorswarm.engine.promotion`): :class:`TrackTarget` locks on the target of the lost
+``track:<name>`` and claims that role at once, before it has seen the target, so that a
+searcher that sees it meanwhile is denied the role and keeps searching; it looks first
+where the lost tracker last was (it flew over the target), then sweeps its ``area``. Should two
+platforms still both track one target — a searcher won the role before the promoted
+tracker claimed it, or a platform taken for lost comes back still tracking — the master
+grants the role to one only: the other is denied (or, after a partition heals, revoked),
+and :class:`TrackTarget` emits its ``yield_event``, on which the script sends it back to
+searching. One tracker per target remains.
+
 **Where the target is**, for the tracker, in order: the nearest matching detection of its
 own camera now; else the last position it knows — its own last sighting, or a newer
 ``ctx.blackboard["target"]`` (written by a :class:`DetectTarget` in the same actor), or
@@ -62,11 +74,13 @@ if TYPE_CHECKING:
 #: How close to a sweep waypoint (metres) counts as reached.
 _SWEEP_TOLERANCE: Final = 3.0
 
-__all__ = ["CATCH_UP_TIME", "DetectTarget", "TrackTarget", "track_role"]
+__all__ = ["CATCH_UP_TIME", "UNSEEN_BID", "DetectTarget", "TrackTarget", "track_role"]
 
 #: The tracker's commanded speed closes its gap to the target in about this many seconds,
 #: on top of the target's own speed.
 CATCH_UP_TIME: Final = 3.0
+#: The role bid of a tracker that has not seen its target yet: behind any that has.
+UNSEEN_BID: Final = 1e9
 #: The least speed (m/s) the tracker asks for, so a goto near a still target still moves.
 _MIN_SPEED: Final = 1.0
 
@@ -96,6 +110,58 @@ def _matching(ctx: PluginContext, name: str | None = None) -> list[Detection]:
         for d in camera.detections()
         if (kind is None or d.kind == kind) and (want is None or d.name == want)
     ]
+
+
+def _role_state(ctx: PluginContext, role: str, cursor: int) -> tuple[str | None, int]:
+    """The latest answer about ``role`` on the blackboard's ``collective`` list from index
+    ``cursor`` on (None: none), and the index to read from next time."""
+    answers = ctx.blackboard.get("collective")
+    if not isinstance(answers, list):
+        return None, 0
+    if len(answers) < cursor:  # someone trimmed the list
+        cursor = 0
+    state: str | None = None
+    for answer in answers[cursor:]:
+        if (
+            isinstance(answer, Mapping)
+            and answer.get("kind") == "role"
+            and answer.get("role") == role
+        ):
+            value = answer.get("state")
+            state = value if isinstance(value, str) else state
+    return state, len(answers)
+
+
+def _answers_so_far(ctx: PluginContext) -> int:
+    """How many answers the blackboard's ``collective`` list holds now."""
+    answers = ctx.blackboard.get("collective")
+    return len(answers) if isinstance(answers, list) else 0
+
+
+def _lost_tracker(ctx: PluginContext) -> tuple[str, Point | None] | None:
+    """The target a lost tracker was following and where that tracker last was, when this
+    actor was started by its ``X_lost``: the event's data (``ctx.data["event"]``) lists the
+    roles the lost platform held and its last position ``at``
+    (:func:`actorswarm.engine.promotion.lost_data`); ``track:<name>`` among the roles names
+    the target. None when there is no such role (or it names another target than the
+    ``target`` param)."""
+    event = ctx.data.get("event") if isinstance(ctx.data, Mapping) else None
+    if not isinstance(event, Mapping):
+        return None
+    roles, at = event.get("roles"), event.get("at")
+    if not isinstance(roles, list):
+        return None
+    where: Point | None = None
+    if isinstance(at, list) and len(at) == 3 and all(finite(v) for v in at):
+        where = (float(at[0]), float(at[1]), float(at[2]))
+    prefix = track_role("")
+    want = ctx.params["target"]
+    for role in roles:
+        if isinstance(role, str) and role.startswith(prefix) and len(role) > len(prefix):
+            name = role[len(prefix) :]
+            if want is None or name == want:
+                return name, where
+    return None
 
 
 def _xyz(value: object) -> Point | None:
@@ -224,8 +290,7 @@ class DetectTarget(Plugin):
             self._fire(ctx, seen[0])
             return
         role = track_role(seen[0].name)
-        answers = ctx.blackboard.get("collective")
-        before = len(answers) if isinstance(answers, list) else 0
+        before = _answers_so_far(ctx)
         try:
             ctx.collective.claim_role(role, 1, bid=seen[0].distance)
         except CollectiveUnavailable as exc:
@@ -260,21 +325,7 @@ class DetectTarget(Plugin):
 
     def _answer(self, ctx: PluginContext, role: str) -> str | None:
         """The latest answer about ``role`` since the claim, or None."""
-        answers = ctx.blackboard.get("collective")
-        if not isinstance(answers, list):
-            return None
-        if len(answers) < self._cursor:  # someone trimmed the list
-            self._cursor = 0
-        state: str | None = None
-        for answer in answers[self._cursor :]:
-            if (
-                isinstance(answer, Mapping)
-                and answer.get("kind") == "role"
-                and answer.get("role") == role
-            ):
-                value = answer.get("state")
-                state = value if isinstance(value, str) else state
-        self._cursor = len(answers)
+        state, self._cursor = _role_state(ctx, role, self._cursor)
         return state
 
     def _fire(self, ctx: PluginContext, detection: Detection) -> None:
@@ -334,9 +385,18 @@ class TrackTarget(Plugin):
         Emitted, scope local, when the target becomes lost (once per loss: a target seen
         again and lost again emits again). Left out: nothing is emitted.
     ``exclusive`` (bool, default true)
-        Claim the role ``track:<name>`` (quota 1) once the name is known, ignoring the
-        answer (the claim keeps other platforms' detectors quiet), and release it on stop;
-        without a swarm behind ``ctx.collective`` this is skipped silently.
+        Claim the role ``track:<name>`` (quota 1) once the name is known (the claim keeps
+        other platforms' detectors quiet), bidding the horizontal distance to where the
+        target is known to be (:data:`UNSEEN_BID` when nowhere yet: of two holders after a
+        partition heals, the nearer keeps the role), and release it on stop; without a swarm behind
+        ``ctx.collective`` this is skipped silently. Started by an ``X_lost`` whose data
+        lists a ``track:<name>`` role of the lost platform, the name is that target's.
+    ``yield_event`` (optional)
+        Emitted, scope local, once per start, when the swarm gives the role to another
+        platform: the claim was denied (another platform tracks the target) or the grant
+        revoked (two held it, after a partition healed). A transition on it back to
+        searching leaves one tracker per target. Left out: the answer is ignored and the
+        tracker keeps tracking.
 
     ``area`` (optional)
         Where to look when the target is nowhere known or is lost: an area name of
@@ -348,6 +408,10 @@ class TrackTarget(Plugin):
         is. Left out: the tracker hovers where it is (or over the last known position).
     ``search_altitude`` (float > 0, default 35)
         The altitude of that sweep (higher: a wider footprint).
+
+    A promoted tracker (no position given) that knows the target's name from the lost
+    tracker's role claims the role at start and, with ``area``, flies first to where the
+    lost tracker last was (at ``search_altitude``), then sweeps the area from there.
 
     Where the target is and how it is followed: see the module docstring. A camera is used
     when the platform has one; without one the tracker flies to the last position it was
@@ -387,6 +451,13 @@ class TrackTarget(Plugin):
             doc="claim the target's tracker role (quota 1) once its name is known, so other "
             "platforms' detectors stay quiet",
         ),
+        "yield_event": Param(
+            kind="str",
+            pattern=EVENT_NAME_PATTERN,
+            form=EVENT_NAME_FORM,
+            doc="the event to emit when the swarm gives the target's tracker role to "
+            "another platform; left out: none (keep tracking)",
+        ),
         "area": Param(
             kind="area",
             doc="an area name or 'x_min y_min x_max y_max' to sweep while the target is "
@@ -410,8 +481,11 @@ class TrackTarget(Plugin):
         self._sent: Point | None = None
         self._holding = False
         self._claimed: str | None = None
+        self._cursor = 0  # role answers on the blackboard before this index are not ours
+        self._yielded = False
         self._sweep: list[Point] = []  # the area's lanes, while looking for the target
         self._leg = 0
+        self._hint: Point | None = None  # where a lost tracker last was: looked at first
 
     @property
     def last(self) -> Point | None:
@@ -434,6 +508,7 @@ class TrackTarget(Plugin):
         self._plan_sweep(ctx)
         self._last, self._seen_at, self._lost = None, None, False
         self._since = ctx.now
+        self._yielded = False
         event = ctx.data.get("event") if isinstance(ctx.data, Mapping) else None
         for source in (ctx.data, event):
             given = _xyz(source)
@@ -441,11 +516,20 @@ class TrackTarget(Plugin):
                 self._last = given
                 self._lock(source.get("target"))
                 break
+        self._lock(ctx.params["target"])
+        self._hint = None
+        taken_over = _lost_tracker(ctx)
+        if taken_over is not None and self._name in (None, taken_over[0]):
+            self._lock(taken_over[0])
+            # The lost tracker flew over the target: look there first (unless the
+            # transition brought where the target itself is).
+            self._hint = taken_over[1] if self._last is None else None
         self._observe(ctx)
         self._command(ctx, force=True)
 
     def step(self, ctx: PluginContext) -> None:
         self._observe(ctx)
+        self._check_role(ctx)
         reference = self._seen_at if self._seen_at is not None else self._since
         if not self._lost and ctx.now - reference >= float(ctx.params["lost_after"]):
             self._lost = True
@@ -535,11 +619,29 @@ class TrackTarget(Plugin):
         if self._claimed is not None or self._name is None or not ctx.params["exclusive"]:
             return
         role = track_role(self._name)
+        before = _answers_so_far(ctx)
+        # The bid ranks the holders when two hold the role (a healed partition): the one
+        # nearer to the target keeps it, and one that has not seen it yet goes last.
+        if self._last is None:
+            bid = UNSEEN_BID
+        else:
+            here = ctx.require_vehicle().position()
+            bid = math.hypot(here[0] - self._last[0], here[1] - self._last[1])
         try:
-            ctx.collective.claim_role(role, 1)
+            ctx.collective.claim_role(role, 1, bid=bid)
         except CollectiveUnavailable:
             return
-        self._claimed = role
+        self._claimed, self._cursor = role, before
+
+    def _check_role(self, ctx: PluginContext) -> None:
+        """Emit ``yield_event`` once if the swarm gave the claimed role to another."""
+        event = ctx.params["yield_event"]
+        if self._claimed is None or event is None or self._yielded:
+            return
+        state, self._cursor = _role_state(ctx, self._claimed, self._cursor)
+        if state in ("denied", "revoked"):
+            self._yielded = True
+            ctx.emit(event, scope="local")
 
     # --- following it -------------------------------------------------------------------------
 
@@ -580,6 +682,15 @@ class TrackTarget(Plugin):
         """Fly the sweep of ``area``, lane after lane and round again, until a sighting;
         it begins at the waypoint nearest the vehicle, not across the area."""
         vehicle = ctx.require_vehicle()
+        if self._hint is not None:
+            point = (self._hint[0], self._hint[1], float(ctx.params["search_altitude"]))
+            if math.dist(vehicle.position(), point) > _SWEEP_TOLERANCE:
+                if force or self._sent != point:
+                    vehicle.goto(*point)
+                    self._sent, self._holding = point, False
+                return
+            # Not there (any more): sweep on from the lane end nearest to here.
+            self._hint, self._sent, self._leg = None, None, 0
         if self._leg == 0 and self._sent is None:
             here = vehicle.position()
             self._leg = min(range(len(self._sweep)), key=lambda i: math.dist(here, self._sweep[i]))
