@@ -87,6 +87,8 @@ NAN = math.nan
 MAX_SIZE = 10_000
 #: The barrier every platform requests.
 KEY = 1
+#: The packet kind of heartbeats in the radio's counters.
+_HEARTBEAT = "Heartbeat"
 #: Virtual seconds between two looks at the wall clock inside a slice (see :func:`run_cell`).
 _WATCHDOG = 0.001
 #: What each membership scheme is, for the report.
@@ -232,6 +234,9 @@ class ScaleCell:
     #: without airtime), packets and kbit/s carried (with ``overhead_bytes`` per packet when
     #: airtime is modelled), the packets dropped for want of airtime (each once, however many
     #: would have heard it; per packet kind too) and the longest wait for the channel.
+    #: The mean heartbeat sent over the quiet window, bytes as encoded (sealed; the channel
+    #: adds ``overhead_bytes``): what the core's ``heartbeat_bits`` estimates.
+    heartbeat_bytes: float = NAN
     channel_utilisation: float = NAN
     channel_pps: float = NAN
     channel_kbps: float = NAN
@@ -313,6 +318,7 @@ class _Watch:
         self.alive_after: list[int] = []
         # The channel's figures: booting → the window, the window, the window → the end.
         self.channel: list[ChannelStats] = []
+        self.heartbeats: list[tuple[int, int, int, int]] = []
 
     def on_event(self, now: float, node: Node, event: CoreEvent) -> None:
         """A listener (``SimSwarm.listeners``): called for every event of every platform,
@@ -357,6 +363,7 @@ class _Watch:
         radio = self.swarm.radio
         self.channel.append(radio.channel_stats())
         radio.reset_channel_stats()
+        self.heartbeats.append(radio.traffic.kind_totals(_HEARTBEAT))
 
     def window_start(self) -> None:
         self.before = self.swarm.radio.traffic.snapshot()
@@ -518,6 +525,9 @@ def _figures(cell: ScaleCell, watch: _Watch, swarm: SimSwarm, scenario: Scenario
     if watch.alive_after:  # the quiet window's end was reached
         _traffic(cell, watch, scenario)
         _channel(cell, watch.channel[1])
+        (before_packets, before_bytes, *_), (after_packets, after_bytes, *_) = watch.heartbeats
+        if after_packets > before_packets:
+            cell.heartbeat_bytes = (after_bytes - before_bytes) / (after_packets - before_packets)
     cell.run_airtime_drops = sum(c.drops for c in watch.channel)
     if scenario.channel_bitrate is not None:
         cell.run_max_wait_ms = max(c.max_queue_delay_s for c in watch.channel) * 1000

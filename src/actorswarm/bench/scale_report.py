@@ -63,19 +63,22 @@ def _share(value: float) -> str:
     return "—" if math.isnan(value) else f"{value:.0%}"
 
 
-def _channel_table(cells: list[ScaleCell]) -> list[str]:
+def _channel_table(cells: list[ScaleCell], overhead: int) -> list[str]:
     """The second table: the channel and what the members' cadence costs, one row per cell
-    in the order of the first."""
+    in the order of the first; ``overhead``: the bytes the channel adds to each packet."""
     lines = [
-        "| membership | N | loss | cadence | member heartbeat ms | sent pkt/s | carried pkt/s "
+        "| membership | N | loss | cadence | member heartbeat ms | heartbeat bits on air "
+        "| sent pkt/s | carried pkt/s "
         "| carried kbit/s | channel busy | airtime drops: window (run) "
         "| longest wait ms: window (run) | master's leave timeout ms | member leave ms |",
-        "|---" * 13 + "|",
+        "|---" * 14 + "|",
     ]
     for c in cells:
+        bits = (c.heartbeat_bytes + overhead) * 8
         lines.append(
             f"| {c.membership} | {c.size} | {c.loss:.0%} | {_yes(c.cadence)} "
-            f"| {_num(c.member_cadence_ms)} | {_rate(c.air_pps)} | {_rate(c.channel_pps)} "
+            f"| {_num(c.member_cadence_ms)} | {_num(bits)} "
+            f"| {_rate(c.air_pps)} | {_rate(c.channel_pps)} "
             f"| {_num(c.channel_kbps, 1)} | {_share(c.channel_utilisation)} "
             f"| {c.airtime_drops:,} ({c.run_airtime_drops:,}) "
             f"| {_num(c.max_wait_ms)} ({_num(c.run_max_wait_ms)}) "
@@ -90,7 +93,9 @@ def _channel_notes(report: ScaleReport) -> list[str]:
     window = f"{s.quiet_from:g}–{s.barrier_at:g} s"
     return [
         f"- *member heartbeat ms*: the interval at which the master's members heartbeat at "
-        f"{s.barrier_at:g} s (the cadence it asks for; 100 without cadence).",
+        f"{s.barrier_at:g} s (the cadence it asks for; 100 without cadence); *heartbeat bits "
+        "on air*: the mean heartbeat sent in the window, sealed, with the overhead — what the "
+        "core's `heartbeat_bits` estimates.",
         f"- *sent, carried*: over {window}, packets sent per second by every platform (as "
         "above) and those the channel carried, with their kbit/s counted with the overhead "
         "(`SimRadio.channel_stats`; without a channel, carried is sent and kbit/s has no "
@@ -180,7 +185,9 @@ def markdown(report: ScaleReport) -> str:
             f"| {_rate(c.air_pps)} | {_num(c.air_kbps, 1)} | {_false_leaves(c)} |"
         )
     if channel or s.member_crash_at is not None:
-        lines += ["", *_channel_table(cells)]
+        # Without a channel nothing is added to a packet on the air.
+        overhead = s.overhead_bytes if channel else 0
+        lines += ["", *_channel_table(cells, overhead)]
     lines += [
         "",
         "How each figure is taken (`src/actorswarm/bench/scale.py`):",
