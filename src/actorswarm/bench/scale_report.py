@@ -256,6 +256,53 @@ def plot_scale(report: ScaleReport, out: Path) -> None:
         name = scheme + (f", {loss:.0%} loss" if several else "")
         name += f", {cadence_text(cadence)}" if channel else ""
         style = "-" if loss == min(k[1] for k in groups) else ":"
+        # Non-positive values cannot sit on a log axis: they are left out.
+        members = [c for c in cells if c.member_recv_pps > 0]
+        if members:
+            med = [c.member_recv_pps for c in members]
+            rx.errorbar(
+                [c.size for c in members],
+                med,
+                yerr=[
+                    [m - c.member_recv_pps_min for m, c in zip(med, members, strict=True)],
+                    [c.member_recv_pps_max - m for m, c in zip(med, members, strict=True)],
+                ],
+                marker="o",
+                ls=style,
+                color=colour,
+                capsize=3,
+                label=f"{name}: non-master (median)",
+            )
+        masters = [c for c in cells if c.master_recv_pps > 0]
+        if masters:
+            rx.plot(
+                [c.size for c in masters],
+                [c.master_recv_pps for c in masters],
+                marker="s",
+                ls="--" if style == "-" else "-.",
+                color=colour,
+                label=f"{name}: master",
+            )
+        timed = [c for c in cells if c.wall_s > 0]
+        if timed:
+            wall.plot(
+                [c.size for c in timed],
+                [c.wall_s for c in timed],
+                marker="o",
+                ls=style,
+                color=colour,
+                label=name,
+            )
+            over = [c for c in timed if c.over_budget]
+            if over:
+                wall.plot(
+                    [c.size for c in over],
+                    [c.wall_s for c in over],
+                    "x",
+                    color="red",
+                    markersize=10,
+                    label=f"{name}: over budget",
+                )
         sent = [c for c in cells if c.air_pps > 0 and c.channel_pps > 0]
         if air is not None and sent:
             sizes = [c.size for c in sent]
