@@ -7,9 +7,11 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 import typer
+from matplotlib.figure import Figure
 from typer.testing import CliRunner
 
 from actorswarm.bench.scale import ScaleCell, ScaleReport, Scenario, run_cell, to_json
@@ -133,7 +135,9 @@ def test_without_a_channel_the_load_is_still_counted() -> None:
     assert math.isnan(cell.member_leave_ms) and cell.crashed_member == -1
 
 
-def test_the_report_has_a_channel_table(rows: tuple[ScaleCell, ...], tmp_path: Path) -> None:
+def test_the_report_has_a_channel_table(
+    rows: tuple[ScaleCell, ...], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     report = ScaleReport(
         command="actorswarm bench scale --channel-bitrate 70000 --cadence both",
         started="2026-11-25T00:00:00Z",
@@ -160,8 +164,18 @@ def test_the_report_has_a_channel_table(rows: tuple[ScaleCell, ...], tmp_path: P
     assert data["scenario"]["channel_bitrate"] == 70_000.0
     assert [c["cadence"] for c in data["cells"]] == [False, True]
     assert data["cells"][0]["airtime_drops"] == off.airtime_drops
+    # Every panel has lines: received packets, wall time and the channel's.
+    drawn: list[list[int]] = []
+    save = Figure.savefig
+
+    def spy(fig: Figure, *args: Any, **kwargs: Any) -> None:
+        drawn.append([len(ax.lines) for ax in fig.axes])
+        save(fig, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", spy)
     plot_scale(report, tmp_path / "channel.png")
     assert (tmp_path / "channel.png").read_bytes()[:4] == b"\x89PNG"
+    assert len(drawn) == 1 and len(drawn[0]) == 3 and min(drawn[0]) > 0, drawn
 
 
 def test_the_command_runs_both_cadences(tmp_path: Path) -> None:

@@ -197,7 +197,8 @@ def markdown(report: ScaleReport) -> str:
         "- *formed at*: the first virtual time with one master that has every other platform "
         "in its view and its handshake done.",
         "- *all released*: every platform's `BarrierReleased` for the barrier of all, "
-        "before the run ended (the master crashes two seconds after the request).",
+        f"before the run ended (the master crashes {s.crash_at - s.barrier_at:g} s after the "
+        "request).",
         "- *failover*: the master crashes → the first new master whose handshake completed "
         "(every member in its view acknowledged it).",
         f"- *rx pkt/s, on air*: the radio's counters over {s.quiet_from:g}–{s.barrier_at:g} s: "
