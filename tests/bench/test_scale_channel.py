@@ -214,6 +214,8 @@ def test_the_command_runs_both_cadences(tmp_path: Path) -> None:
             ["--channel-bitrate", "1M", "--max-queue", "-1"],
             "'--max-queue': Input should be greater than or equal to 0",
         ),
+        (["--overhead-bytes", "40"], "--overhead-bytes and --max-queue need --channel-bitrate"),
+        (["--max-queue", "0.5"], "--overhead-bytes and --max-queue need --channel-bitrate"),
         (["--member-crash-at", "7"], "the member crash (7 s) must come after the barrier"),
     ],
 )

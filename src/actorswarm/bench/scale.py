@@ -230,13 +230,14 @@ class ScaleCell:
     #: master's ``MemberLeft`` of it (NaN: not before the master's own crash).
     crashed_member: int = -1
     member_leave_ms: float = NAN
-    #: The channel over the quiet window (``SimRadio.channel_stats``): its busy share (NaN
-    #: without airtime), packets and kbit/s carried (with ``overhead_bytes`` per packet when
-    #: airtime is modelled), the packets dropped for want of airtime (each once, however many
-    #: would have heard it; per packet kind too) and the longest wait for the channel.
     #: The mean heartbeat sent over the quiet window, bytes as encoded (sealed; the channel
     #: adds ``overhead_bytes``): what the core's ``heartbeat_bits`` estimates.
     heartbeat_bytes: float = NAN
+    #: The channel over the quiet window (``SimRadio.channel_stats``): its busy share (NaN
+    #: without airtime), packets and kbit/s carried (with ``overhead_bytes`` per packet when
+    #: airtime is modelled), the packets dropped for want of airtime (each once, however many
+    #: would have heard it; per packet kind too) and the longest wait for the channel (NaN
+    #: without airtime).
     channel_utilisation: float = NAN
     channel_pps: float = NAN
     channel_kbps: float = NAN

@@ -63,6 +63,9 @@ def parse_losses(text: str) -> list[float]:
 
 
 _PREFIXES = {"k": 1e3, "m": 1e6, "g": 1e9}
+#: The channel's defaults (those of ``Scenario``, after ``sim.radio.Airtime``).
+_OVERHEAD = 28
+_MAX_QUEUE = 1.0
 
 
 def parse_bitrate(text: str) -> float:
@@ -162,7 +165,7 @@ def bench_scale(
             help="With --channel-bitrate: bytes each packet carries on the air besides "
             "its payload (28: the IPv4 and UDP headers).",
         ),
-    ] = 28,
+    ] = _OVERHEAD,
     max_queue: Annotated[
         float,
         typer.Option(
@@ -170,7 +173,7 @@ def bench_scale(
             help="With --channel-bitrate: seconds a packet may wait for the channel before "
             "it is dropped.",
         ),
-    ] = 1.0,
+    ] = _MAX_QUEUE,
     cadence: Annotated[
         Cadence | None,
         typer.Option(
@@ -196,6 +199,9 @@ def bench_scale(
     losses = parse_losses(loss)
     bitrate = None if channel_bitrate is None else parse_bitrate(channel_bitrate)
     rows = cadences(cadence, bitrate)
+    if bitrate is None and (overhead_bytes != _OVERHEAD or max_queue != _MAX_QUEUE):
+        # Refused rather than ignored: a run without a channel would not be what was asked.
+        raise typer.BadParameter("--overhead-bytes and --max-queue need --channel-bitrate")
     try:
         scenario = Scenario(
             quiet_from=quiet_from,
