@@ -192,7 +192,8 @@ def bench_scale(
 
     N platforms form a swarm, pass one barrier of all and lose their master: wall time,
     formation, release, failover, packets per second in a quiet steady state and false
-    leaves, per scheme, size and loss rate."""
+    leaves, per scheme, size and loss rate — optionally on one shared radio channel, with or
+    without the members' heartbeats paced to it."""
     from actorswarm.bench.scale import MAX_SIZE, Scenario, run_scale
 
     size_list = parse_sizes(sizes, MAX_SIZE)
