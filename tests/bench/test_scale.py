@@ -16,13 +16,11 @@ from actorswarm.bench.scale import (
     ScaleCell,
     ScaleReport,
     Scenario,
-    markdown,
-    plot_scale,
-    problems,
     run_cell,
     run_scale,
     to_json,
 )
+from actorswarm.bench.scale_report import markdown, plot_scale, problems
 from actorswarm.cli.app import app
 
 #: The scenario squeezed into 4 s of virtual time: the quiet window 1–2 s, the barrier at

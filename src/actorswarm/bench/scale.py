@@ -12,6 +12,20 @@ is one run of one scenario on a fresh simulated swarm, in virtual time, over a r
 * ``crash_at`` (6 s): the master crashes;
 * ``end`` (8 s): the run stops.
 
+Optionally, ``member_crash_at`` (between the barrier and the master's crash): the member with
+the highest ID crashes, and the cell measures how long the master takes to declare it gone.
+
+On a shared channel (``Scenario.channel_bitrate``) the radio models airtime
+(:class:`~actorswarm.sim.radio.Airtime`: every transmission, a broadcast once, occupies one
+channel of that bitrate for its bytes plus ``overhead_bytes``; a packet that would wait more
+than ``max_queue_s`` for the channel is dropped). A cell *with cadence* also gives the core
+that bitrate (``CoreConfig.channel_bitrate``), so a star master slows its members'
+heartbeats to fit their share of the channel; *without*, the members heartbeat at 10 Hz
+whatever the channel. The channel's figures (:meth:`~actorswarm.sim.radio.SimRadio.
+channel_stats`) are taken over the quiet window and over the whole run.
+
+The report (Markdown, picture) is drawn by :mod:`actorswarm.bench.scale_report`.
+
 Figures of a cell (:class:`ScaleCell`): the wall time of the whole run (booting included);
 when the swarm formed (one master, every other platform in its view, its handshake done);
 how many platforms the barrier released; the failover time (the crash → the first new
@@ -35,7 +49,6 @@ import statistics
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import Any
 
 from actorswarm.bench.tables import strict_json
@@ -49,7 +62,7 @@ from actorswarm.core.events import (
 )
 from actorswarm.core.node import Node
 from actorswarm.core.wire import NEED_ALL
-from actorswarm.sim.radio import LinkModel
+from actorswarm.sim.radio import Airtime, ChannelStats, LinkModel
 from actorswarm.sim.swarm import SimSwarm
 
 __all__ = [
@@ -58,11 +71,11 @@ __all__ = [
     "ScaleCell",
     "ScaleReport",
     "Scenario",
+    "bitrate_text",
+    "cadence_text",
     "cell_json",
     "cell_seed",
-    "markdown",
-    "plot_scale",
-    "problems",
+    "protocol",
     "run_cell",
     "run_scale",
     "to_json",
@@ -74,6 +87,8 @@ NAN = math.nan
 MAX_SIZE = 10_000
 #: The barrier every platform requests.
 KEY = 1
+#: The packet kind of heartbeats in the radio's counters.
+_HEARTBEAT = "Heartbeat"
 #: Virtual seconds between two looks at the wall clock inside a slice (see :func:`run_cell`).
 _WATCHDOG = 0.001
 #: What each membership scheme is, for the report.
@@ -90,6 +105,12 @@ class Scenario:
     Contract: ``0 < quiet_from < barrier_at < crash_at < end``; ``latency``, ``slice`` and
     ``max_wall`` are positive (``ValueError`` otherwise). ``slice`` is the virtual time run
     between two progress reports; ``max_wall`` the wall-clock seconds a cell may use.
+
+    ``member_crash_at`` (None: no member crashes): when the member with the highest ID
+    crashes; ``barrier_at < member_crash_at < crash_at``. ``channel_bitrate`` (bit/s; None:
+    no shared channel), ``overhead_bytes`` and ``max_queue_s``: the radio's
+    :class:`~actorswarm.sim.radio.Airtime`; a bad value raises its ``ValueError``, naming
+    the field.
     """
 
     quiet_from: float = 2.0
@@ -99,6 +120,11 @@ class Scenario:
     latency: float = 0.01
     slice: float = 0.1
     max_wall: float = 600.0
+    member_crash_at: float | None = None
+    channel_bitrate: float | None = None
+    #: The Airtime default: the IPv4 and UDP headers a packet carries besides its payload.
+    overhead_bytes: int = 28
+    max_queue_s: float = 1.0
 
     def __post_init__(self) -> None:
         times = (self.quiet_from, self.barrier_at, self.crash_at, self.end)
@@ -113,6 +139,25 @@ class Scenario:
             value = getattr(self, name)
             if not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{name}: must be a positive number, got {value!r}")
+        member = self.member_crash_at
+        if member is not None and not (
+            math.isfinite(member) and self.barrier_at < member < self.crash_at
+        ):
+            raise ValueError(
+                f"the member crash ({member:g} s) must come after the barrier "
+                f"({self.barrier_at:g} s) and before the master's crash ({self.crash_at:g} s)"
+            )
+        self.airtime()  # its ValueError names the field
+
+    def airtime(self) -> Airtime | None:
+        """The radio's shared channel, or None without ``channel_bitrate``."""
+        if self.channel_bitrate is None:
+            return None
+        return Airtime(
+            bitrate=self.channel_bitrate,
+            overhead_bytes=self.overhead_bytes,
+            max_queue_s=self.max_queue_s,
+        )
 
     @property
     def window(self) -> float:
@@ -135,6 +180,10 @@ class ScaleCell:
     size: int
     loss: float
     seed: int
+    #: The shared channel's bit/s (None: none modelled), and whether the core knew it (its
+    #: ``channel_bitrate`` set: a star master slows its members' heartbeats to fit).
+    channel_bitrate: float | None = None
+    cadence: bool = False
     #: Wall-clock seconds of the whole run, booting the swarm included.
     wall_s: float = NAN
     #: The virtual time the run reached: the scenario's end, unless it went over budget.
@@ -172,6 +221,32 @@ class ScaleCell:
     window_joins: int = 0
     #: The whole run: any master's ``MemberLeft`` of a platform that had not crashed.
     run_false_leaves: int = 0
+    #: The master at the end of the quiet window: the interval at which its members
+    #: heartbeat (the cadence it asks for), and how long a member may be silent before this
+    #: master declares it gone (its leave timeout then, with probing; see core.membership).
+    member_cadence_ms: float = NAN
+    leave_timeout_ms: float = NAN
+    #: With ``Scenario.member_crash_at``: the member that crashed, and the crash → the
+    #: master's ``MemberLeft`` of it (NaN: not before the master's own crash).
+    crashed_member: int = -1
+    member_leave_ms: float = NAN
+    #: The mean heartbeat sent over the quiet window, bytes as encoded (sealed; the channel
+    #: adds ``overhead_bytes``): what the core's ``heartbeat_bits`` estimates.
+    heartbeat_bytes: float = NAN
+    #: The channel over the quiet window (``SimRadio.channel_stats``): its busy share (NaN
+    #: without airtime), packets and kbit/s carried (with ``overhead_bytes`` per packet when
+    #: airtime is modelled), the packets dropped for want of airtime (each once, however many
+    #: would have heard it; per packet kind too) and the longest wait for the channel (NaN
+    #: without airtime).
+    channel_utilisation: float = NAN
+    channel_pps: float = NAN
+    channel_kbps: float = NAN
+    airtime_drops: int = 0
+    airtime_drops_by_kind: dict[str, int] = field(default_factory=dict)
+    max_wait_ms: float = NAN
+    #: The same over the whole run (booting to the end, or to where it stopped).
+    run_airtime_drops: int = 0
+    run_max_wait_ms: float = NAN
     #: Invariant violations found at the end of the run (-1: not checked, over budget).
     violations: int = -1
     errors: list[str] = field(default_factory=list)
@@ -188,7 +263,23 @@ class ScaleCell:
 
     @property
     def label(self) -> str:
-        return f"{self.membership} N={self.size} loss={self.loss:.0%}"
+        text = f"{self.membership} N={self.size} loss={self.loss:.0%}"
+        if self.channel_bitrate is None:
+            return text
+        return f"{text} {bitrate_text(self.channel_bitrate)} {cadence_text(self.cadence)}"
+
+
+def bitrate_text(bps: float) -> str:
+    """A bitrate as people write it: ``1 Mbit/s``, ``250 kbit/s``, ``9600 bit/s``."""
+    for scale, unit in ((1e9, "Gbit/s"), (1e6, "Mbit/s"), (1e3, "kbit/s")):
+        if bps >= scale:
+            return f"{bps / scale:g} {unit}"
+    return f"{bps:g} bit/s"
+
+
+def cadence_text(cadence: bool) -> str:
+    """How a row's members heartbeat, in a few words."""
+    return "cadence" if cadence else "no cadence"
 
 
 @dataclass(slots=True)
@@ -226,6 +317,9 @@ class _Watch:
         self.masters_before: list[int] = []
         self.masters_after: list[int] = []
         self.alive_after: list[int] = []
+        # The channel's figures: booting → the window, the window, the window → the end.
+        self.channel: list[ChannelStats] = []
+        self.heartbeats: list[tuple[int, int, int, int]] = []
 
     def on_event(self, now: float, node: Node, event: CoreEvent) -> None:
         """A listener (``SimSwarm.listeners``): called for every event of every platform,
@@ -239,11 +333,19 @@ class _Watch:
                 else:
                     self.not_chosen.add(node.platform)
         elif isinstance(event, MemberLeft):
-            # The only platform that dies is the crashed master: any other leave is false.
+            # The only platforms that die are the crashed ones: any other leave is false.
             if node.is_master and event.platform not in self.crashed:
                 cell.run_false_leaves += 1
                 if quiet:
                     cell.false_leaves += 1
+            elif (
+                node.is_master
+                and event.platform == cell.crashed_member
+                and math.isnan(cell.member_leave_ms)
+                and scenario.member_crash_at is not None
+                and now < scenario.crash_at
+            ):
+                cell.member_leave_ms = (now - scenario.member_crash_at) * 1000
         elif isinstance(event, MemberJoined | HandshakeComplete):
             if quiet and node.is_master and isinstance(event, MemberJoined):
                 cell.window_joins += 1
@@ -257,14 +359,44 @@ class _Watch:
             ):
                 cell.formed_at_s = now
 
+    def channel_window(self) -> None:
+        """Close a window of the channel's figures and open the next."""
+        radio = self.swarm.radio
+        self.channel.append(radio.channel_stats())
+        radio.reset_channel_stats()
+        self.heartbeats.append(radio.traffic.kind_totals(_HEARTBEAT))
+
     def window_start(self) -> None:
         self.before = self.swarm.radio.traffic.snapshot()
         self.masters_before = self.swarm.current_masters()
+        self.channel_window()
 
     def window_end(self) -> None:
-        self.after = self.swarm.radio.traffic.snapshot()
-        self.masters_after = self.swarm.current_masters()
-        self.alive_after = sorted(self.swarm.nodes)
+        swarm = self.swarm
+        self.after = swarm.radio.traffic.snapshot()
+        self.masters_after = swarm.current_masters()
+        self.alive_after = sorted(swarm.nodes)
+        self.channel_window()
+        if len(self.masters_after) == 1:
+            view = swarm.node(self.masters_after[0]).members
+            self.cell.member_cadence_ms = view.cadence * 1000
+            self.cell.leave_timeout_ms = view.silence() * 1000
+
+    def crash_member(self) -> None:
+        """Crash the member with the highest ID (in star, the last a succession list names).
+        A barrier of all no longer waits for a platform that left: if it had not been
+        released yet, it is no longer expected."""
+        masters = set(self.swarm.current_masters())
+        members = [p for p in self.swarm.nodes if p not in masters]
+        if not members:
+            self.cell.errors.append("no member to crash")
+            return
+        victim = max(members)
+        self.cell.crashed_member = victim
+        self.crashed.add(victim)
+        if victim not in self.released:
+            self.cell.expected -= 1
+        self.swarm.crash(victim)
 
     def request_barrier(self) -> None:
         swarm = self.swarm
@@ -292,9 +424,13 @@ def run_cell(
     *,
     seed: int,
     scenario: Scenario | None = None,
+    cadence: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> ScaleCell:
     """Run the scenario once on a fresh swarm of ``size`` platforms; the figures.
+
+    ``cadence``: the core is given the scenario's channel bitrate (``ValueError`` without
+    one), so a star master asks its members for a heartbeat interval that fits the channel.
 
     ``progress`` is called after every slice of virtual time with a line of text. The wall
     clock is checked between slices and, within a slice, every millisecond of virtual time
@@ -306,16 +442,28 @@ def run_cell(
         raise ValueError(f"a swarm of {size}: at least 2 platforms (a master and a member)")
     if not 0.0 <= loss < 1.0:
         raise ValueError(f"loss must be in [0, 1), got {loss!r}")
-    cell = ScaleCell(membership=membership, size=size, loss=loss, seed=seed)
+    bitrate = scenario.channel_bitrate
+    if cadence and bitrate is None:
+        raise ValueError("cadence needs a channel: the scenario has no channel_bitrate")
+    cell = ScaleCell(
+        membership=membership,
+        size=size,
+        loss=loss,
+        seed=seed,
+        channel_bitrate=bitrate,
+        cadence=cadence,
+    )
     began = time.perf_counter()
     deadline = began + scenario.max_wall
     swarm = SimSwarm(
         size,
         seed=seed,
-        config=CoreConfig(membership=membership),
+        config=CoreConfig(membership=membership, channel_bitrate=bitrate if cadence else None),
         link=LinkModel(latency=scenario.latency, loss=loss),
         log_membership=False,
     )
+    # Set before the first event: every packet of the run goes through the channel.
+    swarm.radio.airtime = scenario.airtime()
     watch = _Watch(swarm, cell, scenario)
     swarm.listeners.append(watch.on_event)
     # Same virtual time, scheduled in this order, run in this order: the window's traffic
@@ -323,6 +471,8 @@ def run_cell(
     swarm.at(scenario.quiet_from, watch.window_start)
     swarm.at(scenario.barrier_at, watch.window_end)
     swarm.at(scenario.barrier_at, watch.request_barrier)
+    if scenario.member_crash_at is not None:
+        swarm.at(scenario.member_crash_at, watch.crash_member)
     swarm.at(scenario.crash_at, watch.crash_master)
 
     def watchdog() -> None:
@@ -349,6 +499,7 @@ def run_cell(
         cell.over_budget = True
     cell.reached_s = swarm.now
     cell.wall_s = time.perf_counter() - began
+    watch.channel.append(swarm.radio.channel_stats())
     _figures(cell, watch, swarm, scenario)
     return cell
 
@@ -374,6 +525,18 @@ def _figures(cell: ScaleCell, watch: _Watch, swarm: SimSwarm, scenario: Scenario
             )
     if watch.alive_after:  # the quiet window's end was reached
         _traffic(cell, watch, scenario)
+        _channel(cell, watch.channel[1])
+        (before_packets, before_bytes, *_), (after_packets, after_bytes, *_) = watch.heartbeats
+        if after_packets > before_packets:
+            cell.heartbeat_bytes = (after_bytes - before_bytes) / (after_packets - before_packets)
+    cell.run_airtime_drops = sum(c.drops for c in watch.channel)
+    if scenario.channel_bitrate is not None:
+        cell.run_max_wait_ms = max(c.max_queue_delay_s for c in watch.channel) * 1000
+    if cell.crashed_member >= 0 and math.isnan(cell.member_leave_ms) and not cell.over_budget:
+        cell.errors.append(
+            f"the master had not declared the crashed member {cell.crashed_member} gone by "
+            f"its own crash at {scenario.crash_at:g} s"
+        )
     if cell.expected:
         cell.released = len(watch.released)
         if cell.all_released:
@@ -443,6 +606,18 @@ def _traffic(cell: ScaleCell, watch: _Watch, scenario: Scenario) -> None:
         cell.false_leaves_per_member_hour = cell.false_leaves / cell.member_hours
 
 
+def _channel(cell: ScaleCell, stats: ChannelStats) -> None:
+    """The quiet window's channel figures."""
+    if stats.utilisation is not None:
+        cell.channel_utilisation = stats.utilisation
+    cell.channel_pps = stats.packets_per_s
+    cell.channel_kbps = stats.bits_per_s / 1000
+    cell.airtime_drops = stats.drops
+    cell.airtime_drops_by_kind = dict(stats.drops_by_kind)
+    if stats.bitrate is not None:
+        cell.max_wait_ms = stats.max_queue_delay_s * 1000
+
+
 def run_scale(
     memberships: Sequence[MembershipKind],
     sizes: Sequence[int],
@@ -451,12 +626,14 @@ def run_scale(
     seed: int,
     scenario: Scenario,
     command: str,
+    cadences: Sequence[bool] = (False,),
     progress: Callable[[str], None] | None = None,
     done: Callable[[ScaleReport, ScaleCell], None] | None = None,
 ) -> ScaleReport:
-    """Every cell — losses outermost, then sizes, then schemes, so both schemes of one size
-    are measured one after the other — into one :class:`ScaleReport`. ``done`` is called
-    with the report so far after every cell (to print it, to save it)."""
+    """Every cell — losses outermost, then sizes, then schemes, then ``cadences`` (see
+    :func:`run_cell`), so the rows of one size are measured one after the other, with the
+    same seed — into one :class:`ScaleReport`. ``done`` is called with the report so far
+    after every cell (to print it, to save it)."""
     from actorswarm.bench.daemons import machine_info
 
     report = ScaleReport(
@@ -469,18 +646,20 @@ def run_scale(
     for loss in losses:
         for size in sizes:
             for membership in memberships:
-                cell = run_cell(
-                    membership,
-                    size,
-                    loss,
-                    seed=cell_seed(seed, size, loss),
-                    scenario=scenario,
-                    progress=progress,
-                )
-                report.cells.append(cell)
-                report.wall_s = time.perf_counter() - began
-                if done is not None:
-                    done(report, cell)
+                for cadence in cadences:
+                    cell = run_cell(
+                        membership,
+                        size,
+                        loss,
+                        seed=cell_seed(seed, size, loss),
+                        scenario=scenario,
+                        cadence=cadence,
+                        progress=progress,
+                    )
+                    report.cells.append(cell)
+                    report.wall_s = time.perf_counter() - began
+                    if done is not None:
+                        done(report, cell)
     report.wall_s = time.perf_counter() - began
     return report
 
@@ -504,15 +683,17 @@ def to_json(report: ScaleReport) -> dict[str, Any]:
         "started": report.started,
         "machine": strict_json(report.machine),
         "scenario": asdict(report.scenario),
-        "protocol": _protocol(),
+        "protocol": protocol(),
         "wall_s": report.wall_s,
         "cut_short": report.cut_short,
         "cells": [cell_json(c) for c in report.cells],
     }
 
 
-def _protocol() -> dict[str, Any]:
-    """The core's timings every cell ran with (its defaults; only the scheme varies)."""
+def protocol() -> dict[str, Any]:
+    """The core's timings every cell ran with: its defaults; only the scheme varies, and with
+    cadence the channel's bitrate is given to the core (``heartbeat_share`` of it for the
+    members' heartbeats, ``heartbeat_bits`` each)."""
     config = CoreConfig()
     return {
         "heartbeat_ms": config.heartbeat_interval * 1000,
@@ -520,224 +701,6 @@ def _protocol() -> dict[str, Any]:
         "t_join_ms": config.t_join * 1000,
         "join_heartbeats": config.join_heartbeats,
         "false_leave_rate_per_s": config.false_leave_rate,
+        "heartbeat_share": config.heartbeat_share,
+        "heartbeat_bits": config.heartbeat_bits,
     }
-
-
-# --- Markdown ------------------------------------------------------------------------------
-
-
-def _num(value: float, digits: int = 0) -> str:
-    return "—" if math.isnan(value) else f"{value:,.{digits}f}"
-
-
-def _rate(value: float) -> str:
-    """A rate with the digits that matter: 3 significant ones below 100, none above."""
-    if math.isnan(value):
-        return "—"
-    if value >= 100:
-        return f"{value:,.0f}"
-    return f"{value:.3g}"
-
-
-def _wall(cell: ScaleCell) -> str:
-    text = _rate(cell.wall_s)
-    return f"{text} (over budget at {cell.reached_s:.1f} s)" if cell.over_budget else text
-
-
-def _released(cell: ScaleCell) -> str:
-    if not cell.expected:
-        return "—"
-    return "yes" if cell.all_released else f"no ({cell.released}/{cell.expected})"
-
-
-def _formed(cell: ScaleCell) -> str:
-    if not math.isnan(cell.formed_at_s):
-        return f"{cell.formed_at_s:.2f}"
-    return "—" if cell.over_budget else "no"
-
-
-def _false_leaves(cell: ScaleCell) -> str:
-    if math.isnan(cell.false_leaves_per_member_hour):
-        return "—"
-    return f"{cell.false_leaves_per_member_hour:.3g} ({cell.false_leaves})"
-
-
-def problems(report: ScaleReport) -> list[str]:
-    """Every error a cell recorded, prefixed with the cell: what did not work in the run."""
-    out = [f"the run was cut short: {report.cut_short}"] if report.cut_short else []
-    return out + [f"{c.label}: {e}" for c in report.cells for e in c.errors]
-
-
-def markdown(report: ScaleReport) -> str:
-    """The whole report: the command and the machine, the scenario, one table row per cell
-    (sorted by loss, size, scheme), how each figure is taken, and what did not work."""
-    s = report.scenario
-    proto = _protocol()
-    lines = [
-        "# Benchmark: what the swarm size costs (`actorswarm bench scale`)",
-        "",
-        f"Command: `{report.command}`",
-        "",
-        f"Started {report.started}, took {report.wall_s:.0f} s. Machine: "
-        + ", ".join(f"{k} {str(v).replace('|', '/')}" for k, v in report.machine.items())
-        + ".",
-        "",
-        f"Scenario, in virtual time, on a fresh swarm per row: N platforms boot at 0 s; "
-        f"{s.quiet_from:g}–{s.barrier_at:g} s is the quiet steady state over which traffic and "
-        f"false leaves are taken; at {s.barrier_at:g} s every platform requests one barrier of "
-        f"the whole swarm; at {s.crash_at:g} s the master crashes; the run ends at "
-        f"{s.end:g} s. Radio: one-way latency {s.latency * 1000:g} ms, no jitter, each packet "
-        "lost independently per receiver at the row's rate. Protocol: heartbeat "
-        f"{proto['heartbeat_ms']:g} ms, T_leave {proto['t_leave_ms']:g} ms, T_join "
-        f"{proto['t_join_ms']:g} ms. Membership `star`: {SCHEMES['star']}; `broadcast`: "
-        f"{SCHEMES['broadcast']}. A row is abandoned after {s.max_wall:g} s of wall time "
-        "(over budget, with the virtual time it reached).",
-        "",
-    ]
-    if report.cut_short:
-        lines += [f"**Not a complete run** ({report.cut_short}): only the rows below.", ""]
-    lines += [
-        "| membership | N | loss | wall s | sim s / wall s | formed at, s | all released "
-        "| failover ms | non-master rx pkt/s: median (min–max) | master rx pkt/s "
-        "| on-air pkt/s | on-air kbit/s | false leaves / member-hour (count) |",
-        "|---" * 13 + "|",
-    ]
-    for c in sorted(report.cells, key=lambda c: (c.loss, c.size, c.membership)):
-        member = _rate(c.member_recv_pps)
-        if not math.isnan(c.member_recv_pps):
-            member += f" ({_rate(c.member_recv_pps_min)}–{_rate(c.member_recv_pps_max)})"
-        lines.append(
-            f"| {c.membership} | {c.size} | {c.loss:.0%} | {_wall(c)} "
-            f"| {c.sim_per_wall:.3g} | {_formed(c)} | {_released(c)} "
-            f"| {_num(c.failover_ms)} | {member} | {_rate(c.master_recv_pps)} "
-            f"| {_rate(c.air_pps)} | {_num(c.air_kbps, 1)} | {_false_leaves(c)} |"
-        )
-    lines += [
-        "",
-        "How each figure is taken (`src/actorswarm/bench/scale.py`):",
-        "",
-        "- *wall s*: wall-clock time of the whole run, booting the swarm included; *sim s / "
-        "wall s*: virtual seconds reached per wall-clock second.",
-        "- *formed at*: the first virtual time with one master that has every other platform "
-        "in its view and its handshake done.",
-        "- *all released*: every platform's `BarrierReleased` for the barrier of all, "
-        "before the run ended (the master crashes two seconds after the request).",
-        "- *failover*: the master crashes → the first new master whose handshake completed "
-        "(every member in its view acknowledged it).",
-        f"- *rx pkt/s, on air*: the radio's counters over {s.quiet_from:g}–{s.barrier_at:g} s: "
-        "packets delivered per second to each non-master (median, and the range over them) "
-        "and to the master; packets and kbit sent per second by every platform, a broadcast "
-        "counted once (bytes as encoded, without radio framing).",
-        "- *false leaves*: the master's `MemberLeft` of a platform that was alive, over the "
-        "same window, per member-hour (N − 1 members watched for the window), the count in "
-        "parentheses. The JSON adds the master's joins in the window and the false leaves "
-        "over the whole run.",
-        "",
-        "## What did not work",
-        "",
-    ]
-    issues = problems(report)
-    lines += [f"- {p}" for p in issues] if issues else ["Every row ran to its end and worked."]
-    return "\n".join(lines) + "\n"
-
-
-# --- picture -------------------------------------------------------------------------------
-
-_COLOUR = {"star": "tab:blue", "broadcast": "tab:orange"}
-
-
-def plot_scale(report: ScaleReport, out: Path) -> None:
-    """Draw the report as one PNG at ``out``: packets received per second against N
-    (log-log; non-masters: the median, bars to the min and max; the master), and wall time
-    against N (an over-budget row: a cross at the time it was abandoned). One line per
-    scheme and loss."""
-    import matplotlib
-
-    matplotlib.use("Agg")  # no display: files only
-    import matplotlib.pyplot as plt
-    from matplotlib.ticker import NullFormatter
-
-    fig, (rx, wall) = plt.subplots(1, 2, figsize=(13, 5), constrained_layout=True)
-    several = len({c.loss for c in report.cells}) > 1
-    groups: dict[tuple[str, float], list[ScaleCell]] = {}
-    for c in sorted(report.cells, key=lambda c: c.size):
-        groups.setdefault((c.membership, c.loss), []).append(c)
-    for (scheme, loss), cells in sorted(groups.items()):
-        colour = _COLOUR.get(scheme)
-        name = scheme + (f", {loss:.0%} loss" if several else "")
-        style = "-" if loss == min(k[1] for k in groups) else ":"
-        # Non-positive values cannot sit on a log axis: they are left out.
-        members = [c for c in cells if c.member_recv_pps > 0]
-        if members:
-            med = [c.member_recv_pps for c in members]
-            rx.errorbar(
-                [c.size for c in members],
-                med,
-                yerr=[
-                    [m - c.member_recv_pps_min for m, c in zip(med, members, strict=True)],
-                    [c.member_recv_pps_max - m for m, c in zip(med, members, strict=True)],
-                ],
-                marker="o",
-                ls=style,
-                color=colour,
-                capsize=3,
-                label=f"{name}: non-master (median)",
-            )
-        masters = [c for c in cells if c.master_recv_pps > 0]
-        if masters:
-            rx.plot(
-                [c.size for c in masters],
-                [c.master_recv_pps for c in masters],
-                marker="s",
-                ls="--" if style == "-" else "-.",
-                color=colour,
-                label=f"{name}: master",
-            )
-        timed = [c for c in cells if c.wall_s > 0]
-        if timed:
-            wall.plot(
-                [c.size for c in timed],
-                [c.wall_s for c in timed],
-                marker="o",
-                ls=style,
-                color=colour,
-                label=name,
-            )
-            over = [c for c in timed if c.over_budget]
-            if over:
-                wall.plot(
-                    [c.size for c in over],
-                    [c.wall_s for c in over],
-                    "x",
-                    color="red",
-                    markersize=10,
-                    label=f"{name}: over budget",
-                )
-    rx.set(
-        xscale="log",
-        yscale="log",
-        xlabel="platforms",
-        ylabel="packets received / s",
-        title=f"quiet steady state ({report.scenario.quiet_from:g}–"
-        f"{report.scenario.barrier_at:g} s): packets received per second",
-    )
-    wall.set(
-        xscale="log",
-        yscale="log",
-        xlabel="platforms",
-        ylabel="wall s",
-        title=f"wall time of the whole {report.scenario.end:g} s run",
-    )
-    sizes = sorted({c.size for c in report.cells})
-    for ax in (rx, wall):
-        if sizes:  # the sizes measured, in plain numbers
-            ax.set_xticks(sizes, [str(n) for n in sizes])
-            ax.xaxis.set_minor_formatter(NullFormatter())
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize="small")
-        else:
-            ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center")
-    fig.suptitle("actorswarm: what the swarm size costs, star against broadcast membership")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)

@@ -14,6 +14,7 @@ import math
 import shlex
 import signal
 from dataclasses import replace
+from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -26,7 +27,7 @@ from actorswarm.cli.bench_tables import Membership, memberships
 if TYPE_CHECKING:
     from actorswarm.bench.scale import ScaleCell, ScaleReport
 
-__all__ = ["bench_scale", "register"]
+__all__ = ["Cadence", "bench_scale", "cadences", "parse_bitrate", "register"]
 
 # No wrapping: a line per row stays one line in a log file.
 console = Console(stderr=True, soft_wrap=True)
@@ -61,6 +62,54 @@ def parse_losses(text: str) -> list[float]:
     return values
 
 
+_PREFIXES = {"k": 1e3, "m": 1e6, "g": 1e9}
+#: The channel's defaults (those of ``Scenario``, after ``sim.radio.Airtime``).
+_OVERHEAD = 28
+_MAX_QUEUE = 1.0
+
+
+def parse_bitrate(text: str) -> float:
+    """``--channel-bitrate``: bits per second, a positive finite number, optionally with a
+    k, M or G suffix (``1000000``, ``1e6``, ``1M``, ``250k``); ``typer.BadParameter``
+    naming the option and the value otherwise."""
+    body = text.strip()
+    scale = _PREFIXES.get(body[-1:].lower(), 1.0)
+    if scale != 1.0:
+        body = body[:-1].strip()
+    try:
+        value = float(body) * scale
+    except ValueError:
+        raise typer.BadParameter(
+            f"--channel-bitrate {text!r}: expected bits per second, e.g. 1000000, 1e6 or 1M"
+        ) from None
+    if not math.isfinite(value) or value <= 0:
+        raise typer.BadParameter(
+            f"--channel-bitrate {text!r}: must be a positive, finite number of bits per second"
+        )
+    return value
+
+
+class Cadence(StrEnum):
+    """``--cadence``: whether the core knows the channel (its members then slow down)."""
+
+    on = "on"
+    off = "off"
+    both = "both"
+
+
+def cadences(choice: Cadence | None, bitrate: float | None) -> tuple[bool, ...]:
+    """The rows' cadences, off before on; by default on with a channel, off without.
+    ``typer.BadParameter`` for a cadence without a channel to fit."""
+    if choice is None:
+        return (bitrate is not None,)
+    if choice is not Cadence.off and bitrate is None:
+        raise typer.BadParameter(
+            f"--cadence {choice.value}: needs --channel-bitrate (the channel the members' "
+            "heartbeats are to fit)"
+        )
+    return {Cadence.on: (True,), Cadence.off: (False,), Cadence.both: (False, True)}[choice]
+
+
 def bench_scale(
     sizes: Annotated[
         str, typer.Option(help="Comma-separated swarm sizes, 2..10000.")
@@ -93,6 +142,46 @@ def bench_scale(
     ] = 4.0,
     crash_at: Annotated[float, typer.Option(help="Virtual s: the master crashes.")] = 6.0,
     end: Annotated[float, typer.Option(help="Virtual s: the run ends.")] = 8.0,
+    member_crash_at: Annotated[
+        float | None,
+        typer.Option(
+            help="Virtual s, between the barrier and the master's crash: the member with the "
+            "highest ID crashes, and the master's time to declare it gone is measured."
+        ),
+    ] = None,
+    channel_bitrate: Annotated[
+        str | None,
+        typer.Option(
+            metavar="BPS",
+            help="Put the swarm on one shared radio channel of this many bit/s (1000000, "
+            "1e6, 1M, 250k): each packet occupies it for its bytes plus --overhead-bytes; "
+            "what would wait more than --max-queue for it is dropped. Default: no channel.",
+        ),
+    ] = None,
+    overhead_bytes: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="With --channel-bitrate: bytes each packet carries on the air besides "
+            "its payload (28: the IPv4 and UDP headers).",
+        ),
+    ] = _OVERHEAD,
+    max_queue: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            help="With --channel-bitrate: seconds a packet may wait for the channel before "
+            "it is dropped.",
+        ),
+    ] = _MAX_QUEUE,
+    cadence: Annotated[
+        Cadence | None,
+        typer.Option(
+            help="With --channel-bitrate: on (the core knows the channel: a star master slows "
+            "its members' heartbeats to fit half of it), off (10 Hz whatever the channel) or "
+            "both (each row twice). Default: on with a channel, off without.",
+        ),
+    ] = None,
     out: Annotated[Path | None, typer.Option(help="Write the Markdown report here.")] = None,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Write every figure as JSON here.")
@@ -103,11 +192,17 @@ def bench_scale(
 
     N platforms form a swarm, pass one barrier of all and lose their master: wall time,
     formation, release, failover, packets per second in a quiet steady state and false
-    leaves, per scheme, size and loss rate."""
+    leaves, per scheme, size and loss rate — optionally on one shared radio channel, with or
+    without the members' heartbeats paced to it."""
     from actorswarm.bench.scale import MAX_SIZE, Scenario, run_scale
 
     size_list = parse_sizes(sizes, MAX_SIZE)
     losses = parse_losses(loss)
+    bitrate = None if channel_bitrate is None else parse_bitrate(channel_bitrate)
+    rows = cadences(cadence, bitrate)
+    if bitrate is None and (overhead_bytes != _OVERHEAD or max_queue != _MAX_QUEUE):
+        # Refused rather than ignored: a run without a channel would not be what was asked.
+        raise typer.BadParameter("--overhead-bytes and --max-queue need --channel-bitrate")
     try:
         scenario = Scenario(
             quiet_from=quiet_from,
@@ -115,6 +210,10 @@ def bench_scale(
             crash_at=crash_at,
             end=end,
             max_wall=max_wall,
+            member_crash_at=member_crash_at,
+            channel_bitrate=bitrate,
+            overhead_bytes=overhead_bytes,
+            max_queue_s=max_queue,
         )
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
@@ -124,10 +223,16 @@ def bench_scale(
     args += ["--loss", ",".join(f"{v:g}" for v in losses), "--seed", str(seed)]
     args += ["--max-wall", f"{max_wall:g}", "--quiet-from", f"{quiet_from:g}"]
     args += ["--barrier-at", f"{barrier_at:g}", "--crash-at", f"{crash_at:g}", "--end", f"{end:g}"]
+    if member_crash_at is not None:
+        args += ["--member-crash-at", f"{member_crash_at:g}"]
+    if bitrate is not None:
+        args += ["--channel-bitrate", f"{bitrate:g}", "--overhead-bytes", str(overhead_bytes)]
+        args += ["--max-queue", f"{max_queue:g}"]
+        args += ["--cadence", "both" if len(rows) == 2 else "on" if rows[0] else "off"]
     for flag, path in (("--out", out), ("--json", json_out), ("--plot", plot)):
         args += [flag, str(path)] if path is not None else []
     command = "actorswarm bench scale " + shlex.join(args)
-    total = len(size_list) * len(losses) * len(schemes)
+    total = len(size_list) * len(losses) * len(schemes) * len(rows)
     saved: list[ScaleReport] = []
 
     def done(report: ScaleReport, cell: ScaleCell) -> None:
@@ -149,6 +254,7 @@ def bench_scale(
                 seed=seed,
                 scenario=scenario,
                 command=command,
+                cadences=rows,
                 progress=status.update,
                 done=done,
             )
@@ -175,6 +281,15 @@ def _line(cell: ScaleCell) -> str:
         f"failover {fig(cell.failover_ms, ' ms')}; rx pkt/s: non-master "
         f"{fig(cell.member_recv_pps, '', 1)}, master {fig(cell.master_recv_pps, '')}"
     )
+    if cell.channel_bitrate is not None:
+        busy = cell.channel_utilisation
+        text += (
+            f"; channel {'—' if math.isnan(busy) else f'{busy:.0%}'} busy, "
+            f"{fig(cell.channel_pps, '', 0)} pkt/s carried, {cell.run_airtime_drops:,} "
+            f"airtime drops; member heartbeat {fig(cell.member_cadence_ms, ' ms')}"
+        )
+    if not math.isnan(cell.member_leave_ms):
+        text += f"; member leave {fig(cell.member_leave_ms, ' ms')}"
     if cell.over_budget:
         return f"{text} [yellow]over budget at t = {cell.reached_s:.2f} s[/yellow]"
     if cell.errors:
@@ -193,7 +308,7 @@ def _save_json(report: ScaleReport, path: Path) -> None:
 
 
 def _write(report: ScaleReport, out: Path | None, json_out: Path | None, plot: Path | None) -> None:
-    from actorswarm.bench.scale import markdown, plot_scale, problems
+    from actorswarm.bench.scale_report import markdown, plot_scale, problems
 
     text = markdown(report)
     typer.echo(text)
