@@ -36,7 +36,25 @@ def daemon(
     connect: ConnectOpt = None,
     multicast: Annotated[
         bool | None,
-        typer.Option("--multicast/--no-multicast", help="Multicast scouting (default on)."),
+        typer.Option(
+            "--multicast/--no-multicast",
+            help="Multicast scouting (default on with --broadcast mesh, off with multicast).",
+        ),
+    ] = None,
+    broadcast: Annotated[
+        str | None,
+        typer.Option(
+            help="How broadcasts travel: mesh (default: one copy per peer over the Zenoh "
+            "sessions) or multicast (one datagram on --group, which then carries everything)."
+        ),
+    ] = None,
+    group: Annotated[
+        str | None,
+        typer.Option(help="The multicast group, ADDRESS:PORT (default 224.0.0.225:7448)."),
+    ] = None,
+    interface: Annotated[
+        str | None,
+        typer.Option(help="The network interface of the multicast group (wlan0; default: any)."),
     ] = None,
     state_dir: Annotated[
         Path | None, typer.Option(help="Where the platform keeps its state (default ./state-ID).")
@@ -93,6 +111,9 @@ def daemon(
             listen=listen,
             connect=connect,
             multicast=multicast,
+            broadcast=broadcast,
+            group=group,
+            interface=interface,
             state_dir=state_dir,
             keys=keys,
             insecure=insecure,

@@ -32,6 +32,9 @@ OPTIONS: dict[str, tuple[str, str]] = {
     "--connect": ("connect", "list"),
     "--multicast": ("multicast", "on"),
     "--no-multicast": ("multicast", "off"),
+    "--broadcast": ("broadcast", "value"),
+    "--group": ("group", "value"),
+    "--interface": ("interface", "value"),
     "--state-dir": ("state_dir", "path"),
     "--keys": ("keys", "path"),
     "--insecure": ("insecure", "flag"),
@@ -58,6 +61,9 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
         "listen": None,
         "connect": None,
         "multicast": None,
+        "broadcast": None,
+        "group": None,
+        "interface": None,
         "state_dir": None,
         "keys": None,
         "insecure": False,
@@ -128,6 +134,9 @@ def start_daemon(
     mavlink_sysid: int | None = None,
     origin: str | None = None,
     fleet: str | None = None,
+    broadcast: str | None = None,
+    group: str | None = None,
+    interface: str | None = None,
 ) -> int:
     """Check the options (the command line, then the ``--config`` file, then the defaults)
     and run the daemon until a signal; returns its exit status. A problem with the options
@@ -192,7 +201,10 @@ def start_daemon(
     settings = zenoh_settings(
         list(connect or file.connect) or None,
         list(listen or file.listen) or None,
-        multicast if multicast is not None else file.multicast is not False,
+        multicast if multicast is not None else file.multicast,
+        broadcast or file.broadcast,
+        group or file.group,
+        interface or file.interface,
     )
     options = DaemonOptions(
         guard=guard,
