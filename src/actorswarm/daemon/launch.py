@@ -95,6 +95,7 @@ class LocalSwarm:
         self.multicast = multicast
         #: The daemons' and the ground station's options of a multicast swarm.
         self.air: list[str] = []
+        self.group, self.interface = group, interface
         if group is not None:
             if endpoints is not None or multicast:
                 raise ValueError("a multicast group carries everything: no endpoints, no scouting")
