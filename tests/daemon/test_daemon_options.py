@@ -33,6 +33,7 @@ def _daemon(*args: str) -> tuple[int, str]:
         ("[core]\nt_leave = -1\n", "[core]: t_leave"),
         ("[core]\nheartbeat = 1\n", "[core]: "),
         ('broadcast = "radio"\n', "at `$.broadcast`"),
+        ("lease = 0\n", "at `$.lease`"),
         ('platform = 1\nbroadcast = "multicast"\ngroup = "1.2.3.4:5"\n', "not a multicast"),
     ],
 )

@@ -88,14 +88,17 @@ def test_multicast_settings_refuse_what_would_loop_or_cannot_be_a_group() -> Non
     assert ipv6.group_endpoint == "udp/[ff02::1]:7448"
 
 
-def test_multicast_members_join_within_their_lease() -> None:
-    """Zenoh's default join interval (2.5 s) is longer than a short lease: members would
-    expire between joins. The configuration joins four times per lease."""
+def test_multicast_members_join_often_and_within_their_lease() -> None:
+    """Zenoh's default join interval (2.5 s) is longer than a short lease (members would
+    expire between joins) and than a ground-station command listens: 250 ms, and at least
+    four joins per lease."""
     cfg = ZenohSettings(
         multicast=False, broadcast="multicast", lease_ms=2000, interface="wlan0"
     ).config()
     data = json.loads(str(cfg))
-    assert data["transport"]["multicast"]["join_interval"] == 500
+    assert data["transport"]["multicast"]["join_interval"] == 250
     assert data["transport"]["link"]["tx"]["lease"] == 2000
     assert data["listen"]["endpoints"] == ["udp/224.0.0.225:7448#iface=wlan0"]
     assert data["scouting"]["multicast"]["enabled"] is False
+    short = ZenohSettings(multicast=False, broadcast="multicast", lease_ms=400).config()
+    assert json.loads(str(short))["transport"]["multicast"]["join_interval"] == 100

@@ -118,6 +118,8 @@ class Settings:
     broadcast: str = "mesh"
     group: str = "224.0.0.225:7448"
     interface: str = "lo"
+    #: Zenoh's session lease of every daemon, seconds (``--lease``; None: the default).
+    lease: float | None = None
 
 
 @dataclass(slots=True)
@@ -534,13 +536,15 @@ def measure_failover(
     return run
 
 
-def ground_session(swarm: LocalSwarm) -> GroundSession:
+def ground_session(swarm: LocalSwarm, lease: float | None = None) -> GroundSession:
     """A ground station for ``swarm`` in this process (enter it in a running event loop),
-    connected to every daemon, with the swarm's keys when it is secure."""
+    connected to every daemon (or on its multicast group), with the swarm's keys when it is
+    secure, and Zenoh's lease ``lease`` seconds (None: the default)."""
     from actorswarm.daemon.ground import GroundSession
     from actorswarm.security import PacketGuard, load_keys
-    from actorswarm.transport.zenoh_transport import ZenohSettings
+    from actorswarm.transport.zenoh_transport import LEASE_MS, ZenohSettings
 
+    lease_ms = LEASE_MS if lease is None else round(lease * 1000)
     guard = (
         PacketGuard.from_keys(load_keys(swarm.keys, need_private=True), role="ground")
         if swarm.secure
@@ -552,9 +556,10 @@ def ground_session(swarm: LocalSwarm) -> GroundSession:
             broadcast="multicast",
             group=swarm.group,
             interface=swarm.interface,
+            lease_ms=lease_ms,
         )
     else:
-        zenoh = ZenohSettings(connect=tuple(swarm.endpoints), multicast=False)
+        zenoh = ZenohSettings(connect=tuple(swarm.endpoints), multicast=False, lease_ms=lease_ms)
     return GroundSession(swarm.swarm, zenoh, guard)
 
 
@@ -602,7 +607,7 @@ async def run_switches(
     everyone = list(range(1, size + 1))
     data = switch_script(size).encode()
     (swarm.dir / "bench-switch.xml").write_bytes(data)
-    async with ground_session(swarm) as gs:
+    async with ground_session(swarm, settings.lease) as gs:
         progress(f"N={size}: deploying the switch script")
         sha = gs.do(lambda st, now: st.deploy(data, everyone, now))
         if not await gs.wait_for(lambda: not gs.station.missing(sha), settings.boot_timeout):
@@ -696,6 +701,7 @@ def bench_size(
         swarm=f"bench{os.getpid()}n{size}",
         group=settings.group if multicast else None,
         interface=settings.interface if multicast else None,
+        extra=() if settings.lease is None else ("--lease", str(settings.lease)),
     ) as swarm:
         say(f"N={size}: starting {size} daemons")
         booted_at = clock()
@@ -844,7 +850,8 @@ def markdown(result: BenchResult) -> str:
         "robot's computer.",
         "",
         f"Settings: CPU window {s['window']:.0f} s, {s['failovers']} failovers and "
-        f"{s['switches']} switches per size, timeout {s['run_timeout']:.0f} s per run.",
+        f"{s['switches']} switches per size, timeout {s['run_timeout']:.0f} s per run; "
+        f"Zenoh session lease {s.get('lease') or 4:g} s.",
         "",
         "## CPU and memory per daemon",
         "",

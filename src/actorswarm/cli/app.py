@@ -354,6 +354,10 @@ def bench_daemons(
     interface: Annotated[
         str, typer.Option(help="The multicast group's interface (--broadcast multicast).")
     ] = "lo",
+    lease: Annotated[
+        float | None,
+        typer.Option(min=0.1, max=3600, help="Zenoh's session lease, seconds [default: 4]."),
+    ] = None,
 ) -> None:
     """Real daemon processes on loopback: CPU and memory, packets on the wire, master
     failover, collective switch (docs/design.md §8). Loads the machine: every daemon is a
@@ -379,6 +383,7 @@ def bench_daemons(
         broadcast=broadcast,
         group=group,
         interface=interface,
+        lease=lease,
         window=window if window is not None else (5.0 if quick else 20.0),
         failovers=failovers if failovers is not None else (2 if quick else 10),
         switches=switches if switches is not None else (2 if quick else 10),

@@ -56,6 +56,15 @@ def daemon(
         str | None,
         typer.Option(help="The network interface of the multicast group (wlan0; default: any)."),
     ] = None,
+    lease: Annotated[
+        float | None,
+        typer.Option(
+            min=0.1,
+            max=3600,
+            help="Zenoh's session lease, seconds (default 4): how long Zenoh keeps a silent "
+            "peer's session; four keep-alives per lease on each idle link.",
+        ),
+    ] = None,
     state_dir: Annotated[
         Path | None, typer.Option(help="Where the platform keeps its state (default ./state-ID).")
     ] = None,
@@ -114,6 +123,7 @@ def daemon(
             broadcast=broadcast,
             group=group,
             interface=interface,
+            lease=lease,
             state_dir=state_dir,
             keys=keys,
             insecure=insecure,

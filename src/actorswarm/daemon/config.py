@@ -13,6 +13,7 @@ directory, so a robot's configuration can live beside its keys::
     multicast = false
     broadcast = "mesh"       # or "multicast": one datagram per broadcast on a group
     # group = "224.0.0.225:7448"; interface = "wlan0"   (broadcast = "multicast" only)
+    lease = 4.0              # Zenoh's session lease, seconds (docs/deploying.md)
     keys = "keys"
     state_dir = "/var/lib/actorswarm"
     vehicle = "sim"          # or "none", or "mavlink"
@@ -73,6 +74,7 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     broadcast: Literal["mesh", "multicast"] | None = None
     group: str | None = None
     interface: str | None = None
+    lease: Annotated[float, msgspec.Meta(ge=0.1, le=3600)] | None = None
     keys: str | None = None
     insecure: bool = False
     state_dir: str | None = None

@@ -46,8 +46,13 @@ full, is dropped after waiting up to 1 ms (congestion control *drop*). In a star
 membership most links of the mesh carry nothing but these keep-alives: at a 1 s lease, four
 a second each way on each of the N(N − 1)/2 links (``docs/benchmarks/README.md``). On the
 multicast transport the lease works the same way per member, and each member sends a
-*join* on the group every lease / :data:`KEEP_ALIVES` (Zenoh's default, 2.5 s, is longer
-than a short lease: members would expire between joins and lose what they send).
+*join* on the group every :data:`JOIN_MS` (250 ms; lease / :data:`KEEP_ALIVES` if that is
+shorter). A member drops what it receives from a peer whose join it has not heard yet, so
+the join interval is how long a newcomer waits before it is heard: a ``gs`` command, a new
+process each time, listens 1.5 s for the swarm, and at Zenoh's default (2.5 s, longer than
+a short lease too, so members would expire between joins) it would hear nobody; at one
+second it heard the master after up to 1.1 s and its roster up to 0.6 s later. Joins are
+one datagram per member, not per pair: 4 a second each.
 
 Memory: Zenoh's buffers are sized for a small robot (:data:`SMALL_ROBOT`, the figures in
 ``docs/deploying.md``): no shared-memory transport, 8 KiB batches instead of 64 KiB, and a
@@ -93,6 +98,7 @@ import zenoh
 __all__ = [
     "BROADCASTS",
     "DEFAULT_GROUP",
+    "JOIN_MS",
     "KEEP_ALIVES",
     "LEASE_MS",
     "RX_CAPACITY",
@@ -152,8 +158,11 @@ DEFAULT_GROUP = "224.0.0.225:7448"
 #: Zenoh's session lease, milliseconds (see the module's docstring).
 LEASE_MS = 4000
 
-#: Keep-alives (on the multicast transport: joins) per lease on an idle link.
+#: Keep-alives per lease on an idle link.
 KEEP_ALIVES = 4
+
+#: The multicast transport's join interval, milliseconds (at most lease / KEEP_ALIVES).
+JOIN_MS = 250
 
 
 def check_group(group: str) -> str:
@@ -273,7 +282,8 @@ class ZenohSettings:
         if self.broadcast == "multicast":
             cfg.insert_json5("listen/endpoints", json.dumps([self.group_endpoint]))
             cfg.insert_json5(
-                "transport/multicast/join_interval", json.dumps(self.lease_ms // KEEP_ALIVES)
+                "transport/multicast/join_interval",
+                json.dumps(min(JOIN_MS, self.lease_ms // KEEP_ALIVES)),
             )
         elif self.listen:
             # Without endpoints Zenoh's default stays: a peer listens on an ephemeral TCP
