@@ -24,8 +24,8 @@ What the loss exercises: Zenoh carries the swarm over TCP, which retransmits a l
 itself, so the collective core sees no lost packet but links that stall until the
 retransmission (200 ms and more; a retransmission lost again doubles the wait) and then
 deliver in a burst. Heartbeats come late or Zenoh drops them (best effort, congestion
-control *drop*), peers are declared gone and come back, masters change, Zenoh's one-second
-session lease expires and sessions are opened again, and barrier requests, releases and
+control *drop*), peers are declared gone and come back, masters change, Zenoh's session
+lease (4 s) may expire and sessions are opened again, and barrier requests, releases and
 acknowledgements are late or lost. The branch-and-merge script must still complete: 2
 platforms in B and 8 in C on one release, then all 10 back in A, no platform switching
 twice for one event. Two failures of the operator's tools under this loss (a ``gs start``
