@@ -8,8 +8,10 @@ import os
 import time
 
 import pytest
+import zenoh
 
 from actorswarm.transport import ZenohSettings, ZenohTransport
+from actorswarm.transport.zenoh_transport import SPREAD_CHUNKS, SPREAD_PATTERNS, spread_pattern
 
 
 def test_peers_without_endpoints_find_each_other_by_multicast_scouting() -> None:
@@ -36,35 +38,62 @@ def _group() -> str:
 
 
 def test_broadcasts_and_unicasts_travel_on_a_multicast_group() -> None:
-    """``broadcast="multicast"`` on loopback: no endpoint, no scouting, only the group; a
-    broadcast reaches every other member, a unicast only its addressee, nothing reaches
-    its sender, and no member holds a unicast session."""
+    """``broadcast="multicast"`` on loopback, four members: no endpoint, no scouting, only
+    the group; every broadcast reaches every other member once, a unicast only its
+    addressee, nothing reaches its sender, and no member holds a unicast session. (Four
+    members subscribing to one shared key flood the group in Zenoh 1.10 and lose data: see
+    the transport's docstring.)"""
     settings = ZenohSettings(multicast=False, broadcast="multicast", group=_group(), interface="lo")
     swarm = f"air{os.getpid()}"
     with (
         ZenohTransport(swarm, 1, settings) as one,
         ZenohTransport(swarm, 2, settings) as two,
         ZenohTransport(swarm, 3, settings) as three,
+        ZenohTransport(swarm, 4, settings) as four,
     ):
-        got: dict[int, list[bytes]] = {1: [], 2: [], 3: []}
-        members = {1: one, 2: two, 3: three}
+        members = {1: one, 2: two, 3: three, 4: four}
+        got: dict[int, list[bytes]] = {p: [] for p in members}
         end = time.monotonic() + 15
         # Members meet when their first join reaches the others: repeat until they have.
-        while time.monotonic() < end and not (got[2] and got[3]):
-            one.send(None, b"all")
+        while time.monotonic() < end and not all(got[p] for p in (2, 3, 4)):
+            one.send(None, b"hello")
             time.sleep(0.1)
             for p, t in members.items():
                 got[p] += t.drain(100)
-        assert got[1] == [] and set(got[2]) == {b"all"} and set(got[3]) == {b"all"}
+        assert got[1] == [] and all(set(got[p]) == {b"hello"} for p in (2, 3, 4)), got
+        time.sleep(0.3)
         for t in members.values():
-            got[t.platform].clear()
+            t.drain(100)
+        got = {p: [] for p in members}
+        sent = [b"n%d" % i for i in range(30)]
+        for data in sent:
+            one.send(None, data)
+            time.sleep(0.01)
         one.send(2, b"to two")
         time.sleep(0.5)
         for p, t in members.items():
             got[p] += t.drain(100)
-        assert got == {1: [], 2: [b"to two"], 3: []}
+        assert got[1] == []
+        assert got[2] == [b"to two", *sent]  # unicasts are drained first
+        assert got[3] == sent and got[4] == sent
         session = one._session
         assert session is not None and list(session.info.peers_zid()) == []
+
+
+def test_every_member_matches_the_tail_with_a_pattern_of_its_own() -> None:
+    tail = zenoh.KeyExpr("k/" + "/".join(["mmmm"] * SPREAD_CHUNKS))
+    indices = [0, 1, 14, 15, 224, 225, 65535, 65536, SPREAD_PATTERNS - 1]
+    patterns = [spread_pattern(i) for i in indices]
+    assert len(set(patterns)) == len(indices)
+    for pattern in patterns:
+        assert zenoh.KeyExpr(f"k/{pattern}").includes(tail), pattern
+    # Every digit of every chunk: 15 patterns of "mmmm", all different, all matching it.
+    chunks = {spread_pattern(d).split("/")[0] for d in range(15)}
+    assert len(chunks) == 15 and all(
+        zenoh.KeyExpr(c).includes(zenoh.KeyExpr("mmmm")) for c in chunks
+    )
+    with pytest.raises(ValueError, match="spread pattern"):
+        spread_pattern(SPREAD_PATTERNS)
 
 
 def test_multicast_settings_refuse_what_would_loop_or_cannot_be_a_group() -> None:

@@ -70,13 +70,6 @@ def zenoh_settings(
         raise refuse(
             "--group and --interface are the multicast group's: give --broadcast multicast"
         )
-    if chosen == "multicast":
-        print(
-            "WARNING: --broadcast multicast: Zenoh 1.10 sends subscriber declarations back to "
-            "a group of three or more members, which can flood it (docs/deploying.md, §3)",
-            file=sys.stderr,
-            flush=True,
-        )
     try:
         return ZenohSettings(
             listen=tuple(listen or ()),

@@ -33,9 +33,21 @@ receive and drop by key expression. A multicast swarm therefore has no ``listen`
 ``connect`` endpoints and no scouting (:class:`ZenohSettings` refuses them): with a unicast
 session beside the group, Zenoh forwards what it receives on one to the other and packets
 loop (measured: thousands of packets per second between three idle peers). The ground
-station joins the group like any platform. Multicast is UDP: no retransmission below the
-core (which retransmits what must arrive), and a datagram larger than the link's MTU is
-lost whole when one of its IP fragments is.
+station joins the group like any platform.
+
+On a group, no two members declare the same key expression. Zenoh (1.10) sends a
+subscriber declaration it receives from the group back to it when it has declared the same
+key itself, and the members then repeat it to each other without end: with every member
+subscribed to ``all/*``, four bare sessions put 3 500 packets a second on an idle group, and
+three daemons up to 12 000. So on a group every key carries a tail of :data:`SPREAD_CHUNKS`
+chunks ``mmmm`` (``all/<sender>/mmmm/mmmm/mmmm/mmmm/mmmm``, ``to/<dst>/mmmm/...``), and each
+member subscribes with a pattern of its own that matches that tail: in each chunk a ``$*``
+somewhere among the four letters (``m$*m``, ``$*mm``, ``*``...), 15 ways per chunk, chosen
+by :func:`spread_pattern` from the platform's ID (the ground station, ID 0, draws one at
+random per session, so that two ``gs`` commands at once differ too).
+
+Multicast is UDP: no retransmission below the core (which retransmits what must arrive),
+and a datagram larger than the link's MTU is lost whole when one of its IP fragments is.
 
 The session lease (:data:`LEASE_MS`, 4 s, with :data:`KEEP_ALIVES` keep-alives per lease:
 one a second on each idle link, each way) is Zenoh's own failure detection; the core
@@ -87,6 +99,7 @@ from __future__ import annotations
 import ipaddress
 import json
 import logging
+import secrets
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -103,11 +116,14 @@ __all__ = [
     "LEASE_MS",
     "RX_CAPACITY",
     "SMALL_ROBOT",
+    "SPREAD_CHUNKS",
+    "SPREAD_PATTERNS",
     "ZenohSettings",
     "ZenohTransport",
     "check_group",
     "check_interface",
     "key_prefix",
+    "spread_pattern",
 ]
 
 log = logging.getLogger("actorswarm.transport")
@@ -157,6 +173,30 @@ DEFAULT_GROUP = "224.0.0.225:7448"
 
 #: Zenoh's session lease, milliseconds (see the module's docstring).
 LEASE_MS = 4000
+
+#: Chunks of the tail that keys carry on a multicast group (see the module's docstring).
+SPREAD_CHUNKS = 5
+_SPREAD = "/".join(["mmmm"] * SPREAD_CHUNKS)
+#: Each chunk of a pattern: "m" * a + "$*" + "m" * c with a + c <= 4, which matches "mmmm".
+_CHUNK_PATTERNS = tuple(
+    "*" if a + c == 0 else "m" * a + "$*" + "m" * c for a in range(5) for c in range(5 - a)
+)
+#: Distinct patterns: 15 ** 5 = 759 375, platform IDs are 1..65535.
+SPREAD_PATTERNS = len(_CHUNK_PATTERNS) ** SPREAD_CHUNKS
+
+
+def spread_pattern(index: int) -> str:
+    """The ``index``-th key-expression tail (0 <= index < :data:`SPREAD_PATTERNS`) that
+    matches the ``mmmm/...`` tail of every key on a multicast group; distinct indices give
+    distinct strings."""
+    if not 0 <= index < SPREAD_PATTERNS:
+        raise ValueError(f"spread pattern {index}: 0..{SPREAD_PATTERNS - 1}")
+    chunks = []
+    for _ in range(SPREAD_CHUNKS):
+        index, digit = divmod(index, len(_CHUNK_PATTERNS))
+        chunks.append(_CHUNK_PATTERNS[digit])
+    return "/".join(chunks)
+
 
 #: Keep-alives per lease on an idle link.
 KEEP_ALIVES = 4
@@ -348,17 +388,28 @@ class ZenohTransport:
         self._wake: Callable[[], None] | None = None
         self._session: zenoh.Session | None = zenoh.open(self.settings.config())
         ring = zenoh.handlers.RingChannel
+        # On a multicast group every key has a tail, and each member matches it with a
+        # pattern of its own (see the module's docstring).
+        self._tail, pattern = "", ""
+        if self.settings.broadcast == "multicast":
+            # Platforms take their ID (1..65535); a ground station a random index above.
+            index = platform or 65536 + secrets.randbelow(SPREAD_PATTERNS - 65536)
+            self._tail, pattern = f"/{_SPREAD}", f"/{spread_pattern(index)}"
         # Unicasts first: the ground station only ever sends to one platform (``to/<id>``),
         # so its commands are in the first channel a drain empties. Our own broadcasts are
         # left out by Zenoh itself (REMOTE), not looked at per sample.
         self._channels = (
             _Channel(
-                self._session.declare_subscriber(f"{self._prefix}/to/{platform}", ring(capacity)),
+                self._session.declare_subscriber(
+                    f"{self._prefix}/to/{platform}{pattern}", ring(capacity)
+                ),
                 capacity,
             ),
             _Channel(
                 self._session.declare_subscriber(
-                    f"{self._prefix}/all/*", ring(capacity), allowed_origin=zenoh.Locality.REMOTE
+                    f"{self._prefix}/all/*{pattern}",
+                    ring(capacity),
+                    allowed_origin=zenoh.Locality.REMOTE,
                 ),
                 capacity,
             ),
@@ -480,7 +531,7 @@ class ZenohTransport:
         publisher = self._publishers.get((key, urgent))
         if publisher is None:
             publisher = self._publishers[(key, urgent)] = session.declare_publisher(
-                f"{self._prefix}/{key}",
+                f"{self._prefix}/{key}{self._tail}",
                 priority=zenoh.Priority.INTERACTIVE_HIGH if urgent else zenoh.Priority.DATA,
                 congestion_control=zenoh.CongestionControl.DROP,
                 reliability=zenoh.Reliability.BEST_EFFORT,
