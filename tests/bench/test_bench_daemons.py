@@ -9,6 +9,7 @@ import math
 import os
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from actorswarm.bench.daemons import (
@@ -17,6 +18,7 @@ from actorswarm.bench.daemons import (
     from_json,
     markdown,
     read_cpu_seconds,
+    read_interface_packets,
     read_memory_kib,
     switch_script,
     to_json,
@@ -35,6 +37,36 @@ def test_the_command_refuses_a_swarm_of_one_before_starting_anything() -> None:
     result = CliRunner().invoke(app, ["bench", "daemons", "--sizes", "1,5"])
     assert result.exit_code == 2
     assert "--sizes" in result.output
+
+
+def test_interface_counters_are_read_from_proc_net_dev(tmp_path: Path) -> None:
+    dev = tmp_path / "dev"
+    dev.write_text(
+        "Inter-|   Receive                                                |  Transmit\n"
+        " face |bytes    packets errs drop fifo frame compressed multicast|bytes    packets\n"
+        "    lo: 123456     789    0    0    0     0          0         0   123456     789\n"
+        "  eth0: 5 6 0 0 0 0 0 0 7 8\n"
+    )
+    assert read_interface_packets("lo", dev) == 789
+    assert read_interface_packets("eth0", dev) == 6
+    assert read_interface_packets("wlan0", dev) == -1
+    assert read_interface_packets() > 0  # this namespace's loopback
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--broadcast", "radio"], "--broadcast 'radio': mesh or multicast"),
+        (["--broadcast", "multicast", "--group", "10.0.0.1:7448"], "not a multicast address"),
+        (["--broadcast", "multicast", "--interface", "l o"], "interface 'l o'"),
+    ],
+)
+def test_the_command_refuses_a_bad_broadcast_before_starting_anything(
+    args: list[str], message: str
+) -> None:
+    result = CliRunner().invoke(app, ["bench", "daemons", "--sizes", "2", *args])
+    assert result.exit_code == 2
+    assert message in result.output
 
 
 def test_the_switch_script_is_valid(tmp_path: Path) -> None:
@@ -65,6 +97,7 @@ def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
         # A Python process with Zenoh: more than a few MiB, less than a few GiB.
         assert all(4 < v < 4096 for v in res.rss_mib)
         assert all(0 < a <= r for a, r in zip(res.rss_anon_mib, res.rss_mib, strict=True))
+        assert res.wire_packets_s > 0  # heartbeats at least, on this namespace's loopback
 
     (failover,) = size.failover
     assert failover.error == ""

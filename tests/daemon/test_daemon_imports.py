@@ -118,6 +118,9 @@ def test_every_option_of_the_typer_command_is_read_the_same_way() -> None:
          "--transport", "zenoh"],
         ["--platform", "2", "--vehicle", "mavlink", "--mavlink", "udpin:0.0.0.0:14540",
          "--mavlink-sysid", "7", "--origin", "47.4,8.5,400"],
+        ["--platform", "4", "--broadcast", "multicast", "--group", "224.0.0.9:7000",
+         "--interface", "wlan0", "--lease", "2.5"],
+        ["--platform", "4", "--lease=10"],
     ],
 )  # fmt: skip
 def test_a_well_formed_command_line_reads_as_typer_reads_it(
@@ -151,6 +154,9 @@ def test_a_well_formed_command_line_reads_as_typer_reads_it(
         ["--insecure=yes"],
         ["--platform", "3", "--platform", "4"],
         ["--", "--platform", "3"],
+        ["--platform", "3", "--lease", "0.01"],
+        ["--platform", "3", "--lease", "nan"],
+        ["--platform", "3", "--lease", "4s"],
     ],
 )
 def test_anything_else_is_left_to_the_typer_command(args: list[str]) -> None:

@@ -32,6 +32,9 @@ def _daemon(*args: str) -> tuple[int, str]:
         ("listen = \n", "not TOML"),
         ("[core]\nt_leave = -1\n", "[core]: t_leave"),
         ("[core]\nheartbeat = 1\n", "[core]: "),
+        ('broadcast = "radio"\n', "at `$.broadcast`"),
+        ("lease = 0\n", "at `$.lease`"),
+        ('platform = 1\nbroadcast = "multicast"\ngroup = "1.2.3.4:5"\n', "not a multicast"),
     ],
 )
 def test_a_bad_configuration_file_names_the_file_and_the_key(
@@ -76,6 +79,29 @@ def test_a_configuration_file_fills_what_the_command_line_leaves_out(tmp_path: P
         (("--platform", "1", "--fleet", "1-4"), "give --vehicle sim"),
         (("--platform", "1", "--vehicle", "sim", "--fleet", "4-1"), "--fleet '4-1': the range"),
         (("--platform", "9", "--vehicle", "sim", "--fleet", "1-4"), "platform 9 is not one of"),
+        (("--platform", "1", "--broadcast", "radio"), "broadcast 'radio': say how broadcasts"),
+        (("--platform", "1", "--group", "224.0.0.9:7000"), "give --broadcast multicast"),
+        (("--platform", "1", "--interface", "lo"), "give --broadcast multicast"),
+        (
+            ("--platform", "1", "--broadcast", "multicast", "--group", "10.1.1.1:7000"),
+            "10.1.1.1 is not a multicast address",
+        ),
+        (
+            ("--platform", "1", "--broadcast", "multicast", "--group", "224.0.0.9"),
+            "write ADDRESS:PORT",
+        ),
+        (
+            ("--platform", "1", "--broadcast", "multicast", "--interface", "wlan0;x"),
+            "interface 'wlan0;x'",
+        ),
+        (
+            ("--platform", "1", "--broadcast", "multicast", "--connect", "tcp/127.0.0.1:7447"),
+            "no connect endpoints",
+        ),
+        (
+            ("--platform", "1", "--broadcast", "multicast", "--multicast"),
+            "no multicast scouting",
+        ),
     ],
 )
 def test_bad_options_are_refused_before_anything_starts(

@@ -2,15 +2,20 @@
 
 For each swarm size it starts that many ``actorswarm daemon`` processes
 (:class:`~actorswarm.daemon.launch.LocalSwarm`: a full mesh of TCP links on 127.0.0.1, packet
-authentication on), waits until every daemon has all the others in its view and they agree
-on one master, and measures:
+authentication on; with ``broadcast="multicast"``, every daemon and the ground station on
+Zenoh's UDP multicast transport through ``lo`` instead), waits until every daemon has all
+the others in its view and they agree on one master, and measures:
 
 * **resources**: each daemon's resident memory (``VmRSS`` and its private part ``RssAnon``
   from ``/proc/PID/status``) and the CPU it used over a window (``utime + stime`` from
   ``/proc/PID/stat``, every thread of the process, Zenoh's included), as a percentage of one
-  core. Twice: *idle* — no script deployed, only heartbeats and membership — and *script* —
-  every platform running actor A (one ``core.idle`` plugin, stepped at 10 Hz) with a ground
-  station connected. A swarm of N daemons means N − 1 peers for each.
+  core; and the packets on the wire: those ``lo`` received over the window (``/proc/net/dev``
+  of the network namespace the bench runs in: run it in a namespace of its own, ``ip netns
+  exec``, to count the swarm's packets alone) per packet the daemons sent (one ``send`` of
+  the core, a broadcast counted once, from their ``status.json``). Twice: *idle* — no
+  script deployed, only heartbeats and membership — and *script* — every platform running
+  actor A (one ``core.idle`` plugin, stepped at 10 Hz) with a ground station connected.
+  A swarm of N daemons means N − 1 peers for each.
 * **failover**: the agreed master's daemon gets SIGKILL; from the bench's clock just before
   the signal to each survivor's first ``master`` log line naming the new master. Reported:
   the new master's own line (its claim) and the *last* survivor's line (when the whole swarm
@@ -75,6 +80,7 @@ __all__ = [
     "measure_failover",
     "measure_resources",
     "read_cpu_seconds",
+    "read_interface_packets",
     "read_memory_kib",
     "settled",
     "switch_script",
@@ -107,6 +113,13 @@ class Settings:
     #: Measure the resources while the script runs too (the second window).
     script_window: bool = True
     seed: int = 1
+    #: How broadcasts travel (``--broadcast``): ``mesh`` or ``multicast`` (on ``group``,
+    #: through ``interface``).
+    broadcast: str = "mesh"
+    group: str = "224.0.0.225:7448"
+    interface: str = "lo"
+    #: Zenoh's session lease of every daemon, seconds (``--lease``; None: the default).
+    lease: float | None = None
 
 
 @dataclass(slots=True)
@@ -121,6 +134,11 @@ class ResourceRun:
     rss_anon_mib: list[float]
     cpu_pct: list[float]  # of one core
     loadavg_1min: float
+    #: Packets ``lo`` received per second over the window (every packet on loopback is
+    #: received once, a multicast datagram too, however many sockets take it).
+    wire_packets_s: float = math.nan
+    #: Packets the daemons sent per second (core sends; a broadcast counts once).
+    sent_packets_s: float = math.nan
 
 
 @dataclass(slots=True)
@@ -187,6 +205,24 @@ def read_memory_kib(pid: int) -> tuple[int, int]:
     if "VmRSS" not in fields:
         raise ValueError(f"/proc/{pid}/status has no VmRSS (a kernel thread or a zombie?)")
     return fields["VmRSS"], fields.get("RssAnon", fields["VmRSS"])
+
+
+def read_interface_packets(interface: str = "lo", path: Path = Path("/proc/net/dev")) -> int:
+    """Packets ``interface`` received so far (``/proc/net/dev`` of this network namespace);
+    -1 when it has no such interface."""
+    for line in path.read_text().splitlines()[2:]:
+        name, _, counters = line.partition(":")
+        if name.strip() == interface:
+            return int(counters.split()[1])
+    return -1
+
+
+def _sent(status: dict[str, Any]) -> tuple[float, int] | None:
+    """(when, packets sent) from a daemon's status, None before its first meters."""
+    traffic = status.get("traffic")
+    if not isinstance(traffic, dict) or "t" not in status:
+        return None
+    return float(status["t"]), int(traffic.get("sent_packets", 0))
 
 
 def read_cpu_seconds(pid: int) -> float:
@@ -374,8 +410,11 @@ async def measure_resources(swarm: LocalSwarm, phase: str, window: float) -> Res
     procs = {p: swarm.procs[p] for p in swarm.running()}
     start_wall = clock()
     start_cpu = {p: read_cpu_seconds(proc.pid) for p, proc in procs.items()}
+    start_sent = {p: _sent(swarm.status(p)) for p in procs}
+    start_wire = read_interface_packets()
     await asyncio.sleep(window)
     elapsed = clock() - start_wall
+    wire = read_interface_packets() - start_wire
     run = ResourceRun(
         phase=phase,
         window_s=elapsed,
@@ -385,7 +424,16 @@ async def measure_resources(swarm: LocalSwarm, phase: str, window: float) -> Res
         rss_anon_mib=[],
         cpu_pct=[],
         loadavg_1min=os.getloadavg()[0],
+        wire_packets_s=wire / elapsed if start_wire >= 0 else math.nan,
     )
+    # Each daemon writes its counters every 10 s or so, stamped: a rate over its own stamps.
+    rates = []
+    for p in run.platforms:
+        before, after = start_sent[p], _sent(swarm.status(p))
+        if before is not None and after is not None and after[0] > before[0]:
+            rates.append((after[1] - before[1]) / (after[0] - before[0]))
+    if rates and len(rates) == len(run.platforms):
+        run.sent_packets_s = sum(rates)
     for p in run.platforms:
         pid = procs[p].pid
         used = read_cpu_seconds(pid) - start_cpu[p]
@@ -488,19 +536,30 @@ def measure_failover(
     return run
 
 
-def ground_session(swarm: LocalSwarm) -> GroundSession:
+def ground_session(swarm: LocalSwarm, lease: float | None = None) -> GroundSession:
     """A ground station for ``swarm`` in this process (enter it in a running event loop),
-    connected to every daemon, with the swarm's keys when it is secure."""
+    connected to every daemon (or on its multicast group), with the swarm's keys when it is
+    secure, and Zenoh's lease ``lease`` seconds (None: the default)."""
     from actorswarm.daemon.ground import GroundSession
     from actorswarm.security import PacketGuard, load_keys
-    from actorswarm.transport.zenoh_transport import ZenohSettings
+    from actorswarm.transport.zenoh_transport import LEASE_MS, ZenohSettings
 
+    lease_ms = LEASE_MS if lease is None else round(lease * 1000)
     guard = (
         PacketGuard.from_keys(load_keys(swarm.keys, need_private=True), role="ground")
         if swarm.secure
         else PacketGuard.insecure()
     )
-    zenoh = ZenohSettings(connect=tuple(swarm.endpoints), multicast=False)
+    if swarm.group is not None:
+        zenoh = ZenohSettings(
+            multicast=False,
+            broadcast="multicast",
+            group=swarm.group,
+            interface=swarm.interface,
+            lease_ms=lease_ms,
+        )
+    else:
+        zenoh = ZenohSettings(connect=tuple(swarm.endpoints), multicast=False, lease_ms=lease_ms)
     return GroundSession(swarm.swarm, zenoh, guard)
 
 
@@ -548,7 +607,7 @@ async def run_switches(
     everyone = list(range(1, size + 1))
     data = switch_script(size).encode()
     (swarm.dir / "bench-switch.xml").write_bytes(data)
-    async with ground_session(swarm) as gs:
+    async with ground_session(swarm, settings.lease) as gs:
         progress(f"N={size}: deploying the switch script")
         sha = gs.do(lambda st, now: st.deploy(data, everyone, now))
         if not await gs.wait_for(lambda: not gs.station.missing(sha), settings.boot_timeout):
@@ -635,7 +694,15 @@ def bench_size(
     result = SizeResult(size=size)
     began = time.perf_counter()
     rng = random.Random(f"bench-daemons:{settings.seed}:{size}")
-    with LocalSwarm(directory, size, swarm=f"bench{os.getpid()}n{size}") as swarm:
+    multicast = settings.broadcast == "multicast"
+    with LocalSwarm(
+        directory,
+        size,
+        swarm=f"bench{os.getpid()}n{size}",
+        group=settings.group if multicast else None,
+        interface=settings.interface if multicast else None,
+        extra=() if settings.lease is None else ("--lease", str(settings.lease)),
+    ) as swarm:
         say(f"N={size}: starting {size} daemons")
         booted_at = clock()
         swarm.start_all()
@@ -769,7 +836,13 @@ def markdown(result: BenchResult) -> str:
         f"Python {m['python']}, eclipse-zenoh {m['zenoh']}; actorswarm {m['actorswarm']}.",
         "",
         "Every daemon is a separate `actorswarm daemon` process on 127.0.0.1 (Zenoh peer mode, "
-        "TCP, a full mesh of listed endpoints, no multicast, HMAC on every packet), "
+        + (
+            "TCP, a full mesh of listed endpoints, no multicast, "
+            if s.get("broadcast", "mesh") == "mesh"
+            else f"everything on Zenoh's UDP multicast transport, group {s['group']} on "
+            f"{s['interface']}, "
+        )
+        + "HMAC on every packet), "
         f"heartbeat {c['heartbeat_interval'] * 1000:.0f} ms, "
         f"T_leave {t_leave * 1000:.0f} ms. **All of them, the ground station and the bench "
         f"share the machine's {m['cpus']} CPU(s)**: at the larger sizes the machine is loaded "
@@ -777,7 +850,8 @@ def markdown(result: BenchResult) -> str:
         "robot's computer.",
         "",
         f"Settings: CPU window {s['window']:.0f} s, {s['failovers']} failovers and "
-        f"{s['switches']} switches per size, timeout {s['run_timeout']:.0f} s per run.",
+        f"{s['switches']} switches per size, timeout {s['run_timeout']:.0f} s per run; "
+        f"Zenoh session lease {s.get('lease') or 4:g} s.",
         "",
         "## CPU and memory per daemon",
         "",
@@ -786,11 +860,14 @@ def markdown(result: BenchResult) -> str:
         "*script*: actor A running (one `core.idle` plugin at 10 Hz), ground station connected. "
         "CPU is `utime + stime` of every thread of the process over the window, in % of one "
         "core; RSS is `VmRSS` (private part `RssAnon`) at its end. Median (min–max) over the "
-        "daemons.",
+        "daemons. *wire/s*: packets `lo` received per second (the network namespace's "
+        "loopback: run the bench in a namespace of its own to count the swarm alone); *sent/s*: "
+        "packets the daemons sent per second (a broadcast counts once); their ratio is the "
+        "packets on the wire per packet sent.",
         "",
         "| N | phase | peers | CPU % of a core | RSS MiB | private MiB | all daemons, % of a core "
-        "| load avg (1 min) |",
-        "|---|---|---|---|---|---|---|---|",
+        "| load avg (1 min) | wire/s | sent/s | wire per sent |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in result.sizes:
         for res in r.resources:
@@ -799,7 +876,9 @@ def markdown(result: BenchResult) -> str:
                 f"| {r.size} | {res.phase} | {', '.join(map(str, peers))} "
                 f"| {_range(res.cpu_pct, 2)} | {_range(res.rss_mib, 1)} "
                 f"| {_range(res.rss_anon_mib, 1)} | {sum(res.cpu_pct):.0f} "
-                f"| {res.loadavg_1min:.1f} |"
+                f"| {res.loadavg_1min:.1f} | {res.wire_packets_s:.0f} "
+                f"| {res.sent_packets_s:.0f} "
+                f"| {_ratio(res.wire_packets_s, res.sent_packets_s)} |"
             )
     capacity = 100.0 * max(1, int(m["cpus"]))
     crowded = [
@@ -893,6 +972,10 @@ def markdown(result: BenchResult) -> str:
     lines += ["## Problems during the run", ""]
     lines += problems or ["None: every run completed."]
     return "\n".join(lines) + "\n"
+
+
+def _ratio(wire: float, sent: float) -> str:
+    return f"{wire / sent:.1f}" if sent > 0 and not math.isnan(wire) else "–"
 
 
 def _scarce(res: ResourceRun, cpus: int) -> bool:
@@ -1015,7 +1098,17 @@ def from_json(data: dict[str, Any]) -> BenchResult:
         SizeResult(
             size=int(row["size"]),
             boot_s=nan(row["boot_s"]),
-            resources=[ResourceRun(**res) for res in row["resources"]],
+            resources=[
+                ResourceRun(
+                    **{
+                        **res,
+                        # Absent from runs saved before they were measured.
+                        "wire_packets_s": nan(res.get("wire_packets_s")),
+                        "sent_packets_s": nan(res.get("sent_packets_s")),
+                    }
+                )
+                for res in row["resources"]
+            ],
             failover=[
                 FailoverRun(
                     **{**f, "to_claim_s": nan(f["to_claim_s"]), "to_all_s": nan(f["to_all_s"])}

@@ -341,16 +341,49 @@ def bench_daemons(
     ] = None,
     out: Annotated[Path | None, typer.Option(help="Write the Markdown report here.")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write every run here.")] = None,
+    broadcast: Annotated[
+        str,
+        typer.Option(
+            help="How broadcasts travel: mesh (TCP links between every pair) or multicast "
+            "(Zenoh's UDP multicast transport on --group through --interface)."
+        ),
+    ] = "mesh",
+    group: Annotated[
+        str, typer.Option(help="The multicast group, ADDRESS:PORT (--broadcast multicast).")
+    ] = "224.0.0.225:7448",
+    interface: Annotated[
+        str, typer.Option(help="The multicast group's interface (--broadcast multicast).")
+    ] = "lo",
+    lease: Annotated[
+        float | None,
+        typer.Option(min=0.1, max=3600, help="Zenoh's session lease, seconds [default: 4]."),
+    ] = None,
 ) -> None:
-    """Real daemon processes on loopback: CPU and memory, master failover, collective
-    switch (docs/design.md §8). Loads the machine: every daemon is a process on its cores."""
+    """Real daemon processes on loopback: CPU and memory, packets on the wire, master
+    failover, collective switch (docs/design.md §8). Loads the machine: every daemon is a
+    process on its cores. Run it in a network namespace of its own (`ip netns exec`) for
+    the packet counts to be the swarm's alone."""
     import signal
     import tempfile
 
     from actorswarm.bench.daemons import Settings, SizeResult, bench, markdown, to_json
 
     size_list = _int_list(sizes or ("5,10" if quick else "10,30"), "--sizes", 2, 200)
+    from actorswarm.transport.zenoh_transport import BROADCASTS, check_group, check_interface
+
+    try:
+        if broadcast not in BROADCASTS:
+            raise ValueError(f"--broadcast {broadcast!r}: " + " or ".join(BROADCASTS))
+        group = check_group(group)
+        check_interface(interface)
+    except ValueError as exc:
+        typer.echo(str(exc), err=True)
+        raise typer.Exit(2) from None
     settings = Settings(
+        broadcast=broadcast,
+        group=group,
+        interface=interface,
+        lease=lease,
         window=window if window is not None else (5.0 if quick else 20.0),
         failovers=failovers if failovers is not None else (2 if quick else 10),
         switches=switches if switches is not None else (2 if quick else 10),

@@ -36,7 +36,34 @@ def daemon(
     connect: ConnectOpt = None,
     multicast: Annotated[
         bool | None,
-        typer.Option("--multicast/--no-multicast", help="Multicast scouting (default on)."),
+        typer.Option(
+            "--multicast/--no-multicast",
+            help="Multicast scouting (default on with --broadcast mesh, off with multicast).",
+        ),
+    ] = None,
+    broadcast: Annotated[
+        str | None,
+        typer.Option(
+            help="How broadcasts travel: mesh (default: one copy per peer over the Zenoh "
+            "sessions) or multicast (one datagram on --group, which then carries everything)."
+        ),
+    ] = None,
+    group: Annotated[
+        str | None,
+        typer.Option(help="The multicast group, ADDRESS:PORT (default 224.0.0.225:7448)."),
+    ] = None,
+    interface: Annotated[
+        str | None,
+        typer.Option(help="The network interface of the multicast group (wlan0; default: any)."),
+    ] = None,
+    lease: Annotated[
+        float | None,
+        typer.Option(
+            min=0.1,
+            max=3600,
+            help="Zenoh's session lease, seconds (default 4): how long Zenoh keeps a silent "
+            "peer's session; four keep-alives per lease on each idle link.",
+        ),
     ] = None,
     state_dir: Annotated[
         Path | None, typer.Option(help="Where the platform keeps its state (default ./state-ID).")
@@ -93,6 +120,10 @@ def daemon(
             listen=listen,
             connect=connect,
             multicast=multicast,
+            broadcast=broadcast,
+            group=group,
+            interface=interface,
+            lease=lease,
             state_dir=state_dir,
             keys=keys,
             insecure=insecure,

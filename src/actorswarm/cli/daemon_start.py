@@ -18,12 +18,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["OPTIONS", "parse_daemon_args", "start_daemon"]
+__all__ = ["LEASE_RANGE", "OPTIONS", "parse_daemon_args", "start_daemon"]
 
 #: The daemon's options: command-line name -> (parameter, kind). ``value``: one string;
 #: ``int``: a platform ID; ``sysid``: a MAVLink system ID; ``path``: a file or directory;
-#: ``list``: repeatable; ``flag``: True when given; ``on``/``off``: the two sides of a
-#: boolean switch.
+#: ``seconds``: a Zenoh lease in seconds; ``list``: repeatable; ``flag``: True when given;
+#: ``on``/``off``: the two sides of a boolean switch.
 OPTIONS: dict[str, tuple[str, str]] = {
     "--platform": ("platform", "int"),
     "--swarm": ("swarm", "value"),
@@ -32,6 +32,10 @@ OPTIONS: dict[str, tuple[str, str]] = {
     "--connect": ("connect", "list"),
     "--multicast": ("multicast", "on"),
     "--no-multicast": ("multicast", "off"),
+    "--broadcast": ("broadcast", "value"),
+    "--group": ("group", "value"),
+    "--interface": ("interface", "value"),
+    "--lease": ("lease", "seconds"),
     "--state-dir": ("state_dir", "path"),
     "--keys": ("keys", "path"),
     "--insecure": ("insecure", "flag"),
@@ -43,6 +47,9 @@ OPTIONS: dict[str, tuple[str, str]] = {
     "--fleet": ("fleet", "value"),
     "--config": ("config", "path"),
 }
+
+#: The Zenoh lease, seconds, the typer command accepts (``min=0.1, max=3600``).
+LEASE_RANGE = (0.1, 3600.0)
 
 #: The values the typer command checks itself (``min=1, max=65535``; ``min=1, max=255``).
 _RANGES = {"int": range(1, 65536), "sysid": range(1, 256)}
@@ -58,6 +65,10 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
         "listen": None,
         "connect": None,
         "multicast": None,
+        "broadcast": None,
+        "group": None,
+        "interface": None,
+        "lease": None,
         "state_dir": None,
         "keys": None,
         "insecure": False,
@@ -103,6 +114,14 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
             if not (text.isascii() and text.isdigit()) or int(text) not in _RANGES[kind]:
                 return None
             values[param] = int(text)
+        elif kind == "seconds":
+            try:
+                seconds = float(text)
+            except ValueError:
+                return None
+            if not LEASE_RANGE[0] <= seconds <= LEASE_RANGE[1]:
+                return None  # also NaN
+            values[param] = seconds
         elif kind == "path":
             values[param] = Path(text)
         else:
@@ -128,6 +147,10 @@ def start_daemon(
     mavlink_sysid: int | None = None,
     origin: str | None = None,
     fleet: str | None = None,
+    broadcast: str | None = None,
+    group: str | None = None,
+    interface: str | None = None,
+    lease: float | None = None,
 ) -> int:
     """Check the options (the command line, then the ``--config`` file, then the defaults)
     and run the daemon until a signal; returns its exit status. A problem with the options
@@ -192,7 +215,11 @@ def start_daemon(
     settings = zenoh_settings(
         list(connect or file.connect) or None,
         list(listen or file.listen) or None,
-        multicast if multicast is not None else file.multicast is not False,
+        multicast if multicast is not None else file.multicast,
+        broadcast or file.broadcast,
+        group or file.group,
+        interface or file.interface,
+        lease if lease is not None else file.lease,
     )
     options = DaemonOptions(
         guard=guard,

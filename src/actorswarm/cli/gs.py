@@ -20,8 +20,11 @@ import typer
 
 from actorswarm.cli.common import check_script, int_list_or_count, read_world
 from actorswarm.cli.swarm_options import (
+    BroadcastOpt,
     ConnectOpt,
+    GroupOpt,
     InsecureOpt,
+    InterfaceOpt,
     KeysOpt,
     ListenOpt,
     MulticastOpt,
@@ -45,7 +48,10 @@ def gs_deploy(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 10.0,
     state: Annotated[Path | None, typer.Option(help="Where to remember the deployment.")] = None,
     keys: KeysOpt = None,
@@ -63,7 +69,7 @@ def gs_deploy(
     The script is checked first, as task check does (with --world, its area names too):
     a script with errors is not sent, its diagnostics go to stderr as FILE:LINE:COL:
     message, and the exit status is 1 (2 when the script or the world cannot be read)."""
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     platforms = int_list_or_count(expect, "--expect")
     areas = None if world is None else [area.name for area in read_world(world).areas]
     code, script = check_script(file, areas=areas)
@@ -103,7 +109,10 @@ def gs_start(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 10.0,
     force: Annotated[
         bool, typer.Option("--force", help="Start without every confirmation.")
@@ -115,7 +124,7 @@ def gs_start(
     """Start the script deployed last: refused unless every expected platform confirmed it."""
     from actorswarm.ground.station import NotConfirmed
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     path = state or default_state_file(swarm)
     try:
         saved: dict[str, Any] = json.loads(path.read_text())
@@ -176,7 +185,10 @@ def gs_status(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 3.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     keys: KeysOpt = None,
@@ -189,7 +201,7 @@ def gs_status(
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
 
     async def go() -> tuple[dict[str, Any], list[str]]:
         async with ln.session(timeout) as gs:

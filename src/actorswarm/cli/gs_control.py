@@ -18,8 +18,11 @@ import typer
 
 from actorswarm.cli.common import id_list
 from actorswarm.cli.swarm_options import (
+    BroadcastOpt,
     ConnectOpt,
+    GroupOpt,
     InsecureOpt,
+    InterfaceOpt,
     KeysOpt,
     Link,
     ListenOpt,
@@ -90,7 +93,10 @@ def gs_event(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 5.0,
     platforms: PlatformsOpt = None,
     actors: Annotated[str | None, typer.Option(help="Only platforms running these actors.")] = None,
@@ -98,7 +104,7 @@ def gs_event(
     insecure: InsecureOpt = False,
 ) -> None:
     """Fire an event: every platform heard (or the ones listed) gets it."""
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     names = [a.strip() for a in (actors or "").split(",") if a.strip()]
 
     def send(st: GroundStation, targets: list[int], now: float) -> None:
@@ -129,7 +135,10 @@ def gs_force(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 5.0,
     platforms: PlatformsOpt = None,
     keys: KeysOpt = None,
@@ -146,7 +155,7 @@ def gs_force(
         typer.echo("say who moves: an ACTOR to move away from, or --platforms IDS", err=True)
         raise typer.Exit(2)
     command = cmds.Force(to=to, src=actor, params=_params(param))
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     _execute(ln, "Force", _to(command), platforms, timeout)
 
 
@@ -156,13 +165,16 @@ def _actor_command(name: str, make: Callable[[str], cmds.Command], doc: str) -> 
         swarm: SwarmOpt = "swarm",
         connect: ConnectOpt = None,
         listen: ListenOpt = None,
-        multicast: MulticastOpt = True,
+        multicast: MulticastOpt = None,
+        broadcast: BroadcastOpt = None,
+        group: GroupOpt = None,
+        interface: InterfaceOpt = None,
         timeout: TimeoutOpt = 5.0,
         platforms: PlatformsOpt = None,
         keys: KeysOpt = None,
         insecure: InsecureOpt = False,
     ) -> None:
-        ln = link(swarm, connect, listen, multicast, keys, insecure)
+        ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
         _execute(ln, name, _to(make(actor)), platforms, timeout)
 
     command.__doc__ = doc
@@ -173,7 +185,10 @@ def gs_backup(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 5.0,
     platforms: PlatformsOpt = None,
     keys: KeysOpt = None,
@@ -182,7 +197,7 @@ def gs_backup(
     """Every platform saves its actors and their plugins' state now.
 
     A restarted daemon resumes from its latest backup."""
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     _execute(ln, "Backup", _to(cmds.Backup()), platforms, timeout)
 
 

@@ -28,8 +28,11 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from actorswarm.cli.swarm_options import (
+    BroadcastOpt,
     ConnectOpt,
+    GroupOpt,
     InsecureOpt,
+    InterfaceOpt,
     KeysOpt,
     ListenOpt,
     MulticastOpt,
@@ -54,7 +57,10 @@ def gs_record(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
     poll: Annotated[
@@ -77,7 +83,7 @@ def gs_record(
     from actorswarm.sim.record import RecordWriter
     from actorswarm.web.membership import Membership
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     meta = {
         "name": name or f"swarm {swarm}",
         "swarm": swarm,

@@ -19,8 +19,11 @@ if TYPE_CHECKING:
     from actorswarm.daemon.ground import GroundSession
 
 __all__ = [
+    "BroadcastOpt",
     "ConnectOpt",
+    "GroupOpt",
     "InsecureOpt",
+    "InterfaceOpt",
     "KeysOpt",
     "Link",
     "ListenOpt",
@@ -40,7 +43,26 @@ ConnectOpt = Annotated[
 ]
 ListenOpt = Annotated[list[str] | None, typer.Option(help="Zenoh endpoint to listen on.")]
 MulticastOpt = Annotated[
-    bool, typer.Option("--multicast/--no-multicast", help="Multicast scouting of peers.")
+    bool | None,
+    typer.Option(
+        "--multicast/--no-multicast",
+        help="Multicast scouting of peers (default on with --broadcast mesh, off with multicast).",
+    ),
+]
+BroadcastOpt = Annotated[
+    str | None,
+    typer.Option(
+        help="How the swarm's broadcasts travel: mesh (the default) or multicast (everything "
+        "on --group; every platform must say the same)."
+    ),
+]
+GroupOpt = Annotated[
+    str | None,
+    typer.Option(help="The multicast group, ADDRESS:PORT (default 224.0.0.225:7448)."),
+]
+InterfaceOpt = Annotated[
+    str | None,
+    typer.Option(help="The network interface of the multicast group (wlan0; default: any)."),
 ]
 TimeoutOpt = Annotated[float, typer.Option(min=0.1, help="Seconds to wait for the swarm.")]
 KeysOpt = Annotated[
@@ -72,14 +94,19 @@ def link(
     swarm: str,
     connect: list[str] | None,
     listen: list[str] | None,
-    multicast: bool,
+    multicast: bool | None,
     keys: Path | None,
     insecure: bool,
+    broadcast: str | None = None,
+    group: str | None = None,
+    interface: str | None = None,
 ) -> Link:
     """The ground station's link from its command-line options (exit 2 when unusable)."""
     check_swarm(swarm)
     return Link(
-        swarm, zenoh_settings(connect, listen, multicast), packet_guard(keys, insecure, "ground")
+        swarm,
+        zenoh_settings(connect, listen, multicast, broadcast, group, interface),
+        packet_guard(keys, insecure, "ground"),
     )
 
 

@@ -11,7 +11,12 @@ from pathlib import Path
 from typing import Literal
 
 from actorswarm.security.guard import PacketGuard
-from actorswarm.transport.zenoh_transport import ZenohSettings, key_prefix
+from actorswarm.transport.zenoh_transport import (
+    DEFAULT_GROUP,
+    LEASE_MS,
+    ZenohSettings,
+    key_prefix,
+)
 
 __all__ = ["check_swarm", "packet_guard", "refuse", "zenoh_settings"]
 
@@ -49,11 +54,34 @@ def packet_guard(
 
 
 def zenoh_settings(
-    connect: list[str] | None, listen: list[str] | None, multicast: bool
+    connect: list[str] | None,
+    listen: list[str] | None,
+    multicast: bool | None,
+    broadcast: str | None = None,
+    group: str | None = None,
+    interface: str | None = None,
+    lease: float | None = None,
 ) -> ZenohSettings:
-    return ZenohSettings(
-        listen=tuple(listen or ()), connect=tuple(connect or ()), multicast=multicast
-    )
+    """The Zenoh settings of these options, or a clear error and exit 2. ``multicast``
+    (scouting) None: on for the mesh, off on a multicast group (which refuses it);
+    ``lease`` in seconds (None: :data:`LEASE_MS`)."""
+    chosen = broadcast or "mesh"
+    if chosen == "mesh" and (group is not None or interface is not None):
+        raise refuse(
+            "--group and --interface are the multicast group's: give --broadcast multicast"
+        )
+    try:
+        return ZenohSettings(
+            listen=tuple(listen or ()),
+            connect=tuple(connect or ()),
+            multicast=multicast if multicast is not None else chosen == "mesh",
+            broadcast=chosen,
+            group=group or DEFAULT_GROUP,
+            interface=interface,
+            lease_ms=LEASE_MS if lease is None else round(lease * 1000),
+        )
+    except ValueError as exc:
+        raise refuse(str(exc)) from None
 
 
 def check_swarm(swarm: str) -> None:

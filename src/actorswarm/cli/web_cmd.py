@@ -24,8 +24,11 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from actorswarm.cli.swarm_options import (
+    BroadcastOpt,
     ConnectOpt,
+    GroupOpt,
     InsecureOpt,
+    InterfaceOpt,
     KeysOpt,
     ListenOpt,
     MulticastOpt,
@@ -197,7 +200,10 @@ def gs_web(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
-    multicast: MulticastOpt = True,
+    multicast: MulticastOpt = None,
+    broadcast: BroadcastOpt = None,
+    group: GroupOpt = None,
+    interface: InterfaceOpt = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
     script: Annotated[
@@ -223,7 +229,7 @@ def gs_web(
     in the browser. Open the address it prints."""
     from actorswarm.cli.common import read_world
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure)
+    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     known_world = None if world is None else read_world(world)
     drawn, sha = _known_script(script, state or default_state_file(swarm))
     from actorswarm.web.real_source import RealSource

@@ -11,6 +11,9 @@ directory, so a robot's configuration can live beside its keys::
     listen = ["tcp/0.0.0.0:7447"]
     connect = ["tcp/192.168.1.10:7447"]
     multicast = false
+    broadcast = "mesh"       # or "multicast": one datagram per broadcast on a group
+    # group = "224.0.0.225:7448"; interface = "wlan0"   (broadcast = "multicast" only)
+    lease = 4.0              # Zenoh's session lease, seconds (docs/deploying.md)
     keys = "keys"
     state_dir = "/var/lib/actorswarm"
     vehicle = "sim"          # or "none", or "mavlink"
@@ -68,6 +71,10 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     listen: list[str] = []
     connect: list[str] = []
     multicast: bool | None = None
+    broadcast: Literal["mesh", "multicast"] | None = None
+    group: str | None = None
+    interface: str | None = None
+    lease: Annotated[float, msgspec.Meta(ge=0.1, le=3600)] | None = None
     keys: str | None = None
     insecure: bool = False
     state_dir: str | None = None
@@ -110,6 +117,15 @@ def load_daemon_config(path: Path) -> tuple[DaemonFile, CoreConfig]:
         raise DaemonConfigError(f"{path}: {exc} (the keys are: {known})") from None
     except msgspec.DecodeError as exc:
         raise DaemonConfigError(f"{path}: not TOML: {exc}") from None
+    from actorswarm.transport.zenoh_transport import check_group, check_interface
+
+    for key, check in (("group", check_group), ("interface", check_interface)):
+        value = getattr(parsed, key)
+        if value is not None:
+            try:
+                check(value)
+            except ValueError as exc:
+                raise DaemonConfigError(f"{path}: {key}: {exc}") from None
     try:
         core = CoreConfig.from_mapping(dict(parsed.core))
     except ConfigError as exc:

@@ -7,6 +7,10 @@ reads each daemon's ``status.json``. Everything lives in one directory (keys, st
 directories, one log per daemon), which is what to look at when something fails: the
 error of :meth:`LocalSwarm.wait` ends with the tail of every log.
 
+``group`` puts the swarm on Zenoh's UDP multicast transport instead (``--broadcast
+multicast``: every daemon and the ground station on that group, through ``interface``), no
+endpoints and no scouting.
+
 ``wrap(platform)`` may prefix a daemon's command (``ip netns exec ns3``) and ``endpoints``
 may give other addresses than loopback, which is how the network-namespace tests put
 daemons behind emulated radio links.
@@ -70,6 +74,8 @@ class LocalSwarm:
         multicast: bool = False,
         state_dirs: Mapping[int, Path] | None = None,
         new_session: bool = False,
+        group: str | None = None,
+        interface: str | None = None,
     ) -> None:
         # Created when something is written there (keys, logs): a launch that is only
         # checked leaves no trace.
@@ -87,7 +93,15 @@ class LocalSwarm:
             self.dir.mkdir(parents=True, exist_ok=True)
             init_keys(self.keys)
         self.multicast = multicast
-        if endpoints is None and not multicast:
+        #: The daemons' and the ground station's options of a multicast swarm.
+        self.air: list[str] = []
+        self.group, self.interface = group, interface
+        if group is not None:
+            if endpoints is not None or multicast:
+                raise ValueError("a multicast group carries everything: no endpoints, no scouting")
+            self.air = ["--broadcast", "multicast", "--group", group]
+            self.air += ["--interface", interface] if interface is not None else []
+        elif endpoints is None and not multicast:
             endpoints = [f"tcp/127.0.0.1:{p}" for p in free_ports(size)]
         if endpoints is not None and len(endpoints) != size:
             raise ValueError(f"{len(endpoints)} endpoints for {size} platforms")
@@ -130,7 +144,7 @@ class LocalSwarm:
         args = [
             sys.executable, "-m", "actorswarm", "daemon", "--platform", str(platform),
             "--swarm", self.swarm, *self._security(),
-            "--state-dir", str(self.state_dir(platform)), *self.extra, *extra,
+            "--state-dir", str(self.state_dir(platform)), *self.air, *self.extra, *extra,
         ]  # fmt: skip
         if self.endpoints:
             args += ["--no-multicast", "--listen", self.endpoints[index]]
@@ -184,7 +198,7 @@ class LocalSwarm:
         the swarm's keys or those in ``keys`` (a ground station with other keys)."""
         security = self._security() if keys is None else ["--keys", str(keys)]
         cmd = [sys.executable, "-m", "actorswarm", "gs", *args, "--swarm", self.swarm,
-               *security]  # fmt: skip
+               *security, *self.air]  # fmt: skip
         if self.endpoints:
             cmd.append("--no-multicast")
         for endpoint in self.endpoints:

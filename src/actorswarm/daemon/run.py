@@ -285,6 +285,10 @@ async def _main(options: DaemonOptions) -> int:
         secure=guard.secure,
         vehicle="sim" if world is not None else "none" if autopilot is None else "mavlink",
         position=endpoint.runtime.position(),
+        # How broadcasts travel: "mesh", or the multicast group's Zenoh endpoint.
+        broadcast=options.zenoh.broadcast
+        if options.zenoh.broadcast == "mesh"
+        else options.zenoh.group_endpoint,
     )
     seen = _Seen()
     traffic = Traffic()

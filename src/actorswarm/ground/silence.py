@@ -74,7 +74,8 @@ def explain(
         if not foreign:
             out.append(
                 f"no platform of swarm {swarm!r} answered: nothing was heard — check --swarm, "
-                "--connect/--listen and multicast; a platform that hears a different swarm "
+                "--connect/--listen and multicast, and --broadcast (a swarm on a multicast group "
+                "hears only commands on its group); a platform that hears a different swarm "
                 "key counts it as bad_tag in its status.json `rejected`"
             )
         return out

@@ -20,9 +20,53 @@ queue.
 
 Discovery: multicast scouting is on by default (peers find each other on the LAN); list
 ``connect`` endpoints (``tcp/10.0.0.1:7447``) or a router where Wi-Fi drops multicast, and
-``listen`` endpoints to accept them. Zenoh's own session lease is shortened (1 s, four
-keep-alives per lease) so a dead peer's session is torn down quickly and Zenoh does not
-keep buffering for it; failure detection itself stays the core's (heartbeats, 500 ms).
+``listen`` endpoints to accept them.
+
+On the air (``broadcast``): by default (``"mesh"``) every pair of peers holds one Zenoh
+session, over TCP (or UDP unicast) endpoints, so a broadcast leaves its sender as one copy
+per peer: N − 1 packets for N platforms. With ``"multicast"`` every platform instead joins
+Zenoh's UDP multicast transport on one group (``group``, ``224.0.0.225:7448`` by default,
+on ``interface`` when given), and a broadcast is one datagram that every member receives,
+as a radio works. Zenoh (1.x) then opens no unicast session to a peer it already meets on
+the group, so unicasts travel on the group too: one datagram each, which the other members
+receive and drop by key expression. A multicast swarm therefore has no ``listen`` or
+``connect`` endpoints and no scouting (:class:`ZenohSettings` refuses them): with a unicast
+session beside the group, Zenoh forwards what it receives on one to the other and packets
+loop (measured: thousands of packets per second between three idle peers). The ground
+station joins the group like any platform.
+
+On a group, no two members declare the same key expression. Zenoh (1.10) can send the
+subscriber declarations it receives from a group back to it, and members that share a key
+expression then repeat them to each other without end (Zenoh's issue #1608 and pull request
+#2802): with every member subscribed to ``all/*``, four bare sessions, one per process, put
+3 500 packets a second on an idle group every time, and three daemons up to 12 000 some of
+the time; with a pattern of each member's own, no run did (four and ten bare sessions, four
+and ten daemons). So on a group every key carries a tail of :data:`SPREAD_CHUNKS`
+chunks ``mmmm`` (``all/<sender>/mmmm/mmmm/mmmm/mmmm/mmmm``, ``to/<dst>/mmmm/...``), and each
+member subscribes with a pattern of its own that matches that tail: in each chunk a ``$*``
+somewhere among the four letters (``m$*m``, ``$*mm``, ``*``...), 15 ways per chunk, chosen
+by :func:`spread_pattern` from the platform's ID (the ground station, ID 0, draws one at
+random per session, so that two ``gs`` commands at once differ too).
+
+Multicast is UDP: no retransmission below the core (which retransmits what must arrive),
+and a datagram larger than the link's MTU is lost whole when one of its IP fragments is.
+
+The session lease (:data:`LEASE_MS`, 4 s, with :data:`KEEP_ALIVES` keep-alives per lease:
+one a second on each idle link, each way) is Zenoh's own failure detection; the core
+detects failures itself (heartbeats, ``t_leave`` 0.5 s) and does not wait for it. What the
+lease bounds is how long Zenoh keeps a dead peer's session: until it expires, every packet
+for that peer goes into its transmit queue (two batches per priority) and, once that is
+full, is dropped after waiting up to 1 ms (congestion control *drop*). In a star
+membership most links of the mesh carry nothing but these keep-alives: at a 1 s lease, four
+a second each way on each of the N(N − 1)/2 links (``docs/benchmarks/README.md``). On the
+multicast transport the lease works the same way per member, and each member sends a
+*join* on the group every :data:`JOIN_MS` (250 ms; lease / :data:`KEEP_ALIVES` if that is
+shorter). A member drops what it receives from a peer whose join it has not heard yet, so
+the join interval is how long a newcomer waits before it is heard: a ``gs`` command, a new
+process each time, listens 1.5 s for the swarm, and at Zenoh's default (2.5 s, longer than
+a short lease too, so members would expire between joins) it would hear nobody; at one
+second it heard the master after up to 1.1 s and its roster up to 0.6 s later. Joins are
+one datagram per member, not per pair: 4 a second each.
 
 Memory: Zenoh's buffers are sized for a small robot (:data:`SMALL_ROBOT`, the figures in
 ``docs/deploying.md``): no shared-memory transport, 8 KiB batches instead of 64 KiB, and a
@@ -54,8 +98,10 @@ asyncio loop however many channels park before it runs.
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import logging
+import secrets
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -64,7 +110,23 @@ from typing import Any
 
 import zenoh
 
-__all__ = ["RX_CAPACITY", "SMALL_ROBOT", "ZenohSettings", "ZenohTransport", "key_prefix"]
+__all__ = [
+    "BROADCASTS",
+    "DEFAULT_GROUP",
+    "JOIN_MS",
+    "KEEP_ALIVES",
+    "LEASE_MS",
+    "RX_CAPACITY",
+    "SMALL_ROBOT",
+    "SPREAD_CHUNKS",
+    "SPREAD_PATTERNS",
+    "ZenohSettings",
+    "ZenohTransport",
+    "check_group",
+    "check_interface",
+    "key_prefix",
+    "spread_pattern",
+]
 
 log = logging.getLogger("actorswarm.transport")
 
@@ -103,6 +165,88 @@ SMALL_ROBOT: dict[str, Any] = {
 RX_CAPACITY = 128
 
 
+#: How broadcasts travel (see the module's docstring): one session per pair of peers, or
+#: Zenoh's UDP multicast transport.
+BROADCASTS = ("mesh", "multicast")
+
+#: The multicast group of ``broadcast="multicast"`` unless one is given: link-local (routers
+#: do not forward it), next to Zenoh's scouting group (224.0.0.224:7446).
+DEFAULT_GROUP = "224.0.0.225:7448"
+
+#: Zenoh's session lease, milliseconds (see the module's docstring).
+LEASE_MS = 4000
+
+#: Chunks of the tail that keys carry on a multicast group (see the module's docstring).
+SPREAD_CHUNKS = 5
+_SPREAD = "/".join(["mmmm"] * SPREAD_CHUNKS)
+#: Each chunk of a pattern: "m" * a + "$*" + "m" * c with a + c <= 4, which matches "mmmm".
+_CHUNK_PATTERNS = tuple(
+    "*" if a + c == 0 else "m" * a + "$*" + "m" * c for a in range(5) for c in range(5 - a)
+)
+#: Distinct patterns: 15 ** 5 = 759 375, platform IDs are 1..65535.
+SPREAD_PATTERNS = len(_CHUNK_PATTERNS) ** SPREAD_CHUNKS
+
+
+def spread_pattern(index: int) -> str:
+    """The ``index``-th key-expression tail (0 <= index < :data:`SPREAD_PATTERNS`) that
+    matches the ``mmmm/...`` tail of every key on a multicast group; distinct indices give
+    distinct strings."""
+    if not 0 <= index < SPREAD_PATTERNS:
+        raise ValueError(f"spread pattern {index}: 0..{SPREAD_PATTERNS - 1}")
+    chunks = []
+    for _ in range(SPREAD_CHUNKS):
+        index, digit = divmod(index, len(_CHUNK_PATTERNS))
+        chunks.append(_CHUNK_PATTERNS[digit])
+    return "/".join(chunks)
+
+
+#: Keep-alives per lease on an idle link.
+KEEP_ALIVES = 4
+
+#: The multicast transport's join interval, milliseconds (at most lease / KEEP_ALIVES).
+JOIN_MS = 250
+
+
+def check_group(group: str) -> str:
+    """``group`` (``ADDRESS:PORT``, an IPv4 multicast address or a bracketed IPv6 one) as
+    Zenoh writes it; ValueError naming what is wrong."""
+    host, colon, port = group.rpartition(":")
+    bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    try:
+        address = ipaddress.ip_address(bare)
+    except ValueError:
+        address = None
+    if not colon or address is None or not (port.isascii() and port.isdigit()):
+        raise ValueError(
+            f"multicast group {group!r}: write ADDRESS:PORT (224.0.0.225:7448, [ff02::1]:7448)"
+        )
+    if not address.is_multicast:
+        raise ValueError(
+            f"multicast group {group!r}: {bare} is not a multicast address "
+            "(IPv4 224.0.0.0 to 239.255.255.255, IPv6 ff00::/8)"
+        )
+    if not 1 <= int(port) <= 65535:
+        raise ValueError(f"multicast group {group!r}: port {port} is not in 1..65535")
+    if address.version == 6 and not host.startswith("["):
+        raise ValueError(f"multicast group {group!r}: write an IPv6 address in brackets")
+    return f"{host}:{int(port)}"
+
+
+def check_interface(interface: str) -> str:
+    """``interface`` if it can be a network interface's name (``eth0``, ``wlan0``);
+    ValueError otherwise. Whether the host has it is for Zenoh to say when it opens."""
+    if (
+        not interface
+        or len(interface) > 15
+        or not all(c.isascii() and (c.isalnum() or c in "-_.@") for c in interface)
+    ):
+        raise ValueError(
+            f"interface {interface!r}: a network interface's name, at most 15 letters, "
+            "digits, '-', '_', '.' or '@' (eth0, wlan0)"
+        )
+    return interface
+
+
 def key_prefix(swarm: str) -> str:
     """The key-expression namespace of a swarm: ``actorswarm/<swarm>``. ValueError for a
     name Zenoh could not carry in one chunk (``/``, ``*``, ``$``, ``?``, ``#``, empty)."""
@@ -121,20 +265,69 @@ class ZenohSettings:
     ``listen`` and ``connect`` are Zenoh endpoints (``tcp/127.0.0.1:7501``,
     ``udp/0.0.0.0:7447``); ``multicast`` turns multicast scouting on (the default: peers on
     the same LAN find each other); ``lease_ms`` is Zenoh's session lease (a peer silent that
-    long is dropped by Zenoh itself).
+    long is dropped by Zenoh itself). ``broadcast`` is how broadcasts travel, ``"mesh"`` or
+    ``"multicast"`` (:data:`BROADCASTS`); with ``"multicast"``, every packet travels on
+    ``group`` (``ADDRESS:PORT``) through ``interface`` (the system's choice when None), and
+    ``listen``, ``connect`` and scouting are refused (see the module's docstring).
+
+    Construction raises ValueError naming the setting that is wrong.
     """
 
     listen: Sequence[str] = ()
     connect: Sequence[str] = ()
     multicast: bool = True
-    lease_ms: int = 1000
+    lease_ms: int = LEASE_MS
     extra: dict[str, Any] = field(default_factory=dict)
+    broadcast: str = "mesh"
+    group: str = DEFAULT_GROUP
+    interface: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.broadcast not in BROADCASTS:
+            raise ValueError(
+                f"broadcast {self.broadcast!r}: say how broadcasts travel, "
+                + " or ".join(BROADCASTS)
+            )
+        if not 100 <= self.lease_ms <= 3_600_000:
+            raise ValueError(f"Zenoh lease {self.lease_ms} ms: give 100 ms to one hour")
+        object.__setattr__(self, "group", check_group(self.group))
+        if self.interface is not None:
+            check_interface(self.interface)
+        if self.broadcast == "multicast":
+            extra = [
+                what
+                for what, given in (
+                    ("listen endpoints", self.listen),
+                    ("connect endpoints", self.connect),
+                    ("multicast scouting", self.multicast),
+                )
+                if given
+            ]
+            if extra:
+                raise ValueError(
+                    "broadcast 'multicast' carries everything on the group: no "
+                    + ", no ".join(extra)
+                    + " (beside the group, a unicast session makes Zenoh forward packets "
+                    "between the two, and they loop)"
+                )
+
+    @property
+    def group_endpoint(self) -> str:
+        """The Zenoh endpoint of the multicast group (``udp/224.0.0.225:7448#iface=wlan0``)."""
+        iface = f"#iface={self.interface}" if self.interface else ""
+        return f"udp/{self.group}{iface}"
 
     def config(self) -> zenoh.Config:
         """The Zenoh configuration these settings stand for."""
         cfg = zenoh.Config()
         cfg.insert_json5("mode", json.dumps("peer"))
-        if self.listen:
+        if self.broadcast == "multicast":
+            cfg.insert_json5("listen/endpoints", json.dumps([self.group_endpoint]))
+            cfg.insert_json5(
+                "transport/multicast/join_interval",
+                json.dumps(min(JOIN_MS, self.lease_ms // KEEP_ALIVES)),
+            )
+        elif self.listen:
             # Without endpoints Zenoh's default stays: a peer listens on an ephemeral TCP
             # port of every interface, which multicast scouting then advertises. An empty
             # list would leave the platform unreachable by the peers that scout it.
@@ -142,7 +335,7 @@ class ZenohSettings:
         cfg.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
         cfg.insert_json5("transport/link/tx/lease", json.dumps(self.lease_ms))
-        cfg.insert_json5("transport/link/tx/keep_alive", json.dumps(4))
+        cfg.insert_json5("transport/link/tx/keep_alive", json.dumps(KEEP_ALIVES))
         for key, value in {**SMALL_ROBOT, **self.extra}.items():
             cfg.insert_json5(key, json.dumps(value))
         return cfg
@@ -197,17 +390,28 @@ class ZenohTransport:
         self._wake: Callable[[], None] | None = None
         self._session: zenoh.Session | None = zenoh.open(self.settings.config())
         ring = zenoh.handlers.RingChannel
+        # On a multicast group every key has a tail, and each member matches it with a
+        # pattern of its own (see the module's docstring).
+        self._tail, pattern = "", ""
+        if self.settings.broadcast == "multicast":
+            # Platforms take their ID (1..65535); a ground station a random index above.
+            index = platform or 65536 + secrets.randbelow(SPREAD_PATTERNS - 65536)
+            self._tail, pattern = f"/{_SPREAD}", f"/{spread_pattern(index)}"
         # Unicasts first: the ground station only ever sends to one platform (``to/<id>``),
         # so its commands are in the first channel a drain empties. Our own broadcasts are
         # left out by Zenoh itself (REMOTE), not looked at per sample.
         self._channels = (
             _Channel(
-                self._session.declare_subscriber(f"{self._prefix}/to/{platform}", ring(capacity)),
+                self._session.declare_subscriber(
+                    f"{self._prefix}/to/{platform}{pattern}", ring(capacity)
+                ),
                 capacity,
             ),
             _Channel(
                 self._session.declare_subscriber(
-                    f"{self._prefix}/all/*", ring(capacity), allowed_origin=zenoh.Locality.REMOTE
+                    f"{self._prefix}/all/*{pattern}",
+                    ring(capacity),
+                    allowed_origin=zenoh.Locality.REMOTE,
                 ),
                 capacity,
             ),
@@ -329,7 +533,7 @@ class ZenohTransport:
         publisher = self._publishers.get((key, urgent))
         if publisher is None:
             publisher = self._publishers[(key, urgent)] = session.declare_publisher(
-                f"{self._prefix}/{key}",
+                f"{self._prefix}/{key}{self._tail}",
                 priority=zenoh.Priority.INTERACTIVE_HIGH if urgent else zenoh.Priority.DATA,
                 congestion_control=zenoh.CongestionControl.DROP,
                 reliability=zenoh.Reliability.BEST_EFFORT,
