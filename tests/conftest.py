@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import asyncio
 import os
+from collections.abc import Callable, Coroutine
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, TypeVar
 
 import pytest
 from hypothesis import settings
@@ -22,3 +26,19 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         action="store_true",
         help="rewrite the expected log of every scenario file run (tests/scenarios/*.txt)",
     )
+
+
+_T = TypeVar("_T")
+
+
+def _run_in_thread(coro: Coroutine[Any, Any, _T]) -> _T:
+    with ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, coro).result()
+
+
+@pytest.fixture
+def run_async() -> Callable[[Coroutine[Any, Any, _T]], _T]:
+    """``asyncio.run`` in a thread of its own: a browser test's session-wide Playwright
+    keeps an event loop running in the main thread of the same worker, where
+    ``asyncio.run`` would refuse to start."""
+    return _run_in_thread

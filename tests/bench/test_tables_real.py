@@ -9,7 +9,9 @@ import asyncio
 import itertools
 import json
 import math
+from collections.abc import Callable, Coroutine
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -34,6 +36,9 @@ from actorswarm.engine.runtime import ActorContext
 from actorswarm.runtime.actor_runtime import ActorRuntime
 from actorswarm.runtime.events import Emitted
 from actorswarm.testing import check_plugin, make_context, run_plugin
+
+#: The ``run_async`` fixture (tests/conftest.py): asyncio.run in a thread of its own.
+RunAsync = Callable[[Coroutine[Any, Any, Any]], Any]
 
 # --- the scripts and the alternating plugin ------------------------------------------------
 
@@ -208,7 +213,7 @@ class _Wire:
         self.sent.append(data)
 
 
-def test_the_loop_counts_packets_and_bytes_both_ways() -> None:
+def test_the_loop_counts_packets_and_bytes_both_ways(run_async: RunAsync) -> None:
     """Every packet the transport delivered counts as received (a refused one too), every
     packet handed to the transport as sent, in bytes as they travel."""
     traffic = Traffic()
@@ -234,7 +239,7 @@ def test_the_loop_counts_packets_and_bytes_both_ways() -> None:
             serve(endpoint, wire, inbox, stop, on_wake=on_wake, traffic=traffic), 5.0
         )
 
-    asyncio.run(main())
+    run_async(main())
     assert endpoint.seen == [1, 2], "the garbage was refused before the endpoint"
     assert wire.sent == [_packet(1, 1), _packet(1, 2)]
     sent_bytes = sum(map(len, wire.sent))

@@ -13,8 +13,9 @@ import asyncio
 import os
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Coroutine, Iterator
 from contextlib import ExitStack, contextmanager
+from typing import Any
 
 import pytest
 
@@ -24,6 +25,9 @@ from actorswarm.daemon import loop as loop_module
 from actorswarm.daemon.launch import free_ports
 from actorswarm.daemon.loop import BATCH_LIMIT, Inbox, serve
 from actorswarm.transport import ZenohSettings, ZenohTransport
+
+#: The ``run_async`` fixture (tests/conftest.py): asyncio.run in a thread of its own.
+RunAsync = Callable[[Coroutine[Any, Any, Any]], Any]
 
 SWARM = f"batch{os.getpid()}"
 
@@ -129,7 +133,7 @@ async def _serve_until(
     return inbox
 
 
-def test_a_burst_arrives_whole_in_a_few_batches() -> None:
+def test_a_burst_arrives_whole_in_a_few_batches(run_async: RunAsync) -> None:
     """A hundred packets put back to back (fewer than a channel holds) all reach the
     endpoint, in order, in a handful of batches: one wake-up per burst, not per packet."""
     burst = 100
@@ -140,7 +144,7 @@ def test_a_burst_arrives_whole_in_a_few_batches() -> None:
             for seq in range(1, burst + 1):
                 swarm.send(None, _packet(2, seq))
 
-        inbox = asyncio.run(
+        inbox = run_async(
             _serve_until(receiver, recorder, send_burst, lambda: len(recorder.received()) >= burst)
         )
         assert recorder.received() == [(2, seq) for seq in range(1, burst + 1)]
@@ -151,7 +155,7 @@ def test_a_burst_arrives_whole_in_a_few_batches() -> None:
         assert swarm.drain(BATCH_LIMIT) == [], "a platform does not hear its own broadcasts"
 
 
-def test_the_ground_stations_packets_come_first_in_a_batch() -> None:
+def test_the_ground_stations_packets_come_first_in_a_batch(run_async: RunAsync) -> None:
     """Swarm broadcasts put before a ground-station command still come after it in the
     batch that holds both: the unicast channel is drained first, and the pipeline hands
     the ground station's packets over first."""
@@ -181,7 +185,7 @@ def test_the_ground_stations_packets_come_first_in_a_batch() -> None:
                 ground.send(1, _packet(GROUND_STATION, seq))
             time.sleep(0.3)  # the loop does not run: everything lands before it drains
 
-        asyncio.run(
+        run_async(
             _serve_until(
                 receiver, recorder, send_mixed, lambda: len(recorder.received()) >= expected
             )
@@ -244,6 +248,7 @@ class _Source:
 
 
 def test_a_flood_is_taken_in_slices_with_the_loop_running_between(
+    run_async: RunAsync,
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """600 packets announced by one wake-up: the loop takes them in slices of
@@ -279,7 +284,7 @@ def test_a_flood_is_taken_in_slices_with_the_loop_running_between(
         await side
         return inbox
 
-    inbox = asyncio.run(main())
+    inbox = run_async(main())
     assert recorder.received() == [(2, seq) for seq in range(1, flood + 1)]
     assert [len(b) for b in recorder.batches] == [BATCH_LIMIT, BATCH_LIMIT, flood - 2 * BATCH_LIMIT]
     assert inbox.as_dict() == {
