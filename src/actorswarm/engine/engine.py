@@ -66,7 +66,7 @@ from actorswarm.core.wire import GROUND_STATION, NEED_ALL, BarrierRequest
 from actorswarm.dsl.model import Transition
 from actorswarm.engine import commands as cmds
 from actorswarm.engine.assign import assign_slots
-from actorswarm.engine.groups import SharedEvents, part_need, reaching
+from actorswarm.engine.groups import SharedEvents, part_need
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.promotion import (
     BID_WINDOW,
@@ -194,8 +194,7 @@ class TaskEngine:
         #: hash when a script starts: a daemon keeps both in its state directory.
         self.on_deployed: Callable[[str, bytes], None] | None = None
         self.on_started: Callable[[str], None] | None = None
-        # Master side: what each group waits for (engine/groups.py).
-        self._reach: tuple[Plan, dict[str, frozenset[str]]] = (plan, reaching(plan.script))
+        # Shared events heard, for the master to forward (engine/groups.py).
         self._shared = SharedEvents()
         node.resolve_need = self._need
         node.scatter = self._scatter
@@ -571,13 +570,7 @@ class TaskEngine:
         transition = self.plan.transition(key, part)
         if transition is None:
             return len(live) if count == NEED_ALL else count
-        return part_need(transition, count, self._table, live, self._reaching())
-
-    def _reaching(self) -> dict[str, frozenset[str]]:
-        """:func:`~actorswarm.engine.groups.reaching` of the script that runs now."""
-        if self._reach[0] is not self.plan:
-            self._reach = (self.plan, reaching(self.plan.script))
-        return self._reach[1]
+        return part_need(transition, count, self._table, live, self.plan.reach)
 
     def _entered(self, platform: int, before: tuple[str, ...] | None, now: float) -> None:
         """Master: ``platform`` now runs what the table says. A group whose part it left or
@@ -586,7 +579,7 @@ class TaskEngine:
         running = self._table.get(platform, ())
         entered = set(running) - set(before or ())
         changed = entered | (set(before or ()) - set(running))
-        reach = self._reaching()
+        reach = self.plan.reach
         # Groups whose need may have moved: a part's actor, or one leading to it, changed.
         touched = [
             key
@@ -693,11 +686,15 @@ class TaskEngine:
             return self._start_script(command.sha256, now)
         if isinstance(command, cmds.Inject):
             running = set(self.runtime.running())
-            if not command.actors:
-                self._shared.remember(command.occasion, command.event, GROUND_STATION, command.data)
             if command.actors and not running & set(command.actors):
                 return f"not running {', '.join(command.actors)}: event {command.event} skipped"
-            self.inject(command.event, now, data=command.data, occasion=command.occasion)
+            self.inject(
+                command.event,
+                now,
+                data=command.data,
+                occasion=command.occasion,
+                shared=not command.actors,
+            )
             return f"event {command.event} delivered"
         if isinstance(command, cmds.Force):
             return self._force(command, now)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 from actorswarm.core.wire import NEED_ALL
 from actorswarm.dsl.model import TaskScript, Transition
+from actorswarm.engine.groups import reaching
 
 #: Core barrier keys of keyless transitions start here (script keys are 1..63).
 KEYLESS_BASE = 1000
@@ -54,6 +55,9 @@ class Plan:
     script: TaskScript
     groups: dict[int, Group]
     by_event: dict[tuple[str, str], tuple[int, int]]  # (actor, event) -> (key, part)
+    #: For each actor, the actors the script's transitions lead to it from (itself included):
+    #: :func:`~actorswarm.engine.groups.reaching`.
+    reach: dict[str, frozenset[str]]
 
     @classmethod
     def build(cls, script: TaskScript) -> Plan:
@@ -72,7 +76,7 @@ class Plan:
         for key, group in groups.items():
             for part, t in enumerate(group.parts):
                 by_event[(t.actor, t.event)] = (key, part)
-        return cls(script, groups, by_event)
+        return cls(script, groups, by_event, reaching(script))
 
     def transition(self, key: int, part: int) -> Transition | None:
         group = self.groups.get(key)
