@@ -38,7 +38,9 @@ def test_fault_schedule(membership: MembershipKind, seed: int) -> None:
 #: a request made under one master called stale by another that claimed the same epoch
 #: number (902146), a handshake report made before a role claim that reached the master after
 #: the claim's grant and freed the slot (930425: reports now travel on the master-bound
-#: stream, in order with claims).
+#: stream, in order with claims), a member that kept following its rebooted master because
+#: the new incarnation's heartbeats of epoch 0 passed for late ones from before its claim
+#: (951123).
 REGRESSIONS = [
     (500583, "star"),
     (501090, "broadcast"),
@@ -50,6 +52,7 @@ REGRESSIONS = [
     (901605, "star"),
     (902146, "star"),
     (930425, "broadcast"),
+    (951123, "broadcast"),
 ]
 
 

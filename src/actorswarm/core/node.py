@@ -380,7 +380,7 @@ class Node(NodeElection):
                 AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
             )
         elif isinstance(payload, Sync):
-            self._on_sync(sender, payload, now)
+            self._on_sync(sender, payload, now, -1 if stream is None else stream[0])
         elif isinstance(payload, MASTER_BOUND):
             if not self.is_master or epoch != self.epoch:
                 self.counters["drop:stale_epoch"] += 1

@@ -121,6 +121,9 @@ class NodeBase:
         # When the master was last heard: a master followed before it joined the view (or
         # that left it and came back) has no leave detector of its own yet.
         self._master_heard = now
+        # The incarnation of the followed master that claimed (-1: not known yet): a
+        # heartbeat of a newer one means the master rebooted and is master no more.
+        self._master_incarnation = -1
         interval = self.config.heartbeat_interval
         if self.config.membership == "star":
             # Lower IDs speak first at boot (up to one interval later for the highest ID), so

@@ -23,15 +23,18 @@ from actorswarm.core.wire import (
 class NodeElection(NodeMembership):
     """See the module docstring."""
 
-    def _on_sync(self, sender: int, sync: Sync, now: float) -> None:
+    def _on_sync(self, sender: int, sync: Sync, now: float, incarnation: int = -1) -> None:
         self._max_epoch = max(self._max_epoch, sync.epoch)
         self._sync_bulletins(sender, sync)
         if sender == self.master and sync.epoch == self.epoch:
+            self._master_incarnation = max(self._master_incarnation, incarnation)
             self._report(now)
             return
         action = self._decide(sender, True, sync.epoch)
         if not self._apply(action, sender, sync.epoch, now):
             self.counters["drop:stale_epoch"] += 1
+        if self.master == sender:
+            self._master_incarnation = incarnation
         self._sync_bulletins(sender, sync)
 
     def _sync_bulletins(self, sender: int, sync: Sync) -> None:
@@ -213,6 +216,7 @@ class NodeElection(NodeMembership):
             return
         lost = self.master
         self.master = None
+        self._master_incarnation = -1
         self._listening_since = now
         if self._star:
             # The master's succession list says who takes over: each successor is presumed

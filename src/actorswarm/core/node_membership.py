@@ -77,6 +77,14 @@ class NodeMembership(NodeBase):
         if hb.suspects and self.platform in hb.suspects:
             self._answer_probe(sender, now)
         self._max_epoch = max(self._max_epoch, hb.epoch)
+        if sender == self.master and not self.is_master:
+            if incarnation > self._master_incarnation >= 0:
+                # My master rebooted: the new incarnation claims nothing (a heartbeat of an
+                # older epoch would otherwise pass for a late one from before its claim).
+                self.counters["master_restarted"] += 1
+                self._lose_master(now)
+            elif hb.is_master:
+                self._master_incarnation = incarnation
         if sender < self.platform and self._star and self.master is None:
             # Only a lower ID that follows no master either keeps this one quiet: one that
             # follows a master this platform does not (its probe answers reach me) or is a
