@@ -47,17 +47,16 @@ def _until(condition: Callable[[], bool], what: str, timeout: float = 15.0) -> N
 
 
 @contextmanager
-def _peers(capacity: int = 128) -> Iterator[tuple[ZenohTransport, ZenohTransport, ZenohTransport]]:
+def _peers(
+    capacity: int = 128, beat_delay_ms: int = 25
+) -> Iterator[tuple[ZenohTransport, ZenohTransport, ZenohTransport]]:
     """Platform 1 listening on loopback, platform 2 and the ground station (0) connected
     to it; returns once 1 has heard both, with nothing left waiting."""
     (port,) = free_ports(1)
     endpoint = f"tcp/127.0.0.1:{port}"
     with ExitStack() as stack:
-        receiver = stack.enter_context(
-            ZenohTransport(
-                SWARM, 1, ZenohSettings(listen=(endpoint,), multicast=False), capacity=capacity
-            )
-        )
+        settings = ZenohSettings(listen=(endpoint,), multicast=False, beat_delay_ms=beat_delay_ms)
+        receiver = stack.enter_context(ZenohTransport(SWARM, 1, settings, capacity=capacity))
         to_peer = ZenohSettings(connect=(endpoint,), multicast=False)
         swarm = stack.enter_context(ZenohTransport(SWARM, 2, to_peer))
         ground = stack.enter_context(ZenohTransport(SWARM, 0, to_peer))
@@ -227,9 +226,46 @@ def test_a_burst_beyond_a_channels_capacity_loses_the_oldest_and_is_counted() ->
         assert receiver.drain(BATCH_LIMIT) == [b"41"]
         assert receiver.bursts == 3 and receiver.ring_full == 1
         threads = [t for t in threading.enumerate() if t.name.startswith("zenoh-rx-")]
-        assert len(threads) == 2
+        assert len(threads) == 3  # unicasts, broadcasts, heartbeats
     assert not any(t.is_alive() for t in threads), "closing ends the watching threads"
     assert receiver.drain(BATCH_LIMIT) == []
+
+
+def test_heartbeats_to_one_platform_wake_its_loop_once_per_delay() -> None:
+    """A member's heartbeats to its master travel on the master's heartbeat channel, which
+    asks for a wake-up only after its delay: ten heartbeats sent at once are one wake-up,
+    not ten; and when the loop is woken by something else meanwhile it takes them along
+    and no wake-up follows."""
+    with _peers(beat_delay_ms=100) as (receiver, swarm, _):
+        wakes = threading.Semaphore(0)
+        receiver.watch(wakes.release)
+        for seq in range(1, 11):
+            swarm.send(1, b"beat-%d" % seq, kind="Heartbeat")
+        start = time.monotonic()
+        assert wakes.acquire(timeout=15), "no wake-up for the heartbeats"
+        assert time.monotonic() - start >= 0.09, "the heartbeat channel woke the loop at once"
+        _until(lambda: receiver.bursts >= 1, "the burst to be counted")
+        got = receiver.drain(BATCH_LIMIT)
+        _until(lambda: len(got) == 10 or bool(got.extend(receiver.drain(BATCH_LIMIT))), "all")
+        assert got == [b"beat-%d" % seq for seq in range(1, 11)]
+        assert receiver.bursts < 10, "one wake-up per heartbeat"
+
+        # Woken by a unicast while a heartbeat waits: both in one drain, no wake-up after.
+        for _attempt in range(20):
+            while wakes.acquire(timeout=0.3):
+                receiver.drain(BATCH_LIMIT)  # whatever an earlier attempt left
+            bursts = receiver.bursts
+            swarm.send(1, b"beat", kind="Heartbeat")
+            time.sleep(0.03)  # the heartbeat's thread parks, well within its delay
+            swarm.send(1, b"command")
+            assert wakes.acquire(timeout=15), "no wake-up for the unicast"
+            got = receiver.drain(BATCH_LIMIT)
+            if got == [b"command", b"beat"] and receiver.bursts == bursts + 1:
+                break
+        else:
+            pytest.fail("the unicast's wake never took the waiting heartbeat along")
+        assert not wakes.acquire(timeout=0.3), "a drained heartbeat channel still woke the loop"
+        assert receiver.bursts == bursts + 1
 
 
 class _Source:

@@ -46,6 +46,16 @@ class CoreConfig:
     slows its members' heartbeats so that they use at most ``heartbeat_share`` of the channel
     (``heartbeat_bits`` per heartbeat on the air), never faster than ``heartbeat_interval``.
 
+    Wake-ups: with ``heartbeat_slack`` a heartbeat due within that many seconds goes out
+    at a :meth:`~actorswarm.core.node.Node.tick` the host makes anyway (a packet woke it),
+    instead of at a wake of its own, keeping its schedule's phase. A star member's
+    heartbeat sent on time moves its schedule half a slack later, so a member's heartbeats
+    drift until they ride on the wakes its master's cause, and then keep that phase. The
+    rate stays one per interval; a gap grows by at most half the slack. A real
+    daemon, whose every wake costs CPU, sets it when the configuration does not
+    (``actorswarm.daemon.config``); the default, None (0), sends every heartbeat exactly
+    on its schedule.
+
     Election (§3.2): a platform that has been up for ``boot_wait`` and sees no live master
     claims the role when it has the lowest ID in its view. ``takeover_on_join`` restores the
     paper's behaviour: a lower ID that joins always takes the role over. A new master's
@@ -74,6 +84,7 @@ class CoreConfig:
     channel_bitrate: float | None = None
     heartbeat_share: float = 0.5
     heartbeat_bits: int = 800
+    heartbeat_slack: float | None = None
     join_heartbeats: int = 3
     t_join: float = 1.0
     t_leave: float = 0.5
@@ -153,6 +164,12 @@ class CoreConfig:
             )
         if not 0 < self.heartbeat_share <= 1:
             raise ConfigError(f"heartbeat_share: must be in (0, 1], got {self.heartbeat_share!r}")
+        slack = self.heartbeat_slack
+        if slack is not None and not 0 <= slack <= self.heartbeat_interval / 2:
+            raise ConfigError(
+                f"heartbeat_slack: must be in [0, heartbeat_interval / 2 = "
+                f"{self.heartbeat_interval / 2:g}], got {slack!r}"
+            )
         if self.detector not in ("timeout", "phi"):
             raise ConfigError(f"detector: must be 'timeout' or 'phi', got {self.detector!r}")
         if self.t_leave <= self.heartbeat_interval:

@@ -101,6 +101,13 @@ class Node(NodeElection):
         self._events = []
         return events
 
+    def due(self, now: float) -> bool:
+        """Whether a host awake at ``now`` should :meth:`tick`: a deadline has passed, or
+        is within ``heartbeat_slack`` (a heartbeat then goes out on this wake instead of
+        at a wake of its own; see :class:`~actorswarm.core.config.CoreConfig`)."""
+        deadline = self.next_deadline()
+        return deadline is not None and deadline <= now + (self.config.heartbeat_slack or 0.0)
+
     def next_deadline(self) -> float | None:
         """The latest time by which :meth:`tick` must be called next."""
         best = self._next_heartbeat
@@ -200,13 +207,20 @@ class Node(NodeElection):
             self._flush_bulletins()
         self.reliable.tick(now)
         self._report_failures()
-        if now >= self._next_heartbeat:
+        slack = self.config.heartbeat_slack or 0.0
+        if now + slack >= self._next_heartbeat:
             self._send_heartbeat(now)
             interval = self._cadence if self._following_star() else self.config.heartbeat_interval
             if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
                 self._rephase = False
                 interval *= self._rng.uniform(0.5, 1.5)
-            self._next_heartbeat += interval
+            # Sent early, on a tick the host made anyway: keep the phase, so the rate stays
+            # one per interval. A star member that sent on time, on a wake of its own,
+            # drifts half a slack later, towards its master's heartbeats (what wakes it),
+            # until one lands within the slack; then it keeps that phase.
+            late = now >= self._next_heartbeat
+            drift = slack / 2 if late and self._following_star() else 0.0
+            self._next_heartbeat += interval + drift
             if self._next_heartbeat <= now:  # the host fell behind: do not burst
                 self._next_heartbeat = now + interval
 

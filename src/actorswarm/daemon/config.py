@@ -48,13 +48,26 @@ import msgspec
 
 from actorswarm.core.config import ConfigError, CoreConfig
 
-__all__ = ["BOOT_WAIT", "DaemonConfigError", "DaemonFile", "daemon_core", "load_daemon_config"]
+__all__ = [
+    "BOOT_WAIT",
+    "HEARTBEAT_SLACK",
+    "DaemonConfigError",
+    "DaemonFile",
+    "daemon_core",
+    "load_daemon_config",
+]
 
 #: How long a daemon listens before it may claim mastership, unless ``[core] boot_wait``
 #: says otherwise. The simulator's default (four heartbeat intervals) is too short for a
 #: real network: a restarted low-ID daemon would claim the role before its Zenoh links are
 #: up, then take it from the healthy master when they come up — a needless failover.
 BOOT_WAIT = 2.0
+
+#: How early a daemon may send a heartbeat on a wake it makes anyway, unless ``[core]
+#: heartbeat_slack`` says otherwise (:class:`~actorswarm.core.config.CoreConfig`): a
+#: member's heartbeats then ride on the wakes its master's heartbeats cause, one wake of
+#: the loop instead of two per interval (docs/deploying.md, "CPU").
+HEARTBEAT_SLACK = 0.03
 
 Vehicle = Literal["none", "sim", "mavlink"]
 
@@ -100,8 +113,14 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
 
 
 def daemon_core(core: CoreConfig) -> CoreConfig:
-    """``core`` with the daemon's :data:`BOOT_WAIT` when it sets no ``boot_wait``."""
-    return core if core.boot_wait is not None else core.replace(boot_wait=BOOT_WAIT)
+    """``core`` with the daemon's :data:`BOOT_WAIT` when it sets no ``boot_wait``, and its
+    :data:`HEARTBEAT_SLACK` (at most half the heartbeat interval) when it sets no
+    ``heartbeat_slack``."""
+    if core.boot_wait is None:
+        core = core.replace(boot_wait=BOOT_WAIT)
+    if core.heartbeat_slack is None:
+        core = core.replace(heartbeat_slack=min(HEARTBEAT_SLACK, core.heartbeat_interval / 2))
+    return core
 
 
 def load_daemon_config(path: Path) -> tuple[DaemonFile, CoreConfig]:

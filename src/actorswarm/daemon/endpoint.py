@@ -95,8 +95,7 @@ class PlatformEndpoint:
 
     def tick(self, now: float) -> None:
         """Run whatever is due at ``now``: the node's timers and the engine's steps."""
-        deadline = self.node.next_deadline()
-        if deadline is not None and deadline <= now:
+        if self.node.due(now):
             self.node.tick(now)
         deadline = self.engine.next_deadline()
         if deadline is not None and deadline <= now:

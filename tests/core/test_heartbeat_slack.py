@@ -1,0 +1,90 @@
+"""Heartbeat slack: a heartbeat due soon rides on a wake the host makes anyway.
+
+The hosts here wake as a daemon's loop does: for a packet (receive, then tick when the
+node is :meth:`~actorswarm.core.node.Node.due`) or at the node's deadline, and count their
+wakes. A master and two members, a perfect link.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+
+import pytest
+
+from actorswarm.core.config import ConfigError, CoreConfig
+from actorswarm.core.node import Node
+
+SWARM = "slack"
+LATENCY = 0.002
+
+
+class Hosts:
+    """Nodes driven like daemons: every wake is a receive-and-tick or a tick."""
+
+    def __init__(self, config: CoreConfig, ids: tuple[int, ...] = (1, 2, 3)) -> None:
+        self.nodes = {i: Node(i, swarm=SWARM, incarnation=1, config=config, now=0.0) for i in ids}
+        self.queue: list[tuple[float, int, int, bytes]] = []
+        self.order = itertools.count()
+        self.wakes = dict.fromkeys(ids, 0)
+        #: (time, sender) of every heartbeat sent.
+        self.beats: list[tuple[float, int]] = []
+
+    def _send(self, nid: int, now: float) -> None:
+        for out in self.nodes[nid].drain_outgoing():
+            if out.kind == "Heartbeat":
+                self.beats.append((now, nid))
+            for dst in [d for d in self.nodes if d != nid] if out.dst is None else [out.dst]:
+                heapq.heappush(self.queue, (now + LATENCY, next(self.order), dst, out.data))
+        self.nodes[nid].drain_events()
+
+    def run(self, end: float) -> None:
+        now = 0.0
+        while True:
+            due = {i: n.next_deadline() for i, n in self.nodes.items()}
+            nid, t_tick = min(((i, t) for i, t in due.items() if t is not None), key=lambda x: x[1])
+            t_packet = self.queue[0][0] if self.queue else math.inf
+            now = max(now, min(t_tick, t_packet))
+            if now > end:
+                return
+            if t_packet <= t_tick:
+                _, _, nid, data = heapq.heappop(self.queue)
+                self.nodes[nid].receive(data, now)
+            if self.nodes[nid].due(now):  # as the daemon's endpoint asks
+                self.nodes[nid].tick(now)
+            self.wakes[nid] += 1
+            self._send(nid, now)
+
+
+def _settled(slack: float | None) -> Hosts:
+    hosts = Hosts(CoreConfig(heartbeat_slack=slack))
+    hosts.run(3.0)
+    assert all(n.master == 1 for n in hosts.nodes.values()), "setup: 1 is the master"
+    hosts.wakes = dict.fromkeys(hosts.wakes, 0)
+    hosts.beats.clear()
+    return hosts
+
+
+def test_a_members_heartbeats_ride_on_its_masters_and_keep_their_rate() -> None:
+    """Without slack a member wakes twice per interval (its master's heartbeat, its own);
+    with 30 ms its heartbeats drift onto its master's and it wakes once. Either way it
+    sends one heartbeat per interval, and no gap exceeds the interval plus half a slack."""
+    exact, slack = _settled(None), _settled(0.03)
+    exact.run(13.0)
+    slack.run(13.0)
+    for member in (2, 3):
+        sent = [t for t, n in slack.beats if n == member]
+        assert len(sent) == pytest.approx(len([t for t, n in exact.beats if n == member]), abs=2)
+        assert len(sent) == pytest.approx(100, abs=2)
+        assert max(b - a for a, b in itertools.pairwise(sent)) <= 0.1 + 0.015 + 1e-9
+        assert exact.wakes[member] >= 195, exact.wakes
+        assert slack.wakes[member] <= 110, slack.wakes
+
+
+def test_the_slack_is_checked() -> None:
+    with pytest.raises(ConfigError, match="heartbeat_slack"):
+        CoreConfig(heartbeat_slack=0.06)
+    with pytest.raises(ConfigError, match="heartbeat_slack"):
+        CoreConfig(heartbeat_slack=-0.01)
+    assert CoreConfig(heartbeat_slack=0.05).heartbeat_slack == 0.05
