@@ -5,7 +5,8 @@ signature of every operator packet (:mod:`.guard`). Importing ``cryptography`` f
 its Rust extension, ``_cffi_backend`` and a second OpenSSL, about 8 MiB resident, into every
 daemon. :class:`PublicKey` verifies through the OpenSSL that the interpreter has already
 mapped for :mod:`hashlib`, called with :mod:`ctypes`: about 0.6 MiB instead (measured in a
-fresh interpreter: import and one verification; docs/deploying.md, "Memory").
+fresh interpreter: import and one verification; docs/benchmarks/README.md, "Daemon memory
+and imports").
 
 Backends
 --------
@@ -137,7 +138,9 @@ class PublicKey:
         """Which implementation verifies (the same for every key of the process)."""
         return "openssl" if isinstance(self._verifier, _OpenSSLKey) else "cryptography"
 
-    def verify(self, signature: bytes, data: bytes) -> bool:
+    def verify(
+        self, signature: bytes | bytearray | memoryview, data: bytes | bytearray | memoryview
+    ) -> bool:
         """Whether ``signature`` is this key's Ed25519 signature of ``data``. Never raises
         for any bytes: a signature of the wrong length is simply not valid."""
         if len(signature) != SIGNATURE_BYTES:
