@@ -36,7 +36,8 @@ from pathlib import Path
 from typing import Any
 
 HEAVY = ("typer", "rich", "click", "numpy", "scipy", "fastapi", "matplotlib",
-         "importlib.metadata", "actorswarm.dsl.checker", "actorswarm.cli.app")  # fmt: skip
+         "importlib.metadata", "actorswarm.dsl.checker", "actorswarm.cli.app",
+         "cryptography")  # fmt: skip
 
 _PROBE = """
 import json, re, sys

@@ -40,6 +40,7 @@ HEAVY = (
     "actorswarm.dsl.checker",
     "pymavlink",
     "pymap3d",
+    "cryptography",
 )
 
 runner = CliRunner()

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from actorswarm.daemon.launch import LocalSwarm
+from actorswarm.security import ed25519
 
 SCRIPT = Path(__file__).with_name("three.xml")
 
@@ -63,6 +64,12 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
         assert receive["packets"] == meters["traffic"]["recv_packets"] > 0
         assert 0 < receive["batches"] <= receive["packets"]
         assert receive["largest_batch"] >= 1
+    # They verified the operator's signed commands without the cryptography package, through
+    # the interpreter's own OpenSSL: it is mapped into none of them.
+    if ed25519._libcrypto_path() is not None:
+        for p in (1, 2, 3):
+            maps = Path(f"/proc/{swarm.procs[p].pid}/maps").read_text()
+            assert "/cryptography/" not in maps and "_cffi_backend" not in maps
 
     # A daemon stopped cleanly and started again from its state directory comes back in a
     # new incarnation, in the script and the actor it ran.

@@ -98,14 +98,18 @@ import hashlib
 import hmac
 from collections import Counter
 from collections.abc import Mapping
-from typing import Final, Literal
-
-from cryptography.exceptions import InvalidSignature
-from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey, Ed25519PublicKey
+from typing import TYPE_CHECKING, Final, Literal
 
 from actorswarm.core import wire
 from actorswarm.core.wire import GROUND_STATION, Packet, WireError
+from actorswarm.security.ed25519 import PublicKey
 from actorswarm.security.keys import Keys, fingerprint, public_key_fingerprint
+
+if TYPE_CHECKING:
+    from cryptography.hazmat.primitives.asymmetric.ed25519 import (
+        Ed25519PrivateKey,
+        Ed25519PublicKey,
+    )
 
 Role = Literal["platform", "ground"]
 
@@ -165,7 +169,11 @@ class _Window:
 class PacketGuard:
     """Seals outgoing packets and checks incoming ones for swarm ``swarm_key``.
 
-    ``gs_public_key`` verifies the ground station's signatures. A ground station's guard
+    ``gs_public_key`` verifies the ground station's signatures: a
+    :class:`~actorswarm.security.ed25519.PublicKey` (what
+    :func:`~actorswarm.security.keys.load_keys` gives; it verifies without the
+    ``cryptography`` package, as a platform's daemon does) or the same key as
+    ``cryptography`` holds it. A ground station's guard
     (``role="ground"``) also holds ``gs_private_key`` (the one matching ``gs_public_key``)
     and signs its packets; a platform's guard must not hold it. ``window`` is the number of
     sequence numbers remembered per sender; ``max_bytes`` the largest packet accepted (the
@@ -176,7 +184,7 @@ class PacketGuard:
     def __init__(
         self,
         swarm_key: bytes,
-        gs_public_key: Ed25519PublicKey,
+        gs_public_key: PublicKey | Ed25519PublicKey,
         *,
         gs_private_key: Ed25519PrivateKey | None = None,
         role: Role = "platform",
@@ -210,7 +218,7 @@ class PacketGuard:
             raise ValueError(f"replay window must be at least 1, got {window}")
         self._init(role=role, window=window, max_bytes=max_bytes)
         self._key: bytes | None = bytes(swarm_key)
-        self._public: Ed25519PublicKey | None = gs_public_key
+        self._public: PublicKey | None = PublicKey.of(gs_public_key)
         self._private = gs_private_key
 
     def _init(self, *, role: Role, window: int, max_bytes: int) -> None:
@@ -274,7 +282,7 @@ class PacketGuard:
         signs = ", signs as the ground station" if self._private is not None else ""
         return (
             f"PacketGuard(role={self.role!r}, swarm key {fingerprint(self._key)}, ground "
-            f"station {public_key_fingerprint(self._public)}, window {self.window}{signs})"
+            f"station {self._public.fingerprint}, window {self.window}{signs})"
         )
 
     # --- outgoing ---------------------------------------------------------------------------
@@ -369,9 +377,7 @@ class PacketGuard:
             return "unsigned_operator"
         if len(auth) != TAG_BYTES + SIGNATURE_BYTES:
             return "bad_signature"
-        try:
-            self._public.verify(auth[TAG_BYTES:], covered)
-        except InvalidSignature:
+        if not self._public.verify(auth[TAG_BYTES:], covered):
             return "bad_signature"
         return None
 

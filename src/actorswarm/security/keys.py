@@ -22,6 +22,11 @@ or others may access, and says which ``chmod`` fixes it.
 
 Every problem with a key file is a :class:`KeyFileError` naming the file and what is wrong
 with it; existing keys are never overwritten unless asked (:class:`KeysExistError`).
+
+A platform loads its keys without the ``cryptography`` package: the public key is read by
+:class:`~actorswarm.security.ed25519.PublicKey`, which verifies through the OpenSSL the
+interpreter already holds. ``cryptography`` is imported only to make keys (:func:`init_keys`)
+and to load the private key (``need_private=True``, the ground station, which signs).
 """
 
 from __future__ import annotations
@@ -32,11 +37,15 @@ import secrets
 import stat
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
-from cryptography.exceptions import UnsupportedAlgorithm
-from cryptography.hazmat.primitives import serialization
-from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey, Ed25519PublicKey
+from actorswarm.security.ed25519 import KeyFormatError, PublicKey
+
+if TYPE_CHECKING:
+    from cryptography.hazmat.primitives.asymmetric.ed25519 import (
+        Ed25519PrivateKey,
+        Ed25519PublicKey,
+    )
 
 SWARM_KEY_FILE: Final = "swarm.key"
 GS_PRIVATE_FILE: Final = "ground_station.key"
@@ -101,7 +110,7 @@ class Keys:
     """Loaded key material. The secrets never appear in ``repr`` (fingerprints do)."""
 
     swarm_key: bytes
-    gs_public: Ed25519PublicKey
+    gs_public: PublicKey
     paths: KeyPaths
     #: Only loaded when asked for (``load_keys(..., need_private=True)``): a platform never
     #: reads the operator's signing key, even when the file happens to be there.
@@ -113,7 +122,7 @@ class Keys:
 
     @property
     def gs_fingerprint(self) -> str:
-        return public_key_fingerprint(self.gs_public)
+        return self.gs_public.fingerprint
 
     def __repr__(self) -> str:
         private = "with" if self.gs_private is not None else "without"
@@ -128,9 +137,11 @@ def fingerprint(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()[:16]
 
 
-def public_key_fingerprint(key: Ed25519PublicKey) -> str:
-    """Fingerprint of an Ed25519 public key (of its 32 raw bytes, not of its PEM text)."""
-    return fingerprint(key.public_bytes(serialization.Encoding.Raw, serialization.PublicFormat.Raw))
+def public_key_fingerprint(key: PublicKey | Ed25519PublicKey) -> str:
+    """Fingerprint of an Ed25519 public key (of its 32 raw bytes, not of its PEM text), the
+    same for the key as :class:`~actorswarm.security.ed25519.PublicKey` and as
+    ``cryptography`` hold it."""
+    return fingerprint(PublicKey.of(key).raw)
 
 
 def default_key_dir() -> Path:
@@ -163,6 +174,9 @@ def init_keys(directory: str | os.PathLike[str], *, force: bool = False) -> KeyP
         os.chmod(paths.directory, _DIR_MODE)  # mkdir's mode is filtered by the umask
     elif not paths.directory.is_dir():
         raise KeyFileError(paths.directory, "is not a directory")
+
+    from cryptography.hazmat.primitives import serialization
+    from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 
     private = Ed25519PrivateKey.generate()
     private_pem = private.private_bytes(
@@ -223,9 +237,7 @@ def load_keys(directory: str | os.PathLike[str], *, need_private: bool = False) 
     swarm_key = _load_swarm_key(paths.swarm_key)
     public = _load_public(paths.gs_public)
     private = _load_private(paths.gs_private) if need_private else None
-    if private is not None and public_key_fingerprint(
-        private.public_key()
-    ) != public_key_fingerprint(public):
+    if private is not None and public_key_fingerprint(private.public_key()) != public.fingerprint:
         raise KeyFileError(
             paths.gs_private,
             f"does not match {paths.gs_public.name}: both must come from the same `keys init`",
@@ -275,19 +287,20 @@ def _check_pem(path: Path, data: bytes) -> None:
         raise KeyFileError(path, "is not a PEM file (no '-----BEGIN' line)")
 
 
-def _load_public(path: Path) -> Ed25519PublicKey:
+def _load_public(path: Path) -> PublicKey:
     data = _read(path, secret=False)
     _check_pem(path, data)
     try:
-        key = serialization.load_pem_public_key(data)
-    except (ValueError, UnsupportedAlgorithm) as exc:
-        raise KeyFileError(path, f"is not a valid PEM public key ({exc})") from None
-    if not isinstance(key, Ed25519PublicKey):
-        raise KeyFileError(path, f"holds a {type(key).__name__}, not an Ed25519 public key")
-    return key
+        return PublicKey.from_pem(data)
+    except KeyFormatError as exc:
+        raise KeyFileError(path, str(exc)) from None
 
 
 def _load_private(path: Path) -> Ed25519PrivateKey:
+    from cryptography.exceptions import UnsupportedAlgorithm
+    from cryptography.hazmat.primitives import serialization
+    from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
+
     data = _read(path, secret=True)
     _check_pem(path, data)
     try:
