@@ -1,5 +1,6 @@
 """A platform's collective core, the layer every other builds on: its state, what it sends
-(heartbeats, reliable streams, bulletins, reports) and how packets leave it.
+(heartbeats, reliable streams, bulletins, reports) and how packets leave it (through the one
+collector of :mod:`.ready`, which every part writes into).
 
 The node is built in layers, each a class of its own module: :class:`NodeBase` (state and
 output), :class:`~actorswarm.core.node_membership.NodeMembership` (who is alive),
@@ -223,7 +224,9 @@ class NodeBase:
 
     def _report_failures(self) -> None:
         """Every message the reliable streams or the bulletin board gave up on becomes a
-        DeliveryFailed event, in the order they gave up."""
+        DeliveryFailed event, in the order they gave up. Called at fixed points of a step
+        (after the retransmission timers, after a view change), so each failure's event comes
+        after the events of the step that caused it."""
         out = self._out
         if not out.failures:
             return
