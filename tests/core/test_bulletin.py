@@ -12,7 +12,7 @@ import pytest
 from actorswarm.core.bulletin import UNICAST_AT_MOST, BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import AppReceived, DeliveryFailed
-from actorswarm.core.node import Outgoing
+from actorswarm.core.ready import Ready
 from actorswarm.core.wire import AppMessage, Bulletin, BulletinAck, decode, encode
 from actorswarm.sim.radio import LinkModel
 from actorswarm.sim.swarm import SimSwarm
@@ -33,6 +33,14 @@ def board_with(*texts: str, targets: set[int], skip: tuple[int, ...] = ()) -> Bu
     return board
 
 
+def take(board: BulletinBoard) -> list[tuple[int | None, Bulletin]]:
+    """Take the bulletins the board queued in its collector: (destination, bulletin)."""
+    queued, board.output.queued = board.output.queued, []
+    out = [(dst, body) for dst, body, _ in queued if isinstance(body, Bulletin)]
+    assert len(out) == len(queued), "a board queues bulletins only"
+    return out
+
+
 def inbox(platform: int) -> BulletinInbox:
     box = BulletinInbox(platform)
     box.follow(MASTER)
@@ -46,32 +54,33 @@ def deliver(box: BulletinInbox, bulletin: Bulletin) -> tuple[list[str], Bulletin
 
 def test_one_broadcast_per_post_and_acks_end_it() -> None:
     board = board_with("a", "b", targets={2, 3})
-    assert [(dst, b.seq) for dst, b in board.outbox] == [(None, 1), (None, 2)]
+    out = take(board)
+    assert [(dst, b.seq) for dst, b in out] == [(None, 1), (None, 2)]
     boxes = {p: inbox(p) for p in (2, 3)}
     for p, box in boxes.items():
         texts: list[str] = []
-        for _, bulletin in board.outbox:
+        for _, bulletin in out:
             got, ack = deliver(box, bulletin)
             texts += got
             assert ack is not None
             board.on_ack(p, ack)
         assert texts == ["a", "b"]
     assert not board.posted
-    board.outbox.clear()
     board.tick(10.0, 1, RETRY)
-    assert board.outbox == [] and board.failures == []
+    assert take(board) == [] and board.output.failures == []
 
 
 def test_a_lost_bulletin_is_resent_to_the_missing_member_only() -> None:
     board = board_with("a", targets={2, 3, 4})
-    first = board.outbox.pop()[1]
+    ((_, first),) = take(board)
     for p in (2, 3):
         _, ack = deliver(inbox(p), first)
         assert ack is not None
         board.on_ack(p, ack)
     board.tick(1.0, 1, RETRY)
-    assert [(dst, b.to) for dst, b in board.outbox] == [(4, [4])]
-    got, ack = deliver(inbox(4), board.outbox[0][1])
+    out = take(board)
+    assert [(dst, b.to) for dst, b in out] == [(4, [4])]
+    got, ack = deliver(inbox(4), out[0][1])
     assert got == ["a"] and ack is not None and ack.seq == 1
 
 
@@ -80,18 +89,19 @@ def test_many_missing_get_one_broadcast_naming_them_in_chunks() -> None:
     board = BulletinBoard(config)
     targets = set(range(2, 2 + 25))
     board.post(msg("a"), targets, 0.0, 1, RETRY)
-    board.outbox.clear()
+    take(board)
     board.tick(1.0, 1, RETRY)
     assert len(targets) > UNICAST_AT_MOST
-    assert [dst for dst, _ in board.outbox] == [None, None, None]
-    named = [p for _, b in board.outbox for p in b.to or []]
+    out = take(board)
+    assert [dst for dst, _ in out] == [None, None, None]
+    named = [p for _, b in out for p in b.to or []]
     assert sorted(named) == sorted(targets)
 
 
 def test_a_duplicate_is_acknowledged_not_delivered() -> None:
     board = board_with("a", targets={2})
     box = inbox(2)
-    bulletin = board.outbox[0][1]
+    bulletin = take(board)[0][1]
     assert deliver(box, bulletin)[0] == ["a"]
     again, ack = deliver(box, bulletin)
     assert again == [] and ack is not None and ack.seq == 1
@@ -100,7 +110,7 @@ def test_a_duplicate_is_acknowledged_not_delivered() -> None:
 def test_order_is_kept_across_a_gap() -> None:
     board = board_with("a", "b", "c", targets={2})
     box = inbox(2)
-    first, second, third = (b for _, b in board.outbox)
+    first, second, third = (b for _, b in take(board))
     assert deliver(box, first)[0] == ["a"]
     assert deliver(box, third)[0] == []  # waits for the second
     assert deliver(box, second)[0] == ["b", "c"]
@@ -110,7 +120,7 @@ def test_the_origin_named_in_skip_gets_nothing_but_keeps_its_place() -> None:
     board = board_with("event", targets={2, 3}, skip=(2,))
     board.post(msg("next"), {2, 3}, 0.0, 1, RETRY)
     box = inbox(2)
-    got = [t for _, b in board.outbox for t in deliver(box, b)[0]]
+    got = [t for _, b in take(board) for t in deliver(box, b)[0]]
     assert got == ["next"]
     assert board.posted[1].unacked == {3}  # the origin is not waited for
 
@@ -172,11 +182,11 @@ def test_deadline_and_leaving_members() -> None:
     board = board_with("a", targets={2, 3, 4})
     board.member_left(4)
     board.tick(CONFIG.delivery_deadline + 1.0, 1, RETRY)
-    assert sorted(f.dst for f in board.failures if f.dst is not None) == [2, 3]
+    assert sorted(f.dst for f in board.output.failures if f.dst is not None) == [2, 3]
     assert not board.posted
     board = board_with("a", targets={2})
     board.clear("stepped_down")
-    assert [(f.dst, f.reason) for f in board.failures] == [(2, "stepped_down")]
+    assert [(f.dst, f.reason) for f in board.output.failures] == [(2, "stepped_down")]
 
 
 def _relay_swarm(loss: float, seed: int) -> SimSwarm:
@@ -191,14 +201,14 @@ def test_a_swarm_gets_each_bulletin_once_in_order(loss: float, seed: int) -> Non
     swarm = _relay_swarm(loss, seed)
     master = swarm.node(1)
     sent: list[tuple[int | None, str]] = []
-    drain = master.drain_outgoing
+    ready = master.ready
 
-    def recording() -> list[Outgoing]:
-        out = drain()
-        sent.extend((o.dst, o.kind) for o in out)
+    def recording() -> Ready:
+        out = ready()
+        sent.extend((o.dst, o.kind) for o in out.packets)
         return out
 
-    master.drain_outgoing = recording  # type: ignore[method-assign]
+    master.ready = recording  # type: ignore[method-assign]
     for i in range(5):
         swarm.at(3.1 + 0.01 * i, lambda n=i: master.post_bulletin("news", bytes([n]), swarm.now))
     swarm.run_until(8.0)
@@ -220,6 +230,6 @@ def test_a_swarm_gets_each_bulletin_once_in_order(loss: float, seed: int) -> Non
 
 def test_a_bulletin_on_the_wire_round_trips() -> None:
     board = board_with("a", targets={2})
-    bulletin = board.outbox[0][1]
+    bulletin = take(board)[0][1]
     data = encode(swarm="s", sender=1, incarnation=0, seq=1, body=bulletin)
     assert decode(data).body == bulletin

@@ -52,14 +52,14 @@ class Net:
         self.events: dict[int, list[tuple[float, CoreEvent]]] = {i: [] for i in ids}
 
     def _collect(self, nid: int) -> None:
-        node = self.nodes[nid]
-        for out in node.drain_outgoing():
+        ready = self.nodes[nid].ready()
+        for out in ready.packets:
             targets = [d for d in self.nodes if d != nid] if out.dst is None else [out.dst]
             for dst in targets:
                 if dst in self.nodes:
                     at = self.now + LATENCY
                     heapq.heappush(self._queue, (at, next(self._order), dst, out.data))
-        self.events[nid].extend((self.now, e) for e in node.drain_events())
+        self.events[nid].extend((self.now, e) for e in ready.events)
 
     def _next_tick(self) -> float:
         times = [n.next_deadline() for n in self.nodes.values()]
@@ -204,8 +204,9 @@ def test_hostile_bytes_change_nothing_and_are_counted(data: bytes, reason: str) 
         for _ in range(3):
             node.receive(data, net.now)
         assert _state(node) == before, f"node {nid}: {reason} bytes changed its state"
-        assert node.drain_outgoing() == [], "nothing is sent in answer"
-        assert node.drain_events() == [], "nothing is reported upward"
+        ready = node.ready()
+        assert ready.packets == [], "nothing is sent in answer"
+        assert ready.events == [], "nothing is reported upward"
         assert node.counters[f"drop:{reason}"] == counters.get(f"drop:{reason}", 0) + 3, (
             f"node {nid} counters {dict(node.counters)}"
         )
@@ -228,7 +229,7 @@ def test_packet_from_old_incarnation_is_dropped() -> None:
     node.receive(stale, net.now)
     assert node.counters["drop:old_incarnation"] == 1, dict(node.counters)
     assert _state(node) == before, "a leftover of an earlier incarnation changes nothing"
-    assert node.drain_events() == []
+    assert node.ready().events == []
 
 
 def test_own_packets_are_dropped() -> None:
@@ -330,6 +331,6 @@ def test_batch_processes_ground_station_traffic_first() -> None:
         return encode(swarm="s", sender=sender, incarnation=0, seq=1, body=body)
 
     node.receive_batch([app(5, "swarm"), b"junk", app(0, "operator")], 0.1)
-    topics = [e.topic for e in node.drain_events() if hasattr(e, "topic")]
+    topics = [e.topic for e in node.ready().events if hasattr(e, "topic")]
     assert topics == ["operator", "swarm"]
     assert node.counters["drop:checksum"] + node.counters["drop:malformed"] == 1

@@ -47,9 +47,9 @@ def _data(seq: int, floor: int = 1, n: int | None = None, channel: int = NORMAL)
 
 
 def _sent(r: Reliable) -> list[tuple[int, Data]]:
-    """Drain the outbox, keeping the Data packets."""
-    out = [(dst, body) for dst, body in r.outbox if isinstance(body, Data)]
-    r.outbox.clear()
+    """Take the queued packets, keeping the Data packets."""
+    out = [(dst, body) for dst, body, _ in r.output.queued if isinstance(body, Data)]
+    r.output.queued.clear()
     return out
 
 
@@ -201,7 +201,7 @@ def test_cumulative_ack_removes_items() -> None:
     r.on_ack(RECEIVER, Ack(dst=SENDER, dst_incarnation=0, channel=NORMAL, seq=4), 1.0)
     assert r.pending(RECEIVER) == 0
     assert _run(r, 20.0) == [], "nothing left to retransmit"
-    assert r.failures == []
+    assert r.output.failures == []
 
 
 def test_ack_for_other_channel_or_destination_ignored() -> None:
@@ -274,9 +274,9 @@ def test_deadline_expiry_reports_failure_and_raises_floor() -> None:
     first = [d for _, d in _sent(sender) if d.seq == 2]
     assert _on_data(receiver, SENDER, 0, first[0])[0] == [], "seq 2 waits for seq 1"
     _run(sender, 0.99)
-    assert sender.failures == []
+    assert sender.output.failures == []
     sender.tick(1.0)
-    assert sender.failures == [DeliveryFailure(RECEIVER, _msg(1))], sender.failures
+    assert sender.output.failures == [DeliveryFailure(RECEIVER, _msg(1))], sender.output.failures
     assert sender.pending(RECEIVER) == 1
     _sent(sender)
     next_at = sender.next_deadline()
@@ -299,7 +299,7 @@ def test_failure_of_queued_message_refills_window() -> None:
     r.send(RECEIVER, _msg(2), 0.5, EPOCH)
     assert _seqs(r) == [1]
     log = _run(r, 1.0)
-    assert r.failures == [DeliveryFailure(RECEIVER, _msg(1))]
+    assert r.output.failures == [DeliveryFailure(RECEIVER, _msg(1))]
     assert (1.0, 2) in log, f"seq 2 goes out when seq 1 fails: {log}"
 
 
@@ -390,7 +390,7 @@ def test_drop_destination_of_master_keeps_master_bound_waiting() -> None:
     assert [(dst, d.payload) for dst, d in _sent(r)] == [(7, _msg(1)), (7, _msg(2))]
     # The direct message is reported as given up (its destination left); the master-bound
     # ones are not: they went to the next master.
-    assert [(f.dst, f.payload, f.reason) for f in r.failures] == [(5, _msg(10), "left")]
+    assert [(f.dst, f.payload, f.reason) for f in r.output.failures] == [(5, _msg(10), "left")]
 
 
 def test_take_unrouted_hands_over_in_order() -> None:
@@ -423,9 +423,11 @@ def test_master_bound_message_without_master_fails_at_deadline() -> None:
     r.send_to_master(_msg(1), 0.0, EPOCH)
     assert r.next_deadline() == pytest.approx(2.0)
     r.tick(1.99)
-    assert r.failures == []
+    assert r.output.failures == []
     r.tick(2.0)
-    assert r.failures == [DeliveryFailure(None, _msg(1))], "dst None: it never found a master"
+    assert r.output.failures == [DeliveryFailure(None, _msg(1))], (
+        "dst None: it never found a master"
+    )
     assert r.take_unrouted() == []
 
 
@@ -434,7 +436,7 @@ def test_retarget_keeps_original_deadline() -> None:
     r.send_to_master(_msg(1), 0.0, EPOCH)
     r.retarget(5, 1.5)
     _run(r, 2.0)
-    assert r.failures == [DeliveryFailure(5, _msg(1))], "moving does not extend the deadline"
+    assert r.output.failures == [DeliveryFailure(5, _msg(1))], "moving does not extend the deadline"
 
 
 def test_buffered_messages_keep_the_epoch_they_were_sent_in() -> None:

@@ -37,7 +37,7 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.membership import leave_silence
-from actorswarm.core.node import Node, Outgoing
+from actorswarm.core.node import Node, Outgoing, Ready
 from actorswarm.core.roster import RosterLog, RosterView
 from actorswarm.core.wire import (
     MAX_CHANGES,
@@ -165,14 +165,14 @@ def record_sent(monkeypatch: pytest.MonkeyPatch, swarm: SimSwarm, platform: int)
     """Every packet ``platform`` hands the radio from now on, decoded, with its time."""
     node = swarm.node(platform)
     sent: list[Sent] = []
-    drain = node.drain_outgoing
+    ready = node.ready
 
-    def recording() -> list[Outgoing]:
-        out = drain()
-        sent.extend(Sent(swarm.now, o.dst, decode(o.data).body) for o in out)
+    def recording() -> Ready:
+        out = ready()
+        sent.extend(Sent(swarm.now, o.dst, decode(o.data).body) for o in out.packets)
         return out
 
-    monkeypatch.setattr(node, "drain_outgoing", recording)
+    monkeypatch.setattr(node, "ready", recording)
     return sent
 
 
@@ -948,8 +948,7 @@ class LonelyNode:
         graces = []
         while (deadline := self.node.next_deadline()) is not None and deadline <= until:
             self.node.tick(deadline)
-            self.node.drain_outgoing()
-            self.node.drain_events()
+            self.node.ready()
             graces.append(self.node.grace)
         return graces
 

@@ -57,8 +57,9 @@ class GuardedNet:
 
     def _collect(self) -> None:
         for i, node in self.nodes.items():
-            self._send(i, node.drain_outgoing())
-            self.events[i].extend(node.drain_events())
+            ready = node.ready()
+            self._send(i, ready.packets)
+            self.events[i].extend(ready.events)
         self._send(GROUND_STATION, self.gs.drain_outgoing())
 
     def run_until(self, end: float) -> None:

@@ -25,6 +25,7 @@ from actorswarm.core.events import (
     SteppedDown,
 )
 from actorswarm.core.node import Node, Outgoing
+from actorswarm.core.ready import Ready
 from actorswarm.core.wire import GROUND_STATION, NEED_ALL, WireError, decode, encode
 
 __all__ = [
@@ -48,6 +49,7 @@ __all__ = [
     "Node",
     "Outgoing",
     "PhiAccrual",
+    "Ready",
     "RoleDenied",
     "RoleGranted",
     "RoleRevoked",

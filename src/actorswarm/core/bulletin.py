@@ -34,8 +34,9 @@ import heapq
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.ready import Collector
 from actorswarm.core.reliable import DeliveryFailure
-from actorswarm.core.wire import AppMessage, Bulletin, BulletinAck
+from actorswarm.core.wire import NORMAL, AppMessage, Bulletin, BulletinAck
 
 #: Above this many unacknowledged targets a retransmission is one broadcast naming them
 #: (split in ``release_chunk`` names per packet); at or below it, one unicast each.
@@ -55,14 +56,14 @@ class _Posted:
 
 @dataclass(slots=True)
 class BulletinBoard:
-    """The master's side: bulletins in flight. Sans-IO: packets go to ``outbox`` as
-    ``(destination or None for a broadcast, bulletin)``."""
+    """The master's side: bulletins in flight. Sans-IO: packets are queued in collector
+    ``output`` (destination None for a broadcast, numbered in order with the streams'),
+    bulletins given up go to its ``failures``."""
 
     config: CoreConfig
+    output: Collector = field(default_factory=Collector)
     next_seq: int = 1
     posted: dict[int, _Posted] = field(default_factory=dict)
-    outbox: list[tuple[int | None, Bulletin]] = field(default_factory=list)
-    failures: list[DeliveryFailure] = field(default_factory=list)
     _timers: list[tuple[float, int]] = field(default_factory=list)
 
     @property
@@ -95,7 +96,7 @@ class BulletinBoard:
         if unacked:
             self.posted[seq] = item
             heapq.heappush(self._timers, (min(item.due, item.deadline), seq))
-        self.outbox.append((None, self._packet(item, epoch, None)))
+        self.output.queue(None, self._packet(item, epoch, None), NORMAL)
 
     def _packet(self, item: _Posted, epoch: int, to: list[int] | None) -> Bulletin:
         return Bulletin(
@@ -118,7 +119,7 @@ class BulletinBoard:
     def clear(self, reason: str) -> None:
         """Give up every bulletin in flight (this platform is master no more)."""
         for item in self.posted.values():
-            self.failures.extend(
+            self.output.failures.extend(
                 DeliveryFailure(p, item.message, reason) for p in sorted(item.unacked)
             )
         self.posted.clear()
@@ -142,7 +143,9 @@ class BulletinBoard:
                 continue
             if now >= item.deadline:
                 del self.posted[seq]
-                self.failures.extend(DeliveryFailure(p, item.message) for p in sorted(item.unacked))
+                self.output.failures.extend(
+                    DeliveryFailure(p, item.message) for p in sorted(item.unacked)
+                )
                 continue
             if item.due > now:
                 heapq.heappush(timers, (min(item.due, item.deadline), seq))
@@ -153,12 +156,12 @@ class BulletinBoard:
             missing = sorted(item.unacked)
             if len(missing) <= UNICAST_AT_MOST:
                 for platform in missing:
-                    self.outbox.append((platform, self._packet(item, epoch, [platform])))
+                    self.output.queue(platform, self._packet(item, epoch, [platform]), NORMAL)
             else:
                 chunk = self.config.release_chunk
                 for start in range(0, len(missing), chunk):
                     to = missing[start : start + chunk]
-                    self.outbox.append((None, self._packet(item, epoch, to)))
+                    self.output.queue(None, self._packet(item, epoch, to), NORMAL)
 
     def next_deadline(self) -> float | None:
         return self._timers[0][0] if self._timers else None

@@ -1,7 +1,8 @@
 """Events the collective core hands to the layers above it (task engine, hosts, tests).
 
-Every event is a frozen, slotted, keyword-only dataclass. A host drains them with
-:meth:`actorswarm.core.node.Node.drain_events` after each ``receive``/``tick``/request call.
+Every event is a frozen, slotted, keyword-only dataclass. A host takes them, with the
+packets to send, from :meth:`actorswarm.core.node.Node.ready` after each
+``receive``/``tick``/request call.
 """
 
 from __future__ import annotations

@@ -2,13 +2,14 @@
 
 Theory of operation
 -------------------
-A host (the simulator, the daemon) owns a :class:`Node` and does four things with it:
+A host (the simulator, the daemon) owns a :class:`Node` and does three things with it:
 
 * hands it every packet that arrives — :meth:`Node.receive` for untrusted bytes, or
   :meth:`Node.receive_packet` for a packet already decoded once for many receivers;
 * calls :meth:`Node.tick` no later than :meth:`Node.next_deadline`;
-* sends what :meth:`Node.drain_outgoing` returns (``dst`` None is a broadcast);
-* reads what :meth:`Node.drain_events` returns.
+* after each of these (and each application call) takes :meth:`Node.ready`: a
+  :class:`~.ready.Ready` holding the packets to send (``dst`` None is a broadcast) and the
+  events to read, everything at once. :attr:`Node.has_ready` says whether there is any.
 
 The application (task engine, tests) asks for coordination with :meth:`request_barrier`,
 :meth:`claim_role`, :meth:`release_role` and :meth:`send_app`. Every call takes ``now``; the
@@ -17,7 +18,8 @@ seeded ``rng`` it was given (the phase of its heartbeats).
 
 Inside, the node composes membership (:mod:`.membership`), election (:mod:`.election`),
 reliable streams (:mod:`.reliable`), bulletins (:mod:`.bulletin`), barriers
-(:mod:`.barrier`) and roles (:mod:`.roles`). It is built in layers, one class per module:
+(:mod:`.barrier`) and roles (:mod:`.roles`). Each part writes what it sends and reports
+into the node's one collector (:mod:`.ready`). It is built in layers, one class per module:
 :class:`~.node_base.NodeBase` (state and output), :class:`~.node_membership.NodeMembership`
 (who is alive), :class:`~.node_election.NodeElection` (who is master, the handshake) and
 :class:`Node` here (the host interface, packet dispatch, coordination messages).
@@ -43,9 +45,9 @@ from actorswarm.core.events import (
 from actorswarm.core.node_base import (
     KEEP_ERRORS,
     MASTER_BOUND,
-    Outgoing,
 )
 from actorswarm.core.node_election import NodeElection
+from actorswarm.core.ready import Outgoing, Ready
 from actorswarm.core.wire import (
     NORMAL,
     URGENT,
@@ -77,29 +79,30 @@ from actorswarm.core.wire import (
 class Node(NodeElection):
     """The collective core of platform ``platform`` (1..65535) in its ``incarnation``."""
 
+    def ready(self) -> Ready:
+        """Everything to send and to read since the last call, taken at once: packets
+        (ground-station channel first, then in the order they were numbered) and events (in
+        the order they happened). The node holds no output afterwards."""
+        return self._out.take()
+
     @property
-    def has_output(self) -> bool:
-        """Whether packets or events wait to be drained.
+    def has_ready(self) -> bool:
+        """Whether :meth:`ready` would return anything.
 
         A host may skip :meth:`next_deadline` after a ``receive`` that left no output: a
         packet that makes the node send or report nothing never brings a deadline forward
         (at 1000 platforms this saves a call per heartbeat heard).
         """
-        return bool(self._outgoing or self._events or self.reliable.outbox)
+        return self._out.pending
 
     def drain_outgoing(self) -> list[Outgoing]:
-        """Packets to send, ground-station (urgent) channel first, then in creation order."""
-        self._flush_reliable()
-        out = self._outgoing
-        self._outgoing = []
-        if any(o.channel == URGENT for o in out):
-            out.sort(key=lambda o: o.channel)
-        return out
+        """The packets of :meth:`ready` alone (the events stay for the next call): for
+        endpoints that move packets only, like a security pipeline's."""
+        return self._out.take_packets()
 
     def drain_events(self) -> list[CoreEvent]:
-        events = self._events
-        self._events = []
-        return events
+        """The events of :meth:`ready` alone (the packets stay for the next call)."""
+        return self._out.take_events()
 
     def due(self, now: float) -> bool:
         """Whether a host awake at ``now`` should :meth:`tick`: a deadline has passed, or
@@ -204,7 +207,6 @@ class Node(NodeElection):
             self._bmaster.tick(now, self.epoch)
             self._flush_master(now)
             self._board.tick(now, self.epoch, self.reliable.timeout(None))
-            self._flush_bulletins()
         self.reliable.tick(now)
         self._report_failures()
         slack = self.config.heartbeat_slack or 0.0
@@ -276,11 +278,11 @@ class Node(NodeElection):
         channel = URGENT if urgent else NORMAL
         if dst is None:
             if self.is_master:
-                self._events.append(AppReceived(sender=self.platform, topic=topic, body=body))
+                self._out.events.append(AppReceived(sender=self.platform, topic=topic, body=body))
             else:
                 self.reliable.send_to_master(msg, now, self.epoch)
         elif dst == self.platform:
-            self._events.append(AppReceived(sender=self.platform, topic=topic, body=body))
+            self._out.events.append(AppReceived(sender=self.platform, topic=topic, body=body))
         else:
             self.reliable.send(dst, msg, now, self.epoch, channel=channel)
 
@@ -302,7 +304,6 @@ class Node(NodeElection):
             self.reliable.timeout(None),
             skip=skip,
         )
-        self._flush_bulletins()
 
     def needs_changed(self, now: float, keys: Iterable[int] | None = None) -> None:
         """Master: what the parts of barriers ``keys`` (None: all) wait for may have changed
@@ -390,7 +391,7 @@ class Node(NodeElection):
     ) -> None:
         """One message delivered in order, exactly once, from ``sender``'s stream."""
         if isinstance(payload, AppMessage):
-            self._events.append(
+            self._out.events.append(
                 AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
             )
         elif isinstance(payload, Sync):
@@ -414,7 +415,7 @@ class Node(NodeElection):
             return
         event, ack = self.barriers.on_release(rel)
         if event is not None:
-            self._events.append(event)
+            self._out.events.append(event)
         if ack:
             self._emit(
                 sender,
@@ -450,9 +451,13 @@ class Node(NodeElection):
         self._flush_master(now)
 
     def _flush_master(self, now: float) -> None:
-        """Send what the barrier and role tables decided; apply the parts meant for me."""
+        """Send what the barrier and role tables decided; apply the parts meant for me.
+
+        The tables keep lists of their own rather than writing into the collector: what they
+        decided is routed here (to this platform or over a stream), and their firings are
+        reported here, after the view changes of the same step that set them off."""
         bm, rm = self._bmaster, self._rmaster
-        self._events.extend(bm.events)
+        self._out.events.extend(bm.events)
         bm.events.clear()
         for platform, notice in bm.notices:
             self._to_member(platform, notice, now)
@@ -464,14 +469,14 @@ class Node(NodeElection):
             if any(e.platform == self.platform for e in rel.entries):
                 event, _ = self.barriers.on_release(rel)
                 if event is not None:
-                    self._events.append(event)
+                    self._out.events.append(event)
                 bm.on_ack(self.platform, rel.key, rel.generation)
                 if all(e.platform == self.platform for e in rel.entries):
                     continue
             self._emit(None, rel, NORMAL)
         bm.broadcasts.clear()
         for key, generation, unacked in bm.failed:
-            self._events.append(
+            self._out.events.append(
                 DeliveryFailed(
                     dst=None,
                     kind="Release",
@@ -484,11 +489,11 @@ class Node(NodeElection):
         if isinstance(payload, BarrierStale):
             notice = self.barriers.on_stale(payload)
             if notice is not None:
-                self._events.append(notice)
+                self._out.events.append(notice)
         elif isinstance(payload, RoleGrant | RoleDeny | RoleRevoke):
             event = self.roles.on_reply(payload)
             if event is not None:
-                self._events.append(event)
+                self._out.events.append(event)
 
 
-__all__ = ["Node", "Outgoing"]
+__all__ = ["Node", "Outgoing", "Ready"]

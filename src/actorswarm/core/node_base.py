@@ -1,5 +1,6 @@
 """A platform's collective core, the layer every other builds on: its state, what it sends
-(heartbeats, reliable streams, bulletins, reports) and how packets leave it.
+(heartbeats, reliable streams, bulletins, reports) and how packets leave it (through the one
+collector of :mod:`.ready`, which every part writes into).
 
 The node is built in layers, each a class of its own module: :class:`NodeBase` (state and
 output), :class:`~actorswarm.core.node_membership.NodeMembership` (who is alive),
@@ -14,7 +15,6 @@ from __future__ import annotations
 import math
 import random
 from collections import Counter
-from dataclasses import dataclass
 
 from actorswarm.core import wire
 from actorswarm.core.barrier import BarrierMaster, BarrierMember, NeedResolver, Scatter
@@ -23,12 +23,12 @@ from actorswarm.core.config import CoreConfig
 from actorswarm.core.election import OnHeartbeat, on_heartbeat
 from actorswarm.core.events import (
     AppReceived,
-    CoreEvent,
     DeliveryFailed,
     MemberJoined,
     MemberLeft,
 )
 from actorswarm.core.membership import Membership
+from actorswarm.core.ready import Collector
 from actorswarm.core.reliable import Reliable
 from actorswarm.core.roles import RoleMaster, RoleMember
 from actorswarm.core.roster import RosterLog, RosterView
@@ -60,16 +60,6 @@ ROSTER_BROADCAST_FROM = 4
 MAX_HEALTH = 8
 
 
-@dataclass(frozen=True, slots=True)
-class Outgoing:
-    """A packet to transmit: ``dst`` None is a broadcast; ``kind`` names the body type."""
-
-    dst: int | None
-    data: bytes
-    kind: str
-    channel: int
-
-
 class NodeBase:
     """State of one platform's core and its output; see the module docstring."""
 
@@ -93,11 +83,12 @@ class NodeBase:
         self.config = config or CoreConfig()
         self._rng = rng if rng is not None else random.Random(platform)
         self._started = now
-        self._seq = 0
+        # Everything this platform sends and reports, whichever part produced it.
+        self._out = Collector(swarm=swarm, sender=platform, incarnation=incarnation)
         self.members = Membership(platform, self.config)
-        self.reliable = Reliable(self.config)
+        self.reliable = Reliable(self.config, self._out)
         # Master to every member as one broadcast (event relays, what the master runs).
-        self._board = BulletinBoard(self.config)
+        self._board = BulletinBoard(self.config, self._out)
         self._claim_bulletin = 0  # the first bulletin of the members of the claim
         self._inbox = BulletinInbox(platform)
         self.barriers = BarrierMember(platform)
@@ -162,9 +153,7 @@ class NodeBase:
         self._due = now
         self._health = 0
         self._health_decay_at = now
-        self._outgoing: list[Outgoing] = []
-        self._changes: list[MemberJoined | MemberLeft] = []
-        self._events: list[CoreEvent] = []
+        self._changes: list[MemberJoined | MemberLeft] = []  # scratch, reused per heartbeat
         self.counters: Counter[str] = Counter()
         #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
         #: tests require it to stay empty).
@@ -234,51 +223,27 @@ class NodeBase:
         )
 
     def _report_failures(self) -> None:
-        """Every message the reliable layer (or the bulletin board) gave up on becomes a
-        DeliveryFailed event."""
-        if self._board.failures:
-            self.reliable.failures.extend(self._board.failures)
-            self._board.failures.clear()
-        for failure in self.reliable.failures:
+        """Every message the reliable streams or the bulletin board gave up on becomes a
+        DeliveryFailed event, in the order they gave up. Called at fixed points of a step
+        (after the retransmission timers, after a view change), so each failure's event comes
+        after the events of the step that caused it."""
+        out = self._out
+        if not out.failures:
+            return
+        for failure in out.failures:
             reason = {
                 "left": "the destination left the swarm",
                 "stepped_down": "this platform stepped down as master before it was delivered",
             }.get(failure.reason, f"not acknowledged within {self.config.delivery_deadline} s")
-            self._events.append(
+            out.events.append(
                 DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
             )
-        self.reliable.failures.clear()
+        out.failures.clear()
 
     def _emit(self, dst: int | None, body: wire.Body, channel: int) -> None:
-        self._flush_reliable()  # what the streams queued first keeps its place
-        self._encode(dst, body, channel)
-
-    def _encode(self, dst: int | None, body: wire.Body, channel: int) -> None:
-        """Number ``body`` with this platform's next packet sequence and queue it."""
-        self._seq += 1
-        data = wire.encode(
-            swarm=self.swarm,
-            sender=self.platform,
-            incarnation=self.incarnation,
-            seq=self._seq,
-            body=body,
-        )
-        self._outgoing.append(Outgoing(dst, data, type(body).__name__, channel))
-
-    def _flush_bulletins(self) -> None:
-        box = self._board.outbox
-        if box:
-            self._board.outbox = []
-            for dst, bulletin in box:
-                self._emit(dst, bulletin, NORMAL)
-
-    def _flush_reliable(self) -> None:
-        box = self.reliable.outbox
-        if not box:
-            return
-        self.reliable.outbox = []
-        for dst, body in box:
-            self._encode(dst, body, body.channel)
+        """Send ``body``, numbered after what the streams and the board queued before it
+        (:meth:`~actorswarm.core.ready.Collector.send`)."""
+        self._out.send(dst, body, channel)
 
     def _member_cadence(self) -> float:
         """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or
@@ -425,7 +390,7 @@ class NodeBase:
 
     def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
         for item in items:
-            self._events.append(
+            self._out.events.append(
                 AppReceived(
                     sender=sender,
                     topic=item.message.topic,

@@ -145,8 +145,8 @@ class NodeElection(NodeMembership):
         self.members.cadence = self._cadence
         self.handshake_complete = False
         self._bmaster.topology_changed(now)
-        self._events.append(BecameMaster(epoch=self.epoch))
-        self._events.append(MasterChanged(master=self.platform, epoch=self.epoch))
+        self._out.events.append(BecameMaster(epoch=self.epoch))
+        self._out.events.append(MasterChanged(master=self.platform, epoch=self.epoch))
         self.reliable.retarget(None, now)
         self._handshake_waiting = set(self.members.peers)
         self._handshake_deadline = now + self.config.handshake_timeout
@@ -169,7 +169,7 @@ class NodeElection(NodeMembership):
         self._handshake_waiting.clear()
         if not self.handshake_complete:
             self.handshake_complete = True
-            self._events.append(HandshakeComplete(epoch=self.epoch, members=len(self.members)))
+            self._out.events.append(HandshakeComplete(epoch=self.epoch, members=len(self.members)))
         self._bmaster.become_ready(now, self.epoch)
         self._rmaster.become_ready()
         self._flush_master(now)
@@ -184,10 +184,10 @@ class NodeElection(NodeMembership):
         self._handshake_waiting.clear()
         self._handshake_deadline = None
         self._sync_at = None
-        self._events.append(SteppedDown(epoch=self.epoch, to=to))
+        self._out.events.append(SteppedDown(epoch=self.epoch, to=to))
         self.master = None
         self._epoch_master = to
-        self._events.append(MasterChanged(master=None, epoch=self.epoch))
+        self._out.events.append(MasterChanged(master=None, epoch=self.epoch))
 
     def _follow(self, master: int, epoch: int, now: float) -> None:
         if self.is_master:
@@ -204,7 +204,7 @@ class NodeElection(NodeMembership):
                 self.members.forget(peer)
             self._lowest_peer = master if master in self.members else None
             self._probe_due = {p: t for p, t in self._probe_due.items() if p == master}
-        self._events.append(MasterChanged(master=master, epoch=epoch))
+        self._out.events.append(MasterChanged(master=master, epoch=epoch))
         self.reliable.retarget(master, now, epoch, MASTER_BOUND)
         self._inbox.follow(master)
         # Always report: requests and claims made while no master was followed were not sent
@@ -229,7 +229,7 @@ class NodeElection(NodeMembership):
             for rank, peer in enumerate(p for p in self.roster.succession if p != lost):
                 if peer != self.platform:
                     self._presumed[peer] = now + (rank + 1) * step
-        self._events.append(MasterChanged(master=None, epoch=self.epoch))
+        self._out.events.append(MasterChanged(master=None, epoch=self.epoch))
         self.reliable.retarget(None, now)
         self._inbox.follow(None)
         claim = self._best_claim

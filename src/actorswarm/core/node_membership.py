@@ -188,7 +188,7 @@ class NodeMembership(NodeBase):
         if not changes:
             return
         for change in changes:
-            self._events.append(change)
+            self._out.events.append(change)
             if isinstance(change, MemberLeft):
                 self.reliable.drop_destination(change.platform, now)
                 self._probe_due.pop(change.platform, None)

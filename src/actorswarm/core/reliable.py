@@ -35,6 +35,7 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.ready import Collector
 from actorswarm.core.rtt import RttEstimator
 from actorswarm.core.wire import NORMAL, TO_MASTER, URGENT, Ack, Data, Payload
 
@@ -91,9 +92,11 @@ class DeliveryFailure:
 
 
 class Reliable:
-    """All reliable streams of one platform. Sans-IO: packets to send go to ``outbox``."""
+    """All reliable streams of one platform. Sans-IO: data packets to send are queued in
+    collector ``output`` (unnumbered: :meth:`~actorswarm.core.ready.Collector.queue`), messages
+    given up go to its ``failures``; without one it keeps a collector of its own."""
 
-    def __init__(self, config: CoreConfig) -> None:
+    def __init__(self, config: CoreConfig, output: Collector | None = None) -> None:
         self._config = config
         self._out: dict[tuple[int, int], OutStream] = {}
         self._in: dict[tuple[int, int], InStream] = {}
@@ -104,9 +107,7 @@ class Reliable:
         #: Round trips to anyone: the estimate for broadcasts (barrier releases).
         self.overall = self._new_estimator()
         self._out[_MASTER_KEY] = self._master_stream
-        #: (destination, body) pairs to transmit; the owner drains it.
-        self.outbox: list[tuple[int, Data | Ack]] = []
-        self.failures: list[DeliveryFailure] = []
+        self.output = output if output is not None else Collector()
 
     # --- sending ---------------------------------------------------------------------
 
@@ -178,18 +179,17 @@ class Reliable:
             item.sent = False
             heapq.heappush(self._timers, (item.deadline, key[0], key[1], item.seq))
             return
-        self.outbox.append(
-            (
-                stream.dst,
-                Data(
-                    dst=stream.dst,
-                    channel=stream.channel,
-                    seq=item.seq,
-                    floor=stream.floor,
-                    epoch=item.epoch,
-                    payload=item.payload,
-                ),
-            )
+        self.output.queue(
+            stream.dst,
+            Data(
+                dst=stream.dst,
+                channel=stream.channel,
+                seq=item.seq,
+                floor=stream.floor,
+                epoch=item.epoch,
+                payload=item.payload,
+            ),
+            stream.channel,
         )
         if item.sent:
             item.retries += 1  # this transmission is a retry: the next wait grows
@@ -241,7 +241,7 @@ class Reliable:
         for channel in (URGENT, NORMAL):
             stream = self._out.get((dst, channel))
             if stream is not None and stream.items:
-                self.failures.extend(
+                self.output.failures.extend(
                     DeliveryFailure(dst, item.payload, "left") for item in stream.items
                 )
                 # Keep the numbering so a returning peer never confuses old and new.
@@ -346,7 +346,7 @@ class Reliable:
             item = stream.items[index]
             if now >= item.deadline:
                 del stream.items[index]
-                self.failures.append(DeliveryFailure(stream.dst, item.payload))
+                self.output.failures.append(DeliveryFailure(stream.dst, item.payload))
                 self._refill(stream, now)
             elif item.sent and item.due <= now:
                 self._transmit(stream, item, now)

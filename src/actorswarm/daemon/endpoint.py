@@ -2,8 +2,10 @@
 
 The simulator hosts these three pieces itself (:class:`~actorswarm.sim.tasksim.TaskSim`);
 a daemon hosts them through :class:`PlatformEndpoint`, which does what the simulator's host
-does between them: it passes the node's events to the engine, ticks the engine when its
-deadline comes, and services the node until it has nothing more to say. No clock, no
+does between them: it takes the node's output with one
+:meth:`~actorswarm.core.node.Node.ready` per round (queueing the packets, passing the events
+to the engine), ticks the engine when its deadline comes, and goes on until the node has
+nothing more to say (``has_ready``). No clock, no
 socket: the caller gives ``now`` and moves the bytes (:func:`actorswarm.daemon.serve`).
 """
 
@@ -131,9 +133,9 @@ class PlatformEndpoint:
     def _service(self, now: float) -> None:
         node = self.node
         for _ in range(_MAX_ROUNDS):
-            self._outgoing.extend(node.drain_outgoing())
-            events = node.drain_events()
-            for event in events:
+            ready = node.ready()
+            self._outgoing.extend(ready.packets)
+            for event in ready.events:
                 self.engine.on_core_event(event, now)
-            if not node.has_output:
+            if not node.has_ready:
                 break

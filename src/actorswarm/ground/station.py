@@ -8,8 +8,11 @@ swarm, where members heartbeat to their master only, from the master's roster, w
 fetches like a member that is behind — and talks
 to each platform over the core's reliable streams on the *urgent* channel, so its commands
 are retransmitted until acknowledged and processed before swarm traffic. A host drives it
-exactly like a :class:`~actorswarm.core.Node`: ``receive``/``receive_packet``, ``tick`` at
-``next_deadline``, ``drain_outgoing``.
+like a :class:`~actorswarm.core.Node` — ``receive``/``receive_packet``, ``tick`` at
+``next_deadline`` — but takes packets only, with ``drain_outgoing`` (it reports no events:
+its replies are kept here). Its output goes through a core
+:class:`~actorswarm.core.ready.Collector`; unlike a node's, its streams' packets are numbered
+when drained, after the ones it made directly.
 
 ``deploy`` sends a script in chunks to the expected platforms and records which ones confirm
 its SHA-256; ``start`` is refused (:class:`NotConfirmed`, naming the missing platforms) until
@@ -24,7 +27,7 @@ from dataclasses import dataclass
 
 from actorswarm.core import wire
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.node import Outgoing
+from actorswarm.core.ready import Collector, Outgoing
 from actorswarm.core.reliable import Reliable
 from actorswarm.core.roster import RosterView
 from actorswarm.core.wire import (
@@ -73,9 +76,9 @@ class GroundStation:
         self.swarm = swarm
         self.incarnation = incarnation
         self.config = config or CoreConfig()
-        self.reliable = Reliable(self.config)
-        self._seq = 0
-        self._outgoing: list[Outgoing] = []
+        # Its own packets are numbered as they are made, its streams' when drained.
+        self._out = Collector(swarm=swarm, sender=wire.GROUND_STATION, incarnation=incarnation)
+        self.reliable = Reliable(self.config, self._out)
         self._occasions = 0
         #: When each platform was last heard, and its (incarnation, master?, epoch).
         self.heard: dict[int, float] = {}
@@ -167,8 +170,13 @@ class GroundStation:
         if incarnation <= self.incarnation:
             raise ValueError(f"incarnation {incarnation} is not above {self.incarnation}")
         self.incarnation = incarnation
-        self.reliable = Reliable(self.config)
-        self._seq = 0
+        # What the old session queued or gave up is dropped with its streams; packets
+        # already numbered are still sent.
+        self._out.incarnation = incarnation
+        self._out.seq = 0
+        self._out.queued.clear()
+        self._out.failures.clear()
+        self.reliable = Reliable(self.config, self._out)
         self.unreachable.clear()
 
     # --- host interface -----------------------------------------------------------------
@@ -250,32 +258,23 @@ class GroundStation:
 
     def tick(self, now: float) -> None:
         self.reliable.tick(now)
-        for failure in self.reliable.failures:
+        for failure in self._out.failures:
             if failure.dst is not None:
                 self.unreachable[failure.dst] = now
-        self.reliable.failures.clear()
+        self._out.failures.clear()
 
     def next_deadline(self) -> float | None:
         return self.reliable.next_deadline()
 
     def drain_outgoing(self) -> list[Outgoing]:
-        for dst, body in self.reliable.outbox:
-            self._emit(dst, body)
-        self.reliable.outbox = []
-        out, self._outgoing = self._outgoing, []
-        return out
+        """The packets to send: those made directly (acknowledgements, roster requests)
+        first, then the streams', all on the urgent channel."""
+        self._out.number_queued(URGENT)
+        return self._out.take_packets()
 
     @property
     def has_output(self) -> bool:
-        return bool(self._outgoing or self.reliable.outbox)
+        return self._out.pending
 
     def _emit(self, dst: int, body: wire.Body) -> None:
-        self._seq += 1
-        data = wire.encode(
-            swarm=self.swarm,
-            sender=wire.GROUND_STATION,
-            incarnation=self.incarnation,
-            seq=self._seq,
-            body=body,
-        )
-        self._outgoing.append(Outgoing(dst, data, type(body).__name__, URGENT))
+        self._out.encode(dst, body, URGENT)

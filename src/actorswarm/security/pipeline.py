@@ -4,8 +4,10 @@ Theory of operation
 -------------------
 Out: the endpoint (a core :class:`~actorswarm.core.node.Node`, a platform endpoint, the
 ground station) encodes each packet once, with an empty authentication slot;
-:meth:`Pipeline.flush` has the :class:`~actorswarm.security.guard.PacketGuard` put the tag in
-by slicing (one HMAC, one CRC) and hands the bytes to the transport.
+:meth:`Pipeline.flush` (or :meth:`Pipeline.send`, given the packets of a node's
+:meth:`~actorswarm.core.node.Node.ready` the host took itself) has the
+:class:`~actorswarm.security.guard.PacketGuard` put the tag in by slicing (one HMAC, one CRC)
+and hands the bytes to the transport.
 
 In: :meth:`Pipeline.receive` gives the guard the raw bytes; the frame check, the tag and the
 replay window come first, and only a packet that passed them is decoded — once — and given
@@ -127,11 +129,16 @@ class Pipeline:
 
     def flush(self) -> int:
         """Seal and send everything the endpoint has produced; how many packets."""
+        return self.send(self.endpoint.drain_outgoing())
+
+    def send(self, packets: Iterable[Outgoing]) -> int:
+        """Seal and send ``packets``, taken from the endpoint by the host (a node's
+        :meth:`~actorswarm.core.node.Node.ready`), in order; how many."""
         sent = 0
         seal = self.guard.seal
         send = self.transport.send
         traffic = self.traffic
-        for out in self.endpoint.drain_outgoing():
+        for out in packets:
             data = seal(out.data)
             send(out.dst, data, urgent=out.channel == URGENT, kind=out.kind)
             sent += 1

@@ -4,11 +4,11 @@ Theory of operation
 -------------------
 :class:`SimSwarm` is a host like the daemon, with virtual time instead of the wall clock and
 :class:`~actorswarm.sim.radio.SimRadio` instead of Zenoh. For each platform it delivers
-packets, calls ``tick`` at the node's own ``next_deadline``, transmits what the node wants
-sent, and hands the node's events to the invariant checker and to any listeners (workloads,
-the task engine later). Faults are injected through the radio (loss, bursts, latency,
-duplication, reordering, bandwidth, partitions) and through :meth:`SimSwarm.crash` and
-:meth:`SimSwarm.restart` (a new incarnation with fresh state).
+packets, calls ``tick`` at the node's own ``next_deadline``, and takes the node's output
+with one ``ready()`` per round: transmits its packets and hands its events to the invariant
+checker and to any listeners (workloads, the task engine later). Faults are injected through
+the radio (loss, bursts, latency, duplication, reordering, bandwidth, partitions) and through
+:meth:`SimSwarm.crash` and :meth:`SimSwarm.restart` (a new incarnation with fresh state).
 
 Everything random derives from ``seed``: the radio's faults and each node's heartbeat phase
 (``random.Random`` seeded with a string, which Python hashes deterministically). The same seed
@@ -245,7 +245,7 @@ class SimSwarm:
         # Checked and decoded by this receiver's guard, as on a real platform: a damaged,
         # duplicated or replayed packet is refused there and counted by reason.
         host.pipeline.receive(tx.data, now)
-        if host.node.has_output:
+        if host.node.has_ready:
             self._service(platform)
 
     def _tick(self, platform: int) -> None:
@@ -274,11 +274,11 @@ class SimSwarm:
         # Listeners (a task engine) may act on the node while handling its events: loop
         # until it has nothing more to send or report.
         for _ in range(1000):
-            host.pipeline.flush()
-            events = node.drain_events()
-            if events:
-                self._handle_events(node, events, now)
-            if not node.has_output or not host.alive:
+            ready = node.ready()
+            host.pipeline.send(ready.packets)
+            if ready.events:
+                self._handle_events(node, ready.events, now)
+            if not node.has_ready or not host.alive:
                 break
         deadline = node.next_deadline()
         if deadline is not None and host.alive:
