@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 from actorswarm.bench.daemons import (
     Settings,
     bench,
+    daemons_env,
     from_json,
     markdown,
     read_cpu_seconds,
@@ -69,6 +70,22 @@ def test_the_command_refuses_a_bad_broadcast_before_starting_anything(
     assert message in result.output
 
 
+def test_daemons_from_another_checkout_run_its_source(tmp_path: Path) -> None:
+    """``--daemons-from`` puts a checkout's ``src`` first on the daemons' path, and a
+    directory without actorswarm's source is refused before anything starts."""
+    checkout = Path(__file__).resolve().parents[2]
+    env = daemons_env(checkout)
+    assert env["PYTHONPATH"] == str(checkout / "src")
+    assert env["PATH"] == os.environ["PATH"], "the rest of the environment is kept"
+    with pytest.raises(ValueError, match="no actorswarm source"):
+        daemons_env(tmp_path)
+    result = CliRunner().invoke(
+        app, ["bench", "daemons", "--sizes", "2", "--daemons-from", str(tmp_path)]
+    )
+    assert result.exit_code == 2
+    assert "no actorswarm source" in result.output
+
+
 def test_the_switch_script_is_valid(tmp_path: Path) -> None:
     path = tmp_path / "switch.xml"
     path.write_text(switch_script(30))
@@ -98,6 +115,10 @@ def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
         assert all(4 < v < 4096 for v in res.rss_mib)
         assert all(0 < a <= r for a, r in zip(res.rss_anon_mib, res.rss_mib, strict=True))
         assert res.wire_packets_s > 0  # heartbeats at least, on this namespace's loopback
+        # The master is reported apart from the members (their targets differ).
+        assert res.master in {1, 2, 3}
+        assert len(res.cpu_of("master")) == 1 and len(res.cpu_of("members")) == 2
+        assert sorted(res.cpu_of("master") + res.cpu_of("members")) == sorted(res.cpu_pct)
 
     (failover,) = size.failover
     assert failover.error == ""
@@ -117,6 +138,7 @@ def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
     assert "Command: `test`" in text
     assert "## Against docs/design.md §8" in text
     assert "None: every run completed." in text
+    assert "| CPU per member, idle, N=3" in text and "| CPU of the master, idle, N=3" in text
     data = json.loads(json.dumps(to_json(result), allow_nan=False))
     assert data["machine"]["cpus"] >= 1
     assert data["sizes"][0]["failover"][0]["killed"] == failover.killed

@@ -233,7 +233,12 @@ BAD_PEM: list[tuple[bytes, str]] = [
 ]
 
 
-@pytest.mark.parametrize(("pem", "problem"), BAD_PEM)
+#: Test IDs by the problem alone: the keys are drawn at import, and pytest-xdist's
+#: workers must collect the same IDs.
+_IDS = [problem for _, problem in BAD_PEM]
+
+
+@pytest.mark.parametrize(("pem", "problem"), BAD_PEM, ids=_IDS)
 def test_pem_that_is_not_an_ed25519_public_key_says_what_it_is(pem: bytes, problem: str) -> None:
     with pytest.raises(KeyFormatError) as err:
         PublicKey.from_pem(pem)
@@ -241,7 +246,7 @@ def test_pem_that_is_not_an_ed25519_public_key_says_what_it_is(pem: bytes, probl
     assert isinstance(err.value, ValueError)
 
 
-@pytest.mark.parametrize(("pem", "problem"), BAD_PEM[2:])
+@pytest.mark.parametrize(("pem", "problem"), BAD_PEM[2:], ids=_IDS[2:])
 def test_a_bad_public_key_file_is_a_key_file_error_naming_it(
     tmp_path: Path, pem: bytes, problem: str
 ) -> None:

@@ -120,6 +120,9 @@ class Settings:
     interface: str = "lo"
     #: Zenoh's session lease of every daemon, seconds (``--lease``; None: the default).
     lease: float | None = None
+    #: A source checkout whose ``src`` the daemons run instead of this one's
+    #: (``--daemons-from``): code before and after a change, measured by one harness.
+    daemons_from: str | None = None
 
 
 @dataclass(slots=True)
@@ -139,6 +142,17 @@ class ResourceRun:
     wire_packets_s: float = math.nan
     #: Packets the daemons sent per second (core sends; a broadcast counts once).
     sent_packets_s: float = math.nan
+    #: The master the daemons agreed on at the end of the window (None: they did not).
+    master: int | None = None
+
+    def cpu_of(self, role: str) -> list[float]:
+        """CPU % of the ``"master"`` (one value, or none when there was no agreed
+        master) or of the ``"members"`` (every other daemon; all of them without a
+        master)."""
+        pairs = list(zip(self.platforms, self.cpu_pct, strict=True))
+        if role == "master":
+            return [c for p, c in pairs if p == self.master]
+        return [c for p, c in pairs if p != self.master]
 
 
 @dataclass(slots=True)
@@ -267,12 +281,13 @@ def machine_info() -> dict[str, Any]:
     }
 
 
-def _source_version() -> str:
+def _source_version(root: Path | None = None) -> str:
     """The package version, and the git commit of the source when it runs from a checkout
-    (``+dirty`` when the working tree differs from it): what the daemons measured ran."""
+    (``+dirty`` when the working tree differs from it): what the daemons measured ran.
+    ``root``: another checkout than this module's."""
     from actorswarm import __version__
 
-    root = Path(__file__).resolve().parents[3]
+    root = root or Path(__file__).resolve().parents[3]
     try:
         commit = subprocess.run(
             ["git", "-C", str(root), "describe", "--always", "--dirty=+dirty"],
@@ -442,6 +457,7 @@ async def measure_resources(swarm: LocalSwarm, phase: str, window: float) -> Res
         run.rss_mib.append(rss / 1024)
         run.rss_anon_mib.append(anon / 1024)
         run.peers.append(len(swarm.status(p).get("members", ())))
+    run.master = swarm.agreed_master()
     return run
 
 
@@ -702,6 +718,7 @@ def bench_size(
         group=settings.group if multicast else None,
         interface=settings.interface if multicast else None,
         extra=() if settings.lease is None else ("--lease", str(settings.lease)),
+        env=None if settings.daemons_from is None else daemons_env(settings.daemons_from),
     ) as swarm:
         say(f"N={size}: starting {size} daemons")
         booted_at = clock()
@@ -739,6 +756,15 @@ def bench_size(
     return result
 
 
+def daemons_env(checkout: str | Path) -> dict[str, str]:
+    """The environment that makes a daemon run the source of ``checkout`` (its ``src`` first
+    on ``PYTHONPATH``); ValueError when ``checkout`` holds no actorswarm source."""
+    src = Path(checkout).resolve() / "src"
+    if not (src / "actorswarm" / "__init__.py").is_file():
+        raise ValueError(f"--daemons-from {checkout}: no actorswarm source in {src}")
+    return {**os.environ, "PYTHONPATH": str(src)}
+
+
 def bench(
     directory: Path,
     sizes: Sequence[int],
@@ -763,6 +789,8 @@ def bench(
         sizes=[],
         started=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     )
+    if settings.daemons_from is not None:
+        result.machine["daemons"] = _source_version(Path(settings.daemons_from))
     for n in sizes:
         size_result = bench_size(directory / f"n{n}", n, settings, progress)
         result.sizes.append(size_result)
@@ -833,7 +861,8 @@ def markdown(result: BenchResult) -> str:
         f"{result.wall_s / 60:.1f} min in all.",
         "",
         f"Machine: {m['cpu_model']}, {m['cpus']} CPU(s), {m['memory_gib']} GiB, {m['os']}; "
-        f"Python {m['python']}, eclipse-zenoh {m['zenoh']}; actorswarm {m['actorswarm']}.",
+        f"Python {m['python']}, eclipse-zenoh {m['zenoh']}; actorswarm {m['actorswarm']}"
+        + (f"; **the daemons ran actorswarm {m['daemons']}**." if m.get("daemons") else "."),
         "",
         "Every daemon is a separate `actorswarm daemon` process on 127.0.0.1 (Zenoh peer mode, "
         + (
@@ -851,7 +880,8 @@ def markdown(result: BenchResult) -> str:
         "",
         f"Settings: CPU window {s['window']:.0f} s, {s['failovers']} failovers and "
         f"{s['switches']} switches per size, timeout {s['run_timeout']:.0f} s per run; "
-        f"Zenoh session lease {s.get('lease') or 4:g} s.",
+        "Zenoh session lease "
+        + (f"{s['lease']:g} s." if s.get("lease") else "the daemons' default."),
         "",
         "## CPU and memory per daemon",
         "",
@@ -859,22 +889,26 @@ def markdown(result: BenchResult) -> str:
         "held at the end of the window). *idle*: no script, only heartbeats and membership; "
         "*script*: actor A running (one `core.idle` plugin at 10 Hz), ground station connected. "
         "CPU is `utime + stime` of every thread of the process over the window, in % of one "
-        "core; RSS is `VmRSS` (private part `RssAnon`) at its end. Median (min–max) over the "
-        "daemons. *wire/s*: packets `lo` received per second (the network namespace's "
+        "core, of the members (every daemon but the master; median (min–max)) and of the "
+        "master apart; RSS is `VmRSS` (private part `RssAnon`) at its end, median (min–max) "
+        "over all the daemons. *wire/s*: packets `lo` received per second (the network namespace's "
         "loopback: run the bench in a namespace of its own to count the swarm alone); *sent/s*: "
         "packets the daemons sent per second (a broadcast counts once); their ratio is the "
         "packets on the wire per packet sent.",
         "",
-        "| N | phase | peers | CPU % of a core | RSS MiB | private MiB | all daemons, % of a core "
-        "| load avg (1 min) | wire/s | sent/s | wire per sent |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| N | phase | peers | member CPU % of a core | master CPU % | RSS MiB | private MiB "
+        "| all daemons, % of a core | load avg (1 min) | wire/s | sent/s | wire per sent |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in result.sizes:
         for res in r.resources:
             peers = sorted(set(res.peers))
+            master = res.cpu_of("master")
             lines.append(
                 f"| {r.size} | {res.phase} | {', '.join(map(str, peers))} "
-                f"| {_range(res.cpu_pct, 2)} | {_range(res.rss_mib, 1)} "
+                f"| {_range(res.cpu_of('members'), 2)} "
+                f"| {f'{master[0]:.2f} (platform {res.master})' if master else '–'} "
+                f"| {_range(res.rss_mib, 1)} "
                 f"| {_range(res.rss_anon_mib, 1)} | {sum(res.cpu_pct):.0f} "
                 f"| {res.loadavg_1min:.1f} | {res.wire_packets_s:.0f} "
                 f"| {res.sent_packets_s:.0f} "
@@ -1026,10 +1060,21 @@ def _against_design(result: BenchResult) -> list[str]:
     rows = [(r.size, res) for r in shown for res in r.resources]
     for n, res in rows:
         scarce = " (CPU scarce: what it got)" if _scarce(res, cpus) else ""
+        members = res.cpu_of("members")
         lines.append(
-            f"| CPU per daemon, {res.phase}, N={n} ({n - 1} peers) | 0.25–1.1 % | ≤ 1 % of a core "
-            f"at 30 peers | median {statistics.median(res.cpu_pct):.2f} %, max "
-            f"{max(res.cpu_pct):.2f} %{scarce} | {_verdict(res.cpu_pct, 1.0, 0)} |"
+            f"| CPU per member, {res.phase}, N={n} ({n - 1} peers) | 0.25–1.1 % | ≤ 1 % of a "
+            f"core at 30 peers | median {statistics.median(members):.2f} %, max "
+            f"{max(members):.2f} %{scarce} | {_verdict(members, 1.0, 0)} |"
+        )
+        master = res.cpu_of("master")
+        lines.append(
+            f"| CPU of the master, {res.phase}, N={n} | 0.25–1.1 % | ≤ 3 % of a core at 30 "
+            "peers | "
+            + (
+                f"{master[0]:.2f} %{scarce} | {_verdict(master, 3.0, 0)} |"
+                if master
+                else "no agreed master at the window's end | **no** |"
+            )
         )
         megabytes = [v * 2**20 / 1e6 for v in res.rss_mib]
         lines.append(

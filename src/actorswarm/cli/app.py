@@ -356,7 +356,14 @@ def bench_daemons(
     ] = "lo",
     lease: Annotated[
         float | None,
-        typer.Option(min=0.1, max=3600, help="Zenoh's session lease, seconds [default: 4]."),
+        typer.Option(min=0.1, max=3600, help="Zenoh's session lease, seconds [default: 8]."),
+    ] = None,
+    daemons_from: Annotated[
+        Path | None,
+        typer.Option(
+            help="Run the daemons from this source checkout (its src/) instead of this one: "
+            "the code before a change, measured by the same harness."
+        ),
     ] = None,
 ) -> None:
     """Real daemon processes on loopback: CPU and memory, packets on the wire, master
@@ -366,7 +373,14 @@ def bench_daemons(
     import signal
     import tempfile
 
-    from actorswarm.bench.daemons import Settings, SizeResult, bench, markdown, to_json
+    from actorswarm.bench.daemons import (
+        Settings,
+        SizeResult,
+        bench,
+        daemons_env,
+        markdown,
+        to_json,
+    )
 
     size_list = _int_list(sizes or ("5,10" if quick else "10,30"), "--sizes", 2, 200)
     from actorswarm.transport.zenoh_transport import BROADCASTS, check_group, check_interface
@@ -376,6 +390,8 @@ def bench_daemons(
             raise ValueError(f"--broadcast {broadcast!r}: " + " or ".join(BROADCASTS))
         group = check_group(group)
         check_interface(interface)
+        if daemons_from is not None:
+            daemons_env(daemons_from)
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
@@ -384,6 +400,7 @@ def bench_daemons(
         group=group,
         interface=interface,
         lease=lease,
+        daemons_from=None if daemons_from is None else str(daemons_from),
         window=window if window is not None else (5.0 if quick else 20.0),
         failovers=failovers if failovers is not None else (2 if quick else 10),
         switches=switches if switches is not None else (2 if quick else 10),

@@ -56,6 +56,7 @@ class LocalSwarm:
     endpoints. ``state_dirs``: state directories other than ``directory/state-ID``.
     ``new_session``: each daemon in a session of its own, so a Ctrl-C at the terminal
     reaches only the process that started them (``actorswarm launch``), which stops them.
+    ``env``: the daemons' whole environment (default: this process's).
     Use it as a context manager: leaving kills what still runs.
     """
 
@@ -76,6 +77,7 @@ class LocalSwarm:
         new_session: bool = False,
         group: str | None = None,
         interface: str | None = None,
+        env: Mapping[str, str] | None = None,
     ) -> None:
         # Created when something is written there (keys, logs): a launch that is only
         # checked leaves no trace.
@@ -110,6 +112,7 @@ class LocalSwarm:
         self.extra = list(extra)
         self.state_dirs = dict(state_dirs or {})
         self.new_session = new_session
+        self.env = None if env is None else dict(env)
         self.procs: dict[int, subprocess.Popen[bytes]] = {}
 
     def __enter__(self) -> LocalSwarm:
@@ -161,7 +164,11 @@ class LocalSwarm:
         prefix = list(self.wrap(platform)) if self.wrap is not None else []
         with self.log(platform).open("ab") as log:
             proc = subprocess.Popen(
-                [*prefix, *args], stdout=log, stderr=log, start_new_session=self.new_session
+                [*prefix, *args],
+                stdout=log,
+                stderr=log,
+                start_new_session=self.new_session,
+                env=self.env,
             )
         self.procs[platform] = proc
         return proc

@@ -54,8 +54,8 @@ random per session, so that two ``gs`` commands at once differ too).
 Multicast is UDP: no retransmission below the core (which retransmits what must arrive),
 and a datagram larger than the link's MTU is lost whole when one of its IP fragments is.
 
-The session lease (:data:`LEASE_MS`, 4 s, with :data:`KEEP_ALIVES` keep-alives per lease:
-one a second on each idle link, each way) is Zenoh's own failure detection; the core
+The session lease (:data:`LEASE_MS`, 8 s, with :data:`KEEP_ALIVES` keep-alives per lease:
+one every 2 s on each idle link, each way) is Zenoh's own failure detection; the core
 detects failures itself (heartbeats, ``t_leave`` 0.5 s) and does not wait for it. What the
 lease bounds is how long Zenoh keeps a dead peer's session: until it expires, every packet
 for that peer goes into its transmit queue (two batches per priority) and, once that is
@@ -188,7 +188,7 @@ BROADCASTS = ("mesh", "multicast")
 DEFAULT_GROUP = "224.0.0.225:7448"
 
 #: Zenoh's session lease, milliseconds (see the module's docstring).
-LEASE_MS = 4000
+LEASE_MS = 8000
 
 #: Chunks of the tail that keys carry on a multicast group (see the module's docstring).
 SPREAD_CHUNKS = 5
