@@ -38,6 +38,7 @@ from actorswarm.core.events import (
 )
 from actorswarm.core.membership import leave_silence
 from actorswarm.core.node import Node, Outgoing, Ready
+from actorswarm.core.ready import PROBE
 from actorswarm.core.roster import RosterLog, RosterView
 from actorswarm.core.wire import (
     MAX_CHANGES,
@@ -800,9 +801,12 @@ def test_a_platform_named_as_suspect_answers_the_prober_directly(prober: int) ->
     hb = Heartbeat(is_master=prober == 1, epoch=node.epoch, master=1, suspects=[7, MEMBER], count=0)
     node.receive(packet(hb, sender=prober, seq=10**6), swarm.now)
     node.receive(packet(hb, sender=prober, seq=10**6 + 1), swarm.now + 0.001)
-    heartbeats = [(dst, b) for dst, b in bodies(node.drain_outgoing()) if isinstance(b, Heartbeat)]
+    out = node.drain_outgoing()
+    heartbeats = [(dst, b) for dst, b in bodies(out) if isinstance(b, Heartbeat)]
     assert node.counters["probe_answered"] == answered + 1
     assert [dst for dst, _ in heartbeats] == [prober]
+    # Labelled a probe, so that a transport never holds it back as a routine heartbeat.
+    assert [o.kind for o in out if o.dst == prober] == [PROBE]
 
 
 # --- 6. Suspicion, probes, false leaves -------------------------------------------------------

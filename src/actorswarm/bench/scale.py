@@ -87,7 +87,8 @@ NAN = math.nan
 MAX_SIZE = 10_000
 #: The barrier every platform requests.
 KEY = 1
-#: The packet kind of heartbeats in the radio's counters.
+#: The packet kind of routine heartbeats in the radio's counters (a probe and its answer,
+#: heartbeats too, count as "Probe").
 _HEARTBEAT = "Heartbeat"
 #: Virtual seconds between two looks at the wall clock inside a slice (see :func:`run_cell`).
 _WATCHDOG = 0.001

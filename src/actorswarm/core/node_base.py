@@ -240,10 +240,13 @@ class NodeBase:
             )
         out.failures.clear()
 
-    def _emit(self, dst: int | None, body: wire.Body, channel: int) -> None:
+    def _emit(
+        self, dst: int | None, body: wire.Body, channel: int, kind: str | None = None
+    ) -> None:
         """Send ``body``, numbered after what the streams and the board queued before it
-        (:meth:`~actorswarm.core.ready.Collector.send`)."""
-        self._out.send(dst, body, channel)
+        (:meth:`~actorswarm.core.ready.Collector.send`; ``kind`` labels it otherwise than
+        by its type)."""
+        self._out.send(dst, body, channel, kind)
 
     def _member_cadence(self) -> float:
         """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or

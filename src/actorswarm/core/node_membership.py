@@ -14,6 +14,7 @@ from actorswarm.core.node_base import (
     MAX_HEALTH,
     NodeBase,
 )
+from actorswarm.core.ready import PROBE
 from actorswarm.core.wire import (
     NORMAL,
     Heartbeat,
@@ -65,7 +66,7 @@ class NodeMembership(NodeBase):
             due = [p for p, t in self._probe_due.items() if t <= now]
         for peer in due:
             self.counters["probe"] += 1
-            self._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL)
+            self._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
             self._probe_due[peer] = now + self.config.probe_interval
 
     def _on_heartbeat(
@@ -180,7 +181,7 @@ class NodeMembership(NodeBase):
             self._answered = {p: t for p, t in self._answered.items() if t >= horizon}
         self._answered[prober] = now
         self.counters["probe_answered"] += 1
-        self._emit(prober, self._heartbeat(now), NORMAL)
+        self._emit(prober, self._heartbeat(now), NORMAL, PROBE)
 
     def _membership_changed(
         self, changes: list[MemberJoined | MemberLeft], now: float, hb: Heartbeat | None = None

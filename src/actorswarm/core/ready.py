@@ -36,12 +36,17 @@ from actorswarm.core.wire import URGENT
 if TYPE_CHECKING:  # a record type only: the streams import this module
     from actorswarm.core.reliable import DeliveryFailure
 
-__all__ = ["Collector", "Outgoing", "Ready"]
+__all__ = ["PROBE", "Collector", "Outgoing", "Ready"]
+
+#: The :attr:`Outgoing.kind` of a heartbeat that probes a suspect or answers a probe.
+PROBE = "Probe"
 
 
 @dataclass(frozen=True, slots=True)
 class Outgoing:
-    """A packet to transmit: ``dst`` None is a broadcast; ``kind`` names the body type."""
+    """A packet to transmit: ``dst`` None is a broadcast; ``kind`` names the body type, or
+    ``"Probe"`` for a heartbeat that probes a suspect or answers a probe (a transport must
+    not hold it back as it may a routine heartbeat: the probe window is short)."""
 
     dst: int | None
     data: bytes
@@ -91,11 +96,12 @@ class Collector:
         """A stream's or the board's packet: numbered at the next :meth:`send` or take."""
         self.queued.append((dst, body, channel))
 
-    def send(self, dst: int | None, body: wire.Body, channel: int) -> None:
-        """Number and encode ``body`` now, after everything queued before it."""
+    def send(self, dst: int | None, body: wire.Body, channel: int, kind: str | None = None) -> None:
+        """Number and encode ``body`` now, after everything queued before it (``kind``:
+        another label than the body's type, :class:`Outgoing`)."""
         if self.queued:
             self.number_queued()
-        self.encode(dst, body, channel)
+        self.encode(dst, body, channel, kind)
 
     def number_queued(self, channel: int | None = None) -> None:
         """Number and encode the queued packets, in order (on ``channel`` if given, else
@@ -105,7 +111,9 @@ class Collector:
         for dst, body, own in queued:
             self.encode(dst, body, own if channel is None else channel)
 
-    def encode(self, dst: int | None, body: wire.Body, channel: int) -> None:
+    def encode(
+        self, dst: int | None, body: wire.Body, channel: int, kind: str | None = None
+    ) -> None:
         """Number ``body`` with the next packet sequence and append it, ahead of anything
         still queued (:meth:`send` is what keeps the order; an endpoint that numbers its
         streams last, like the ground station, calls this)."""
@@ -117,7 +125,7 @@ class Collector:
             seq=self.seq,
             body=body,
         )
-        self.packets.append(Outgoing(dst, data, type(body).__name__, channel))
+        self.packets.append(Outgoing(dst, data, kind or type(body).__name__, channel))
 
     def take_packets(self) -> list[Outgoing]:
         """Every packet, queued ones numbered now: urgent channel first, then in order."""

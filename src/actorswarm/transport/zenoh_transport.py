@@ -10,9 +10,10 @@ its swarm's namespace ``actorswarm/<swarm>/``:
   leaves its own broadcasts out, no sample is looked at to tell.
 * ``to/<dst>`` — unicasts (reliable control traffic to one platform, every command of the
   ground station). A platform subscribes to its own ``to/<id>`` only.
-* ``beat/<dst>`` — heartbeats sent to one platform: in the star membership, every member's
-  heartbeat to its master (and the answers to a master's probes). A platform subscribes to
-  its own ``beat/<id>``; that channel wakes the loop lazily (below).
+* ``beat/<dst>`` — routine heartbeats sent to one platform: in the star membership, every
+  member's heartbeat to its master. A platform subscribes to its own ``beat/<id>``; that
+  channel wakes the loop lazily (below). A heartbeat that probes a suspect or answers a
+  probe (kind ``"Probe"``) goes on ``to/<dst>``: the probe window is 60 ms.
 
 Everything is put **best effort** with congestion control *drop*: the collective core has
 its own acknowledgements and retransmissions (as the paper runs Fast DDS in its unreliable
@@ -568,8 +569,9 @@ class ZenohTransport:
 
     def send(self, dst: int | None, data: bytes, *, urgent: bool = False, kind: str = "") -> None:
         """Broadcast ``data`` (``dst`` None) or send it to platform ``dst``; ``urgent`` for
-        the ground station's traffic (higher priority); ``kind``, the body's type name,
-        sends a ``"Heartbeat"`` to one platform on its lazy heartbeat channel. Never blocks
+        the ground station's traffic (higher priority); ``kind``, the packet's kind
+        (:attr:`~actorswarm.core.ready.Outgoing.kind`), sends a ``"Heartbeat"`` to one
+        platform on its lazy heartbeat channel. Never blocks
         on a slow peer."""
         session = self._session
         if session is None:
