@@ -43,7 +43,7 @@ from actorswarm.bench.tables_sim import (
 from actorswarm.cli.app import app
 from actorswarm.cli.bench_tables import Plan
 from actorswarm.dsl import check
-from actorswarm.engine.engine import FiredRecord
+from actorswarm.engine.records import FiredRecord
 
 NAN = math.nan
 

@@ -11,7 +11,7 @@ import pytest
 
 from actorswarm.core.events import AppReceived
 from actorswarm.dsl import load
-from actorswarm.engine.engine import TOPIC_WHEREABOUTS
+from actorswarm.engine.machine import TOPIC_WHEREABOUTS
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.promotion import (
     NO_POSITION_BID,

@@ -49,7 +49,7 @@ from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.dsl import check
 from actorswarm.dsl.model import TaskScript
 from actorswarm.engine import commands as cmds
-from actorswarm.engine.engine import FiredRecord
+from actorswarm.engine.records import FiredRecord
 from actorswarm.sim.radio import LinkModel
 from actorswarm.sim.tasksim import TaskSim
 

@@ -5,8 +5,9 @@ barrier groups; :class:`ActorHost` is the narrow interface to the actor runtime
 (:mod:`actorswarm.runtime`).
 """
 
-from actorswarm.engine.engine import CommandRecord, FiredRecord, TaskEngine, TransitionRecord
+from actorswarm.engine.engine import TaskEngine
 from actorswarm.engine.plan import Group, Plan
+from actorswarm.engine.records import CommandRecord, FiredRecord, TransitionRecord
 from actorswarm.engine.runtime import ActorContext, ActorHost, Emitted
 
 __all__ = [

@@ -21,8 +21,9 @@ from actorswarm.core.events import CoreEvent
 from actorswarm.core.node import Node
 from actorswarm.core.wire import Packet
 from actorswarm.dsl.model import TaskScript
-from actorswarm.engine.engine import FiredRecord, TaskEngine
+from actorswarm.engine.engine import TaskEngine
 from actorswarm.engine.plan import Plan
+from actorswarm.engine.records import FiredRecord
 from actorswarm.ground.station import GroundStation
 from actorswarm.runtime.actor_runtime import ActorRuntime
 from actorswarm.runtime.collective import NodeCollective
