@@ -40,7 +40,9 @@ def test_fault_schedule(membership: MembershipKind, seed: int) -> None:
 #: the claim's grant and freed the slot (930425: reports now travel on the master-bound
 #: stream, in order with claims), a member that kept following its rebooted master because
 #: the new incarnation's heartbeats of epoch 0 passed for late ones from before its claim
-#: (951123).
+#: (951123), a generation fired by a master nobody heard before it crashed and fired again
+#: by its successor, whose passes the invariant checker counted for the first firing
+#: (2006491, 2006860; tests/sim/test_invariants.py).
 REGRESSIONS = [
     (500583, "star"),
     (501090, "broadcast"),
@@ -53,6 +55,8 @@ REGRESSIONS = [
     (902146, "star"),
     (930425, "broadcast"),
     (951123, "broadcast"),
+    (2006491, "star"),
+    (2006860, "star"),
 ]
 
 

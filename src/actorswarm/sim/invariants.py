@@ -15,8 +15,9 @@ The invariants (docs/design.md §3, issue "collective core"):
 2. **Barrier releases are all-or-nothing**: once a participant of a barrier generation
    passed it, every chosen participant of that firing that is still alive (same
    incarnation) and connected to a live one that passed, must pass it too (checked at the
-   end, for firings older than ``settle``). A platform passes a generation at most once, and
-   only with the index a firing gave it.
+   end, for firings older than ``settle``). A pass counts for the firing that gave the
+   platform its place in that incarnation, not for another firing of the same generation.
+   A platform passes a generation at most once, and only with the index a firing gave it.
 3. **A role quota is never exceeded** among live platforms of one component for longer than
    ``settle`` (a false suspicion under loss may overlap a revoked and a new holder briefly).
 4. **No message reaches the application twice** (app messages, barrier releases).
@@ -186,13 +187,23 @@ class InvariantChecker:
             if not passed:
                 continue  # nothing was released: "nothing" is a valid outcome
             passed_platforms = {p for p, _ in passed}
-            # Only passes by platforms still alive (same incarnation) count: when everyone
-            # who passed has since crashed, no live platform can know the firing happened.
-            live_passed = {p for p, inc in passed if p in nodes and nodes[p].incarnation == inc}
             for f in firings:
                 if t - f.at < self.settle:
                     continue
-                effective = set(f.chosen) & live_passed
+                # The passes this firing caused: by a platform still alive in the incarnation
+                # the firing chose, with the place the firing gave it. When everyone who
+                # passed has since crashed, no live platform can know the firing happened.
+                # One generation may fire twice: a master fires it, nobody hears the release
+                # before it crashes, and its successor fires the generation again for whoever
+                # asks; a pass of the second firing says nothing of the first.
+                effective = {
+                    p
+                    for (p, inc), place in passed.items()
+                    if f.chosen.get(p) == place
+                    and f.incarnations.get(p) == inc
+                    and p in nodes
+                    and nodes[p].incarnation == inc
+                }
                 if not effective:
                     continue
                 reach: set[int] = set()
