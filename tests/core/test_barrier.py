@@ -473,6 +473,32 @@ def test_completion_after_failover(order: tuple[int, ...]) -> None:
     assert h.notices() == []
 
 
+def test_a_completion_does_not_pass_for_the_whole_firing() -> None:
+    """A firing rebuilt from reports resends only the entries it completes: its packets
+    must not tell a member they are the whole assignment (``total``), or that member would
+    report it as such, and the next master would call any other candidate of the firing
+    stale (campaign seed 2009944). A firing decided here says its total."""
+    h = Harness(ready=False)
+    _report(h, 1, 5, _record(1), None)
+    _report(h, 3, 4, None, _req(3, generation=4, bid=3.0))
+    h.master.become_ready(1.0, EPOCH)
+    rels = h.broadcasts()
+    assert {e.platform for rel in rels for e in rel.entries} == {3}
+    assert all(rel.total == 0 for rel in rels), [rel.total for rel in rels]
+    member = BarrierMember(3)
+    member.known[KEY] = 4
+    member.request(KEY, {0: 3}, 0.9, bid=3.0)
+    for rel in rels:
+        member.on_release(rel)
+    assert [r.assignment for r in member.records()] == [{}], "not the whole assignment"
+
+    fresh = Harness()
+    for platform in (1, 2):
+        fresh.master.request(platform, _req(2, generation=0), 0.0, EPOCH)
+    decided = fresh.broadcasts()
+    assert [rel.total for rel in decided] == [2], "a firing decided here knows its total"
+
+
 def test_completion_of_timeout_firing_grows_it() -> None:
     h = Harness(ready=False)
     rec = ReleaseRecord(key=KEY, generation=0, part=0, index=1, size=1, outcome=TIMEOUT)

@@ -42,7 +42,9 @@ def test_fault_schedule(membership: MembershipKind, seed: int) -> None:
 #: the new incarnation's heartbeats of epoch 0 passed for late ones from before its claim
 #: (951123), a generation fired by a master nobody heard before it crashed and fired again
 #: by its successor, whose passes the invariant checker counted for the first firing
-#: (2006491, 2006860; tests/sim/test_invariants.py).
+#: (2006491, 2006860; tests/sim/test_invariants.py), a completion's resent entries that a
+#: member took for the whole firing and reported so, which made the next master call another
+#: candidate of that firing stale (2009944).
 REGRESSIONS = [
     (500583, "star"),
     (501090, "broadcast"),
@@ -57,6 +59,7 @@ REGRESSIONS = [
     (951123, "broadcast"),
     (2006491, "star"),
     (2006860, "star"),
+    (2009944, "broadcast"),
 ]
 
 

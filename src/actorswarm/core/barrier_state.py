@@ -86,6 +86,11 @@ class OutgoingRelease:
     deadline: float
     retries: int = 0
     due: float = 0.0
+    #: ``entries`` are the whole firing. A firing rebuilt from reports after a failover holds
+    #: only the entries it resent: a member that found them all in one packet would take
+    #: them for the whole assignment, report it, and a later master would refuse a
+    #: candidate it does not name as stale (campaign seed 2009944).
+    whole: bool = True
 
     def packets(self, only: Iterable[int] | None, chunk: int) -> list[Release]:
         """The release as broadcast packets of at most ``chunk`` entries each."""
@@ -103,7 +108,7 @@ class OutgoingRelease:
                     entries=[self.entries[p] for p in part],
                     gathered=self.gathered,
                     origin=self.origin,
-                    total=len(self.entries),
+                    total=len(self.entries) if self.whole else 0,
                     origin_master=self.master,
                 )
             )
@@ -182,6 +187,7 @@ class MasterState:
             )
             self.inflight[ident] = rel
         rel.epoch = epoch
+        rel.whole = fired.complete_knowledge and fired.entries.keys() == fired.assigned.keys()
         rel.unacked |= targets
         rel.due = now + self._config.retry_delay(0, self.first_retry())
         self.broadcasts.extend(rel.packets(targets, self._config.release_chunk))

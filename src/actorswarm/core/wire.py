@@ -324,7 +324,9 @@ class Release(_Msg, frozen=True, tag=4):
     firing (a later master that completes it keeps both), so two partitions' firings of one
     generation stay apart, even when both sides' masters claimed the same epoch number.
     ``total`` is the number of entries of the whole firing: a member that finds them all in
-    one packet knows the complete assignment and reports it to any later master.
+    one packet knows the complete assignment and reports it to any later master. It is 0
+    when the sender does not hold the whole firing (a master completing a predecessor's
+    firing from reports resends only the entries it completes).
     """
 
     epoch: Counter
