@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable
 
 
@@ -12,6 +11,10 @@ def did_you_mean(word: str, candidates: Iterable[str]) -> str:
     A case-only difference always matches (``actor`` for ``Actor``); otherwise the candidate
     must be similar enough that the suggestion is more likely help than noise.
     """
+    # Imported here: a daemon loads this module for its error messages but rarely makes
+    # one, and difflib is half a megabyte of its memory.
+    import difflib
+
     pool = list(dict.fromkeys(candidates))
     for candidate in pool:
         if candidate.lower() == word.lower() and candidate != word:

@@ -334,3 +334,20 @@ def test_a_flood_is_taken_in_slices_with_the_loop_running_between(
         "cut_batches": 2,
     }
     assert {BATCH_LIMIT, 2 * BATCH_LIMIT} <= set(others), "other tasks ran between slices"
+
+
+def test_closing_releases_a_parked_thread_at_once() -> None:
+    """A channel's thread parked with a sample the loop never took (no drain after the
+    wake-up) ends as soon as the transport closes, as does one still in ``recv()``; none
+    is left waiting for a drain that will never come."""
+    with _peers() as (receiver, swarm, _):
+        wakes = threading.Semaphore(0)
+        receiver.watch(wakes.release)
+        swarm.send(None, b"never-drained")
+        assert wakes.acquire(timeout=15), "no wake-up for the broadcast"
+        threads = [t for t in threading.enumerate() if t.name.startswith("zenoh-rx-")]
+        assert len(threads) == 3
+        receiver.close()
+        for thread in threads:
+            thread.join(timeout=5)
+        assert not any(t.is_alive() for t in threads), "a channel's thread still waits"

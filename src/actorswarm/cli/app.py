@@ -356,7 +356,7 @@ def bench_daemons(
     ] = "lo",
     lease: Annotated[
         float | None,
-        typer.Option(min=0.1, max=3600, help="Zenoh's session lease, seconds [default: 8]."),
+        typer.Option(min=0.1, max=3600, help="Zenoh's session lease, seconds [default: 30]."),
     ] = None,
     daemons_from: Annotated[
         Path | None,

@@ -61,7 +61,7 @@ def daemon(
         typer.Option(
             min=0.1,
             max=3600,
-            help="Zenoh's session lease, seconds (default 8): how long Zenoh keeps a silent "
+            help="Zenoh's session lease, seconds (default 30): how long Zenoh keeps a silent "
             "peer's session; four keep-alives per lease on each idle link.",
         ),
     ] = None,

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from statistics import NormalDist
 from typing import Protocol
 
 from actorswarm.core.config import CoreConfig
@@ -76,6 +75,11 @@ class PhiAccrual:
     ) -> None:
         self._threshold = threshold
         self._min_std = min_std
+        # The quantile is needed once per detector: `statistics` (with `fractions` and
+        # `decimal`) is imported here rather than by every daemon, which runs the timeout
+        # detector by default.
+        from statistics import NormalDist
+
         self._z = NormalDist().inv_cdf(1.0 - 10.0 ** (-threshold)) if threshold < 15 else 8.0
         self._intervals: deque[float] = deque(maxlen=window)
         self._sum = 0.0
@@ -113,7 +117,8 @@ class PhiAccrual:
         if not math.isfinite(self._last):
             return 0.0
         mean, std = self._stats()
-        p_later = 1.0 - NormalDist(mean, std).cdf(now - self._last)
+        # The normal distribution's survival function, P(interval > silence).
+        p_later = 0.5 * math.erfc((now - self._last - mean) / (std * math.sqrt(2.0)))
         if p_later <= 0.0:
             return math.inf
         return -math.log10(p_later)

@@ -13,7 +13,7 @@ directory, so a robot's configuration can live beside its keys::
     multicast = false
     broadcast = "mesh"       # or "multicast": one datagram per broadcast on a group
     # group = "224.0.0.225:7448"; interface = "wlan0"   (broadcast = "multicast" only)
-    lease = 8.0              # Zenoh's session lease, seconds (docs/deploying.md)
+    lease = 30.0             # Zenoh's session lease, seconds (docs/deploying.md)
     keys = "keys"
     state_dir = "/var/lib/actorswarm"
     vehicle = "sim"          # or "none", or "mavlink"

@@ -55,14 +55,19 @@ random per session, so that two ``gs`` commands at once differ too).
 Multicast is UDP: no retransmission below the core (which retransmits what must arrive),
 and a datagram larger than the link's MTU is lost whole when one of its IP fragments is.
 
-The session lease (:data:`LEASE_MS`, 8 s, with :data:`KEEP_ALIVES` keep-alives per lease:
-one every 2 s on each idle link, each way) is Zenoh's own failure detection; the core
-detects failures itself (heartbeats, ``t_leave`` 0.5 s) and does not wait for it. What the
-lease bounds is how long Zenoh keeps a dead peer's session: until it expires, every packet
-for that peer goes into its transmit queue (two batches per priority) and, once that is
-full, is dropped after waiting up to 1 ms (congestion control *drop*). In a star
-membership most links of the mesh carry nothing but these keep-alives: at a 1 s lease, four
-a second each way on each of the N(N − 1)/2 links (``docs/benchmarks/README.md``). On the
+The session lease (:data:`LEASE_MS`, 30 s, with :data:`KEEP_ALIVES` keep-alives per
+lease: one every 7.5 s on each idle link, each way) is Zenoh's own failure detection; the
+core detects failures itself (heartbeats, ``t_leave`` 0.5 s) and does not wait for it. What
+the lease bounds is how long Zenoh keeps a silent peer's session (one whose process died
+with its connections still open: a robot that lost power, or one out of radio range):
+until it expires, every packet for that peer goes to its TCP connection and, once the
+socket's buffer and the session's transmit queue (two batches per priority) are full, is
+dropped after waiting up to 1 ms (congestion control *drop*). A process that dies on a
+running host closes its connections, and its peers drop its session at once, whatever the
+lease. In a star membership most links of the mesh carry nothing but these keep-alives:
+at a 1 s lease, four a second each way on each of the N(N − 1)/2 links; at 30 daemons on
+one host the 8 s lease's keep-alives were a third of what was on the wire and about
+0.15 % of a core of each member's (``docs/benchmarks/README.md``). On the
 multicast transport the lease works the same way per member, and each member sends a
 *join* on the group every :data:`JOIN_MS` (250 ms; lease / :data:`KEEP_ALIVES` if that is
 shorter). A member drops what it receives from a peer whose join it has not heard yet, so
@@ -100,14 +105,19 @@ and the loop drains again without waiting for a wake-up. The daemon's ``wake`` i
 asyncio loop however many channels park before it runs.
 
 The heartbeat channel (``beat/<id>``) parks *lazily*: its thread waits ``beat_delay_ms``
-(:data:`BEAT_DELAY_MS`, 25 ms) before it asks for a wake-up, and asks for none when the
-loop drained the channel meanwhile (woken by anything else, it drains every parked
-channel). A star master hears N − 1 members' heartbeats, each on its own: at 30 daemons
-and 10 Hz that was 290 wakes of the loop a second, each costing more than the packet it
-carried; lazily, at most 40 a second, whatever N. What it costs is up to 25 ms more before
-a member's silence is noticed (its leave takes ``t_leave`` and its probes anyway); the
+(:data:`BEAT_DELAY_MS`, 100 ms, the core's default heartbeat interval) before it asks for
+a wake-up, and asks for none when the loop drained the channel meanwhile (woken by
+anything else, it drains every parked channel). A star master hears N − 1 members'
+heartbeats, each on its own: at 30 daemons and 10 Hz that was 290 wakes of the loop a
+second, each costing more than the packet it carried. A master wakes once per heartbeat
+interval anyway, to send its own heartbeat, and that wake takes every member's heartbeat
+that waits: so its members' heartbeats ride on it, and its loop wakes about ten times a
+second whatever N (with a 25 ms delay it was up to 40 times). What it costs is up to one
+interval more before a member's silence is noticed (its leave takes ``t_leave`` and its
+probes anyway); a heartbeat waiting in the channel is taken before the tick that could
+suspect its sender, so a waiting heartbeat never makes its sender look silent. The
 master's own heartbeats, which every member's failure detection of the master hangs on,
-travel on ``all/<sender>`` and wake the loop at once.
+travel on ``all/<sender>`` and wake the loop at once, as do probes and their answers.
 """
 
 from __future__ import annotations
@@ -189,7 +199,7 @@ BROADCASTS = ("mesh", "multicast")
 DEFAULT_GROUP = "224.0.0.225:7448"
 
 #: Zenoh's session lease, milliseconds (see the module's docstring).
-LEASE_MS = 8000
+LEASE_MS = 30_000
 
 #: Chunks of the tail that keys carry on a multicast group (see the module's docstring).
 SPREAD_CHUNKS = 5
@@ -215,9 +225,10 @@ def spread_pattern(index: int) -> str:
     return "/".join(chunks)
 
 
-#: How long the heartbeat channel's thread waits before it wakes the loop, milliseconds
-#: (see the module's docstring).
-BEAT_DELAY_MS = 25
+#: How long the heartbeat channel's thread waits before it wakes the loop, milliseconds:
+#: one heartbeat interval of the core's default, so that members' heartbeats ride on the
+#: wake their master makes anyway (see the module's docstring).
+BEAT_DELAY_MS = 100
 
 #: Keep-alives per lease on an idle link.
 KEEP_ALIVES = 4
@@ -390,7 +401,12 @@ class _Channel:
         #: True from the thread's ``recv()`` returning until the loop drained the ring empty:
         #: only then does the loop take from it.
         self.parked = False
-        self.resume = threading.Event()
+        #: Held by the watching thread while it is parked; the loop releases it to let the
+        #: thread go back to ``recv()``. A bare lock, not a :class:`threading.Event`: an
+        #: Event's wait and set run Python code (a Condition) on every burst, a lock's
+        #: acquire and release none.
+        self.resume = threading.Lock()
+        self.resume.acquire()
         self.thread: threading.Thread | None = None
         self.bursts = 0  # wake-ups this channel's thread asked for (written by it only)
         self.full = 0  # drains that found the ring full (written by the loop only)
@@ -520,11 +536,10 @@ class ZenohTransport:
             ch.parked = True  # after ``held``: a parked channel's held sample is set
             # A lazy channel lets its burst gather; a loop woken meanwhile drains it (and
             # releases this thread) without being asked.
-            if not (ch.delay and ch.resume.wait(ch.delay)):
+            if not (ch.delay and ch.resume.acquire(timeout=ch.delay)):
                 ch.bursts += 1
                 wake()
-                ch.resume.wait()
-            ch.resume.clear()
+                ch.resume.acquire()
             if self._session is None:
                 return
 
@@ -561,7 +576,7 @@ class ZenohTransport:
                 ch.full += 1
             if watched and emptied:
                 ch.parked = False
-                ch.resume.set()
+                ch.resume.release()
         self.received += len(out)
         return out
 
@@ -601,7 +616,10 @@ class ZenohTransport:
         for ch in self._channels:
             ch.subscriber.undeclare()  # type: ignore[no-untyped-call]
         for ch in self._channels:
-            ch.resume.set()
+            # Only this thread (the loop's) releases, so a locked lock stays locked until
+            # this release; an unlocked one lets the thread's next acquire through anyway.
+            if ch.resume.locked():
+                ch.resume.release()
         for ch in self._channels:
             if ch.thread is not None:
                 ch.thread.join(timeout=1.0)
