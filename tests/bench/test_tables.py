@@ -322,7 +322,7 @@ def test_the_plan_adds_the_rows_beyond_the_paper() -> None:
     ("args", "message"),
     [
         (["table2", "--sizes", "5,x"], "comma-separated integers"),
-        (["table2", "--sizes", "1"], "2..5000"),
+        (["table2", "--sizes", "1"], "2..10000"),
         (["table3", "--loss", "0.1,1.5"], "above 0 and below 1"),
         (["table9"], "No such command"),
         (["all", "--mode", "fast"], "fast"),

@@ -216,12 +216,12 @@ def bench_tables(
     plan = Plan(
         tables=TABLES[which],
         modes=("sim", "real") if mode is Mode.both else (mode.value,),
-        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), "--sizes", 2, 5000),
+        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), "--sizes", 2, 10_000),
         big_sizes=_ints(
             big_sizes if big_sizes is not None else ("" if quick else "100,1000"),
             "--big-sizes",
             2,
-            5000,
+            10_000,
             empty=True,
         ),
         plugins=_ints(plugins or ("1" if quick else "1,5"), "--plugins", 1, 20),
