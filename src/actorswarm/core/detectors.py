@@ -19,11 +19,25 @@ Two detectors ship:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 from typing import Protocol
 
 from actorswarm.core.config import CoreConfig
+
+
+@functools.cache
+def _quantile(threshold: float) -> float:
+    """The standard normal quantile of ``1 - 10**-threshold`` (8 beyond threshold 15),
+    worked out once per threshold, not per peer's detector."""
+    if threshold >= 15:
+        return 8.0
+    # `statistics` (with `fractions` and `decimal`) is imported here rather than by every
+    # daemon, which runs the timeout detector by default.
+    from statistics import NormalDist
+
+    return NormalDist().inv_cdf(1.0 - 10.0 ** (-threshold))
 
 
 class LeaveDetector(Protocol):
@@ -75,12 +89,7 @@ class PhiAccrual:
     ) -> None:
         self._threshold = threshold
         self._min_std = min_std
-        # The quantile is needed once per detector: `statistics` (with `fractions` and
-        # `decimal`) is imported here rather than by every daemon, which runs the timeout
-        # detector by default.
-        from statistics import NormalDist
-
-        self._z = NormalDist().inv_cdf(1.0 - 10.0 ** (-threshold)) if threshold < 15 else 8.0
+        self._z = _quantile(threshold)
         self._intervals: deque[float] = deque(maxlen=window)
         self._sum = 0.0
         self._sumsq = 0.0
