@@ -202,6 +202,19 @@ def test_gather_and_scatter() -> None:
     assert rel.gathered == [(1, "a")], "only data actually attached is gathered"
 
 
+def test_a_key_that_does_not_gather_scatters_only() -> None:
+    """The engine's transitions: request data is for the master's scatter, and the release
+    (every chunk of it) does not carry every participant's data to all."""
+    h = Harness()
+    h.master.scatter = lambda key, gen, chosen: {p: f"slot-{i}" for p, _, i, _ in chosen}
+    h.master.gathers = lambda key: key != KEY
+    h.master.request(1, _req(2, data="a"), 0.0, EPOCH)
+    h.master.request(2, _req(2, data="b"), 0.0, EPOCH)
+    (rel,) = h.broadcasts()
+    assert {e.platform: e.data for e in rel.entries} == {1: "slot-1", 2: "slot-2"}
+    assert rel.gathered == []
+
+
 # --- master: generations -----------------------------------------------------------------
 
 

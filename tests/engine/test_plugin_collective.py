@@ -9,8 +9,11 @@ from typing import Any, ClassVar
 
 import pytest
 
+from actorswarm.core.barrier import BarrierMember
+from actorswarm.core.wire import Release
 from actorswarm.dsl import check
 from actorswarm.engine import commands as cmds
+from actorswarm.runtime.collective import PLUGIN_KEY_BASE
 from actorswarm.runtime.context import PluginContext
 from actorswarm.runtime.plugin import Param, Plugin
 from actorswarm.sim.tasksim import TaskSim
@@ -57,7 +60,17 @@ def _module() -> Any:
     del sys.modules["pc_plugins"]
 
 
-def test_plugin_barrier_gathers_scatters_and_drives_a_transition() -> None:
+def test_plugin_barrier_gathers_scatters_and_drives_a_transition(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    heard: list[Release] = []
+    on_release = BarrierMember.on_release
+
+    def spy(self: BarrierMember, rel: Release) -> Any:
+        heard.append(rel)
+        return on_release(self, rel)
+
+    monkeypatch.setattr(BarrierMember, "on_release", spy)
     text = (
         '<TaskScript name="pc" version="1"><_ActorsConfig>'
         "<Actor><_P_Name>Meet</_P_Name><OODAConfig><Bus><_P_Name>decide_bus</_P_Name>"
@@ -80,6 +93,13 @@ def test_plugin_barrier_gathers_scatters_and_drives_a_transition() -> None:
     leaders = [p for p, b in boards.items() if b.get("leader") == "granted"]
     assert len(leaders) == 1, f"one leader: {boards}"
     assert all(h.engine.runtime.running() == ("Go",) for h in sim.hosts.values())
+    # The plugin's barrier gathers; the transition's release carries only each
+    # participant's scattered share (its request data was for the master's slot assignment).
+    plugin = [r for r in heard if r.key == PLUGIN_KEY_BASE + 7]
+    engine = [r for r in heard if r.key < PLUGIN_KEY_BASE]
+    assert plugin and all(sorted(d for _, d in r.gathered) == [1, 2, 3, 4] for r in plugin)
+    assert engine and all(r.gathered == [] for r in engine)
+    assert all(e.data["to"] == "Go" for r in engine for e in r.entries if e.index)
 
 
 def test_status_reports_the_actor_control_blocks() -> None:

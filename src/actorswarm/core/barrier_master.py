@@ -55,7 +55,7 @@ class BarrierMaster(Completion):
             for other, old in inst.requests.items():
                 self._refuse(other, old, req.generation, now, epoch)
             inst = self.open[req.key] = OpenGeneration(req.generation)
-        inst.requests[platform] = req
+        inst.put(platform, req)
         start = now - req.age
         if inst.first_at is None or start < inst.first_at:
             inst.first_at = start
@@ -75,7 +75,7 @@ class BarrierMaster(Completion):
         for ident in [k for k in self._parked if k[0] == platform]:
             del self._parked[ident]
         for inst in self.open.values():
-            inst.requests.pop(platform, None)
+            inst.drop(platform)
         for waiting in self._completion_waiting.values():
             waiting.pop(platform, None)
         for rel in self.inflight.values():
@@ -110,22 +110,16 @@ class BarrierMaster(Completion):
         for key in list(self.open):
             self.try_fire(key, now, epoch)
 
-    def _needs(
-        self, key: int, inst: OpenGeneration, by_part: dict[int, list[tuple[int, BarrierRequest]]]
-    ) -> dict[int, int]:
-        """What each part waits for now. A need of NEED_ALL is never below the part's
-        candidates: a candidate runs the part's actor, even while the resolver's view of who
-        runs what lags behind."""
+    def _needs(self, key: int, inst: OpenGeneration) -> dict[int, int]:
+        """What each part waits for now: the least any request asks of it. A need of
+        NEED_ALL is never below the part's candidates: a candidate runs the part's actor,
+        even while the resolver's view of who runs what lags behind."""
         needs: dict[int, int] = {}
-        resolved: dict[tuple[int, int], int] = {}
-        for req in inst.requests.values():
-            for part, count in req.need.items():
-                n = resolved.get((part, count))
-                if n is None:
-                    n = resolved[(part, count)] = self._resolve_need(key, part, count)
-                    if count == NEED_ALL:
-                        n = resolved[(part, count)] = max(n, len(by_part.get(part, ())))
-                needs[part] = min(needs.get(part, n), n)
+        for part, count in inst.pairs:
+            n = self._resolve_need(key, part, count)
+            if count == NEED_ALL:
+                n = max(n, inst.parts.get(part, 0))
+            needs[part] = min(needs.get(part, n), n)
         return needs
 
     def needs_changed(self, now: float, epoch: int, keys: Iterable[int] | None = None) -> None:
@@ -160,15 +154,15 @@ class BarrierMaster(Completion):
             if now < until:
                 return
             del self._holds[key]
-        by_part: dict[int, list[tuple[int, BarrierRequest]]] = {}
-        for platform, req in inst.requests.items():
-            by_part.setdefault(req.part, []).append((platform, req))
-        needs = self._needs(key, inst, by_part)
+        needs = self._needs(key, inst)
         waiting = {part: n for part, n in needs.items() if n >= 1}
         if not waiting:
             return
-        if any(len(by_part.get(part, ())) < n for part, n in waiting.items()):
+        if any(inst.parts.get(part, 0) < n for part, n in waiting.items()):
             return
+        by_part: dict[int, list[tuple[int, BarrierRequest]]] = {}
+        for platform, req in inst.requests.items():
+            by_part.setdefault(req.part, []).append((platform, req))
         assigned: dict[int, tuple[int, int]] = {}
         for part, items in by_part.items():
             items.sort(key=bid_order)
@@ -199,7 +193,11 @@ class BarrierMaster(Completion):
             )
             for platform, (part, index) in assigned.items()
         }
-        gathered = [(p, req.data) for p, _, _, req in chosen if req.data is not None]
+        gathered = (
+            [(p, req.data) for p, _, _, req in chosen if req.data is not None]
+            if self.gathers(key)
+            else []
+        )
         fired = Firing(
             generation=inst.generation,
             origin=epoch,
@@ -239,7 +237,7 @@ class BarrierMaster(Completion):
                 if now >= until:
                     self.request(ident[0], req, now, epoch)  # refused now, its wait is over
             for key, inst in list(self.open.items()):
-                timeout = self._timeout(inst)
+                timeout = inst.timeout()
                 if (
                     timeout is not None
                     and inst.first_at is not None
@@ -262,16 +260,11 @@ class BarrierMaster(Completion):
                 rel.epoch = epoch
                 self.broadcasts.extend(rel.packets(rel.unacked, self._config.release_chunk))
 
-    @staticmethod
-    def _timeout(inst: OpenGeneration) -> float | None:
-        timeouts = [r.timeout for r in inst.requests.values() if r.timeout is not None]
-        return min(timeouts) if timeouts else None
-
     def next_deadline(self) -> float | None:
         best: float | None = None
         if self.ready:
             for inst in self.open.values():
-                timeout = self._timeout(inst) if inst.requests else None
+                timeout = inst.timeout() if inst.requests else None
                 if timeout is not None and inst.first_at is not None:
                     t = inst.first_at + timeout
                     best = t if best is None or t < best else best

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import BarrierFired
@@ -23,6 +23,8 @@ from actorswarm.core.wire import (
     ReleaseEntry,
     ReleaseRecord,
 )
+
+_K = TypeVar("_K")
 
 OUTCOME_NAMES = {COMPLETE: "complete", TIMEOUT: "timeout"}
 #: How many past generations a master remembers per key, and members report: a partition
@@ -37,6 +39,9 @@ RECENT_ASSIGNMENTS = 4
 NeedResolver = Callable[[int, int, int], int]
 #: Computes per-participant scatter data: (key, generation, chosen) -> {platform: data}.
 Scatter = Callable[[int, int, list[tuple[int, int, int, BarrierRequest]]], dict[int, Any]]
+#: Whether a release of barrier ``key`` carries every chosen participant's request data to
+#: all of them (``gathered``), or leaves it to the master's :data:`Scatter` alone.
+Gathers = Callable[[int], bool]
 
 
 def bid_order(item: tuple[int, BarrierRequest]) -> tuple[float, int]:
@@ -46,11 +51,61 @@ def bid_order(item: tuple[int, BarrierRequest]) -> tuple[float, int]:
 
 @dataclass(slots=True)
 class OpenGeneration:
-    """The open generation of a key: the requests waiting for it and since when."""
+    """The open generation of a key: the requests waiting for it and since when.
+
+    ``requests`` is read freely but changed only through :meth:`put` and :meth:`drop`, which
+    keep the tallies the master consults on every request and every packet: how many
+    candidates each part has, which (part, need) pairs the requests name, and the shortest
+    timeout. Recounting them from ``requests`` each time made a switch of N platforms cost
+    the master O(N²) (minutes at 10 000)."""
 
     generation: int
     requests: dict[int, BarrierRequest] = field(default_factory=dict)
     first_at: float | None = None
+    #: Candidates per part.
+    parts: dict[int, int] = field(default_factory=dict)
+    #: How many requests name each (part, need count) pair.
+    pairs: dict[tuple[int, int], int] = field(default_factory=dict)
+    _timeout: float | None = None
+    _timeout_known: bool = True
+
+    def put(self, platform: int, req: BarrierRequest) -> None:
+        """``platform``'s request, replacing any earlier one of it."""
+        self.drop(platform)
+        self.requests[platform] = req
+        self.parts[req.part] = self.parts.get(req.part, 0) + 1
+        for pair in req.need.items():
+            self.pairs[pair] = self.pairs.get(pair, 0) + 1
+        if req.timeout is not None and self._timeout_known:
+            known = self._timeout
+            self._timeout = req.timeout if known is None else min(known, req.timeout)
+
+    def drop(self, platform: int) -> None:
+        """Forget ``platform``'s request, if any."""
+        req = self.requests.pop(platform, None)
+        if req is None:
+            return
+        _decrement(self.parts, req.part)
+        for pair in req.need.items():
+            _decrement(self.pairs, pair)
+        if req.timeout is not None:
+            self._timeout_known = False  # recomputed when next asked
+
+    def timeout(self) -> float | None:
+        """The shortest timeout of the requests (None: none has one)."""
+        if not self._timeout_known:
+            timeouts = [r.timeout for r in self.requests.values() if r.timeout is not None]
+            self._timeout = min(timeouts) if timeouts else None
+            self._timeout_known = True
+        return self._timeout
+
+
+def _decrement(counts: dict[_K, int], key: _K) -> None:
+    left = counts[key] - 1
+    if left:
+        counts[key] = left
+    else:
+        del counts[key]
 
 
 @dataclass(slots=True)
@@ -133,6 +188,11 @@ class MasterState:
         #: First retransmission delay of a release (the node plugs in its measured RTT).
         self.first_retry: Callable[[], float] = lambda: config.retry_base
         self.scatter = scatter
+        #: Gather is the default: a plugin's barrier shows every participant everyone's
+        #: data. A key whose data only the master's scatter reads says no, which keeps
+        #: every release chunk O(chunk) bytes instead of O(N) (a firing of N platforms is
+        #: N / release_chunk packets, each with the whole gathered list otherwise).
+        self.gathers: Gathers = lambda key: True
         self.open: dict[int, OpenGeneration] = {}
         # Known firings per key and generation (a generation may have two: partitions that
         # each fired it). Only the last few generations are kept.
@@ -258,6 +318,7 @@ __all__ = [
     "RECENT_ASSIGNMENTS",
     "RECENT_RELEASES",
     "Firing",
+    "Gathers",
     "MasterState",
     "NeedResolver",
     "OpenGeneration",

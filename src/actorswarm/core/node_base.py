@@ -17,7 +17,7 @@ import random
 from collections import Counter
 
 from actorswarm.core import wire
-from actorswarm.core.barrier import BarrierMaster, BarrierMember, NeedResolver, Scatter
+from actorswarm.core.barrier import BarrierMaster, BarrierMember, Gathers, NeedResolver, Scatter
 from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.election import OnHeartbeat, on_heartbeat
@@ -166,6 +166,10 @@ class NodeBase:
         #: Hook for the task engine: per-participant data a release scatters (default: none,
         #: each participant learns only its index). Used whenever this platform is master.
         self.scatter: Scatter | None = None
+        #: Hook for the task engine: whether a release of a key carries every chosen
+        #: participant's request data to all (default: yes; the engine's transitions say no,
+        #: their data is read by the master's ``scatter`` alone).
+        self.gathers: Gathers = lambda key: True
 
     @property
     def view(self) -> tuple[int, ...]:
@@ -198,6 +202,7 @@ class NodeBase:
             platform=self.platform,
         )
         master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
+        master.gathers = lambda k: self.gathers(k)  # noqa: PLW0108
         master.first_retry = lambda: self.reliable.timeout(None)
         return master
 

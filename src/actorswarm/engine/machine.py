@@ -119,6 +119,10 @@ class ActorMachine:
         self._shared = SharedEvents()
         node.resolve_need = self._need
         node.scatter = self._scatter
+        # A transition's request data (the event's data, where the platform is) is for the
+        # master's slot assignment; gathering it to every participant would make each
+        # release chunk carry all N platforms' data. A plugin's barrier still gathers.
+        node.gathers = lambda key: key not in self.plan.groups
         runtime.use_script(plan.script)
 
     # --- host interface ---------------------------------------------------------------
