@@ -264,7 +264,7 @@ class BarrierMaster(Completion):
         best: float | None = None
         if self.ready:
             for inst in self.open.values():
-                timeout = inst.timeout() if inst.requests else None
+                timeout = inst.timeout()
                 if timeout is not None and inst.first_at is not None:
                     t = inst.first_at + timeout
                     best = t if best is None or t < best else best

@@ -188,10 +188,8 @@ class MasterState:
         #: First retransmission delay of a release (the node plugs in its measured RTT).
         self.first_retry: Callable[[], float] = lambda: config.retry_base
         self.scatter = scatter
-        #: Gather is the default: a plugin's barrier shows every participant everyone's
-        #: data. A key whose data only the master's scatter reads says no, which keeps
-        #: every release chunk O(chunk) bytes instead of O(N) (a firing of N platforms is
-        #: N / release_chunk packets, each with the whole gathered list otherwise).
+        #: Gather by default; a key whose data only ``scatter`` reads says no, and its
+        #: release chunks stay O(release_chunk) bytes rather than O(N) each.
         self.gathers: Gathers = lambda key: True
         self.open: dict[int, OpenGeneration] = {}
         # Known firings per key and generation (a generation may have two: partitions that
