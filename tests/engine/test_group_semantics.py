@@ -13,8 +13,11 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from actorswarm.dsl import check, load
 from actorswarm.dsl.model import TaskScript
+from actorswarm.engine.machine import ActorMachine
 from actorswarm.sim.tasksim import Fault, GroundEvent, TaskSim
 from actorswarm.world.config import loads_world
 
@@ -143,3 +146,50 @@ def test_the_search_track_recall_fires_on_its_event_in_a_world_without_a_target(
     home = [t for t in report["transitions"] if t["to"] == "Return"]
     assert len(home) == 10
     assert all(t["cause"] == "barrier" and 60.0 <= t["t"] < 60.5 for t in home), home
+
+
+def test_the_needs_the_master_keeps_are_those_a_fresh_pass_over_the_live_platforms_gives(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The master keeps each part's need until its table or its view changes (a switch of N
+    # would otherwise cost O(N²)). Every answer it gives is checked against a fresh pass,
+    # over the scenarios above where the table and the view change while a group waits.
+    kept = Counter[str]()
+    original = ActorMachine._need
+
+    def checking(self: ActorMachine, key: int, part: int, count: int) -> int:
+        stamp = (self._table_version, self.node.members.version)
+        hit = stamp == self._needs_for and (key, part, count) in self._needs
+        answer = original(self, key, part, count)
+        fresh = self._resolve(key, part, count)
+        assert answer == fresh, (self.node.platform, key, part, count, answer, fresh)
+        kept["kept" if hit else "worked out"] += 1
+        return answer
+
+    monkeypatch.setattr(ActorMachine, "_need", checking)
+    sc = script(recall("1"), '<platform id="1-2" actor="A"/><platform id="3" actor="X"/>')
+    run(
+        sc,
+        12,
+        events=[GroundEvent("recall", 5.0), GroundEvent("go_b", 8.0, frozenset({3}))],
+    )
+    sc = script(recall(), '<platform id="1-3" actor="A"/><platform id="4" actor="B"/>')
+    run(
+        sc,
+        12,
+        events=[GroundEvent("recall", 5.0, frozenset({1, 2, 3}))],
+        faults=[Fault("kill", 7.0, frozenset({4}))],
+    )
+    # B (all) gains a holder while the group waits for platform 4, which never heard it.
+    sc = script(recall(), '<platform id="1-2" actor="A"/><platform id="3" actor="X"/>'
+                '<platform id="4" actor="A"/>')  # fmt: skip
+    run(
+        sc,
+        10,
+        events=[
+            GroundEvent("recall", 5.0, frozenset({1, 2})),
+            GroundEvent("go_b", 6.0, frozenset({3})),
+        ],
+    )
+    # Both paths taken: answers kept between changes, and worked out again after them.
+    assert kept["kept"] > 0 and kept["worked out"] > 2, kept

@@ -132,6 +132,9 @@ class Membership:
         self.self_id = self_id
         self._config = config
         self.peers: dict[int, Peer] = {}
+        #: Counts the changes to who is in :attr:`peers` (a peer added or dropped): a layer
+        #: above may keep what it derives from the view for as long as this stays the same.
+        self.version = 0
         #: Peers suspected now (silent past their suspicion time, not yet gone).
         self.suspects: set[int] = set()
         self.loss = LossEstimate()
@@ -285,11 +288,13 @@ class Membership:
             last_seq=seq,
         )
         self.peers[peer] = member
+        self.version += 1
         self._refresh(peer, member, now)
         return member
 
     def _drop(self, peer: int) -> None:
         del self.peers[peer]
+        self.version += 1
         self.suspects.discard(peer)
 
     def _refresh(self, peer: int, member: Peer, now: float) -> None:

@@ -101,8 +101,13 @@ class ActorMachine:
         #: (Master) transition groups released; the host drains them.
         self.fired: list[FiredRecord] = []
         self._pending: dict[int, _Candidacy] = {}
-        # Master side: who runs which actor (from the members' reports).
+        # Master side: who runs which actor (from the members' reports). Changed only
+        # through _run_table/_forget_table/_reset_table, which count the changes: what each
+        # group part waits for is kept while neither the table nor the view changes.
         self._table: dict[int, tuple[str, ...]] = {}
+        self._table_version = 0
+        self._needs: dict[tuple[int, int, int], int] = {}
+        self._needs_for: tuple[int, int] = (-1, -1)
         # Member side: what the master runs, so that whoever succeeds a dead master can
         # announce its actors lost.
         self._master_actors: tuple[int, tuple[str, ...]] | None = None
@@ -246,7 +251,7 @@ class ActorMachine:
             if event.master is not None and event.master != self.node.platform:
                 self._announce(now)  # the new master must know what I run
         elif isinstance(event, BecameMaster):
-            self._table = {self.node.platform: self.runtime.running()}
+            self._reset_table()
             previous = self._master_actors
             if (
                 previous is not None
@@ -263,7 +268,7 @@ class ActorMachine:
             body = _ENCODE.encode(list(self.runtime.running()))
             self.node.send_app(event.platform, TOPIC_MASTER_ACTORS, body, now)
         elif isinstance(event, MemberLeft) and self.node.is_master:
-            self._relay_lost(event.platform, self._table.pop(event.platform, ()), now)
+            self._relay_lost(event.platform, self._forget_table(event.platform), now)
 
     # --- events and candidacy -----------------------------------------------------------
 
@@ -412,8 +417,7 @@ class ActorMachine:
     def _announce(self, now: float) -> None:
         running = self.runtime.running()
         if self.node.is_master:
-            before = self._table.get(self.node.platform)
-            self._table[self.node.platform] = running
+            before = self._run_table(self.node.platform, running)
             # One broadcast to every member, not one message each: O(1) packets per switch.
             self.node.post_bulletin(TOPIC_MASTER_ACTORS, _ENCODE.encode(list(running)), now)
             self._entered(self.node.platform, before, now)
@@ -423,8 +427,7 @@ class ActorMachine:
     def _app(self, msg: AppReceived, now: float) -> None:
         try:
             if msg.topic == TOPIC_ACTORS:
-                before = self._table.get(msg.sender)
-                self._table[msg.sender] = tuple(_DECODE_ACTORS.decode(msg.body))
+                before = self._run_table(msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
                 if self.node.is_master:
                     self._entered(msg.sender, before, now)
             elif msg.topic == TOPIC_WHEREABOUTS:
@@ -487,9 +490,41 @@ class ActorMachine:
         if origin != self.node.platform:
             self._on_event(event, now, bid=None, data=data, occasion=occasion)
 
+    def _reset_table(self) -> None:
+        """A new master: the table holds what this platform runs, nobody else yet."""
+        self._table = {self.node.platform: self.runtime.running()}
+        self._table_version += 1
+
+    def _run_table(self, platform: int, running: tuple[str, ...]) -> tuple[str, ...] | None:
+        """``platform`` runs ``running`` now; what the table said before (None: nothing)."""
+        before = self._table.get(platform)
+        self._table[platform] = running
+        if running != before:
+            self._table_version += 1
+        return before
+
+    def _forget_table(self, platform: int) -> tuple[str, ...]:
+        """``platform`` left: its row, removed (empty when it had none)."""
+        self._table_version += 1
+        return self._table.pop(platform, ())
+
     def _need(self, key: int, part: int, count: int) -> int:
         """What part ``part`` of group ``key`` waits for (engine/groups.py); a plugin's
-        barrier (no transition) waits for its number, or every live platform."""
+        barrier (no transition) waits for its number, or every live platform.
+
+        The core asks on every request it gets and every table change, and the answer
+        takes a pass over the live platforms; it is kept until the table or the view
+        changes, so a switch of N platforms costs the master O(N), not O(N²)."""
+        stamp = (self._table_version, self.node.members.version)
+        if stamp != self._needs_for:
+            self._needs.clear()
+            self._needs_for = stamp
+        need = self._needs.get((key, part, count))
+        if need is None:
+            need = self._needs[(key, part, count)] = self._resolve(key, part, count)
+        return need
+
+    def _resolve(self, key: int, part: int, count: int) -> int:
         live = (*self.node.members.peers, self.node.platform)
         transition = self.plan.transition(key, part)
         if transition is None:
