@@ -36,7 +36,7 @@ from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
 )
-from actorswarm.core.membership import leave_silence
+from actorswarm.core.membership import Membership, leave_silence
 from actorswarm.core.node import Node, Outgoing, Ready
 from actorswarm.core.ready import PROBE
 from actorswarm.core.roster import RosterLog, RosterView
@@ -591,6 +591,47 @@ def test_member_load_stays_flat_while_the_masters_grows() -> None:
         assert small > 0
         assert abs(large - small) <= 0.2 * small, f"platform {p}: {small} -> {large} packets/s"
     assert received[30][1] >= 2.5 * received[10][1], f"master: {received}"
+
+
+def test_a_candidate_at_a_slow_cadence_joins_and_is_not_swept_between_heartbeats() -> None:
+    """Three heartbeats at the cadence a master asks of its members must make a join, even
+    when they span more than T_join; at the normal cadence the T_join rule is unchanged."""
+    config = CoreConfig()
+    slow = Membership(1, config)
+    slow.cadence = 1.6  # a star swarm of 1000 on a 1 Mbit/s channel
+    assert slow.join_window == pytest.approx(3 * 1.6)
+    out: list[MemberJoined | MemberLeft] = []
+    for i in range(3):
+        assert 7 not in slow
+        slow.heartbeat(7, 0, 1.6 * i, out, seq=i + 1)
+        slow.expire(1.6 * i + 1.2, out)  # the candidate sweep, between two heartbeats
+    assert 7 in slow and out == [MemberJoined(platform=7, incarnation=0)]
+    normal = Membership(1, config)
+    assert normal.join_window == config.t_join
+    for i in range(3):
+        normal.heartbeat(7, 0, 0.6 * i, out, seq=i + 1)  # 1.2 s apart in all: too slow
+    assert 7 not in normal
+
+
+def test_a_restarted_member_rejoins_a_master_that_asks_for_a_slow_cadence() -> None:
+    """A channel so slow that the master asks its 9 members for one heartbeat every 1.2 s
+    (three span 2.4 s, more than T_join): the swarm forms, and a member that restarts joins
+    the view again."""
+    config = CoreConfig(channel_bitrate=12_000)  # 9 × 800 bits / (0.5 × 12 kbit/s)
+    swarm = SimSwarm(10, seed=1, config=config)
+    swarm.run_until(8.0)
+    master = swarm.node(1)
+    assert swarm.current_masters() == [1] and len(master.members) == 9
+    assert master.members.cadence == pytest.approx(1.2)
+    swarm.restart(10)
+    swarm.run_until(20.0)
+    rejoined = [
+        e.t
+        for e in swarm.log
+        if e.platform == 1 and e.event == MemberJoined(platform=10, incarnation=1)
+    ]
+    assert rejoined, "platform 10 came back but never rejoined the master's view"
+    assert 10 in master.members
 
 
 # --- 3. Boot ----------------------------------------------------------------------------
