@@ -22,7 +22,7 @@ from actorswarm.cli.app import app
 from actorswarm.cli.daemon_start import OPTIONS, parse_daemon_args
 from actorswarm.daemon.launch import free_ports
 from actorswarm.transport import ZenohSettings, ZenohTransport
-from actorswarm.transport.zenoh_transport import SMALL_ROBOT
+from actorswarm.transport.zenoh_transport import SMALL_ROBOT, SMALL_ROBOT_RUNTIME
 
 #: Never in a daemon's process (unless a plugin of a deployed script imports them).
 HEAVY = (
@@ -46,11 +46,13 @@ HEAVY = (
 runner = CliRunner()
 
 
-def _fresh(code: str) -> Any:
-    """Run ``code`` in a new interpreter; it prints one JSON value, returned."""
+def _fresh(code: str, env: dict[str, str] | None = None) -> Any:
+    """Run ``code`` in a new interpreter (with ``env`` as its environment when given); it
+    prints one JSON value, returned."""
     result = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=False
-    )
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=False,
+        env=env,
+    )  # fmt: skip
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout.strip().splitlines()[-1])
 
@@ -238,3 +240,40 @@ def test_packets_larger_than_a_batch_cross_to_and_from_a_peer_left_at_zenohs_def
             time.sleep(0.2)
             default += three.drain(100)
         assert set(packets) <= set(default)
+
+
+_THREADS = (
+    "import json, os, time\n"
+    "from actorswarm.transport import ZenohSettings, ZenohTransport\n"
+    "from actorswarm.daemon.launch import free_ports\n"
+    "port, = free_ports(1)\n"
+    "end = f'tcp/127.0.0.1:{port}'\n"
+    "with ZenohTransport('threads', 1, ZenohSettings(listen=(end,), multicast=False)) as a, \\\n"
+    "        ZenohTransport('threads', 2, ZenohSettings(connect=(end,), multicast=False)) as b:\n"
+    "    got = []\n"
+    "    deadline = time.monotonic() + 15\n"
+    "    while not got and time.monotonic() < deadline:\n"
+    "        b.send(1, b'x')\n"
+    "        time.sleep(0.1)\n"
+    "        got = a.drain(10)\n"
+    "    names = sorted(open(f'/proc/self/task/{t}/comm').read().strip()\n"
+    "                   for t in os.listdir('/proc/self/task'))\n"
+    "    print(json.dumps([bool(got), os.environ.get('ZENOH_RUNTIME'),\n"
+    "                      [n for n in names if n != 'python']]))\n"
+)
+
+
+def test_zenoh_runs_on_one_thread_unless_the_environment_says_otherwise() -> None:
+    """Two sessions linked in one fresh process exchange a packet with Zenoh's pools handed
+    over to the application pool of one worker; a ``ZENOH_RUNTIME`` of the environment is
+    kept (two workers there, and receive and transmit pools of their own)."""
+    env = {k: v for k, v in os.environ.items() if k != "ZENOH_RUNTIME"}
+    delivered, runtime, threads = _fresh(_THREADS, env)
+    assert delivered and runtime == SMALL_ROBOT_RUNTIME
+    # app-0 is the pool's worker; app-1… are blocking threads it starts on demand for
+    # the API's synchronous calls (they end when idle). No other pool has a thread.
+    assert "app-0" in threads and {name.split("-")[0] for name in threads} == {"app"}
+    own = "(app: (worker_threads: 2))"
+    delivered, runtime, threads = _fresh(_THREADS, {**env, "ZENOH_RUNTIME": own})
+    assert delivered and runtime == own
+    assert {"app-0", "app-1", "rx-0", "tx-0"} <= set(threads)

@@ -70,6 +70,12 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
         for p in (1, 2, 3):
             maps = Path(f"/proc/{swarm.procs[p].pid}/maps").read_text()
             assert "/cryptography/" not in maps and "_cffi_backend" not in maps
+    # Zenoh carried all of it in its application pool: its other pools (threads rx-0,
+    # tx-0, acc-0, net-0 when they run) were handed over to it.
+    for p in (1, 2, 3):
+        tasks = Path(f"/proc/{swarm.procs[p].pid}/task")
+        names = {(task / "comm").read_text().strip() for task in tasks.iterdir()}
+        assert "app-0" in names and {n.split("-")[0] for n in names} == {"python", "app"}
 
     # A daemon stopped cleanly and started again from its state directory comes back in a
     # new incarnation, in the script and the actor it ran.

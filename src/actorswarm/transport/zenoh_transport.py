@@ -81,6 +81,13 @@ Memory: Zenoh's buffers are sized for a small robot (:data:`SMALL_ROBOT`, the fi
 ``docs/deploying.md``): no shared-memory transport, 8 KiB batches instead of 64 KiB, and a
 1 MiB cap on a reassembled message.
 
+Threads: Zenoh runs its five thread pools (transmit, receive, accept, network, application;
+six threads by default) on one thread (:data:`SMALL_ROBOT_RUNTIME`, set in ``ZENOH_RUNTIME``
+before the first session opens unless the environment already sets it). A daemon's traffic
+is a few hundred small packets a second, and every thread handing a packet to another is a
+context switch: 30 daemons on this 2-core host took 7–14 % less CPU each with one thread
+(docs/benchmarks/README.md, "One Zenoh thread").
+
 Receiving: no Python runs per packet on Zenoh's threads. Each subscriber has a
 :class:`zenoh.handlers.RingChannel` of :data:`RX_CAPACITY` samples that Zenoh fills on its
 own threads; the host's loop takes them in batches with :meth:`ZenohTransport.drain`, the
@@ -125,6 +132,7 @@ from __future__ import annotations
 import ipaddress
 import json
 import logging
+import os
 import secrets
 import threading
 from collections.abc import Callable, Sequence
@@ -143,6 +151,7 @@ __all__ = [
     "LEASE_MS",
     "RX_CAPACITY",
     "SMALL_ROBOT",
+    "SMALL_ROBOT_RUNTIME",
     "SPREAD_CHUNKS",
     "SPREAD_PATTERNS",
     "ZenohSettings",
@@ -151,6 +160,7 @@ __all__ = [
     "check_interface",
     "key_prefix",
     "spread_pattern",
+    "use_small_robot_runtime",
 ]
 
 log = logging.getLogger("actorswarm.transport")
@@ -180,6 +190,21 @@ SMALL_ROBOT: dict[str, Any] = {
     "transport/link/rx/buffer_size": 8192,
     "transport/link/rx/max_message_size": 1 << 20,
 }
+
+#: Zenoh's thread pools for a robot's daemon (``ZENOH_RUNTIME``, read by Zenoh once per
+#: process when it starts its first session): the application pool with one worker, and
+#: every other pool handed over to it (see the module's docstring). An environment that
+#: sets ``ZENOH_RUNTIME`` itself keeps its own.
+SMALL_ROBOT_RUNTIME = (
+    "(app: (worker_threads: 1), acc: (handover: app), tx: (handover: app), "
+    "rx: (handover: app), net: (handover: app))"
+)
+
+
+def use_small_robot_runtime() -> str:
+    """Ask for :data:`SMALL_ROBOT_RUNTIME` unless ``ZENOH_RUNTIME`` is set already; returns
+    what the environment holds. Too late once this process opened a Zenoh session."""
+    return os.environ.setdefault("ZENOH_RUNTIME", SMALL_ROBOT_RUNTIME)
 
 
 #: Samples each receive channel (unicasts, broadcasts) holds before the oldest is
@@ -440,6 +465,7 @@ class ZenohTransport:
         #: Packets :meth:`drain` handed over.
         self.received = 0
         self._wake: Callable[[], None] | None = None
+        use_small_robot_runtime()
         self._session: zenoh.Session | None = zenoh.open(self.settings.config())
         ring = zenoh.handlers.RingChannel
         # On a multicast group every key has a tail, and each member matches it with a
