@@ -134,7 +134,7 @@ async def _serve_until(
 
 def test_a_burst_arrives_whole_in_a_few_batches(run_async: RunAsync) -> None:
     """A hundred packets put back to back (fewer than a channel holds) all reach the
-    endpoint, in order, in a handful of batches: one wake-up per burst, not per packet."""
+    endpoint, in order, in a few batches: one wake-up per burst, not per packet."""
     burst = 100
     with _peers() as (receiver, swarm, _):
         recorder = _Recorder()
@@ -147,8 +147,10 @@ def test_a_burst_arrives_whole_in_a_few_batches(run_async: RunAsync) -> None:
             _serve_until(receiver, recorder, send_burst, lambda: len(recorder.received()) >= burst)
         )
         assert recorder.received() == [(2, seq) for seq in range(1, burst + 1)]
-        assert 1 <= inbox.batches <= 10, inbox.as_dict()
-        assert 1 <= receiver.bursts <= 10, receiver.receive_counters()
+        # How many wakes a burst takes depends on how often the loop catches up with Zenoh's
+        # thread (on a loaded machine 19 were seen); per packet would be a hundred.
+        assert 1 <= inbox.batches <= burst // 3, inbox.as_dict()
+        assert 1 <= receiver.bursts <= burst // 3, receiver.receive_counters()
         assert inbox.packets == burst and inbox.largest_batch > 1
         assert inbox.cut_batches == 0 and receiver.ring_full == 0
         assert swarm.drain(BATCH_LIMIT) == [], "a platform does not hear its own broadcasts"
@@ -201,9 +203,9 @@ def test_the_ground_stations_packets_come_first_in_a_batch(run_async: RunAsync) 
 
 
 def test_a_burst_beyond_a_channels_capacity_loses_the_oldest_and_is_counted() -> None:
-    """A channel of 8 and 40 packets while the loop does not drain: the one the watching
-    thread holds and the newest 8 wait, the overflow is counted, nothing fails, and the
-    next packet wakes the loop again."""
+    """A channel of 8 and 40 packets while the loop does not drain: the newest 8 wait, the
+    overflow is counted, nothing fails, and the next packet wakes the loop again. No thread
+    of this process's own waits for packets: Zenoh's thread hands them over."""
     with _peers(capacity=8) as (receiver, swarm, _):
         wakes = threading.Semaphore(0)
         receiver.watch(wakes.release)
@@ -216,7 +218,7 @@ def test_a_burst_beyond_a_channels_capacity_loses_the_oldest_and_is_counted() ->
         swarm.send(1, b"end")
         assert wakes.acquire(timeout=15), "no wake-up for the unicast channel"
         got = receiver.drain(BATCH_LIMIT)
-        assert got == [b"end", b"1"] + [b"%d" % seq for seq in range(33, 41)]
+        assert got == [b"end"] + [b"%d" % seq for seq in range(33, 41)]
         assert receiver.ring_full == 1
         assert receiver.bursts == 2, "one wake-up per channel, not per packet"
         assert not wakes.acquire(timeout=0)
@@ -225,25 +227,22 @@ def test_a_burst_beyond_a_channels_capacity_loses_the_oldest_and_is_counted() ->
         assert wakes.acquire(timeout=15), "the drained channel wakes the loop again"
         assert receiver.drain(BATCH_LIMIT) == [b"41"]
         assert receiver.bursts == 3 and receiver.ring_full == 1
-        threads = [t for t in threading.enumerate() if t.name.startswith("zenoh-rx-")]
-        assert len(threads) == 3  # unicasts, broadcasts, heartbeats
-    assert not any(t.is_alive() for t in threads), "closing ends the watching threads"
+        assert not [t for t in threading.enumerate() if t.name.startswith("zenoh-rx")]
     assert receiver.drain(BATCH_LIMIT) == []
 
 
-def test_heartbeats_to_one_platform_wake_its_loop_once_per_delay() -> None:
+def test_heartbeats_to_one_platform_wait_for_the_loops_next_wake() -> None:
     """A member's heartbeats to its master travel on the master's heartbeat channel, which
-    asks for a wake-up only after its delay: ten heartbeats sent at once are one wake-up,
-    not ten; and when the loop is woken by something else meanwhile it takes them along
-    and no wake-up follows."""
+    never wakes the loop: the loop sleeps at most the channel's delay and takes them then,
+    in order; when it is woken by something else meanwhile it takes them along. With a
+    delay of 0 they wake the loop like any packet."""
     with _peers(beat_delay_ms=100) as (receiver, swarm, _):
+        assert receiver.longest_sleep == 0.1
         wakes = threading.Semaphore(0)
         receiver.watch(wakes.release)
-        start = time.monotonic()  # before the first heartbeat can arrive
         for seq in range(1, 11):
             swarm.send(1, b"beat-%d" % seq, kind="Heartbeat")
-        assert wakes.acquire(timeout=15), "no wake-up for the heartbeats"
-        assert time.monotonic() - start >= 0.09, "the heartbeat channel woke the loop at once"
+        assert not wakes.acquire(timeout=0.5), "a heartbeat woke the loop"
         got: list[bytes] = []
 
         def all_ten() -> bool:
@@ -252,24 +251,49 @@ def test_heartbeats_to_one_platform_wake_its_loop_once_per_delay() -> None:
 
         _until(all_ten, "the ten heartbeats")
         assert got == [b"beat-%d" % seq for seq in range(1, 11)]
-        assert receiver.bursts < 10, "one wake-up per heartbeat"
+        assert receiver.bursts == 0
 
-        # Woken by a unicast while a heartbeat waits: both in one drain, no wake-up after.
+        # Woken by a unicast while a heartbeat waits: both in one drain.
         for _attempt in range(20):
-            while wakes.acquire(timeout=0.3):
-                receiver.drain(BATCH_LIMIT)  # whatever an earlier attempt left
-            bursts = receiver.bursts
             swarm.send(1, b"beat", kind="Heartbeat")
-            time.sleep(0.03)  # the heartbeat's thread parks, well within its delay
+            time.sleep(0.05)  # the heartbeat lands first
             swarm.send(1, b"command")
             assert wakes.acquire(timeout=15), "no wake-up for the unicast"
             got = receiver.drain(BATCH_LIMIT)
-            if got == [b"command", b"beat"] and receiver.bursts == bursts + 1:
+            if got == [b"command", b"beat"]:
                 break
         else:
             pytest.fail("the unicast's wake never took the waiting heartbeat along")
-        assert not wakes.acquire(timeout=0.3), "a drained heartbeat channel still woke the loop"
-        assert receiver.bursts == bursts + 1
+        assert receiver.bursts == _attempt + 1, "one wake-up per unicast, none per heartbeat"
+
+    with _peers(beat_delay_ms=0) as (receiver, swarm, _):
+        assert receiver.longest_sleep is None
+        wakes = threading.Semaphore(0)
+        receiver.watch(wakes.release)
+        swarm.send(1, b"beat", kind="Heartbeat")
+        assert wakes.acquire(timeout=15), "with no delay a heartbeat wakes the loop"
+        assert receiver.drain(BATCH_LIMIT) == [b"beat"]
+
+
+def test_the_loop_takes_waiting_heartbeats_within_the_channels_delay(
+    run_async: RunAsync, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Through the daemon's loop, with nothing else to wake it for a minute: heartbeats
+    sent to the platform reach the endpoint within about the channel's delay, because the
+    loop never sleeps longer than that."""
+    monkeypatch.setattr(loop_module, "_IDLE", 60.0)
+    with _peers(beat_delay_ms=100) as (receiver, swarm, _):
+        recorder = _Recorder()
+
+        def send_beats() -> None:
+            for seq in range(1, 6):
+                swarm.send(1, _packet(2, seq), kind="Heartbeat")
+
+        run_async(
+            _serve_until(receiver, recorder, send_beats, lambda: len(recorder.received()) >= 5)
+        )
+        assert recorder.received() == [(2, seq) for seq in range(1, 6)]
+        assert receiver.bursts == 0
 
 
 class _Source:
@@ -278,6 +302,7 @@ class _Source:
     def __init__(self) -> None:
         self.waiting: list[bytes] = []
         self.wake: Callable[[], None] | None = None
+        self.longest_sleep: float | None = None
 
     def watch(self, wake: Callable[[], None]) -> None:
         self.wake = wake
@@ -336,18 +361,17 @@ def test_a_flood_is_taken_in_slices_with_the_loop_running_between(
     assert {BATCH_LIMIT, 2 * BATCH_LIMIT} <= set(others), "other tasks ran between slices"
 
 
-def test_closing_releases_a_parked_thread_at_once() -> None:
-    """A channel's thread parked with a sample the loop never took (no drain after the
-    wake-up) ends as soon as the transport closes, as does one still in ``recv()``; none
-    is left waiting for a drain that will never come."""
+def test_a_closed_transport_takes_and_announces_nothing() -> None:
+    """Packets that waited when the transport closed are gone with it, and what arrives
+    after asks for no wake-up: nobody is left to take it."""
     with _peers() as (receiver, swarm, _):
         wakes = threading.Semaphore(0)
         receiver.watch(wakes.release)
         swarm.send(None, b"never-drained")
         assert wakes.acquire(timeout=15), "no wake-up for the broadcast"
-        threads = [t for t in threading.enumerate() if t.name.startswith("zenoh-rx-")]
-        assert len(threads) == 3
         receiver.close()
-        for thread in threads:
-            thread.join(timeout=5)
-        assert not any(t.is_alive() for t in threads), "a channel's thread still waits"
+        assert receiver.drain(BATCH_LIMIT) == []
+        swarm.send(None, b"after")
+        swarm.send(1, b"after")
+        assert not wakes.acquire(timeout=0.5)
+        assert receiver.drain(BATCH_LIMIT) == []

@@ -115,9 +115,10 @@ class Inbox:
 
     async def wait(self, timeout: float) -> None:
         """Return when packets are queued, :meth:`notify` or :meth:`poke` was called, the
-        last :meth:`take` left packets waiting, or ``timeout`` seconds passed, whichever
-        comes first. A :meth:`take` that left packets waiting is followed by one turn of
-        the event loop only, so other tasks run between two slices of a flood."""
+        last :meth:`take` left packets waiting, or ``timeout`` seconds passed (at most the
+        source's ``longest_sleep``), whichever comes first. A :meth:`take` that left
+        packets waiting is followed by one turn of the event loop only, so other tasks run
+        between two slices of a flood."""
         if self._more:
             self._more = False
             await asyncio.sleep(0)
@@ -125,6 +126,8 @@ class Inbox:
         if self._packets or self._poked:
             self._poked = False
             return
+        if self.source is not None and self.source.longest_sleep is not None:
+            timeout = min(timeout, self.source.longest_sleep)
         waiter = self._waiter = self._loop.create_future()
         timer = self._loop.call_later(timeout, self._release)
         try:

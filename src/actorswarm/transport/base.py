@@ -36,10 +36,17 @@ class Receiver(Protocol):
     """Packets that arrived and wait to be taken, in batches, by the host's loop.
 
     :meth:`watch` gives the receiver its wake-up: it calls ``wake()`` (from any thread) when
-    packets start waiting, once per burst, not once per packet. :meth:`drain` (on the loop's
-    thread) takes what waits, the ground station's channel first; after a drain that took
-    everything, the next packet calls ``wake`` again, so no packet waits unseen.
+    packets start waiting, once per burst, not once per packet — or, for packets that may
+    wait, not at all, and the loop then sleeps no longer than :attr:`longest_sleep`.
+    :meth:`drain` (on the loop's thread) takes what waits, the ground station's channel
+    first; after a drain that took everything, the next packet calls ``wake`` again, so no
+    packet waits unseen.
     """
+
+    #: The longest the loop may sleep between two drains (seconds), for packets that wait
+    #: without a wake-up of their own (a channel drained on the loop's other wakes); None:
+    #: every packet wakes the loop.
+    longest_sleep: float | None
 
     def watch(self, wake: Callable[[], None]) -> None:
         """Call ``wake`` whenever packets start waiting (once per burst, any thread)."""

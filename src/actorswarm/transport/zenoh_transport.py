@@ -85,46 +85,45 @@ Threads: Zenoh runs its five thread pools (transmit, receive, accept, network, a
 six threads by default) on one thread (:data:`SMALL_ROBOT_RUNTIME`, set in ``ZENOH_RUNTIME``
 before the first session opens unless the environment already sets it). A daemon's traffic
 is a few hundred small packets a second, and every thread handing a packet to another is a
-context switch: 30 daemons on this 2-core host took 7–14 % less CPU each with one thread
-(docs/benchmarks/README.md, "One Zenoh thread").
+context switch (docs/benchmarks/README.md, "One Zenoh thread and no receiving threads":
+with 30 daemons on a 2-core host, the master's CPU fell from 3.6–4.0 % of a core to 3.3 %).
 
-Receiving: no Python runs per packet on Zenoh's threads. Each subscriber has a
-:class:`zenoh.handlers.RingChannel` of :data:`RX_CAPACITY` samples that Zenoh fills on its
-own threads; the host's loop takes them in batches with :meth:`ZenohTransport.drain`, the
-unicast channel (``to/<id>``, which carries every ground-station command) first. A burst
-beyond a channel's capacity overwrites its *oldest* samples: Zenoh's threads never block on
-a busy loop (a blocked receive thread would stall the whole link, keep-alives included),
-and the newest heartbeat is worth more than an old one; the core retransmits what must
-arrive. A drain that finds a channel full counts one in ``ring_full`` (Zenoh does not count
-what the ring overwrote, so this says that packets were probably lost, not how many).
+Receiving: packets wait in bounded channels of :data:`RX_CAPACITY` until the host's loop
+takes them in batches with :meth:`ZenohTransport.drain`, the unicast channel (``to/<id>``,
+which carries every ground-station command) first. A burst beyond a channel's capacity
+overwrites its *oldest* packets: Zenoh's thread never waits for a busy loop (a blocked
+receive thread would stall the whole link, keep-alives included), and the newest heartbeat
+is worth more than an old one; the core retransmits what must arrive. A drain that finds a
+channel full counts one in ``ring_full`` (packets were probably lost).
 
-Wake-ups (:meth:`ZenohTransport.watch`): one thread per channel blocks in the channel's
-``recv()`` (Zenoh releases the GIL there). When a sample arrives it *parks*: it holds that
-sample for the loop, calls ``wake()`` once and waits until the loop has drained the
-channel empty; meanwhile the burst piles up in the ring, with no Python per sample. The
-loop drains only a parked channel (so it and the thread never take from one channel at
-once, and the order stays the channel's), and releases the thread only after ``try_recv``
-found the ring empty. No packet can be stranded: a sample that arrives after that empty
-``try_recv`` is in the ring when the released thread calls ``recv()``, which returns at
-once and wakes the loop again; a drain cut short by its limit keeps the thread parked,
-and the loop drains again without waiting for a wake-up. The daemon's ``wake`` is
-:meth:`actorswarm.daemon.loop.Inbox.notify`, which schedules at most one wake of the
-asyncio loop however many channels park before it runs.
+Wake-ups (:meth:`ZenohTransport.watch`): the unicast and broadcast channels are filled by a
+callback that Zenoh runs on its own thread, and that does as little as Python can: it
+appends the packet's bytes to the channel's queue and, for the first packet after a drain
+emptied the channel, calls ``wake()`` — once per burst, however many packets follow
+before the loop runs. (Before, one Python thread per channel blocked in a
+:class:`zenoh.handlers.RingChannel`'s ``recv()``, parked while the loop drained and went
+back: three context switches per burst, and zenoh-python's blocking ``recv()`` wakes every
+100 ms to look for signals, thirty wakes a second of an idle daemon for nothing: 0.35 % of
+a core of a member's 1.1 %.) A drain marks the channel quiet *before* it takes, so a packet
+that arrives while it takes wakes the loop again rather than wait unseen. The daemon's
+``wake`` is :meth:`actorswarm.daemon.loop.Inbox.notify`, which schedules at most one wake
+of the asyncio loop however many channels ask before it runs.
 
-The heartbeat channel (``beat/<id>``) parks *lazily*: its thread waits ``beat_delay_ms``
-(:data:`BEAT_DELAY_MS`, 100 ms, the core's default heartbeat interval) before it asks for
-a wake-up, and asks for none when the loop drained the channel meanwhile (woken by
-anything else, it drains every parked channel). A star master hears N − 1 members'
-heartbeats, each on its own: at 30 daemons and 10 Hz that was 290 wakes of the loop a
-second, each costing more than the packet it carried. A master wakes once per heartbeat
-interval anyway, to send its own heartbeat, and that wake takes every member's heartbeat
-that waits: so its members' heartbeats ride on it, and its loop wakes about ten times a
-second whatever N (with a 25 ms delay it was up to 40 times). What it costs is up to one
-interval more before a member's silence is noticed (its leave takes ``t_leave`` and its
-probes anyway); a heartbeat waiting in the channel is taken before the tick that could
-suspect its sender, so a waiting heartbeat never makes its sender look silent. The
-master's own heartbeats, which every member's failure detection of the master hangs on,
-travel on ``all/<sender>`` and wake the loop at once, as do probes and their answers.
+The heartbeat channel (``beat/<id>``) runs no Python per packet at all: it is a
+:class:`zenoh.handlers.RingChannel` that Zenoh fills and that nobody watches; every drain
+empties it, and the loop never sleeps longer than ``beat_delay_ms`` (:data:`BEAT_DELAY_MS`,
+100 ms, the core's default heartbeat interval; :attr:`ZenohTransport.longest_sleep`). A
+star master hears N − 1 members' heartbeats, each on its own: at 30 daemons and 10 Hz that
+was 290 wakes of the loop a second, each costing more than the packet it carried. A
+platform wakes once per heartbeat interval anyway, to send its own heartbeat, and that wake
+takes every member's heartbeat that waits: so its members' heartbeats ride on it, and its
+loop wakes about ten times a second whatever N. What it costs is up to one interval more
+before a member's silence is noticed (its leave takes ``t_leave`` and its probes anyway); a
+heartbeat waiting in the channel is taken before the tick that could suspect its sender, so
+a waiting heartbeat never makes its sender look silent. With ``beat_delay_ms`` 0 the
+heartbeat channel wakes the loop like the others. The master's own heartbeats, which every
+member's failure detection of the master hangs on, travel on ``all/<sender>`` and wake the
+loop at once, as do probes and their answers.
 """
 
 from __future__ import annotations
@@ -134,7 +133,7 @@ import json
 import logging
 import os
 import secrets
-import threading
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
@@ -405,36 +404,61 @@ class ZenohSettings:
 
 
 class _Channel:
-    """One subscriber's ring and the thread that watches it (see the module's docstring)."""
+    """One subscriber's packets and how they wake the loop (see the module's docstring):
+    a queue that Zenoh's thread appends to through :meth:`on_sample`, or (``ring``) a
+    :class:`zenoh.handlers.RingChannel` nobody watches, emptied by every drain."""
 
-    __slots__ = (
-        "bursts", "capacity", "delay", "full", "held", "parked", "resume", "subscriber", "thread",
-    )  # fmt: skip
+    __slots__ = ("announced", "bursts", "capacity", "full", "queue", "ring", "subscriber", "wake")
 
-    def __init__(
-        self,
-        subscriber: zenoh.Subscriber[zenoh.Handler[zenoh.Sample]],
-        capacity: int,
-        delay: float = 0.0,
-    ):
-        self.subscriber = subscriber
+    def __init__(self, capacity: int, *, ring: bool = False) -> None:
         self.capacity = capacity
-        #: Seconds a parked thread waits before it asks for a wake-up (0: at once).
-        self.delay = delay
-        #: The sample the watching thread took with ``recv()``, for the loop to take first.
-        self.held: zenoh.Sample | None = None
-        #: True from the thread's ``recv()`` returning until the loop drained the ring empty:
-        #: only then does the loop take from it.
-        self.parked = False
-        #: Held by the watching thread while it is parked; the loop releases it to let the
-        #: thread go back to ``recv()``. A bare lock, not a :class:`threading.Event`: an
-        #: Event's wait and set run Python code (a Condition) on every burst, a lock's
-        #: acquire and release none.
-        self.resume = threading.Lock()
-        self.resume.acquire()
-        self.thread: threading.Thread | None = None
-        self.bursts = 0  # wake-ups this channel's thread asked for (written by it only)
-        self.full = 0  # drains that found the ring full (written by the loop only)
+        self.queue: deque[bytes] = deque(maxlen=capacity)
+        self.ring = ring
+        #: Set with the subscriber's declaration.
+        self.subscriber: zenoh.Subscriber[Any] | None = None
+        #: The loop's wake-up, once :meth:`ZenohTransport.watch` gave it.
+        self.wake: Callable[[], None] | None = None
+        #: True from the first packet of a burst until a drain takes the channel's packets:
+        #: the burst asked for its wake-up.
+        self.announced = False
+        self.bursts = 0  # wake-ups this channel asked for (written on Zenoh's thread only)
+        self.full = 0  # drains that found the channel full (written by the loop only)
+
+    def on_sample(self, sample: zenoh.Sample) -> None:
+        """Zenoh's callback, on its thread: keep the packet, wake the loop once per burst.
+        (Appending to a full deque drops its oldest: the ring's behaviour.)"""
+        self.queue.append(sample.payload.to_bytes())
+        if self.announced:
+            return
+        self.announced = True
+        wake = self.wake
+        if wake is not None:
+            self.bursts += 1
+            wake()
+
+    def take(self, out: list[bytes], limit: int) -> None:
+        """Move waiting packets to ``out`` until it holds ``limit`` (on the loop's thread)."""
+        if self.ring:
+            assert self.subscriber is not None
+            try_recv = self.subscriber.handler.try_recv
+            taken = 0
+            while len(out) < limit:
+                sample = try_recv()
+                if sample is None:
+                    break
+                out.append(sample.payload.to_bytes())
+                taken += 1
+            if taken >= self.capacity:
+                self.full += 1
+            return
+        queue = self.queue
+        if len(queue) >= self.capacity:
+            self.full += 1
+        # Quiet before taking: a packet that arrives meanwhile asks for a wake of its own
+        # (at worst one that finds nothing) instead of waiting unseen.
+        self.announced = False
+        while queue and len(out) < limit:
+            out.append(queue.popleft())
 
 
 class ZenohTransport:
@@ -467,7 +491,6 @@ class ZenohTransport:
         self._wake: Callable[[], None] | None = None
         use_small_robot_runtime()
         self._session: zenoh.Session | None = zenoh.open(self.settings.config())
-        ring = zenoh.handlers.RingChannel
         # On a multicast group every key has a tail, and each member matches it with a
         # pattern of its own (see the module's docstring).
         self._tail, pattern = "", ""
@@ -476,31 +499,28 @@ class ZenohTransport:
             index = platform or 65536 + secrets.randbelow(SPREAD_PATTERNS - 65536)
             self._tail, pattern = f"/{_SPREAD}", f"/{spread_pattern(index)}"
         # Unicasts first: the ground station only ever sends to one platform (``to/<id>``),
-        # so its commands are in the first channel a drain empties. Our own broadcasts are
-        # left out by Zenoh itself (REMOTE), not looked at per sample.
+        # so its commands are in the first channel a drain empties.
+        delay = self.settings.beat_delay_ms / 1000
         self._channels = (
-            _Channel(
-                self._session.declare_subscriber(
-                    f"{self._prefix}/to/{platform}{pattern}", ring(capacity)
-                ),
-                capacity,
-            ),
-            _Channel(
-                self._session.declare_subscriber(
-                    f"{self._prefix}/all/*{pattern}",
-                    ring(capacity),
-                    allowed_origin=zenoh.Locality.REMOTE,
-                ),
-                capacity,
-            ),
-            _Channel(
-                self._session.declare_subscriber(
-                    f"{self._prefix}/beat/{platform}{pattern}", ring(capacity)
-                ),
-                capacity,
-                self.settings.beat_delay_ms / 1000,
-            ),
+            _Channel(capacity),
+            _Channel(capacity),
+            _Channel(capacity, ring=delay > 0),
         )
+        #: The longest the host's loop may sleep between two drains (the heartbeat
+        #: channel's delay; None when every channel wakes the loop).
+        self.longest_sleep: float | None = delay if delay > 0 else None
+        keys = (f"to/{platform}", "all/*", f"beat/{platform}")
+        for ch, key in zip(self._channels, keys, strict=True):
+            handler: Any = (
+                zenoh.handlers.RingChannel(capacity)
+                if ch.ring
+                else zenoh.handlers.Callback(ch.on_sample, indirect=False)
+            )
+            # Our own broadcasts are left out by Zenoh itself (REMOTE), not looked at.
+            origin = zenoh.Locality.REMOTE if key == "all/*" else zenoh.Locality.ANY
+            ch.subscriber = self._session.declare_subscriber(
+                f"{self._prefix}/{key}{pattern}", handler, allowed_origin=origin
+            )
         # One publisher per destination and priority, declared on first use ("all" for
         # broadcasts): a declared publisher is cheaper per put than a bare session.put.
         self._publishers: dict[tuple[str, bool], zenoh.Publisher] = {}
@@ -537,72 +557,30 @@ class ZenohTransport:
         return {"bursts": self.bursts, "ring_full": self.ring_full}
 
     def watch(self, wake: Callable[[], None]) -> None:
-        """Call ``wake()`` (on a thread of this transport's) whenever packets start waiting
-        after a drain emptied their channel: once per burst. Once per transport; packets
-        that arrived before are announced at once."""
+        """Call ``wake()`` (on Zenoh's thread) whenever packets start waiting after a drain
+        took their channel's: once per burst (the heartbeat channel never: see
+        :attr:`longest_sleep`). Once per transport; packets that arrived before are
+        announced at once."""
         if self._wake is not None:
             raise RuntimeError(f"{self!r} is already watched")
         if self._session is None:
             return
         self._wake = wake
-        for n, ch in enumerate(self._channels):
-            ch.thread = threading.Thread(
-                target=self._watch, args=(ch, wake), name=f"zenoh-rx-{n}", daemon=True
-            )
-            ch.thread.start()
-
-    def _watch(self, ch: _Channel, wake: Callable[[], None]) -> None:
-        recv = ch.subscriber.handler.recv
-        while True:
-            try:
-                sample = recv()  # blocks without the GIL
-            except zenoh.ZError:
-                return  # the subscriber was undeclared: the transport closed
-            ch.held = sample
-            ch.parked = True  # after ``held``: a parked channel's held sample is set
-            # A lazy channel lets its burst gather; a loop woken meanwhile drains it (and
-            # releases this thread) without being asked.
-            if not (ch.delay and ch.resume.acquire(timeout=ch.delay)):
-                ch.bursts += 1
-                wake()
-                ch.resume.acquire()
-            if self._session is None:
-                return
+        for ch in self._channels:
+            ch.wake = wake
+        if any(ch.queue for ch in self._channels):
+            wake()
 
     def drain(self, limit: int) -> list[bytes]:
         """Up to ``limit`` packets that wait, unicasts, then broadcasts, then heartbeats,
-        each channel's oldest first (on the loop's thread). Never blocks. Without
-        :meth:`watch`, simply what the channels hold; with it, only the channels whose thread
-        parked (see the module's docstring)."""
+        each channel's oldest first (on the loop's thread). Never blocks."""
         out: list[bytes] = []
         if self._session is None:
             return out
-        watched = self._wake is not None
         for ch in self._channels:
             if len(out) >= limit:
                 break
-            if watched:
-                if not ch.parked:
-                    continue  # its thread is in recv(): anything new wakes the loop
-                held = ch.held
-                if held is not None:
-                    ch.held = None
-                    out.append(held.payload.to_bytes())
-            try_recv = ch.subscriber.handler.try_recv
-            taken = 0
-            emptied = False
-            while len(out) < limit:
-                sample = try_recv()
-                if sample is None:
-                    emptied = True
-                    break
-                out.append(sample.payload.to_bytes())
-                taken += 1
-            if taken >= ch.capacity:
-                ch.full += 1
-            if watched and emptied:
-                ch.parked = False
-                ch.resume.release()
+            ch.take(out, limit)
         self.received += len(out)
         return out
 
@@ -637,18 +615,10 @@ class ZenohTransport:
         session, self._session = self._session, None
         if session is None:
             return
-        # Undeclaring ends a watching thread's recv() (ZError); a parked one is released
-        # and sees the session gone.
         for ch in self._channels:
-            ch.subscriber.undeclare()  # type: ignore[no-untyped-call]
-        for ch in self._channels:
-            # Only this thread (the loop's) releases, so a locked lock stays locked until
-            # this release; an unlocked one lets the thread's next acquire through anyway.
-            if ch.resume.locked():
-                ch.resume.release()
-        for ch in self._channels:
-            if ch.thread is not None:
-                ch.thread.join(timeout=1.0)
+            ch.wake = None
+            if ch.subscriber is not None:
+                ch.subscriber.undeclare()  # type: ignore[no-untyped-call]
         for pub in self._publishers.values():
             pub.undeclare()  # type: ignore[no-untyped-call]
         self._publishers.clear()
