@@ -1,4 +1,4 @@
-"""Batched receive: Zenoh's packets wait in ring channels and the daemon's loop takes them
+"""Batched receive: Zenoh's packets wait in bounded channels and the daemon's loop takes them
 in batches, one wake-up per burst, the ground station's first, bounded both in what waits
 and in what one wake takes.
 
@@ -208,6 +208,7 @@ def test_a_burst_beyond_a_channels_capacity_loses_the_oldest_and_is_counted() ->
     of this process's own waits for packets: Zenoh's thread hands them over."""
     with _peers(capacity=8) as (receiver, swarm, _):
         wakes = threading.Semaphore(0)
+        threads = threading.active_count()
         receiver.watch(wakes.release)
         swarm.send(None, b"1")
         assert wakes.acquire(timeout=15), "no wake-up for the first packet"
@@ -227,7 +228,7 @@ def test_a_burst_beyond_a_channels_capacity_loses_the_oldest_and_is_counted() ->
         assert wakes.acquire(timeout=15), "the drained channel wakes the loop again"
         assert receiver.drain(BATCH_LIMIT) == [b"41"]
         assert receiver.bursts == 3 and receiver.ring_full == 1
-        assert not [t for t in threading.enumerate() if t.name.startswith("zenoh-rx")]
+        assert threading.active_count() == threads, "watching started Python threads"
     assert receiver.drain(BATCH_LIMIT) == []
 
 

@@ -100,11 +100,10 @@ Wake-ups (:meth:`ZenohTransport.watch`): the unicast and broadcast channels are 
 callback that Zenoh runs on its own thread, and that does as little as Python can: it
 appends the packet's bytes to the channel's queue and, for the first packet after a drain
 emptied the channel, calls ``wake()`` — once per burst, however many packets follow
-before the loop runs. (Before, one Python thread per channel blocked in a
-:class:`zenoh.handlers.RingChannel`'s ``recv()``, parked while the loop drained and went
-back: three context switches per burst, and zenoh-python's blocking ``recv()`` wakes every
-100 ms to look for signals, thirty wakes a second of an idle daemon for nothing: 0.35 % of
-a core of a member's 1.1 %.) A drain marks the channel quiet *before* it takes, so a packet
+before the loop runs. No Python thread waits in a channel's ``recv()``: that costs
+context switches on every burst, and zenoh-python's blocking ``recv()`` wakes every 100 ms
+to look for signals (an idle member's three such threads took 0.35 % of its 1.1 % of a
+core). A drain marks the channel quiet *before* it takes, so a packet
 that arrives while it takes wakes the loop again rather than wait unseen. The daemon's
 ``wake`` is :meth:`actorswarm.daemon.loop.Inbox.notify`, which schedules at most one wake
 of the asyncio loop however many channels ask before it runs.
