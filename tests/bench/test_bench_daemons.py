@@ -18,9 +18,11 @@ from actorswarm.bench.daemons import (
     daemons_env,
     from_json,
     markdown,
+    read_cpu_ns,
     read_cpu_seconds,
     read_interface_packets,
     read_memory_kib,
+    switch_cpu,
     switch_script,
     to_json,
 )
@@ -32,6 +34,20 @@ def test_proc_readers_see_this_process() -> None:
     rss, anon = read_memory_kib(os.getpid())
     assert 0 < anon <= rss
     assert read_cpu_seconds(os.getpid()) > 0
+    first = read_cpu_ns(os.getpid())
+    sum(range(200_000))  # some CPU
+    assert read_cpu_ns(os.getpid()) > first > 0
+
+
+def test_a_switch_costs_what_the_swarm_used_beyond_its_idle_rate() -> None:
+    # Idle: 10 ms of CPU per second. Then 80 ms over the 0.5 s of the switch: 75 ms of it
+    # was the switch.
+    idle, before, after = (1_000_000_000, 10.0), (1_010_000_000, 11.0), (1_090_000_000, 11.5)
+    assert math.isclose(switch_cpu(idle, before, after), 0.075)
+    # Less than idle (a daemon slept through): negative, not hidden.
+    assert switch_cpu(idle, before, (1_012_000_000, 11.5)) < 0
+    with pytest.raises(ValueError, match="out of order"):
+        switch_cpu(before, idle, after)
 
 
 def test_the_command_refuses_a_swarm_of_one_before_starting_anything() -> None:
@@ -133,11 +149,13 @@ def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
         assert 0 < w.first_s <= w.last_s < 10.0
         assert math.isclose(w.spread_s, w.last_s - w.first_s, abs_tol=1e-9)
         assert sum(w.causes.values()) == 3
+        assert math.isfinite(w.cpu_s), "the swarm's CPU is measured for every switch done"
 
     text = markdown(result)
     assert "Command: `test`" in text
     assert "## Against docs/design.md §8" in text
     assert "None: every run completed." in text
+    assert "| swarm CPU, ms (per platform) |" in text
     assert "| CPU per member, idle, N=3" in text and "| CPU of the master, idle, N=3" in text
     data = json.loads(json.dumps(to_json(result), allow_nan=False))
     assert data["machine"]["cpus"] >= 1

@@ -26,7 +26,9 @@ the others in its view and they agree on one master, and measures:
   (A → B on ``go``, B → A on ``back``; each a barrier of every platform, ``sysNum="all"``),
   starts it and fires the events in turn. From the bench's clock just before the event is
   sent to the latest ``transition`` log line of the platforms (the switch time), and the
-  spread between the first and the last platform switching.
+  spread between the first and the last platform switching. And the CPU the switch cost
+  the swarm (:func:`switch_cpu`: every daemon's run time, less its idle rate), which on a
+  machine whose cores every daemon shares bounds the switch time from below.
 
 Every time compared is :func:`time.monotonic` (CLOCK_MONOTONIC), one clock for every process
 on the machine: the daemons stamp their log lines and transitions with it. A run that does
@@ -40,6 +42,7 @@ describes.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import math
 import os
@@ -181,6 +184,9 @@ class SwitchRun:
     spread_s: float  # last - first platform (nan: not every platform)
     causes: dict[str, int] = field(default_factory=dict)
     error: str = ""
+    #: CPU every daemon together spent on the switch beyond its idle rate, seconds (nan: not
+    #: measured; see :func:`switch_cpu`).
+    cpu_s: float = math.nan
 
 
 @dataclass(slots=True)
@@ -247,6 +253,44 @@ def read_cpu_seconds(pid: int) -> float:
     rest = text[text.rindex(")") + 2 :].split()
     utime, stime = int(rest[11]), int(rest[12])  # fields 14 and 15 of proc(5)
     return (utime + stime) / os.sysconf("SC_CLK_TCK")
+
+
+#: Seconds a switch's measurement of CPU goes on after the last platform switched: its
+#: acknowledgements, the backups and status files the transition writes.
+_SWITCH_TAIL = 0.2
+
+
+def read_cpu_ns(pid: int) -> int:
+    """CPU time process ``pid`` used so far, nanoseconds: the sum over its threads of the
+    scheduler's run time (``/proc/PID/task/*/schedstat``), exact where
+    :func:`read_cpu_seconds` counts in clock ticks (10 ms), too coarse to sum over 30
+    processes for one switch. Falls back to the ticks where the kernel keeps no schedstat.
+    OSError when the process is gone."""
+    total = 0
+    try:
+        tasks = os.listdir(f"/proc/{pid}/task")
+        for task in tasks:
+            with contextlib.suppress(FileNotFoundError):  # a thread that just ended
+                total += int(Path(f"/proc/{pid}/task/{task}/schedstat").read_text().split()[0])
+    except FileNotFoundError:
+        if not Path(f"/proc/{pid}").exists():
+            raise
+        return round(read_cpu_seconds(pid) * 1e9)
+    return total
+
+
+def switch_cpu(
+    idle: tuple[int, float], before: tuple[int, float], after: tuple[int, float]
+) -> float:
+    """CPU seconds a switch cost the swarm: what every daemon used from ``before`` (just
+    before the event was sent) to ``after`` (once every platform switched and the last
+    acknowledgements settled), less what it would have used idle over that time, at the
+    rate measured from ``idle`` to ``before``. Each point is (summed CPU ns, clock s)."""
+    (c0, t0), (c1, t1), (c2, t2) = idle, before, after
+    if not t0 < t1 <= t2:
+        raise ValueError(f"switch_cpu: times out of order: {t0}, {t1}, {t2}")
+    rate = (c1 - c0) / (t1 - t0)
+    return (c2 - c1 - rate * (t2 - t1)) / 1e9
 
 
 def machine_info() -> dict[str, Any]:
@@ -646,12 +690,24 @@ async def run_switches(
             await asyncio.sleep(settings.settle)
             progress(f"N={size}: CPU and memory with the script running ({settings.window:.0f} s)")
             result.resources.append(await measure_resources(swarm, "script", settings.window))
+
+        def swarm_cpu() -> int:
+            total = 0
+            for proc in swarm.procs.values():
+                with contextlib.suppress(OSError):  # a daemon that died is not counted
+                    total += read_cpu_ns(proc.pid)
+            return total
+
         for i in range(settings.switches):
             event, src, dst = FORWARD if i % 2 == 0 else BACKWARD
             progress(f"N={size}: collective switch {i + 1}/{settings.switches} ({src} → {dst})")
-            await asyncio.sleep(1.0)  # the previous switch's acknowledgements settle
+            # The previous switch's acknowledgements settle, then the idle rate is taken.
+            await asyncio.sleep(0.5)
+            idle = (swarm_cpu(), clock())
+            await asyncio.sleep(0.5)
             logs.mark()
             sent_at = clock()
+            before = (swarm_cpu(), sent_at)
 
             def fire(st: GroundStation, now: float, event: str = event) -> None:
                 st.event(event, now, platforms=everyone)
@@ -676,7 +732,9 @@ async def run_switches(
             causes: dict[str, int] = {}
             for _, cause in got.values():
                 causes[cause] = causes.get(cause, 0) + 1
+            await asyncio.sleep(_SWITCH_TAIL)  # the acknowledgements and backups after it
             run = SwitchRun(
+                cpu_s=switch_cpu(idle, before, (swarm_cpu(), clock())) if done else math.nan,
                 event=event,
                 src=src,
                 dst=dst,
@@ -829,6 +887,17 @@ def _ms_stats(values: Sequence[float]) -> str:
     )
 
 
+def _cpu_per_switch(values: Sequence[float], size: int) -> str:
+    """``median (min–max) (median per platform)`` in ms of CPU, or — when not measured."""
+    clean = _finite(values)
+    if not clean:
+        return "—"
+    mid = statistics.median(clean)
+    return (
+        f"{mid * 1e3:.0f} ({min(clean) * 1e3:.0f}–{max(clean) * 1e3:.0f}) ({mid / size * 1e3:.1f})"
+    )
+
+
 def _range(values: Sequence[float], digits: int) -> str:
     clean = _finite(values)
     if not clean:
@@ -971,10 +1040,15 @@ def markdown(result: BenchResult) -> str:
         "The ground station (in the bench process) sends the event to every platform; each "
         "platform's engine asks the master for the barrier, the master releases all with one "
         "message. *last*: send → the latest platform's transition (the switch time); *first*: "
-        "send → the earliest; *spread*: first → last platform. median / p95 (min–max), ms.",
+        "send → the earliest; *spread*: first → last platform. median / p95 (min–max), ms. "
+        "*Swarm CPU*: what every daemon together spent on the switch, from the send to "
+        f"{_SWITCH_TAIL * 1000:.0f} ms after the last platform switched, less its idle rate "
+        "measured in the half second before (per platform in brackets); divided by the "
+        "machine's cores it is the least time the switch can take when every daemon shares them.",
         "",
-        "| N | runs | failed | last (switch time), ms | first, ms | spread, ms | causes |",
-        "|---|---|---|---|---|---|---|",
+        "| N | runs | failed | last (switch time), ms | first, ms | spread, ms "
+        "| swarm CPU, ms (per platform) | causes |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in result.sizes:
         failed = sum(1 for w in r.switch if w.error)
@@ -987,6 +1061,7 @@ def markdown(result: BenchResult) -> str:
             f"| {_ms_stats([w.last_s for w in r.switch])} "
             f"| {_ms_stats([w.first_s for w in r.switch])} "
             f"| {_ms_stats([w.spread_s for w in r.switch])} "
+            f"| {_cpu_per_switch([w.cpu_s for w in r.switch], r.size)} "
             f"| {', '.join(f'{k} {v}' for k, v in sorted(causes.items())) or '—'} |"
         )
     lines += ["", *_against_design(result), ""]
@@ -1167,6 +1242,7 @@ def from_json(data: dict[str, Any]) -> BenchResult:
                         "first_s": nan(w["first_s"]),
                         "last_s": nan(w["last_s"]),
                         "spread_s": nan(w["spread_s"]),
+                        "cpu_s": nan(w.get("cpu_s")),  # absent from older runs
                     }
                 )
                 for w in row["switch"]
