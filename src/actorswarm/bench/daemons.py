@@ -27,8 +27,9 @@ the others in its view and they agree on one master, and measures:
   starts it and fires the events in turn. From the bench's clock just before the event is
   sent to the latest ``transition`` log line of the platforms (the switch time), and the
   spread between the first and the last platform switching. And the CPU the switch cost
-  the swarm (:func:`switch_cpu`: every daemon's run time, less its idle rate), which on a
-  machine whose cores every daemon shares bounds the switch time from below.
+  the swarm (:func:`switch_cpu`: every daemon's run time, less its idle rate); on a machine
+  whose cores every daemon shares, that CPU divided by the cores is about the least time the
+  switch can take (less the part spent after the last platform switched).
 
 Every time compared is :func:`time.monotonic` (CLOCK_MONOTONIC), one clock for every process
 on the machine: the daemons stamp their log lines and transitions with it. A run that does
@@ -266,17 +267,14 @@ def read_cpu_ns(pid: int) -> int:
     :func:`read_cpu_seconds` counts in clock ticks (10 ms), too coarse to sum over 30
     processes for one switch. Falls back to the ticks where the kernel keeps no schedstat.
     OSError when the process is gone."""
-    total = 0
-    try:
-        tasks = os.listdir(f"/proc/{pid}/task")
-        for task in tasks:
-            with contextlib.suppress(FileNotFoundError):  # a thread that just ended
-                total += int(Path(f"/proc/{pid}/task/{task}/schedstat").read_text().split()[0])
-    except FileNotFoundError:
-        if not Path(f"/proc/{pid}").exists():
-            raise
-        return round(read_cpu_seconds(pid) * 1e9)
-    return total
+    total = read = 0
+    for task in os.listdir(f"/proc/{pid}/task"):
+        try:
+            total += int(Path(f"/proc/{pid}/task/{task}/schedstat").read_text().split()[0])
+        except FileNotFoundError:  # a thread that just ended, or no schedstat at all
+            continue
+        read += 1
+    return total if read else round(read_cpu_seconds(pid) * 1e9)
 
 
 def switch_cpu(
@@ -1044,7 +1042,8 @@ def markdown(result: BenchResult) -> str:
         "*Swarm CPU*: what every daemon together spent on the switch, from the send to "
         f"{_SWITCH_TAIL * 1000:.0f} ms after the last platform switched, less its idle rate "
         "measured in the half second before (per platform in brackets); divided by the "
-        "machine's cores it is the least time the switch can take when every daemon shares them.",
+        "machine's cores, about the least time the switch can take when every daemon shares "
+        "them (less the part spent after the last platform switched).",
         "",
         "| N | runs | failed | last (switch time), ms | first, ms | spread, ms "
         "| swarm CPU, ms (per platform) | causes |",
