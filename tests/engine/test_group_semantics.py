@@ -15,9 +15,11 @@ from typing import Any
 
 import pytest
 
+from actorswarm.core.wire import NEED_ALL
 from actorswarm.dsl import check, load
 from actorswarm.dsl.model import TaskScript
 from actorswarm.engine.machine import ActorMachine
+from actorswarm.engine.plan import Plan
 from actorswarm.sim.tasksim import Fault, GroundEvent, TaskSim
 from actorswarm.world.config import loads_world
 
@@ -193,3 +195,20 @@ def test_the_needs_the_master_keeps_are_those_a_fresh_pass_over_the_live_platfor
     )
     # Both paths taken: answers kept between changes, and worked out again after them.
     assert kept["kept"] > 0 and kept["worked out"] > 2, kept
+
+
+def test_a_new_script_drops_the_needs_the_master_kept() -> None:
+    # Group 1's first part is A (all) in the running script and Y (all), which nobody runs,
+    # in the next version; the table and the view stay as they were when the plan changes.
+    first = script(recall(), '<platform id="1-4" actor="A"/>')
+    sim = TaskSim(first, seed=0)
+    sim.run(3.0)
+    (master,) = [h.engine for h in sim.hosts.values() if h.engine.node.is_master]
+    assert master._need(1, 0, NEED_ALL) == 4  # kept from now on
+    nxt = script(
+        '<actor name="Y"><transition name="recall" barrierKey="1" sysNum="all">'
+        '<successor actor="C"/></transition></actor>',
+        '<platform id="1-4" actor="A"/>',
+    )
+    master.plan = Plan.build(nxt)
+    assert master._need(1, 0, NEED_ALL) == master._resolve(1, 0, NEED_ALL) == 0

@@ -490,6 +490,18 @@ class ActorMachine:
         if origin != self.node.platform:
             self._on_event(event, now, bid=None, data=data, occasion=occasion)
 
+    @property
+    def plan(self) -> Plan:
+        """The script this platform runs, compiled. A new one (a new version started, a
+        restart) also drops the needs the master kept: what a group part waits for follows
+        the script's transitions, not only the table and the view."""
+        return self._plan
+
+    @plan.setter
+    def plan(self, plan: Plan) -> None:
+        self._plan = plan
+        self._needs_for = (-1, -1)
+
     def _reset_table(self) -> None:
         """A new master: the table holds what this platform runs, nobody else yet."""
         self._table = {self.node.platform: self.runtime.running()}
