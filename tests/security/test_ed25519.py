@@ -36,16 +36,15 @@ RFC_SIGNATURE = bytes.fromhex(
 )
 
 
-@pytest.fixture(params=["openssl", "cryptography"])
+@pytest.fixture(params=["sodium", "cryptography"])
 def backend(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> Iterator[str]:
-    """Each test once per backend; ``cryptography`` as when no libcrypto can be found."""
-    if request.param == "openssl" and ed25519._libcrypto_path() is None:
-        pytest.skip("this interpreter maps no shared libcrypto")
+    """Each test once per backend; ``cryptography`` as when PyNaCl cannot be imported."""
     if request.param == "cryptography":
-        monkeypatch.setattr(ed25519, "_libcrypto_path", lambda: None)
-    ed25519._openssl.cache_clear()
+        monkeypatch.setitem(sys.modules, "nacl.bindings", None)
+    ed25519._sodium.cache_clear()
     yield request.param
-    ed25519._openssl.cache_clear()
+    monkeypatch.undo()
+    ed25519._sodium.cache_clear()
 
 
 def flip(data: bytes, index: int) -> bytes:
@@ -71,11 +70,9 @@ def test_the_rfc_8032_vector_verifies_in_each_backend(backend: str) -> None:
     assert not key.verify(flip(RFC_SIGNATURE, 40), RFC_MESSAGE)
 
 
-def test_the_interpreters_libcrypto_is_used_when_it_is_mapped() -> None:
-    if ed25519._libcrypto_path() is None:
-        pytest.skip("this interpreter maps no shared libcrypto")
-    ed25519._openssl.cache_clear()
-    assert PublicKey(RFC_KEY).backend == "openssl"
+def test_libsodium_verifies_when_pynacl_is_installed() -> None:
+    ed25519._sodium.cache_clear()
+    assert PublicKey(RFC_KEY).backend == "sodium"
 
 
 @settings(max_examples=60, deadline=None)
@@ -106,10 +103,31 @@ def test_agrees_with_cryptography_on_valid_and_altered_signatures(
 
 @settings(max_examples=60, deadline=None)
 @given(raw=st.binary(min_size=32, max_size=32), signature=st.binary(min_size=64, max_size=64))
-def test_agrees_with_cryptography_on_arbitrary_keys_and_signatures(
+def test_never_accepts_what_cryptography_refuses_on_arbitrary_keys_and_signatures(
     raw: bytes, signature: bytes
 ) -> None:
-    assert PublicKey(raw).verify(signature, b"m") == reference(raw, signature, b"m")
+    """On crafted input libsodium is the stricter (small-order points, non-canonical
+    encodings): it may refuse what OpenSSL accepts, never the other way round."""
+    ed25519._sodium.cache_clear()
+    assert PublicKey(raw).backend == "sodium"
+    assert not PublicKey(raw).verify(signature, b"m") or reference(raw, signature, b"m")
+
+
+# A key of small order (the point (x, 0), of order 4) and a signature whose R is the same
+# point and S is 0: [S]B = R + [k]A holds for one message in four, and OpenSSL accepts it
+# then. No ground station makes such a key; libsodium refuses it for every message.
+SMALL_ORDER_KEY = bytes(32)
+SMALL_ORDER_SIGNATURE = bytes(64)
+
+
+def test_a_small_order_key_never_verifies_with_libsodium() -> None:
+    ed25519._sodium.cache_clear()
+    key = PublicKey(SMALL_ORDER_KEY)
+    assert key.backend == "sodium"
+    messages = [bytes([n]) for n in range(16)]
+    assert not any(key.verify(SMALL_ORDER_SIGNATURE, m) for m in messages)
+    # ... where cryptography (OpenSSL) accepts some: the two differ on exactly such input.
+    assert any(reference(SMALL_ORDER_KEY, SMALL_ORDER_SIGNATURE, m) for m in messages)
 
 
 @pytest.mark.parametrize("length", [0, 1, 32, 63, 65, 96, 128])
@@ -132,35 +150,27 @@ def test_a_raw_key_of_the_wrong_length_is_refused_with_its_length(length: int) -
         PublicKey(bytes(length))
 
 
-def test_a_libcrypto_that_cannot_serve_falls_back_to_cryptography(
-    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
-) -> None:
-    libc = next(
-        line.split()[-1]
-        for line in Path("/proc/self/maps").read_text().splitlines()
-        if "/libc.so" in line or "/libc-" in line
-    )
-    # a missing file; a library without the EVP functions
-    for path in [str(tmp_path / "libcrypto.so.3"), libc]:
-        monkeypatch.setattr(ed25519, "_libcrypto_path", lambda path=path: path)
-        ed25519._openssl.cache_clear()
-        key = PublicKey(RFC_KEY)
-        assert key.backend == "cryptography"
-        assert key.verify(RFC_SIGNATURE, RFC_MESSAGE)
-        assert not key.verify(RFC_SIGNATURE, b"")
-    ed25519._openssl.cache_clear()
+def test_without_pynacl_cryptography_verifies(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "nacl.bindings", None)  # as when it is not installed
+    ed25519._sodium.cache_clear()
+    key = PublicKey(RFC_KEY)
+    assert key.backend == "cryptography"
+    assert key.verify(RFC_SIGNATURE, RFC_MESSAGE)
+    assert not key.verify(RFC_SIGNATURE, b"")
+    monkeypatch.undo()
+    ed25519._sodium.cache_clear()
 
 
-def test_a_libcrypto_failing_the_known_answer_is_not_used(monkeypatch: pytest.MonkeyPatch) -> None:
-    if ed25519._libcrypto_path() is None:
-        pytest.skip("this interpreter maps no shared libcrypto")
+def test_a_libsodium_failing_the_known_answer_is_not_used(monkeypatch: pytest.MonkeyPatch) -> None:
+    import nacl.bindings
+
     # A broken binding: it says every signature is valid.
-    monkeypatch.setattr(ed25519._OpenSSL, "verify", lambda self, pkey, sig, data: True)
-    ed25519._openssl.cache_clear()
+    monkeypatch.setattr(nacl.bindings, "crypto_sign_open", lambda signed, key: signed[64:])
+    ed25519._sodium.cache_clear()
     assert PublicKey(RFC_KEY).backend == "cryptography"
     assert not PublicKey(RFC_KEY).verify(RFC_SIGNATURE, b"")
     monkeypatch.undo()
-    ed25519._openssl.cache_clear()
+    ed25519._sodium.cache_clear()
 
 
 # --- key files ------------------------------------------------------------------------------
@@ -291,13 +301,17 @@ packet = guard.check(bytes.fromhex(sys.argv[2]), 0.0)
 print(json.dumps({"import": imported, "accepted": packet is not None,
                   "rejected": dict(guard.rejected),
                   "backend": load_keys(sys.argv[1]).gs_public.backend,
-                  "after": sorted(m for m in sys.modules if m.startswith("cryptography"))}))
+                  "after": sorted(m for m in sys.modules if m.startswith("cryptography")),
+                  "openssl": sorted(m for m in ("ssl", "_ssl", "_hashlib", "hashlib", "hmac")
+                                    if m in sys.modules),
+                  "mapped": "libcrypto.so" in open("/proc/self/maps").read()}))
 """
 
 
-def test_the_daemons_path_never_imports_cryptography(tmp_path: Path) -> None:
+def test_the_daemons_path_imports_neither_cryptography_nor_openssl(tmp_path: Path) -> None:
     """A fresh interpreter imports what a platform's daemon runs, loads its keys and checks
-    a signed operator packet: ``cryptography`` is never imported, not even to verify."""
+    a signed operator packet: ``cryptography`` is never imported, not even to verify, and
+    neither is anything that maps OpenSSL (``ssl``, ``hashlib``, ``hmac``)."""
     directory = init_keys(tmp_path / "keys").directory
     ground = PacketGuard.from_keys(load_keys(directory, need_private=True), role="ground")
     beat = Heartbeat(is_master=False, epoch=1, master=1)
@@ -314,6 +328,5 @@ def test_the_daemons_path_never_imports_cryptography(tmp_path: Path) -> None:
     seen = json.loads(result.stdout)
     assert seen["accepted"], seen
     assert seen["import"] is False, seen
-    if ed25519._libcrypto_path() is not None:
-        # Verifying did not import it either (without a shared libcrypto it is the fallback).
-        assert seen["backend"] == "openssl" and seen["after"] == [], seen
+    assert seen["backend"] == "sodium" and seen["after"] == [], seen
+    assert seen["openssl"] == [] and seen["mapped"] is False, seen

@@ -8,10 +8,17 @@ actor runtime) behind the small interface every host drives (``receive``, ``tick
 is the asyncio loop that drives one of them over a transport. :class:`StateDir` keeps
 what a platform needs across a crash: its incarnation, the scripts deployed to it, its
 backups.
+
+Importing this package imports :mod:`asyncio` without :mod:`ssl` when nothing had imported
+either (:mod:`.ssl_deferred`): a daemon never maps OpenSSL unless a plugin asks for TLS.
 """
 
-from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint
-from actorswarm.daemon.loop import serve
-from actorswarm.daemon.state import StateDir
+from actorswarm.daemon.ssl_deferred import import_asyncio_without_ssl
+
+import_asyncio_without_ssl()
+
+from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint  # noqa: E402
+from actorswarm.daemon.loop import serve  # noqa: E402
+from actorswarm.daemon.state import StateDir  # noqa: E402
 
 __all__ = ["Endpoint", "PlatformEndpoint", "StateDir", "serve"]

@@ -23,11 +23,11 @@ period (flash storage wears, and every write costs the robot time).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from pathlib import Path
 
+from actorswarm.core.digest import sha256_hex
 from actorswarm.runtime.storage import FileBackupStore
 
 __all__ = ["StateDir", "WritePacer"]
@@ -118,7 +118,7 @@ class StateDir:
 
     def save_script(self, script: bytes) -> str:
         """Keep a deployed script; returns its SHA-256."""
-        sha = hashlib.sha256(script).hexdigest()
+        sha = sha256_hex(script)
         _write_atomic(self.path / "scripts" / f"{sha}.xml", script)
         return sha
 
@@ -128,7 +128,7 @@ class StateDir:
             data = (self.path / "scripts" / f"{sha}.xml").read_bytes()
         except OSError:
             return None
-        return data if hashlib.sha256(data).hexdigest() == sha else None
+        return data if sha256_hex(data) == sha else None
 
     def set_running(self, sha: str) -> None:
         _write_atomic(self.path / "running", f"{sha}\n".encode())

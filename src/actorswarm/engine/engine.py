@@ -46,12 +46,12 @@ go is :mod:`.slots`, the records :mod:`.records`.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import msgspec
 
+from actorswarm.core.digest import sha256_hex
 from actorswarm.core.events import AppReceived
 from actorswarm.core.node import Node
 from actorswarm.core.wire import GROUND_STATION
@@ -195,7 +195,7 @@ class TaskEngine(ActorMachine):
             return None
         del self._chunks[chunk.sha256]
         text = b"".join(parts[i] for i in range(chunk.total))
-        if hashlib.sha256(text).hexdigest() != chunk.sha256:
+        if sha256_hex(text) != chunk.sha256:
             raise ValueError("the script does not hash to the SHA-256 it was sent with")
         result = _check(text.decode("utf-8", errors="replace"), f"deploy:{chunk.sha256[:12]}")
         if result.script is None or not result.ok:
@@ -210,7 +210,7 @@ class TaskEngine(ActorMachine):
     def adopt(self, script: bytes) -> str:
         """Register ``script`` as deployed (a daemon restarting with the scripts of its state
         directory); returns its SHA-256. ValueError when the script is invalid."""
-        sha = hashlib.sha256(script).hexdigest()
+        sha = sha256_hex(script)
         result = _check(script.decode("utf-8", errors="replace"), f"kept:{sha[:12]}")
         if result.script is None or not result.ok:
             first = next((str(d) for d in result.diagnostics), "the script is invalid")

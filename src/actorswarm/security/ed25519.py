@@ -1,30 +1,29 @@
-"""Verifying the ground station's Ed25519 signatures without the ``cryptography`` package.
+"""Verifying the ground station's Ed25519 signatures without the ``cryptography`` package
+and without OpenSSL.
 
 A platform only ever *verifies*: it holds the ground station's public key and checks the
 signature of every operator packet (:mod:`.guard`). Importing ``cryptography`` for that maps
 its Rust extension, ``_cffi_backend`` and a second OpenSSL, about 8 MiB resident, into every
-daemon. :class:`PublicKey` verifies through the OpenSSL that the interpreter has already
-mapped for :mod:`hashlib`, called with :mod:`ctypes`: about 0.6 MiB instead (measured in a
-fresh interpreter: import and one verification; docs/benchmarks/README.md, "Daemon memory
-and imports").
+daemon; the interpreter's own OpenSSL (``libcrypto``, loaded with :mod:`hashlib`) would cost
+3.5 MiB, and the daemon loads it for nothing else (:mod:`actorswarm.core.digest`).
+:class:`PublicKey` verifies with libsodium instead, as PyNaCl ships it: about 1 MiB with its
+import (docs/benchmarks/README.md, "Daemon memory and imports").
 
 Backends
 --------
-``openssl``
-    The ``libcrypto`` that CPython's ``_hashlib`` loaded, found by its path in
-    ``/proc/self/maps`` (no search, no subprocess), opened again with :class:`ctypes.CDLL`
-    (the same mapping: nothing new is loaded) and called through ``EVP_PKEY_new_raw_public_key``
-    and ``EVP_DigestVerify``, which OpenSSL has had since 1.1.1. Before its first use it must
-    pass a known-answer test (RFC 8032, section 7.1, test 1: the valid signature verifies, an
-    altered one does not).
+``sodium``
+    ``crypto_sign_open`` of the libsodium inside PyNaCl (a dependency). Before its first use
+    it must pass a known-answer test (RFC 8032, section 7.1, test 1: the valid signature
+    verifies, altered ones do not).
 ``cryptography``
-    The fallback, imported only when the first is not there: no ``/proc`` (not Linux), an
-    interpreter whose OpenSSL is linked statically into ``_hashlib`` or missing, a
-    ``libcrypto`` without Ed25519 (older than 1.1.1, or restricted to a FIPS provider without
-    it), or one that fails the known-answer test. Both give the same answer for every input.
+    The fallback, imported only when PyNaCl is not installed, cannot be loaded or fails the
+    known-answer test.
 
-The choice is made once per process, at the first key built, and :attr:`PublicKey.backend`
-says which one it was.
+The two agree on every signature a signer makes, valid or altered. On crafted input they
+may differ in one direction only: libsodium also refuses keys and signature points of small
+order and non-canonical encodings, which OpenSSL accepts when the equation holds; no key a
+ground station generates is such a key. The choice is made once per process, at the first
+key built, and :attr:`PublicKey.backend` says which one it was.
 
 Contract: :meth:`PublicKey.verify` never raises for any signature or data; a signature of
 the wrong length, a key that is not a curve point, altered data are all ``False``. Building a
@@ -37,10 +36,11 @@ from __future__ import annotations
 
 import base64
 import binascii
-import ctypes
 import functools
-import hashlib
-from typing import TYPE_CHECKING, Any, Final, Literal, Protocol
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Final, Literal, Protocol
+
+from actorswarm.core.digest import sha256_hex
 
 if TYPE_CHECKING:
     from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
@@ -52,7 +52,7 @@ KEY_BYTES: Final = 32
 #: Bytes of an Ed25519 signature.
 SIGNATURE_BYTES: Final = 64
 #: Which implementation verifies (see the module documentation).
-Backend = Literal["openssl", "cryptography"]
+Backend = Literal["sodium", "cryptography"]
 
 #: DER of an Ed25519 SubjectPublicKeyInfo (RFC 8410) up to the key: SEQUENCE (42 bytes) of
 #: the AlgorithmIdentifier SEQUENCE { OID 1.3.101.112 } and a BIT STRING of 33 bytes (no
@@ -68,9 +68,6 @@ _OTHER_ALGORITHMS: Final = (
     (bytes.fromhex("06032b656e"), "an X25519"),
     (bytes.fromhex("06032b656f"), "an X448"),
 )
-#: OpenSSL's NID_ED25519 (the same number in 1.1.1 and 3.x).
-_EVP_PKEY_ED25519: Final = 1087
-
 # RFC 8032, section 7.1, TEST 1 (an empty message): the known answer a backend must give.
 _KAT_KEY: Final = bytes.fromhex("d75a980182b10ab7d54bfed3c964073a0ee172f3daa62325af021a68f707511a")
 _KAT_SIGNATURE: Final = bytes.fromhex(
@@ -131,12 +128,12 @@ class PublicKey:
     def fingerprint(self) -> str:
         """The key's fingerprint: the first 16 hex digits of SHA-256 of its raw bytes, as
         :func:`~actorswarm.security.keys.public_key_fingerprint` shows it."""
-        return hashlib.sha256(self._raw).hexdigest()[:16]
+        return sha256_hex(self._raw)[:16]
 
     @property
     def backend(self) -> Backend:
         """Which implementation verifies (the same for every key of the process)."""
-        return "openssl" if isinstance(self._verifier, _OpenSSLKey) else "cryptography"
+        return "sodium" if isinstance(self._verifier, _SodiumKey) else "cryptography"
 
     def verify(
         self, signature: bytes | bytearray | memoryview, data: bytes | bytearray | memoryview
@@ -205,29 +202,28 @@ def _spki_key(der: bytes) -> bytes:
 
 
 def _key(raw: bytes) -> _Verifier:
-    """``raw`` in the process's backend: OpenSSL through ctypes, else ``cryptography``."""
-    openssl = _openssl()
-    if openssl is not None:
-        verifier = openssl.key(raw)
-        if verifier is not None:
-            return verifier
+    """``raw`` in the process's backend: libsodium, else ``cryptography``."""
+    sodium = _sodium()
+    if sodium is not None:
+        return _SodiumKey(raw, *sodium)
     return _CryptographyKey(raw)
 
 
+#: ``crypto_sign_open(signature + message, key)``: the message, or PyNaCl's ``CryptoError``.
+_Open = Callable[[bytes, bytes], bytes]
+
+
 @functools.cache
-def _openssl() -> _OpenSSL | None:
-    """The already-loaded libcrypto, if it is there, has Ed25519 and passes the known-answer
-    test; None (use ``cryptography``) otherwise. Decided once per process."""
-    path = _libcrypto_path()
-    if path is None:
-        return None
+def _sodium() -> tuple[_Open, type[Exception]] | None:
+    """PyNaCl's ``crypto_sign_open`` and the exception it raises for what does not verify,
+    if PyNaCl is installed and passes the known-answer test; None (use ``cryptography``)
+    otherwise. Decided once per process."""
     try:
-        openssl = _OpenSSL(path)
-    except (OSError, AttributeError):  # not loadable, or a symbol missing (OpenSSL < 1.1.1)
+        from nacl.bindings import crypto_sign_open
+        from nacl.exceptions import CryptoError
+    except ImportError:  # not installed, or its library cannot be loaded
         return None
-    key = openssl.key(_KAT_KEY)
-    if key is None:  # no Ed25519 in this libcrypto
-        return None
+    key = _SodiumKey(_KAT_KEY, crypto_sign_open, CryptoError)
     altered = bytes([_KAT_SIGNATURE[0] ^ 1]) + _KAT_SIGNATURE[1:]
     if (
         not key.verify(_KAT_SIGNATURE, b"")
@@ -235,112 +231,27 @@ def _openssl() -> _OpenSSL | None:
         or key.verify(_KAT_SIGNATURE, b"x")
     ):
         return None
-    return openssl
+    return crypto_sign_open, CryptoError
 
 
-def _libcrypto_path() -> str | None:
-    """Where the libcrypto that ``_hashlib`` uses is mapped in this process, or None."""
-    try:
-        import _hashlib  # noqa: F401  (CPython's OpenSSL binding: it maps libcrypto)
-    except ImportError:
-        return None
-    try:
-        with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
-            for line in maps:
-                fields = line.split(maxsplit=5)
-                if len(fields) < 6:
-                    continue
-                path = fields[5].rstrip("\n")
-                # A library replaced on disk since it was mapped shows as "(deleted)": its
-                # path would now open another file.
-                if path.rsplit("/", 1)[-1].startswith("libcrypto.so") and path.startswith("/"):
-                    return None if path.endswith(" (deleted)") else path
-    except OSError:
-        return None
-    return None
+class _SodiumKey:
+    """A raw key verified by libsodium (which keeps no state per key: nothing to free)."""
 
+    __slots__ = ("_invalid", "_open", "_raw")
 
-class _OpenSSL:
-    """The EVP functions of libcrypto at ``path`` that Ed25519 verification needs, each
-    declared with its C prototype (a wrong declaration would pass pointers as ints)."""
-
-    __slots__ = ("_ctx_free", "_ctx_new", "_err_clear", "_key_free", "_new_key", "_verify",
-                 "_verify_init")  # fmt: skip
-
-    def __init__(self, path: str) -> None:
-        lib = ctypes.CDLL(path)
-        p, size = ctypes.c_void_p, ctypes.c_size_t
-        # EVP_PKEY *EVP_PKEY_new_raw_public_key(int type, ENGINE *e,
-        #                                       const unsigned char *key, size_t keylen)
-        self._new_key = _declare(
-            lib.EVP_PKEY_new_raw_public_key, p, ctypes.c_int, p, ctypes.c_char_p, size
-        )
-        # void EVP_PKEY_free(EVP_PKEY *key)
-        self._key_free = _declare(lib.EVP_PKEY_free, None, p)
-        # EVP_MD_CTX *EVP_MD_CTX_new(void); void EVP_MD_CTX_free(EVP_MD_CTX *ctx)
-        self._ctx_new = _declare(lib.EVP_MD_CTX_new, p)
-        self._ctx_free = _declare(lib.EVP_MD_CTX_free, None, p)
-        # int EVP_DigestVerifyInit(EVP_MD_CTX *ctx, EVP_PKEY_CTX **pctx, const EVP_MD *type,
-        #                          ENGINE *e, EVP_PKEY *pkey)
-        self._verify_init = _declare(lib.EVP_DigestVerifyInit, ctypes.c_int, p, p, p, p, p)
-        # int EVP_DigestVerify(EVP_MD_CTX *ctx, const unsigned char *sig, size_t siglen,
-        #                      const unsigned char *tbs, size_t tbslen)
-        self._verify = _declare(
-            lib.EVP_DigestVerify, ctypes.c_int, p, ctypes.c_char_p, size, ctypes.c_char_p, size
-        )
-        # void ERR_clear_error(void): a failure leaves errors in the thread's queue, where
-        # the next OpenSSL user (hashlib, ssl) would find them
-        self._err_clear = _declare(lib.ERR_clear_error, None)
-
-    def key(self, raw: bytes) -> _OpenSSLKey | None:
-        """``raw`` as an OpenSSL key; None when this libcrypto cannot make one."""
-        pkey: int | None = self._new_key(_EVP_PKEY_ED25519, None, raw, len(raw))
-        if not pkey:
-            self._err_clear()
-            return None
-        return _OpenSSLKey(self, pkey)
-
-    def verify(self, pkey: int, signature: bytes, data: bytes) -> bool:
-        ctx: int | None = self._ctx_new()
-        if not ctx:
-            raise MemoryError("OpenSSL could not allocate a digest context")
-        try:
-            ok: int = self._verify_init(ctx, None, None, None, pkey)
-            if ok == 1:
-                ok = self._verify(ctx, signature, len(signature), data, len(data))
-            if ok != 1:
-                self._err_clear()
-            return ok == 1
-        finally:
-            self._ctx_free(ctx)
-
-    def free(self, pkey: int) -> None:
-        self._key_free(pkey)
-
-
-def _declare(
-    function: ctypes._NamedFuncPointer, restype: type[ctypes._SimpleCData[Any]] | None, *args: type
-) -> ctypes._NamedFuncPointer:
-    function.restype = restype
-    function.argtypes = args
-    return function
-
-
-class _OpenSSLKey:
-    """An ``EVP_PKEY``, freed with this object. OpenSSL keys are reference-counted and only
-    read by a verification, so one key may verify in several threads at once."""
-
-    __slots__ = ("_lib", "_pkey")
-
-    def __init__(self, lib: _OpenSSL, pkey: int) -> None:
-        self._lib = lib
-        self._pkey = pkey
+    def __init__(self, raw: bytes, sign_open: _Open, invalid: type[Exception]) -> None:
+        self._raw = raw
+        self._open = sign_open
+        self._invalid = invalid
 
     def verify(self, signature: bytes, data: bytes) -> bool:
-        return self._lib.verify(self._pkey, signature, data)
-
-    def __del__(self) -> None:
-        self._lib.free(self._pkey)
+        # BadSignatureError for a forged signature or a key that is not a point: both are
+        # CryptoErrors, and "not valid" here.
+        try:
+            self._open(signature + data, self._raw)
+        except self._invalid:
+            return False
+        return True
 
 
 class _CryptographyKey:

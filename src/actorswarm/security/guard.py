@@ -94,13 +94,12 @@ no clock and no file (keys come from :mod:`actorswarm.security.keys`).
 
 from __future__ import annotations
 
-import hashlib
-import hmac
 from collections import Counter
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Final, Literal
 
 from actorswarm.core import wire
+from actorswarm.core.digest import HmacSha256, equal
 from actorswarm.core.wire import GROUND_STATION, Packet, WireError
 from actorswarm.security.ed25519 import PublicKey
 from actorswarm.security.keys import Keys, fingerprint, public_key_fingerprint
@@ -218,6 +217,7 @@ class PacketGuard:
             raise ValueError(f"replay window must be at least 1, got {window}")
         self._init(role=role, window=window, max_bytes=max_bytes)
         self._key: bytes | None = bytes(swarm_key)
+        self._mac: HmacSha256 | None = HmacSha256(self._key)
         self._public: PublicKey | None = PublicKey.of(gs_public_key)
         self._private = gs_private_key
 
@@ -265,6 +265,7 @@ class PacketGuard:
         guard = cls.__new__(cls)
         guard._init(role=role, window=0, max_bytes=max_bytes)
         guard._key = None
+        guard._mac = None
         guard._public = None
         guard._private = None
         return guard
@@ -298,10 +299,10 @@ class PacketGuard:
         ``ValueError`` for bytes that are not such a packet: that is a bug of the caller,
         not something from the network.
         """
-        if self._key is None:
+        if self._mac is None:
             return data
         covered = wire.unsealed_frame(data)
-        auth = hmac.digest(self._key, covered, hashlib.sha256)
+        auth = self._mac.digest(covered)
         # Only a ground station's guard holds the private key; it signs its own packets, not
         # a platform's it relays (its header is read for that: platforms never pay it).
         if self._private is not None and wire.open_frame(data).sender == GROUND_STATION:
@@ -360,7 +361,7 @@ class PacketGuard:
 
     def _authenticate(self, env: wire.Envelope, data: bytes) -> str | None:
         """The reason the packet ``data`` (envelope ``env``) is not authentic, or None."""
-        assert self._key is not None and self._public is not None
+        assert self._mac is not None and self._public is not None
         auth = env.auth
         if not auth:
             return "unauthenticated"
@@ -368,8 +369,8 @@ class PacketGuard:
         if not operator and len(auth) != TAG_BYTES:
             return "bad_tag"
         covered = wire.covered(data, env)
-        expected = hmac.digest(self._key, covered, hashlib.sha256)
-        if not hmac.compare_digest(auth[:TAG_BYTES], expected):
+        expected = self._mac.digest(covered)
+        if not equal(auth[:TAG_BYTES], expected):
             return "bad_tag"
         if not operator:
             return None

@@ -31,14 +31,13 @@ and to load the private key (``need_private=True``, the ground station, which si
 
 from __future__ import annotations
 
-import hashlib
 import os
-import secrets
 import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Final
 
+from actorswarm.core.digest import sha256_hex
 from actorswarm.security.ed25519 import KeyFormatError, PublicKey
 
 if TYPE_CHECKING:
@@ -134,7 +133,7 @@ class Keys:
 
 def fingerprint(data: bytes) -> str:
     """The first 16 hex digits of SHA-256 of ``data``: safe to show, to compare keys by."""
-    return hashlib.sha256(data).hexdigest()[:16]
+    return sha256_hex(data)[:16]
 
 
 def public_key_fingerprint(key: PublicKey | Ed25519PublicKey) -> str:
@@ -187,7 +186,7 @@ def init_keys(directory: str | os.PathLike[str], *, force: bool = False) -> KeyP
     public_pem = private.public_key().public_bytes(
         serialization.Encoding.PEM, serialization.PublicFormat.SubjectPublicKeyInfo
     )
-    swarm_text = (secrets.token_bytes(SWARM_KEY_BYTES).hex() + "\n").encode("ascii")
+    swarm_text = (os.urandom(SWARM_KEY_BYTES).hex() + "\n").encode("ascii")
 
     _write(paths.swarm_key, swarm_text, _SECRET_MODE, replace=force)
     _write(paths.gs_private, private_pem, _SECRET_MODE, replace=force)
@@ -201,7 +200,7 @@ def _write(path: Path, data: bytes, mode: int, *, replace: bool) -> None:
     Without ``replace`` the file must not exist (``O_EXCL``: a file that appeared meanwhile
     is not overwritten); with it, a private temporary file is renamed over ``path``.
     """
-    target = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp") if replace else path
+    target = path.with_name(f".{path.name}.{os.urandom(4).hex()}.tmp") if replace else path
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
     try:
         fd = os.open(target, flags, mode)

@@ -131,7 +131,7 @@ import ipaddress
 import json
 import logging
 import os
-import secrets
+import random
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -495,7 +495,7 @@ class ZenohTransport:
         self._tail, pattern = "", ""
         if self.settings.broadcast == "multicast":
             # Platforms take their ID (1..65535); a ground station a random index above.
-            index = platform or 65536 + secrets.randbelow(SPREAD_PATTERNS - 65536)
+            index = platform or random.SystemRandom().randrange(65536, SPREAD_PATTERNS)
             self._tail, pattern = f"/{_SPREAD}", f"/{spread_pattern(index)}"
         # Unicasts first: the ground station only ever sends to one platform (``to/<id>``),
         # so its commands are in the first channel a drain empties.
