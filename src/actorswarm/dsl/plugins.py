@@ -30,8 +30,7 @@ from typing import TYPE_CHECKING, Protocol
 from actorswarm.dsl import syntax
 
 if TYPE_CHECKING:
-    from importlib.metadata import EntryPoint
-
+    from actorswarm.runtime.entry_points import EntryPoint
     from actorswarm.runtime.plugin import Plugin
 
 #: The entry-point group plugins register under.
@@ -117,10 +116,10 @@ def plugin_class(name: str) -> type[Plugin] | None:
 
 
 def entry_points(*, group: str) -> Iterable[EntryPoint]:
-    """The installed entry points of ``group``. :mod:`importlib.metadata` (zipfile, email,
-    csv...) is imported on the first call, not with this module: the checker lists plugins
-    only when a script is checked, and a daemon without a script never does."""
-    from importlib.metadata import entry_points as listed
+    """The installed entry points of ``group`` (:mod:`actorswarm.runtime.entry_points`,
+    imported on the first call, not with this module: the checker lists plugins only when a
+    script is checked, and a daemon without a script never does)."""
+    from actorswarm.runtime.entry_points import entry_points as listed
 
     return listed(group=group)
 

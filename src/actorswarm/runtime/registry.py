@@ -36,7 +36,7 @@ from actorswarm.runtime.plugin import Param, Plugin
 from actorswarm.suggest import did_you_mean as _did_you_mean
 
 if TYPE_CHECKING:
-    from importlib import metadata
+    from actorswarm.runtime.entry_points import EntryPoint
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -77,7 +77,7 @@ class _Cache:
     last full listing, and whether that listing is complete."""
 
     def __init__(self) -> None:
-        self.listing: dict[str, list[metadata.EntryPoint]] | None = None
+        self.listing: dict[str, list[EntryPoint]] | None = None
         self.classes: dict[str, type[Plugin]] = {}
         self.errors: dict[str, str] = {}
         self.complete = False
@@ -88,14 +88,14 @@ class _Cache:
         self.errors.clear()
         self.complete = False
 
-    def entry_points(self) -> dict[str, list[metadata.EntryPoint]]:
+    def entry_points(self) -> dict[str, list[EntryPoint]]:
         if self.listing is None:
-            # importlib.metadata (zipfile, email, csv...) is imported here, when a plugin is
-            # first looked up, not with the module: a daemon without a script never needs it.
-            from importlib import metadata
+            # Imported when a plugin is first looked up, not with the module: a daemon
+            # without a script never needs it.
+            from actorswarm.runtime.entry_points import entry_points
 
-            listing: dict[str, list[metadata.EntryPoint]] = {}
-            for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+            listing: dict[str, list[EntryPoint]] = {}
+            for ep in entry_points(group=ENTRY_POINT_GROUP):
                 same = listing.setdefault(ep.name, [])
                 # One distribution seen twice on the path registers the same value twice.
                 if all(other.value != ep.value for other in same):
@@ -199,9 +199,8 @@ def _from_entry_point(name: str) -> type[Plugin]:
     return _check_class(obj, origin)
 
 
-def _dist(ep: metadata.EntryPoint) -> str:
-    dist = ep.dist
-    return f"{dist.name} {dist.version}" if dist is not None else "an unknown distribution"
+def _dist(ep: EntryPoint) -> str:
+    return "an unknown distribution" if ep.dist is None else ep.dist.display()
 
 
 def _from_path(name: str) -> type[Plugin]:

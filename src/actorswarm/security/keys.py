@@ -24,8 +24,8 @@ Every problem with a key file is a :class:`KeyFileError` naming the file and wha
 with it; existing keys are never overwritten unless asked (:class:`KeysExistError`).
 
 A platform loads its keys without the ``cryptography`` package: the public key is read by
-:class:`~actorswarm.security.ed25519.PublicKey`, which verifies through the OpenSSL the
-interpreter already holds. ``cryptography`` is imported only to make keys (:func:`init_keys`)
+:class:`~actorswarm.security.ed25519.PublicKey`, which verifies with libsodium (PyNaCl), and
+nothing here loads OpenSSL. ``cryptography`` is imported only to make keys (:func:`init_keys`)
 and to load the private key (``need_private=True``, the ground station, which signs).
 """
 
