@@ -40,8 +40,8 @@ class _Hash(Protocol):
 
 
 def _builtin() -> tuple[Callable[..., _Hash], Callable[[bytes, bytes], bool]]:
-    """CPython's own SHA-256 and constant-time comparison; :mod:`hashlib`'s and
-    :mod:`hmac`'s on an interpreter without them."""
+    """CPython's own SHA-256 (:mod:`hashlib`'s on an interpreter without it) and its
+    constant-time comparison."""
     for name in ("_sha2", "_sha256"):
         try:
             module = importlib.import_module(name)
@@ -53,14 +53,10 @@ def _builtin() -> tuple[Callable[..., _Hash], Callable[[bytes, bytes], bool]]:
         import hashlib
 
         new = cast("Callable[..., _Hash]", hashlib.sha256)
-    try:
-        compare = cast("Callable[[bytes, bytes], bool]", importlib.import_module("_operator")
-                       ._compare_digest)  # fmt: skip
-    except (ImportError, AttributeError):  # pragma: no cover - CPython has it since 3.3
-        import hmac
+    # What hmac.compare_digest is when OpenSSL is missing; CPython has had it since 3.3.
+    from _operator import _compare_digest
 
-        compare = hmac.compare_digest
-    return new, compare
+    return new, _compare_digest
 
 
 _new, _compare = _builtin()

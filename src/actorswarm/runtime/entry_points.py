@@ -57,9 +57,11 @@ class Distribution:
         ``Version:`` of its ``METADATA`` or ``PKG-INFO``; ``waves-one`` where the folder
         says ``waves_one``), for messages; the folder's spelling when it cannot be read."""
         headers = {"Name": self.name, "Version": self.version}
-        for file in ("METADATA", "PKG-INFO") if self.path is not None else ():
+        for file in ("METADATA", "PKG-INFO"):
+            if self.path is None:
+                break
             try:
-                with open(os.path.join(self.path or "", file), encoding="utf-8") as text:
+                with open(os.path.join(self.path, file), encoding="utf-8") as text:
                     for line in text:
                         if not line.strip():
                             break  # the headers end at the first empty line
@@ -89,7 +91,8 @@ class EntryPoint:
         if match is None:
             raise ValueError(f"entry point {self.name!r}: {self.value!r} is not module:attr")
         obj: object = importlib.import_module(match["module"])
-        for part in (match["attr"] or "").split(".") if match["attr"] else ():
+        attr = match["attr"]
+        for part in attr.split(".") if attr else ():
             obj = getattr(obj, part)
         return obj
 

@@ -216,8 +216,9 @@ class PacketGuard:
         if window < 1:
             raise ValueError(f"replay window must be at least 1, got {window}")
         self._init(role=role, window=window, max_bytes=max_bytes)
-        self._key: bytes | None = bytes(swarm_key)
-        self._mac: HmacSha256 | None = HmacSha256(self._key)
+        # The key itself is kept only inside the MAC; its fingerprint is for repr.
+        self._mac: HmacSha256 | None = HmacSha256(bytes(swarm_key))
+        self._key_fingerprint = fingerprint(bytes(swarm_key))
         self._public: PublicKey | None = PublicKey.of(gs_public_key)
         self._private = gs_private_key
 
@@ -264,25 +265,25 @@ class PacketGuard:
         decodes (no authentication, no replay protection)."""
         guard = cls.__new__(cls)
         guard._init(role=role, window=0, max_bytes=max_bytes)
-        guard._key = None
         guard._mac = None
+        guard._key_fingerprint = ""
         guard._public = None
         guard._private = None
         return guard
 
     @property
     def secure(self) -> bool:
-        return self._key is not None
+        return self._mac is not None
 
     def __repr__(self) -> str:
-        if self._key is None or self._public is None:
+        if self._mac is None or self._public is None:
             return (
                 f"PacketGuard(INSECURE, role={self.role!r}: packets are neither authenticated "
                 "nor checked for replay)"
             )
         signs = ", signs as the ground station" if self._private is not None else ""
         return (
-            f"PacketGuard(role={self.role!r}, swarm key {fingerprint(self._key)}, ground "
+            f"PacketGuard(role={self.role!r}, swarm key {self._key_fingerprint}, ground "
             f"station {self._public.fingerprint}, window {self.window}{signs})"
         )
 
@@ -324,7 +325,7 @@ class PacketGuard:
         except WireError:
             self.rejected["malformed"] += 1
             return None
-        if self._key is None:
+        if self._mac is None:
             return self._decode(env)
         reason = self._authenticate(env, data)
         if reason is not None:
