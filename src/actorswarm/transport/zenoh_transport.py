@@ -551,6 +551,12 @@ class ZenohTransport:
         """Drains that found a channel full (its oldest packets were probably overwritten)."""
         return sum(ch.full for ch in self._channels)
 
+    @property
+    def waiting(self) -> int:
+        """Packets waiting in the unicast and broadcast channels (the heartbeat ring cannot
+        be counted without taking from it), for a status report or a test."""
+        return sum(len(ch.queue) for ch in self._channels if not ch.ring)
+
     def receive_counters(self) -> dict[str, int]:
         """``bursts`` and ``ring_full``, for a status report."""
         return {"bursts": self.bursts, "ring_full": self.ring_full}
