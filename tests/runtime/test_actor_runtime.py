@@ -3,6 +3,7 @@ preemption and resumption, isolation of a failing plugin, snapshot/restore throu
 
 from __future__ import annotations
 
+import itertools
 import sys
 import types
 from collections.abc import Mapping
@@ -143,6 +144,76 @@ def test_steps_follow_the_rate() -> None:
         if (deadline := rt.next_deadline()) is not None and t >= deadline:
             rt.step(t)
     assert sum(e.endswith(":step") for e in LOG) == 3, LOG  # 0.0, 0.1, 0.2
+
+
+def _host(rt: ActorRuntime, wakes: list[float], until: float) -> tuple[list[float], int]:
+    """Drive ``rt`` as a daemon's loop does: wake at the next of ``wakes`` (packets) or at
+    the runtime's deadline, whichever comes first, and step at every wake. Returns the
+    times of the actor's steps and how many wakes the runtime's deadline caused itself."""
+    steps: list[float] = []
+    own = 0
+    pending = sorted(wakes)
+    t = 0.0
+    while t < until:
+        deadline = rt.next_deadline()
+        assert deadline is not None
+        if pending and pending[0] <= deadline:
+            t = pending.pop(0)
+        else:
+            t, own = deadline, own + 1
+        before = sum(e.endswith(":step") for e in LOG)
+        rt.step(t)
+        if sum(e.endswith(":step") for e in LOG) > before:
+            steps.append(t)
+    return steps, own
+
+
+def _slack_runtime(slack: float) -> ActorRuntime:
+    rt = ActorRuntime(1, rate=10.0, step_slack=slack)
+    rt.use_script(script(actor("A", 0, plugin("Recorder", "act_bus", "a"))))
+    rt.start("A", 0.0, ActorContext())
+    return rt
+
+
+def test_steps_with_slack_lock_onto_wakes_made_anyway() -> None:
+    """With a 30 ms slack, steps drift until they ride on a 10 Hz series of wakes the host
+    makes anyway (a master's heartbeats, 60 ms out of phase here), then keep its phase: no
+    wake of their own, the rate unchanged. Without slack each step needs its own wake."""
+    heartbeats = [0.06 + 0.1 * k + (0.004 if k % 3 else -0.003) for k in range(250)]
+    steps, own = _host(_slack_runtime(0.03), heartbeats, until=20.0)
+    late = [t for t in steps if t >= 5.0]
+    assert own < 20, f"{own} own wakes: the steps never locked on"
+    assert all(min(abs(t - h) for h in heartbeats) < 1e-9 for t in late), "a step woke alone"
+    gaps = [b - a for a, b in itertools.pairwise(late)]
+    assert min(gaps) > 0.09 and max(gaps) < 0.11, (min(gaps), max(gaps))
+    assert len(late) in range(149, 152), len(late)  # 10 Hz over the last 15 s
+
+    LOG.clear()
+    steps, own = _host(_slack_runtime(0.0), heartbeats, until=20.0)
+    assert own > 150, "without slack a step out of phase with the wakes needs its own"
+
+
+def test_steps_with_slack_keep_their_rate_among_frequent_wakes() -> None:
+    """A master woken every 7 ms by its members: a step due within the slack runs at the
+    first wake, on its schedule's grid, so the rate is still 10 Hz, not 1 / (0.1 - slack)."""
+    wakes = [0.007 * k for k in range(1, 2000)]
+    steps, _ = _host(_slack_runtime(0.03), wakes, until=10.0)
+    assert len(steps) in range(99, 102), len(steps)
+    gaps = [b - a for a, b in itertools.pairwise(steps)]
+    assert max(gaps) < 0.1 + 0.007 + 1e-9, max(gaps)
+
+
+def test_steps_with_slack_drift_by_half_a_slack_when_nothing_else_wakes() -> None:
+    steps, own = _host(_slack_runtime(0.03), [], until=2.0)
+    gaps = {round(b - a, 9) for a, b in itertools.pairwise(steps)}
+    assert gaps == {0.115} and own == len(steps)
+
+
+def test_step_slack_is_at_most_half_a_period() -> None:
+    with pytest.raises(ValueError, match="step_slack must be in"):
+        ActorRuntime(1, rate=10.0, step_slack=0.06)
+    with pytest.raises(ValueError, match="step_slack must be in"):
+        ActorRuntime(1, rate=10.0, step_slack=-0.01)
 
 
 def test_switch_back_reactivates_instead_of_reloading() -> None:

@@ -31,6 +31,9 @@ __all__ = ["Endpoint", "PlatformEndpoint"]
 #: (the rest goes out on the next call): a guard against a feedback loop, never hit in tests.
 _MAX_ROUNDS = 1000
 
+#: How often a daemon steps each running actor (Hz): the runtime's default, the paper's.
+STEP_RATE = 10.0
+
 
 class Endpoint(Protocol):
     """What a host loop drives: a platform (:class:`PlatformEndpoint`) or the ground
@@ -49,7 +52,12 @@ class Endpoint(Protocol):
 
 class PlatformEndpoint:
     """Platform ``platform`` of swarm ``swarm`` in its ``incarnation``; the task engine
-    starts without a script (the ground station deploys one) and backs up to ``store``."""
+    starts without a script (the ground station deploys one) and backs up to ``store``.
+
+    Actors step at :data:`STEP_RATE`; ``step_slack`` (see
+    :class:`~actorswarm.runtime.actor_runtime.ActorRuntime`) defaults to the core's
+    ``heartbeat_slack`` (at most half a step period), so that a daemon's actor steps ride
+    on the wakes its heartbeats ride on."""
 
     def __init__(
         self,
@@ -64,12 +72,21 @@ class PlatformEndpoint:
         camera: Camera | None = None,
         areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
         seed: int = 0,
+        step_slack: float | None = None,
     ) -> None:
-        self.node = Node(
-            platform, swarm=swarm, incarnation=incarnation, config=config or CoreConfig(), now=now
-        )
+        config = config or CoreConfig()
+        self.node = Node(platform, swarm=swarm, incarnation=incarnation, config=config, now=now)
+        if step_slack is None:
+            # The steps ride on the wakes the heartbeats ride on (at most half a period).
+            step_slack = min(config.heartbeat_slack or 0.0, 0.5 / STEP_RATE)
         self.runtime = ActorRuntime(
-            platform, seed=seed, vehicle=vehicle, camera=camera, areas=areas
+            platform,
+            seed=seed,
+            vehicle=vehicle,
+            camera=camera,
+            areas=areas,
+            rate=STEP_RATE,
+            step_slack=step_slack,
         )
         self.runtime.collective = NodeCollective(self.node, lambda: self.runtime.now)
         empty = Plan.build(TaskScript(name="(none deployed)", version="0", actors=()))
@@ -100,7 +117,9 @@ class PlatformEndpoint:
         if self.node.due(now):
             self.node.tick(now)
         deadline = self.engine.next_deadline()
-        if deadline is not None and deadline <= now:
+        # Within the runtime's step slack the engine ticks too: an actor step then rides
+        # on this wake (the engine's other timers check their own times).
+        if deadline is not None and deadline <= now + self.runtime.step_slack:
             self.engine.tick(now)
         self._service(now)
 

@@ -22,6 +22,13 @@ resources) and its priority.
   shared blackboard; what the plugins emit is returned to the engine. A plugin that raises is
   isolated: its actor goes to ``error`` (its hardware is released), the error is kept with the
   plugin's name, and the platform and the other actors go on.
+* **Step slack.** With ``step_slack`` a step due within that many seconds runs at a
+  :meth:`ActorRuntime.step` the host makes anyway (a packet woke it) and keeps its
+  schedule's phase; a step that needed a wake of its own moves its schedule half a slack
+  later. So the steps drift until they ride on wakes that come at their rate anyway (a
+  daemon's heartbeats), then keep that phase: one wake of the host per period instead of
+  two. The rate stays ``rate`` once they ride; a gap grows by at most half the slack while
+  they drift. The default, 0, steps every actor exactly ``1 / rate`` after its last step.
 * **Switch times.** Each :meth:`ActorRuntime.switch` is timed from the call to the end of
   the new actor's first OODA step (pausing the old actor, starting or re-activating the new
   one, and whatever the host does before it steps it); the samples wait in a bounded buffer
@@ -133,15 +140,23 @@ class ActorRuntime:
         seed: int = 0,
         camera: Camera | None = None,
         areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
+        step_slack: float = 0.0,
     ) -> None:
         if rate <= 0:
             raise ValueError(f"rate must be > 0 Hz, got {rate}")
+        if not 0.0 <= step_slack <= 0.5 / rate:
+            raise ValueError(
+                f"step_slack must be in [0, half the step period = {0.5 / rate:g} s], "
+                f"got {step_slack}"
+            )
         self.platform = platform
         self.vehicle = vehicle
         self.camera = camera
         self.areas: Mapping[str, Sequence[tuple[float, float]]] = dict(areas or {})
         self.collective: Collective = collective or NullCollective()
         self.period = 1.0 / rate
+        #: How early a step may run on a wake the host makes anyway (the module docstring).
+        self.step_slack = step_slack
         self._rng = random.Random(f"runtime:{seed}:{platform}")
         self._defs: dict[str, _ActorDef] = {}
         self._loaded: dict[str, _Loaded] = {}
@@ -349,8 +364,11 @@ class ActorRuntime:
     def step(self, now: float) -> list[Emitted]:
         """Step every running actor that is due; return what the plugins emitted."""
         out: list[Emitted] = []
+        slack = self.step_slack
         for name, entry in list(self._loaded.items()):
-            if entry.acb.status is not ActorStatus.RUNNING or now < self._due(entry):
+            if entry.acb.status is not ActorStatus.RUNNING:
+                continue
+            if now < min(self._due(entry), entry.next_step - slack):
                 continue
             emitted: list[Emitted] = []
             timings: dict[str, float] = {}
@@ -364,7 +382,7 @@ class ActorRuntime:
             pending = self._switching.pop(name, None)
             if ok:
                 entry.acb.record_step(timings)
-                entry.next_step = now + self.period
+                entry.next_step = self._next_step(entry.next_step, now)
                 if pending is not None:
                     src, at, began = pending
                     self.switch_timings.append(
@@ -372,6 +390,19 @@ class ActorRuntime:
                     )
             out.extend(e if e.actor else dataclasses.replace(e, actor=name) for e in emitted)
         return out
+
+    def _next_step(self, due: float, now: float) -> float:
+        """When the actor whose step was due at ``due`` and ran at ``now`` steps next."""
+        slack = self.step_slack
+        if not slack:
+            return now + self.period
+        if due - slack <= now < due:
+            return due + self.period  # rode on a wake made anyway: keep the phase
+        if now < due:
+            return now + self.period  # a plugin's own deadline, well before the schedule
+        # On time or late, at a wake of its own (or late for any reason): drift later,
+        # towards the wakes the host makes anyway.
+        return now + self.period + slack / 2
 
     @staticmethod
     def _ooda(entry: _Loaded) -> list[tuple[_PluginDef, Plugin, dict[str, Any]]]:
@@ -381,6 +412,8 @@ class ActorRuntime:
         return sorted(entry.plugins, key=lambda item: order.get(item[0].bus, len(order)))
 
     def next_deadline(self) -> float | None:
+        """The latest time :meth:`step` must be called next (a running actor's step is
+        due, or one of its plugins asked to be woken); None with no actor running."""
         times = [self._due(e) for e in self._loaded.values() if e.acb.status is ActorStatus.RUNNING]
         return min(times) if times else None
 
