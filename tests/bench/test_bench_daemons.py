@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -22,6 +23,7 @@ from actorswarm.bench.daemons import (
     read_cpu_seconds,
     read_interface_packets,
     read_memory_kib,
+    read_sleeps,
     switch_cpu,
     switch_script,
     to_json,
@@ -37,6 +39,9 @@ def test_proc_readers_see_this_process() -> None:
     first = read_cpu_ns(os.getpid())
     sum(range(200_000))  # some CPU
     assert read_cpu_ns(os.getpid()) > first > 0
+    slept = read_sleeps(os.getpid())
+    time.sleep(0.01)  # the main thread sleeps: one voluntary context switch at least
+    assert read_sleeps(os.getpid()) > slept
 
 
 def test_a_switch_costs_what_the_swarm_used_beyond_its_idle_rate() -> None:
@@ -135,6 +140,9 @@ def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
         assert res.master in {1, 2, 3}
         assert len(res.cpu_of("master")) == 1 and len(res.cpu_of("members")) == 2
         assert sorted(res.cpu_of("master") + res.cpu_of("members")) == sorted(res.cpu_pct)
+        # Heartbeats alone wake every daemon's loop several times a second.
+        assert len(res.sleeps_s) == 3 and all(s > 1 for s in res.sleeps_s), res.sleeps_s
+        assert len(res.sleeps_of("master")) == 1 and len(res.sleeps_of("members")) == 2
 
     (failover,) = size.failover
     assert failover.error == ""

@@ -148,12 +148,23 @@ class ResourceRun:
     sent_packets_s: float = math.nan
     #: The master the daemons agreed on at the end of the window (None: they did not).
     master: int | None = None
+    #: Per daemon: how often a second its main thread went to sleep (voluntary context
+    #: switches of the thread that runs the loop; empty in runs saved before it was
+    #: measured). Each is a wake of the loop, the cost a daemon pays per timer or burst.
+    sleeps_s: list[float] = field(default_factory=list)
 
     def cpu_of(self, role: str) -> list[float]:
         """CPU % of the ``"master"`` (one value, or none when there was no agreed
         master) or of the ``"members"`` (every other daemon; all of them without a
         master)."""
-        pairs = list(zip(self.platforms, self.cpu_pct, strict=True))
+        return self._of(role, self.cpu_pct)
+
+    def sleeps_of(self, role: str) -> list[float]:
+        """:attr:`sleeps_s` of the master or the members, as :meth:`cpu_of`."""
+        return self._of(role, self.sleeps_s) if self.sleeps_s else []
+
+    def _of(self, role: str, values: list[float]) -> list[float]:
+        pairs = list(zip(self.platforms, values, strict=True))
         if role == "master":
             return [c for p, c in pairs if p == self.master]
         return [c for p, c in pairs if p != self.master]
@@ -244,6 +255,18 @@ def _sent(status: dict[str, Any]) -> tuple[float, int] | None:
     if not isinstance(traffic, dict) or "t" not in status:
         return None
     return float(status["t"]), int(traffic.get("sent_packets", 0))
+
+
+def read_sleeps(pid: int) -> int:
+    """How many times the main thread of process ``pid`` went to sleep so far: its
+    voluntary context switches (``/proc/PID/task/PID/status``), which for a daemon are its
+    loop's waits (and the few blocking calls it makes). OSError when the process is gone;
+    ValueError when the kernel does not count them."""
+    for line in Path(f"/proc/{pid}/task/{pid}/status").read_text().splitlines():
+        name, _, value = line.partition(":")
+        if name == "voluntary_ctxt_switches":
+            return int(value)
+    raise ValueError(f"/proc/{pid}/task/{pid}/status has no voluntary_ctxt_switches")
 
 
 def read_cpu_seconds(pid: int) -> float:
@@ -467,6 +490,7 @@ async def measure_resources(swarm: LocalSwarm, phase: str, window: float) -> Res
     procs = {p: swarm.procs[p] for p in swarm.running()}
     start_wall = clock()
     start_cpu = {p: read_cpu_seconds(proc.pid) for p, proc in procs.items()}
+    start_sleeps = {p: read_sleeps(proc.pid) for p, proc in procs.items()}
     start_sent = {p: _sent(swarm.status(p)) for p in procs}
     start_wire = read_interface_packets()
     await asyncio.sleep(window)
@@ -496,6 +520,7 @@ async def measure_resources(swarm: LocalSwarm, phase: str, window: float) -> Res
         used = read_cpu_seconds(pid) - start_cpu[p]
         rss, anon = read_memory_kib(pid)
         run.cpu_pct.append(100.0 * used / elapsed)
+        run.sleeps_s.append((read_sleeps(pid) - start_sleeps[p]) / elapsed)
         run.rss_mib.append(rss / 1024)
         run.rss_anon_mib.append(anon / 1024)
         run.peers.append(len(swarm.status(p).get("members", ())))
@@ -905,6 +930,18 @@ def _range(values: Sequence[float], digits: int) -> str:
     )
 
 
+def _wakes(res: ResourceRun) -> str:
+    """The members' median and the master's wakes per second ("—" when not measured)."""
+    members, master = _finite(res.sleeps_of("members")), res.sleeps_of("master")
+    if not members:
+        return "—"
+    return (
+        f"{statistics.median(members):.0f} / {master[0]:.0f}"
+        if master
+        else (f"{statistics.median(members):.0f} / –")
+    )
+
+
 def _verdict(values: Sequence[float], target: float, failed: int) -> str:
     """yes: every run within the target; "median only"; no."""
     clean = _finite(values)
@@ -961,11 +998,14 @@ def markdown(result: BenchResult) -> str:
         "over all the daemons. *wire/s*: packets `lo` received per second (the network namespace's "
         "loopback: run the bench in a namespace of its own to count the swarm alone); *sent/s*: "
         "packets the daemons sent per second (a broadcast counts once); their ratio is the "
-        "packets on the wire per packet sent.",
+        "packets on the wire per packet sent. *wakes/s*: how often a second the daemon's main "
+        "thread went to sleep (its voluntary context switches: the loop's waits), members' "
+        "median / the master's.",
         "",
-        "| N | phase | peers | member CPU % of a core | master CPU % | RSS MiB | private MiB "
-        "| all daemons, % of a core | load avg (1 min) | wire/s | sent/s | wire per sent |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| N | phase | peers | member CPU % of a core | master CPU % | wakes/s | RSS MiB "
+        "| private MiB | all daemons, % of a core | load avg (1 min) | wire/s | sent/s "
+        "| wire per sent |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in result.sizes:
         for res in r.resources:
@@ -975,6 +1015,7 @@ def markdown(result: BenchResult) -> str:
                 f"| {r.size} | {res.phase} | {', '.join(map(str, peers))} "
                 f"| {_range(res.cpu_of('members'), 2)} "
                 f"| {f'{master[0]:.2f} (platform {res.master})' if master else '–'} "
+                f"| {_wakes(res)} "
                 f"| {_range(res.rss_mib, 1)} "
                 f"| {_range(res.rss_anon_mib, 1)} | {sum(res.cpu_pct):.0f} "
                 f"| {res.loadavg_1min:.1f} | {res.wire_packets_s:.0f} "
