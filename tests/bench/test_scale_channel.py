@@ -224,3 +224,29 @@ def test_bad_channel_arguments_get_a_clear_error(args: list[str], message: str) 
     assert result.exit_code == 2
     said = " ".join(result.output.replace("│", " ").split())
     assert message in said
+
+
+def test_a_failover_on_a_busy_shared_channel_declares_no_live_member_gone() -> None:
+    """A hundred platforms on 1 Mbit/s, cadence on; the master crashes at 20 s. The new
+    master's claim sets off a report from each of 98 members, queued on the channel behind
+    each other for about a second. Before the new master held its inherited members (and
+    they their new master) for the handshake's airtime, and reliable delivery waited for
+    the swarm's packets before retrying, the new master declared 97 live members gone
+    560 ms after its claim (193 false leaves over the run), and the next two successors
+    claimed in turn, their master's heartbeats lost in the queue."""
+    scenario = Scenario(
+        quiet_from=6.0,
+        barrier_at=8.0,
+        member_crash_at=9.0,
+        crash_at=20.0,
+        end=22.0,
+        channel_bitrate=1e6,
+    )
+    cell = run_cell("star", 100, 0.0, seed=1010103, scenario=scenario, cadence=True)
+    assert cell.errors == [] and cell.all_released
+    assert (cell.old_master, cell.new_master) == (1, 2)
+    assert cell.run_false_leaves == 0
+    assert 0 < cell.failover_ms < 1500
+    # The handshake's packets had their airtime instead of being retransmitted into a
+    # saturated channel: a hundred dropped over the run, not thousands.
+    assert cell.run_airtime_drops < 500

@@ -114,6 +114,36 @@ def test_a_suspect_that_answers_is_cleared() -> None:
     assert members.next_deadline() == pytest.approx(1.23)
 
 
+def test_a_held_member_is_not_suspected_before_its_hold_ends() -> None:
+    """Held until 2.0 (its packets queue behind a handshake): silent since 0.2, it is
+    suspected at 2.0 + t_leave and gone a probe window later, not at 0.7 / 0.76; a heartbeat
+    during the hold does not shorten it, and one after it counts as usual."""
+    members = _joined(Membership(1, CONFIG), [0.0, 0.1, 0.2])
+    members.hold(PEER, 2.0, 0.3)
+    assert members.next_deadline() == pytest.approx(2.5)
+    out: list[Change] = []
+    members.expire(2.49, out)
+    assert out == [] and not members.suspects
+    _beats(members, [1.0])
+    assert members.next_deadline() == pytest.approx(2.5), "heard in the hold: still 2.5"
+    members.hold(PEER, 1.5, 1.0)  # a shorter hold changes nothing
+    assert members.next_deadline() == pytest.approx(2.5)
+    members.expire(2.5, out)
+    assert PEER in members.suspects
+    members.expire(2.56, out)
+    assert out == [MemberLeft(platform=PEER, incarnation=0, reason="timeout")]
+    members.hold(PEER, 9.0, 3.0)  # no longer a member: nothing to hold
+    assert members.next_deadline() is None
+
+
+def test_an_admitted_member_with_grace_is_watched_from_the_end_of_it() -> None:
+    members = Membership(1, CONFIG)
+    assert members.admit(PEER, 0, 10.0, grace=1.0)
+    assert members.next_deadline() == pytest.approx(11.5)
+    _beats(members, [11.8])
+    assert members.next_deadline() == pytest.approx(12.3), "heard after the grace: as usual"
+
+
 def test_heartbeat_just_before_deadline_keeps_member() -> None:
     members = _joined(Membership(1, CONFIG), [0.0, 0.1, 0.2])
     _beats(members, [0.69])

@@ -232,6 +232,25 @@ def test_retransmission_backoff_grows_to_cap_and_fails_at_deadline() -> None:
     assert times[-1] < 5.0, "nothing is sent at or after the deadline"
 
 
+def test_on_a_shared_channel_retransmissions_wait_for_the_swarm_and_double() -> None:
+    """With a channel time (the swarm's packets ahead of this one) the first wait is at
+    least that, and doubles with each retry up to eight times it; the linear backoff still
+    applies where it is longer."""
+    config = CoreConfig(delivery_deadline=10.0)
+    r = Reliable(config)
+    r.channel_time = 0.16
+    r.send(RECEIVER, _msg(1), 0.0, EPOCH)
+    assert _seqs(r) == [1]
+    times = [0.0] + [t for t, seq in _run(r, 9.0) if seq == 1]
+    gaps = [round(b - a, 9) for a, b in itertools.pairwise(times)]
+    assert gaps[:5] == [0.16, 0.32, 0.64, 1.28, 1.28], gaps
+    r.channel_time = 0.0  # off again: the linear backoff alone
+    r.send(RECEIVER, _msg(2), 9.0, EPOCH)
+    assert _seqs(r) == [2]
+    resent = [t for t, seq in _run(r, 9.2) if seq == 2]
+    assert resent[0] == pytest.approx(9.0 + config.retry_base)
+
+
 def test_retransmission_times_follow_linear_backoff() -> None:
     config = CoreConfig(delivery_deadline=3.0)
     times = _retransmission_times(config, 2.9)

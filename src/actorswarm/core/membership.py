@@ -67,6 +67,8 @@ class Peer:
     leave_at: float = math.inf  # when it leaves, once suspected
     suspected: bool = False
     last_count: int = -1
+    #: Not suspected before this time, however silent (:meth:`Membership.hold`).
+    hold_until: float = -math.inf
 
 
 @dataclass(slots=True)
@@ -266,11 +268,11 @@ class Membership:
             return member
         return None
 
-    def admit(self, peer: int, incarnation: int, now: float) -> bool:
+    def admit(self, peer: int, incarnation: int, now: float, *, grace: float = 0.0) -> bool:
         """Take ``peer`` into the view without its heartbeats (a new star master inherits
         its predecessor's roster: those platforms were members a moment ago). It is watched
-        from ``now`` like a peer just heard. False when it is already in (or a newer
-        incarnation of it is known)."""
+        from ``now`` like a peer just heard, its suspicion and leave ``grace`` seconds later
+        still. False when it is already in (or a newer incarnation of it is known)."""
         if peer == self.self_id or peer in self.peers:
             return False
         if incarnation < self._latest_incarnation.get(peer, -1):
@@ -278,7 +280,20 @@ class Membership:
         self._latest_incarnation[peer] = incarnation
         self._candidates.pop(peer, None)
         self._add(peer, incarnation, now, -1)
+        if grace > 0.0:
+            self.hold(peer, now + grace, now)
         return True
+
+    def hold(self, peer: int, until: float, now: float) -> None:
+        """Suspect ``peer`` (a member of the view) no sooner than ``until``, however silent
+        it is meanwhile, heard or not: its packets are known to be queued behind others (a
+        new master's handshake on a shared channel). After ``until`` its usual times apply,
+        counted from when it was last heard or from ``until``, whichever is later."""
+        member = self.peers.get(peer)
+        if member is None or until <= member.hold_until:
+            return
+        member.hold_until = until
+        self._refresh(peer, member, max(now, member.last_heard), heard=False)
 
     def forget(self, peer: int) -> None:
         """Stop watching ``peer`` without a leave (a star member watches its master only)."""
@@ -306,12 +321,16 @@ class Membership:
         self.version += 1
         self.suspects.discard(peer)
 
-    def _refresh(self, peer: int, member: Peer, now: float) -> None:
-        """``peer`` was heard at ``now``: new suspicion and leave times."""
-        deadline = max(member.detector.observe(now), now + self._suspect_after())
+    def _refresh(self, peer: int, member: Peer, now: float, *, heard: bool = True) -> None:
+        """``peer`` was heard at ``now`` (``heard`` False: its times are recomputed, as of
+        ``now``, without a heartbeat): new suspicion and leave times, none before its hold."""
+        observed = member.detector.observe(now) if heard else now
+        start = max(now, member.hold_until)
+        deadline = max(observed, start + self._suspect_after())
         member.deadline = deadline
-        member.leave_at = max(now + self.silence(), deadline + self._config.probe_window)
-        member.last_heard = now
+        member.leave_at = max(start + self.silence(), deadline + self._config.probe_window)
+        if heard:
+            member.last_heard = now
         if member.suspected:
             member.suspected = False
             self.suspects.discard(peer)

@@ -130,7 +130,7 @@ class Node(NodeElection):
         if not self._awake:
             best = min(best, self._started + self.config.startup_wait)
         if self.master is not None and not self.is_master and self.master not in self.members:
-            best = min(best, self._master_heard + self.members.silence())
+            best = min(best, max(self._master_heard + self.members.silence(), self._master_hold))
         self._due = best
         return best
 

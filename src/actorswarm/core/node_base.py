@@ -55,6 +55,10 @@ KEEP_ERRORS = 20
 #: A master that has more members asking for the whole roster than this at one heartbeat
 #: broadcasts it once instead of sending it to each.
 ROSTER_BROADCAST_FROM = 4
+#: What one member's part of a new master's handshake puts on a shared channel, in
+#: heartbeats' worth of bits: its report (about three), the acknowledgement, a sync when its
+#: report is late, and a roster request.
+HANDSHAKE_PACKETS = 6
 #: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
 #: ticks late.
 MAX_HEALTH = 8
@@ -112,6 +116,9 @@ class NodeBase:
         # When the master was last heard: a master followed before it joined the view (or
         # that left it and came back) has no leave detector of its own yet.
         self._master_heard = now
+        #: A star member on a shared channel does not give up its new master before this:
+        #: the master's heartbeats queue behind the packets its claim set off.
+        self._master_hold = -math.inf
         # The incarnation of the followed master that claimed (-1: not known yet): a
         # heartbeat of a newer one means the master rebooted and is master no more.
         self._master_incarnation = -1
@@ -253,15 +260,26 @@ class NodeBase:
         by its type)."""
         self._out.send(dst, body, channel, kind)
 
-    def _member_cadence(self) -> float:
+    def _member_cadence(self, members: int | None = None) -> float:
         """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or
-        slower when the members' heartbeats would take more than ``heartbeat_share`` of a
-        channel of ``channel_bitrate``."""
+        slower when the heartbeats of its ``members`` (default: its view) would take more
+        than ``heartbeat_share`` of a channel of ``channel_bitrate``."""
         cfg = self.config
         if not self._star or cfg.channel_bitrate is None:
             return cfg.heartbeat_interval
-        load = max(len(self.members), 1) * cfg.heartbeat_bits
+        load = max(len(self.members) if members is None else members, 1) * cfg.heartbeat_bits
         return max(cfg.heartbeat_interval, load / (cfg.heartbeat_share * cfg.channel_bitrate))
+
+    def _handshake_airtime(self, members: int) -> float:
+        """On a shared channel (``channel_bitrate``), how long the packets a claim sets off
+        take on the air: each of ``members`` reports, is acknowledged, may be sent a sync and
+        heartbeats meanwhile — about :data:`HANDSHAKE_PACKETS` heartbeats' worth each, in the
+        half of the channel the heartbeats leave. 0 without a channel."""
+        cfg = self.config
+        if cfg.channel_bitrate is None:
+            return 0.0
+        bits = members * HANDSHAKE_PACKETS * cfg.heartbeat_bits
+        return bits / ((1.0 - cfg.heartbeat_share) * cfg.channel_bitrate)
 
     def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
         """This platform's heartbeat; a star master's carries what its members need."""
@@ -310,6 +328,12 @@ class NodeBase:
             self._cadence = self._member_cadence()
             self.members.cadence = self._cadence
             self._serve_roster_requests(now)
+        bitrate = self.config.channel_bitrate
+        if bitrate is not None:
+            # What the swarm needs to put one packet each on the shared channel: reliable
+            # delivery waits at least that long for an acknowledgement.
+            swarm = max(len(self.members), len(self.roster.members)) + 1
+            self.reliable.channel_time = swarm * self.config.heartbeat_bits / bitrate
         hb = self._heartbeat(now)
         if self._following_star():
             self._emit(self.master, hb, NORMAL)

@@ -132,10 +132,18 @@ class NodeElection(NodeMembership):
             if self._star:
                 # The predecessor's roster: those platforms were members a moment ago. They
                 # are watched from now on and waited for in the handshake, and those that do
-                # not answer leave like any silent member.
-                for peer, incarnation in self.roster.members.items():
-                    if peer != predecessor:
-                        self.members.admit(peer, incarnation, now)
+                # not answer leave like any silent member — at the cadence they will be
+                # asked for, and on a shared channel only once the handshake's packets
+                # have had their airtime: their first heartbeats queue behind them.
+                inherited = [
+                    (p, i)
+                    for p, i in self.roster.members.items()
+                    if p not in (predecessor, self.platform)
+                ]
+                self.members.cadence = self._member_cadence(len(inherited))
+                grace = self._handshake_airtime(len(inherited))
+                for peer, incarnation in inherited:
+                    self.members.admit(peer, incarnation, now, grace=grace)
                 self._lowest_peer = min(self.members.peers, default=None)
         else:  # a new epoch while master: everyone reports again, nothing fires meanwhile
             self._bmaster.ready = False
@@ -152,7 +160,11 @@ class NodeElection(NodeMembership):
         self._handshake_deadline = now + self.config.handshake_timeout
         # Members follow the claim heartbeat and report on their own; a Sync goes only to
         # those who have not reported after a round trip's worth of retry delay.
-        self._sync_at = now + 2 * self.config.retry_base
+        # On a shared channel the reports queue behind each other: no sync before they had
+        # their airtime.
+        self._sync_at = now + max(
+            2 * self.config.retry_base, self._handshake_airtime(len(self._handshake_waiting))
+        )
         self._send_heartbeat(now)
         # The master's own state counts like any member's report.
         self._master_handle(self.platform, self._own_report(now), now)
@@ -202,6 +214,12 @@ class NodeElection(NodeMembership):
             # the master's roster (fetched anew: it is the new master's, or newer).
             for peer in [p for p in self.members.peers if p != master]:
                 self.members.forget(peer)
+            # On a shared channel the master's heartbeats queue behind the reports its
+            # claim sets off (``_handshake_airtime``): not given up before they had theirs.
+            airtime = self._handshake_airtime(len(self.roster.members))
+            if airtime > 0.0:
+                self._master_hold = now + airtime
+                self.members.hold(master, self._master_hold, now)
             self._lowest_peer = master if master in self.members else None
             self._probe_due = {p: t for p, t in self._probe_due.items() if p == master}
         self._out.events.append(MasterChanged(master=master, epoch=epoch))

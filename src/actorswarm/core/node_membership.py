@@ -33,6 +33,7 @@ class NodeMembership(NodeBase):
             and not self.is_master
             and self.master not in self.members
             and now - self._master_heard >= self.members.silence()
+            and now >= self._master_hold
         )
 
     def _check_health(self, now: float) -> None:
@@ -209,6 +210,8 @@ class NodeMembership(NodeBase):
             elif self.is_master:
                 self._roster_log.joined(change.platform, change.incarnation)
                 self._master_joined(change.platform, now, hb)
+            elif change.platform == self.master and self._master_hold > now:
+                self.members.hold(change.platform, self._master_hold, now)
         self._update_lowest_peer(changes)
         self._report_failures()
         if self.is_master:

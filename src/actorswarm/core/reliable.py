@@ -108,6 +108,9 @@ class Reliable:
         self.overall = self._new_estimator()
         self._out[_MASTER_KEY] = self._master_stream
         self.output = output if output is not None else Collector()
+        #: On a shared channel (``channel_bitrate``), the time the swarm takes to put one
+        #: packet each on the air, set by the platform from its view (0: no channel).
+        self.channel_time = 0.0
 
     # --- sending ---------------------------------------------------------------------
 
@@ -162,6 +165,17 @@ class Reliable:
             est = self.overall
         return est.timeout
 
+    def _retry_delay(self, retries: int, dst: int | None) -> float:
+        """The wait before the next retransmission after ``retries`` earlier ones: linear
+        (:meth:`CoreConfig.retry_delay`); on a shared channel at least :attr:`channel_time`,
+        doubling with each retry up to 8 × it, since an acknowledgement cannot come back
+        before the swarm's packets queued ahead of it are on the air."""
+        delay = self._config.retry_delay(retries, self.timeout(dst))
+        slot = self.channel_time
+        if slot <= 0.0:
+            return delay
+        return max(delay, slot * (1 << min(retries, 3)))
+
     def _key(self, stream: OutStream) -> tuple[int, int]:
         if stream is self._master_stream or stream.dst is None:
             return _MASTER_KEY
@@ -195,7 +209,7 @@ class Reliable:
             item.retries += 1  # this transmission is a retry: the next wait grows
         else:
             item.sent_at = now
-        item.due = now + self._config.retry_delay(item.retries, self.timeout(stream.dst))
+        item.due = now + self._retry_delay(item.retries, stream.dst)
         item.sent = True
         heapq.heappush(self._timers, (min(item.due, item.deadline), key[0], key[1], item.seq))
 
