@@ -935,11 +935,8 @@ def _wakes(res: ResourceRun) -> str:
     members, master = _finite(res.sleeps_of("members")), res.sleeps_of("master")
     if not members:
         return "—"
-    return (
-        f"{statistics.median(members):.0f} / {master[0]:.0f}"
-        if master
-        else (f"{statistics.median(members):.0f} / –")
-    )
+    median = f"{statistics.median(members):.0f}"
+    return f"{median} / {master[0]:.0f}" if master else f"{median} / –"
 
 
 def _verdict(values: Sequence[float], target: float, failed: int) -> str:
