@@ -250,3 +250,30 @@ def test_a_failover_on_a_busy_shared_channel_declares_no_live_member_gone() -> N
     # The handshake's packets had their airtime instead of being retransmitted into a
     # saturated channel: a hundred dropped over the run, not thousands.
     assert cell.run_airtime_drops < 500
+
+
+def test_three_hundred_platforms_boot_pass_a_barrier_and_fail_over_on_one_megabit() -> None:
+    """300 platforms on 1 Mbit/s, cadence on. Before the boot was paced (every platform's
+    first heartbeat counted, members heartbeating only once their report was acknowledged,
+    the roster broadcast unasked, retransmissions backing off from the swarm's channel
+    time) the first master's heartbeats drowned in 299 members' 10 Hz heartbeats and
+    reports, every member gave it up, and the swarm never formed (55 of 299 released).
+    Before releases backed off the same way and members allowed for the channel's queue,
+    the burst of a barrier of all made the first successor claim beside a live master."""
+    scenario = Scenario(
+        quiet_from=4.0,
+        barrier_at=5.0,
+        crash_at=8.0,
+        end=10.0,
+        channel_bitrate=1e6,
+    )
+    cell = run_cell("star", 300, 0.0, seed=1, scenario=scenario, cadence=True)
+    assert cell.errors == [], cell.errors
+    assert cell.formed_at_s < 4.0
+    assert cell.all_released and cell.released == 300
+    assert (cell.old_master, cell.new_master) == (1, 2)
+    assert 0 < cell.failover_ms < 2000
+    assert cell.run_false_leaves == 0
+    # 300 members at 478 ms use half the channel, as asked.
+    assert cell.member_cadence_ms == pytest.approx(478.4)
+    assert 0.4 < (cell.channel_utilisation or 0.0) < 0.6

@@ -8,6 +8,7 @@ from typing import Any
 import pytest
 
 from actorswarm.core.barrier import BarrierMaster, BarrierMember
+from actorswarm.core.barrier_state import ASSIGNMENT_ALL_CARRY
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import BarrierFired, BarrierReleased, BarrierStaleNotice
 from actorswarm.core.wire import (
@@ -554,6 +555,30 @@ def _release(
         entries=[ReleaseEntry(platform=p, part=0, index=i) for p, i in entries],
         **kw,
     )
+
+
+@pytest.mark.parametrize(
+    ("size", "carriers"),
+    [(ASSIGNMENT_ALL_CARRY, set(range(3, ASSIGNMENT_ALL_CARRY + 3))), (40, {3, 4, 5, 6})],
+)
+def test_a_large_firing_is_kept_whole_by_its_lowest_ids_only(size: int, carriers: set[int]) -> None:
+    """Every candidate of a small firing keeps its whole assignment for its reports; of a
+    larger one only the lowest few IDs do (the master's successors), so that a new master's
+    handshake does not carry the assignment once per member. Each keeps its own record."""
+    platforms = list(range(3, size + 3))
+    rel = _release([(p, i) for i, p in enumerate(platforms, 1)], total=size)
+    kept = set()
+    for p in platforms:
+        member = BarrierMember(p)
+        member.request(KEY, {0: size}, 0.0)
+        event, ack = member.on_release(rel)
+        assert event is not None and ack
+        (record,) = member.records()
+        assert record.index == platforms.index(p) + 1 and record.size == size
+        if record.assignment:
+            assert record.assignment == {q: (0, i) for i, q in enumerate(platforms, 1)}
+            kept.add(p)
+    assert kept == carriers
 
 
 def test_member_request_uses_known_generation_and_default_bid() -> None:

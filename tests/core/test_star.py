@@ -634,6 +634,91 @@ def test_a_restarted_member_rejoins_a_master_that_asks_for_a_slow_cadence() -> N
     assert 10 in master.members
 
 
+def test_on_a_shared_channel_the_boot_is_counted_and_the_first_claim_paces_everyone() -> None:
+    """A swarm of 30 on a 48 kbit/s channel: at 10 Hz its members' heartbeats alone would
+    need twice the channel. Every platform broadcasts its first heartbeat (on a shared
+    channel a quiet boot would leave the first master ignorant of how many will report),
+    so the claim already asks for the cadence of 29 members; and no member heartbeats to
+    the master before its report was acknowledged — the report burst first."""
+    config = CoreConfig(channel_bitrate=48_000)  # 29 × 800 bits / (0.5 × 48 kbit/s)
+    expected = 29 * config.heartbeat_bits / (config.heartbeat_share * 48_000)
+    swarm = SimSwarm(30, seed=1, config=config)
+    cadence_at_claim: list[float] = []
+
+    def on_event(now: float, node: Node, event: object) -> None:
+        if isinstance(event, BecameMaster):
+            cadence_at_claim.append(node.members.cadence)
+
+    sent: list[tuple[float, int, int | None, str]] = []
+
+    def tap(now: float, src: int, dst: int | None, kind: str, size: int) -> None:
+        sent.append((now, src, dst, kind))
+
+    swarm.listeners.append(on_event)
+    swarm.radio.tap = tap
+    swarm.run_until(8.0)
+    claims = log_of(swarm, 1, BecameMaster)
+    assert [e for _, e in claims] == [BecameMaster(epoch=1)]
+    claimed_at = claims[0][0]
+    broadcasters = {src for t, src, dst, kind in sent if dst is None and t < claimed_at}
+    assert broadcasters == set(range(1, 31))
+    assert cadence_at_claim == [pytest.approx(expected)]
+    for p in range(2, 31):
+        acked = min(t for t, src, dst, kind in sent if src == 1 and dst == p and kind == "Ack")
+        beats = [t for t, src, dst, kind in sent if src == p and dst == 1 and kind == "Heartbeat"]
+        assert beats and beats[0] > acked, f"platform {p} heartbeat before its report's ack"
+    assert swarm.formed(30)
+    assert swarm.node(30)._cadence == pytest.approx(expected)
+    assert swarm.finish() == []
+
+
+def test_on_a_shared_channel_only_successors_probe_a_silent_master() -> None:
+    """The master of 30 on a shared channel crashes. Its members suspect it together; the
+    successors probe it (they are the ones who would claim), the rest of the swarm does not
+    put a probe each on the air ahead of the claim."""
+    swarm = formed(30, config=CoreConfig(channel_bitrate=1e6))
+    succession = swarm.node(30).roster.succession
+    probes: list[int] = []
+
+    def tap(now: float, src: int, dst: int | None, kind: str, size: int) -> None:
+        if dst == 1 and kind == "Probe":
+            probes.append(src)
+
+    swarm.radio.tap = tap
+    swarm.crash(1)
+    swarm.run_until(swarm.now + 3.0)
+    assert probes and set(probes) <= set(succession), (sorted(set(probes)), succession)
+    assert swarm.current_masters() == [succession[0]]
+    assert swarm.formed(29)
+    assert swarm.finish() == []
+
+
+def test_on_a_shared_channel_a_new_master_broadcasts_its_roster_unasked() -> None:
+    """After a failover every member's copy of the roster is of the old epoch. On a shared
+    channel the new master broadcasts the roster with its first heartbeats instead of
+    waiting for 28 requests; a member still behind asks only after about a T_join."""
+    swarm = formed(30, config=CoreConfig(channel_bitrate=1e6))
+    sent: list[tuple[float, int, int | None, str]] = []
+
+    def tap(now: float, src: int, dst: int | None, kind: str, size: int) -> None:
+        sent.append((now, src, dst, kind))
+
+    swarm.radio.tap = tap
+    swarm.crash(1)
+    crashed = swarm.now
+    swarm.run_until(crashed + 3.0)
+    (claimed_at, _), *_ = log_of(swarm, 2, BecameMaster, since=crashed)
+    chunks = [t for t, src, dst, kind in sent if src == 2 and kind == "RosterChunk"]
+    assert chunks and chunks[0] == pytest.approx(claimed_at)
+    assert all(dst is None for t, src, dst, kind in sent if kind == "RosterChunk")
+    requests = [src for t, src, dst, kind in sent if kind == "RosterRequest"]
+    assert len(requests) <= 2, requests
+    for p in range(3, 31):
+        node = swarm.node(p)
+        assert (node.roster.epoch, set(node.roster.members)) == (2, set(range(3, 31)))
+    assert swarm.finish() == []
+
+
 # --- 3. Boot ----------------------------------------------------------------------------
 
 

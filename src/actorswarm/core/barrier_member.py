@@ -3,12 +3,19 @@ requests, the generations it knows, and the releases it passed, at most once eac
 
 from __future__ import annotations
 
+import heapq
 from collections import deque
 from typing import Any
 
 import msgspec
 
-from actorswarm.core.barrier_state import OUTCOME_NAMES, RECENT_ASSIGNMENTS, RECENT_RELEASES
+from actorswarm.core.barrier_state import (
+    ASSIGNMENT_ALL_CARRY,
+    ASSIGNMENT_CARRIERS,
+    OUTCOME_NAMES,
+    RECENT_ASSIGNMENTS,
+    RECENT_RELEASES,
+)
 from actorswarm.core.events import BarrierReleased, BarrierStaleNotice
 from actorswarm.core.wire import (
     NEED_ALL,
@@ -127,7 +134,7 @@ class BarrierMember:
                 origin_master=rel.origin_master,
                 assignment=(
                     {e.platform: (e.part, e.index) for e in rel.entries}
-                    if rel.total and len(rel.entries) == rel.total
+                    if self._carries(rel)
                     else {}
                 ),
             )
@@ -144,6 +151,20 @@ class BarrierMember:
             gathered=tuple(rel.gathered),
         )
         return event, True
+
+    def _carries(self, rel: Release) -> bool:
+        """Whether this platform keeps ``rel``'s whole assignment for its reports: when it
+        saw all of it (one packet) and the firing is small, or is one of its lowest
+        :data:`ASSIGNMENT_CARRIERS` IDs. One carrier's report gives a new master complete
+        knowledge of the firing; without any (all of them lost with the old master) it
+        completes the firing from the reports' own entries, as for a release of several
+        chunks, which no one sees whole."""
+        if not rel.total or len(rel.entries) != rel.total:
+            return False
+        if rel.total <= ASSIGNMENT_ALL_CARRY:
+            return True
+        lowest = heapq.nsmallest(ASSIGNMENT_CARRIERS, (e.platform for e in rel.entries))
+        return self.platform in lowest
 
     def adopt_epoch(self, epoch: int, master: int = 0) -> None:
         """Requests made while no master was known belong to the first epoch followed."""

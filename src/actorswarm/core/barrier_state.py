@@ -32,6 +32,13 @@ OUTCOME_NAMES = {COMPLETE: "complete", TIMEOUT: "timeout"}
 RECENT_RELEASES = 32
 #: Of those, how many carry their whole assignment in a report (bounds the report's size).
 RECENT_ASSIGNMENTS = 4
+#: A firing of more candidates than this is reported whole by its lowest few IDs only
+#: (:data:`ASSIGNMENT_CARRIERS`): every member's report repeating the whole assignment made
+#: a new master's handshake O(N²) bytes (a kilobyte per member at 200).
+ASSIGNMENT_ALL_CARRY = 16
+#: How many of a large firing's candidates, the lowest IDs, keep its whole assignment. The
+#: lowest IDs are the master's successors: a new master that took part carries it itself.
+ASSIGNMENT_CARRIERS = 4
 
 #: Resolves the need ``count`` (a number, or NEED_ALL) of (key, part) to the number of
 #: candidates the part waits for now; 0: the part cannot have candidates and does not hold
@@ -187,6 +194,9 @@ class MasterState:
         self._resolve_need = resolve_need
         #: First retransmission delay of a release (the node plugs in its measured RTT).
         self.first_retry: Callable[[], float] = lambda: config.retry_base
+        #: The wait before a release's next retransmission after k, from the first
+        #: (the node plugs in its reliable layer's, which paces a shared channel).
+        self.retry_delay: Callable[[int, float], float] = config.retry_delay
         self.scatter = scatter
         #: Gather by default; a key whose data only ``scatter`` reads says no, and its
         #: release chunks stay O(release_chunk) bytes rather than O(N) each.
@@ -247,7 +257,7 @@ class MasterState:
         rel.epoch = epoch
         rel.whole = fired.complete_knowledge and fired.entries.keys() == fired.assigned.keys()
         rel.unacked |= targets
-        rel.due = now + self._config.retry_delay(0, self.first_retry())
+        rel.due = now + self.retry_delay(0, self.first_retry())
         self.broadcasts.extend(rel.packets(targets, self._config.release_chunk))
 
     def _resend(self, key: int, fired: Firing, platform: int, now: float, epoch: int) -> None:

@@ -31,6 +31,7 @@ leaves the view is dropped from it.
 from __future__ import annotations
 
 import heapq
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
@@ -65,6 +66,14 @@ class BulletinBoard:
     next_seq: int = 1
     posted: dict[int, _Posted] = field(default_factory=dict)
     _timers: list[tuple[float, int]] = field(default_factory=list)
+    #: The wait before a bulletin's next retransmission after k, from the first (the node
+    #: plugs in its reliable layer's, which paces a shared channel).
+    retry_delay: Callable[[int, float], float] | None = None
+
+    def _delay(self, retries: int, first_retry: float) -> float:
+        if self.retry_delay is None:
+            return self.config.retry_delay(retries, first_retry)
+        return self.retry_delay(retries, first_retry)
 
     @property
     def floor(self) -> int:
@@ -91,7 +100,7 @@ class BulletinBoard:
             skip=sorted(skip),
             unacked=unacked,
             deadline=now + self.config.delivery_deadline,
-            due=now + self.config.retry_delay(0, first_retry),
+            due=now + self._delay(0, first_retry),
         )
         if unacked:
             self.posted[seq] = item
@@ -151,7 +160,7 @@ class BulletinBoard:
                 heapq.heappush(timers, (min(item.due, item.deadline), seq))
                 continue
             item.retries += 1
-            item.due = now + self.config.retry_delay(item.retries, first_retry)
+            item.due = now + self._delay(item.retries, first_retry)
             heapq.heappush(timers, (min(item.due, item.deadline), seq))
             missing = sorted(item.unacked)
             if len(missing) <= UNICAST_AT_MOST:

@@ -130,7 +130,8 @@ class Node(NodeElection):
         if not self._awake:
             best = min(best, self._started + self.config.startup_wait)
         if self.master is not None and not self.is_master and self.master not in self.members:
-            best = min(best, max(self._master_heard + self.members.silence(), self._master_hold))
+            silent_until = self._master_heard + self.members.silence() + self._channel_patience()
+            best = min(best, max(silent_until, self._master_hold))
         self._due = best
         return best
 
@@ -186,7 +187,8 @@ class Node(NodeElection):
         self.members.expire(now, joined_left, suspected, self.grace)
         for peer in suspected:
             self.counters["suspected"] += 1
-            self._probe_due[peer] = now
+            if self._probes(peer):
+                self._probe_due[peer] = now
         self._membership_changed(joined_left, now)
         self._probe(now)
         if self._master_unheard_since(now):
@@ -331,6 +333,8 @@ class Node(NodeElection):
 
     def _dispatch(self, packet: Packet, now: float) -> None:
         body = packet.body
+        if self._heard is not None and packet.sender != wire.GROUND_STATION:
+            self._heard[packet.sender] = now
         if isinstance(body, Heartbeat):
             self._on_heartbeat(packet.sender, packet.incarnation, body, now, packet.seq)
         elif isinstance(body, Data):

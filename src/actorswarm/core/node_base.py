@@ -59,6 +59,11 @@ ROSTER_BROADCAST_FROM = 4
 #: heartbeats' worth of bits: its report (about three), the acknowledgement, a sync when its
 #: report is late, and a roster request.
 HANDSHAKE_PACKETS = 6
+#: On a shared channel, a platform counts the platforms it heard from within this many
+#: seconds in its estimate of the swarm's size (what paces heartbeats and retransmissions
+#: before a view or roster says more): long enough to span a boot, from the heartbeat every
+#: platform broadcasts on starting to the first master's cadence reaching its members.
+HEARD_HORIZON = 10.0
 #: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
 #: ticks late.
 MAX_HEALTH = 8
@@ -93,6 +98,7 @@ class NodeBase:
         self.reliable = Reliable(self.config, self._out)
         # Master to every member as one broadcast (event relays, what the master runs).
         self._board = BulletinBoard(self.config, self._out)
+        self._board.retry_delay = self.reliable.retry_delay
         self._claim_bulletin = 0  # the first bulletin of the members of the claim
         self._inbox = BulletinInbox(platform)
         self.barriers = BarrierMember(platform)
@@ -142,10 +148,24 @@ class NodeBase:
         self._roster_log = RosterLog(self.config.succession)
         self._roster_requests: set[int] = set()
         self._roster_asked = -1e9
+        self._roster_ask_at: float | None = None  # shared channel: a request waiting to go
         self._roster_broadcast_at = -1e9
+        # Shared channel: the roster (epoch, version) of the master's last heartbeat.
+        self._roster_told = (0, 0)
         self._cadence = self.config.heartbeat_interval
         self._presumed: dict[int, float] = {}
         self._heard_lower: dict[int, float] = {}
+        # On a shared channel: every platform heard lately (platform -> when), for the swarm
+        # size estimate; None without a channel, where nothing needs it.
+        self._heard: dict[int, float] | None = (
+            {} if self.config.channel_bitrate is not None else None
+        )
+        self._heard_pruned_at = now
+        # On a shared channel, a star member's heartbeats to a master it just followed wait
+        # for its report's acknowledgement (the report's master-bound sequence number), at
+        # most until ``_heartbeats_held_until``.
+        self._report_seq = 0
+        self._heartbeats_held_until = -math.inf
         #: Since when this platform has elected as in broadcast mode (no master, no
         #: presumed successor): only then may a platform outside the succession list claim.
         self._listening_since = now
@@ -195,8 +215,17 @@ class NodeBase:
 
     @property
     def grace(self) -> float:
-        """Extra patience of every leave decision while this host ticks late."""
-        return self._health * self.config.heartbeat_interval
+        """Extra patience of every leave decision: while this host ticks late, and for a
+        star member on a shared channel (:meth:`_channel_patience`)."""
+        return self._health * self.config.heartbeat_interval + self._channel_patience()
+
+    def _channel_patience(self) -> float:
+        """On a shared channel, how much longer a star member waits for its master's
+        heartbeats: twice the time the swarm takes to put a packet each on the air (0
+        otherwise). They queue behind the swarm's bursts — a barrier of all puts a request,
+        its acknowledgement and a release acknowledgement of every member on the air at
+        once — and a member that gives its master up for that starts a needless failover."""
+        return 2 * self.reliable.channel_time if self._following_star() else 0.0
 
     def _default_need(self, key: int, part: int, count: int) -> int:
         return len(self.members) + 1 if count == NEED_ALL else count
@@ -211,6 +240,7 @@ class NodeBase:
         master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
         master.gathers = lambda k: self.gathers(k)  # noqa: PLW0108
         master.first_retry = lambda: self.reliable.timeout(None)
+        master.retry_delay = self.reliable.retry_delay
         return master
 
     def _set_epoch(self, epoch: int, master: int) -> None:
@@ -262,13 +292,42 @@ class NodeBase:
 
     def _member_cadence(self, members: int | None = None) -> float:
         """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or
-        slower when the heartbeats of its ``members`` (default: its view) would take more
-        than ``heartbeat_share`` of a channel of ``channel_bitrate``."""
+        slower when the heartbeats of its ``members`` (default: every other platform of
+        :meth:`_swarm_size`) would take more than ``heartbeat_share`` of a channel of
+        ``channel_bitrate``."""
         cfg = self.config
         if not self._star or cfg.channel_bitrate is None:
             return cfg.heartbeat_interval
-        load = max(len(self.members) if members is None else members, 1) * cfg.heartbeat_bits
+        others = self._swarm_size() - 1 if members is None else members
+        load = max(others, 1) * cfg.heartbeat_bits
         return max(cfg.heartbeat_interval, load / (cfg.heartbeat_share * cfg.channel_bitrate))
+
+    def _swarm_size(self) -> int:
+        """This platform's estimate of the swarm's size, itself included: the largest of its
+        view, its copy of the roster, the platforms it heard lately (on a shared channel) and,
+        for a star member, the size its master's cadence implies. Before a master has heard
+        its members, or a member has the roster, the platforms heard are what is known —
+        at boot every platform broadcasts a heartbeat once — and a boot paced by the view
+        alone would start a swarm of hundreds at 10 Hz on a channel that carries a tenth."""
+        size = max(len(self.members), len(self.roster.members), len(self._heard or ()))
+        cfg = self.config
+        member = not self.is_master
+        if member and cfg.channel_bitrate is not None and self._cadence > cfg.heartbeat_interval:
+            # cadence = others × bits / (share × bitrate), inverted (a master's own cadence
+            # follows from this estimate: it must not feed it)
+            share = cfg.heartbeat_share * cfg.channel_bitrate
+            size = max(size, int(self._cadence * share / cfg.heartbeat_bits))
+        return size + 1
+
+    def _prune_heard(self, now: float) -> None:
+        """Forget the platforms not heard within :data:`HEARD_HORIZON` (once a second)."""
+        heard = self._heard
+        if heard is None or now - self._heard_pruned_at < 1.0:
+            return
+        self._heard_pruned_at = now
+        horizon = now - HEARD_HORIZON
+        for peer in [p for p, t in heard.items() if t < horizon]:
+            del heard[peer]
 
     def _handshake_airtime(self, members: int) -> float:
         """On a shared channel (``channel_bitrate``), how long the packets a claim sets off
@@ -324,23 +383,47 @@ class NodeBase:
         a lower successor alive) keeps quiet: it could not become master, and at boot this is
         what keeps a thousand platforms from all broadcasting at once."""
         self._hb_count += 1
+        self._prune_heard(now)
+        # On a shared channel the roster of a new epoch is broadcast unasked
+        # (:meth:`_roster_outrun`), after the claim's heartbeat: a member takes a roster
+        # only from the master it follows.
+        roster_after = (
+            self.config.channel_bitrate is not None and self._roster_told[0] != self.epoch
+        )
         if self.is_master and self._star:
             self._cadence = self._member_cadence()
             self.members.cadence = self._cadence
-            self._serve_roster_requests(now)
+            if not roster_after:
+                self._serve_roster_requests(now)
         bitrate = self.config.channel_bitrate
         if bitrate is not None:
             # What the swarm needs to put one packet each on the shared channel: reliable
             # delivery waits at least that long for an acknowledgement.
-            swarm = max(len(self.members), len(self.roster.members)) + 1
-            self.reliable.channel_time = swarm * self.config.heartbeat_bits / bitrate
+            self.reliable.channel_time = self._swarm_size() * self.config.heartbeat_bits / bitrate
         hb = self._heartbeat(now)
         if self._following_star():
-            self._emit(self.master, hb, NORMAL)
-        elif self._quiet(now):
+            if self._heartbeats_held(now):
+                self.counters["heartbeat_held"] += 1
+            else:
+                self._emit(self.master, hb, NORMAL)
+        elif self._quiet(now) and not (self._hb_count == 1 and self._heard is not None):
+            # On a shared channel the first heartbeat goes out all the same: one packet per
+            # platform, and every platform hears how many there are (:meth:`_swarm_size`)
+            # before the first claim asks all of them to report at once.
             self.counters["heartbeat_quiet"] += 1
         else:
             self._emit(None, hb, NORMAL)
+        if roster_after and self.is_master and self._star:
+            self._serve_roster_requests(now)
+
+    def _heartbeats_held(self, now: float) -> bool:
+        """On a shared channel, a star member heartbeats to a master it just followed only
+        once its report is acknowledged: a claim at boot sets off a report from every
+        platform before the master knows how many there are and can ask for a cadence, and
+        members heartbeating at 10 Hz meanwhile would fill the channel its heartbeats need
+        (docs/collective-core.md, "Airtime"). By then the master has counted the reports it
+        received, and its heartbeat carries a cadence for them."""
+        return now < self._heartbeats_held_until and self.reliable.master_holds(self._report_seq)
 
     def _quiet(self, now: float) -> bool:
         if not self._star or self.is_master or self.master is not None:
@@ -361,10 +444,24 @@ class NodeBase:
             del heard[peer]
         return list(heard)
 
+    def _roster_outrun(self) -> bool:
+        """On a shared channel: the roster changed since the master's last heartbeat by
+        more than a heartbeat's changes can tell (a new epoch, a swarm joining by the
+        hundred), so every member is behind — one broadcast of the roster serves them all,
+        and saves the channel a request from each. Notes the version told."""
+        log = self._roster_log
+        told_epoch, told_version = self._roster_told
+        self._roster_told = (self.epoch, log.version)
+        if self.config.channel_bitrate is None or not self.members:
+            return False
+        return told_epoch != self.epoch or log.version - told_version > wire.MAX_CHANGES
+
     def _serve_roster_requests(self, now: float) -> None:
         """Send the whole roster to the members that asked since the last heartbeat: to each,
-        or once to everyone when many asked (after a failover every member does)."""
-        if not self._roster_requests:
+        or once to everyone when many asked (after a failover every member does) or, on a
+        shared channel, when all of them are behind (:meth:`_roster_outrun`)."""
+        outrun = self._roster_outrun()
+        if not self._roster_requests and not (outrun and now >= self._roster_broadcast_at):
             return
         requesters = sorted(self._roster_requests)
         self._roster_requests.clear()
@@ -372,7 +469,7 @@ class NodeBase:
         chunks = RosterLog.chunks(
             self.epoch, self._roster_log.version, members, self.config.roster_chunk
         )
-        if len(requesters) > ROSTER_BROADCAST_FROM:
+        if outrun or len(requesters) > ROSTER_BROADCAST_FROM:
             if now < self._roster_broadcast_at:
                 # A roster that changes fast (a swarm booting) is broadcast once per t_join
                 # at most: the members ask again meanwhile, at no cost to anyone else.
@@ -380,7 +477,7 @@ class NodeBase:
                 return
             self._roster_broadcast_at = now + self.config.t_join
         targets: list[int | None] = (
-            [None] if len(requesters) > ROSTER_BROADCAST_FROM else list(requesters)
+            [None] if outrun or len(requesters) > ROSTER_BROADCAST_FROM else list(requesters)
         )
         for dst in targets:
             for chunk in chunks:
@@ -418,7 +515,7 @@ class NodeBase:
             return
         # On the master-bound stream, in order with the claims and requests: a report made
         # before a claim must not reach the master after the claim's grant and erase it.
-        self.reliable.send_to_master(self._own_report(now), now, self.epoch)
+        self._report_seq = self.reliable.send_to_master(self._own_report(now), now, self.epoch)
 
     def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
         for item in items:

@@ -140,7 +140,9 @@ class NodeElection(NodeMembership):
                     for p, i in self.roster.members.items()
                     if p not in (predecessor, self.platform)
                 ]
-                self.members.cadence = self._member_cadence(len(inherited))
+                self.members.cadence = self._member_cadence(
+                    max(len(inherited), self._swarm_size() - 1)
+                )
                 grace = self._handshake_airtime(len(inherited))
                 for peer, incarnation in inherited:
                     self.members.admit(peer, incarnation, now, grace=grace)
@@ -148,6 +150,11 @@ class NodeElection(NodeMembership):
         else:  # a new epoch while master: everyone reports again, nothing fires meanwhile
             self._bmaster.ready = False
             self._rmaster.ready = False
+            # On a shared channel the members' heartbeats now queue behind their reports
+            # (and wait for their acknowledgement) as after any claim.
+            hold = now + self._handshake_airtime(len(self.members))
+            for peer in list(self.members.peers) if hold > now else ():
+                self.members.hold(peer, hold, now)
         self._roster_log.reset(self.epoch)
         self._cadence = self._member_cadence()
         self.members.cadence = self._cadence
@@ -216,10 +223,14 @@ class NodeElection(NodeMembership):
                 self.members.forget(peer)
             # On a shared channel the master's heartbeats queue behind the reports its
             # claim sets off (``_handshake_airtime``): not given up before they had theirs.
-            airtime = self._handshake_airtime(len(self.roster.members))
+            airtime = self._handshake_airtime(self._swarm_size() - 1)
             if airtime > 0.0:
                 self._master_hold = now + airtime
                 self.members.hold(master, self._master_hold, now)
+            if self.config.channel_bitrate is not None:
+                # Heartbeats wait for the report's acknowledgement (``_heartbeats_held``),
+                # but not past what an inherited member is held for, nor ``t_leave``.
+                self._heartbeats_held_until = now + max(airtime, self.config.t_leave)
             self._lowest_peer = master if master in self.members else None
             self._probe_due = {p: t for p, t in self._probe_due.items() if p == master}
         self._out.events.append(MasterChanged(master=master, epoch=epoch))

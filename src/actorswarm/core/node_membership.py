@@ -32,7 +32,7 @@ class NodeMembership(NodeBase):
             self.master is not None
             and not self.is_master
             and self.master not in self.members
-            and now - self._master_heard >= self.members.silence()
+            and now - self._master_heard >= self.members.silence() + self._channel_patience()
             and now >= self._master_hold
         )
 
@@ -49,6 +49,15 @@ class NodeMembership(NodeBase):
         elif self._health and now >= self._health_decay_at:
             self._health -= 1
             self._health_decay_at = now + 1.0
+
+    def _probes(self, suspect: int) -> bool:
+        """Whether this platform probes ``suspect``: always — except that on a shared
+        channel a star member's silent master is probed by its successors alone. They are
+        the ones who act on its loss (the others wait for the claim), and every member of a
+        swarm of hundreds probing at once would delay that claim on the air."""
+        if self.config.channel_bitrate is None or not self._following_star():
+            return True
+        return suspect != self.master or self.platform in self.roster.succession
 
     def _probe(self, now: float) -> None:
         """Probe the suspects directly (a heartbeat naming them, sent to each): at once on
@@ -129,14 +138,23 @@ class NodeMembership(NodeBase):
         succession list, and the roster (asking for all of it when behind)."""
         if not self._star:
             return
-        self._cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
+        cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
+        if cadence != self._cadence:
+            # Every member hears the new cadence in the same heartbeat: each takes a phase of
+            # its own for it within one new interval, or they would all heartbeat in the same
+            # instant on a shared channel (a faster cadence never makes the next one later).
+            phase = now + self._rng.uniform(0, cadence)
+            slower = cadence > self._cadence
+            self._cadence = cadence
+            self._next_heartbeat = phase if slower else min(self._next_heartbeat, phase)
         rejected = self.roster.rejected
         behind = self.roster.on_heartbeat(hb.epoch, hb)
         if self.roster.rejected != rejected:
             self.counters["drop:roster"] += 1
         self._roster_removed(now)
-        if behind and now - self._roster_asked >= self.config.retry_cap:
-            self._roster_asked = now
+        if not behind:
+            self._roster_ask_at = None
+        elif self._roster_ask_due(now):
             self.counters["roster_request"] += 1
             self._emit(
                 sender,
@@ -146,6 +164,27 @@ class NodeMembership(NodeBase):
                 ),
                 NORMAL,
             )
+
+    def _roster_ask_due(self, now: float) -> bool:
+        """A member behind its master's roster asks for it now: at once and at most every
+        ``retry_cap`` — or, on a shared channel, where every request takes airtime and a
+        master broadcasts the roster by itself when every member is behind (at most once per
+        ``t_join``), only when still behind after a random half to one and a half
+        ``t_join``, and then at most once per ``t_join``."""
+        cfg = self.config
+        if cfg.channel_bitrate is None:
+            if now - self._roster_asked < cfg.retry_cap:
+                return False
+        else:
+            if now - self._roster_asked < cfg.t_join:
+                return False
+            if self._roster_ask_at is None:
+                self._roster_ask_at = now + cfg.t_join * self._rng.uniform(0.5, 1.5)
+            if now < self._roster_ask_at:
+                return False
+            self._roster_ask_at = None
+        self._roster_asked = now
+        return True
 
     def _on_roster_chunk(self, sender: int, chunk: RosterChunk, now: float) -> None:
         if not (

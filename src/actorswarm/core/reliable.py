@@ -129,9 +129,18 @@ class Reliable:
             stream = self._out[(dst, channel)] = OutStream(dst, channel)
         self._enqueue(stream, payload, now, epoch)
 
-    def send_to_master(self, payload: Payload, now: float, epoch: int) -> None:
-        """Queue a master-bound message; it waits while there is no master (see retarget)."""
-        self._enqueue(self._master_stream, payload, now, epoch)
+    def send_to_master(self, payload: Payload, now: float, epoch: int) -> int:
+        """Queue a master-bound message; it waits while there is no master (see retarget).
+        Returns its sequence number on the master-bound stream."""
+        stream = self._master_stream
+        self._enqueue(stream, payload, now, epoch)
+        return stream.next_seq - 1
+
+    def master_holds(self, seq: int) -> bool:
+        """Whether master-bound message ``seq`` is still waiting for its acknowledgement
+        (False once acknowledged, dropped at its deadline or as stale)."""
+        items = self._master_stream.items
+        return bool(items) and items[0].seq <= seq and any(i.seq == seq for i in items)
 
     def _enqueue(self, stream: OutStream, payload: Payload, now: float, epoch: int) -> None:
         item = _Item(
@@ -165,16 +174,24 @@ class Reliable:
             est = self.overall
         return est.timeout
 
-    def _retry_delay(self, retries: int, dst: int | None) -> float:
-        """The wait before the next retransmission after ``retries`` earlier ones: linear
-        (:meth:`CoreConfig.retry_delay`); on a shared channel at least :attr:`channel_time`,
-        doubling with each retry up to 8 × it, since an acknowledgement cannot come back
-        before the swarm's packets queued ahead of it are on the air."""
-        delay = self._config.retry_delay(retries, self.timeout(dst))
+    def retry_delay(self, retries: int, base: float | None = None) -> float:
+        """The wait before the next retransmission after ``retries`` earlier ones, the
+        first being ``base`` (default ``retry_base``): linear (:meth:`CoreConfig.retry_delay`);
+        on a shared channel exponential, doubling with each retry up to 16 × its first,
+        which is at least twice :attr:`channel_time`: an acknowledgement cannot come back
+        before the packets queued ahead of it, and those queued ahead of the
+        acknowledgement, are on the air; and a retry that finds the channel full only adds
+        to what it waits behind (a claim sets off a report from every member at once, a
+        release to all an acknowledgement from each). Releases and bulletins use it too."""
+        delay = self._config.retry_delay(retries, base)
         slot = self.channel_time
         if slot <= 0.0:
             return delay
-        return max(delay, slot * (1 << min(retries, 3)))
+        first = max(2 * slot, self._config.retry_base if base is None else base)
+        return max(delay, first * (1 << min(retries, 4)))
+
+    def _retry_delay(self, retries: int, dst: int | None) -> float:
+        return self.retry_delay(retries, self.timeout(dst))
 
     def _key(self, stream: OutStream) -> tuple[int, int]:
         if stream is self._master_stream or stream.dst is None:
