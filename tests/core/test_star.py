@@ -693,6 +693,31 @@ def test_on_a_shared_channel_only_successors_probe_a_silent_master() -> None:
     assert swarm.finish() == []
 
 
+def test_on_a_shared_channel_a_member_allows_for_the_queue_before_giving_its_master_up() -> None:
+    """A member's master heartbeats queue behind the swarm's bursts on a shared channel: the
+    member waits twice the swarm's channel time longer than its usual leave time before it
+    declares the master gone (on a slow channel, so that the difference shows)."""
+    config = CoreConfig(channel_bitrate=100_000)  # 30 × 800 bits: 0.24 s on the air
+    swarm = SimSwarm(30, seed=1, config=config)
+    swarm.run_until(8.0)
+    assert swarm.current_masters() == [1] and swarm.formed(30)
+    member = swarm.node(30)
+    patience = 2 * member.reliable.channel_time
+    assert patience == pytest.approx(2 * 30 * config.heartbeat_bits / 100_000)
+    assert member.grace == pytest.approx(patience)
+    assert swarm.node(1).grace == 0.0, "the master watches its members as usual"
+    last_heard = member.members.peers[1].last_heard
+    silence = member.members.silence()
+    swarm.crash(1)
+    swarm.run_until(swarm.now + 3.0)
+    ((gone_at, _),) = [
+        (t, e) for t, e in log_of(swarm, 30, MemberLeft, since=last_heard) if e.platform == 1
+    ]
+    assert gone_at - last_heard >= silence + patience - 1e-9
+    assert gone_at - last_heard <= silence + patience + 2 * INTERVAL
+    assert swarm.finish() == []
+
+
 def test_on_a_shared_channel_a_new_master_broadcasts_its_roster_unasked() -> None:
     """After a failover every member's copy of the roster is of the old epoch. On a shared
     channel the new master broadcasts the roster with its first heartbeats instead of
