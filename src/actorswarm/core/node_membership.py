@@ -140,13 +140,16 @@ class NodeMembership(NodeBase):
             return
         cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
         if cadence != self._cadence:
-            # Every member hears the new cadence in the same heartbeat: each takes a phase of
-            # its own for it within one new interval, or they would all heartbeat in the same
-            # instant on a shared channel (a faster cadence never makes the next one later).
-            phase = now + self._rng.uniform(0, cadence)
-            slower = cadence > self._cadence
+            # Every member hears a master's first slow cadence in the same heartbeat: each
+            # takes a phase of its own for it within one interval, or they would all
+            # heartbeat in the same instant on a shared channel. Later changes keep the
+            # schedule (a new phase at each would put the next heartbeat off again and
+            # again while the master's count grows), bringing it forward when faster.
+            if self._cadence == self.config.heartbeat_interval:
+                self._next_heartbeat = now + self._rng.uniform(0, cadence)
+            else:
+                self._next_heartbeat = min(self._next_heartbeat, now + cadence)
             self._cadence = cadence
-            self._next_heartbeat = phase if slower else min(self._next_heartbeat, phase)
         rejected = self.roster.rejected
         behind = self.roster.on_heartbeat(hb.epoch, hb)
         if self.roster.rejected != rejected:
