@@ -334,7 +334,7 @@ class Node(NodeElection):
     def _dispatch(self, packet: Packet, now: float) -> None:
         body = packet.body
         if self._heard is not None and packet.sender != wire.GROUND_STATION:
-            self._heard[packet.sender] = now
+            self._heard.heard(packet.sender, now)
         if isinstance(body, Heartbeat):
             self._on_heartbeat(packet.sender, packet.incarnation, body, now, packet.seq)
         elif isinstance(body, Data):

@@ -16,7 +16,7 @@ import math
 import random
 from collections import Counter
 
-from actorswarm.core import wire
+from actorswarm.core import airtime, wire
 from actorswarm.core.barrier import BarrierMaster, BarrierMember, Gathers, NeedResolver, Scatter
 from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
@@ -35,7 +35,6 @@ from actorswarm.core.roster import RosterLog, RosterView
 from actorswarm.core.wire import (
     BULLETIN_STREAM,
     NEED_ALL,
-    NORMAL,
     BarrierRequest,
     BarrierStale,
     Bulletin,
@@ -52,18 +51,6 @@ from actorswarm.core.wire import (
 MASTER_BOUND = (BarrierRequest, RoleClaim, RoleRelease, Report)
 MASTER_SENT = (BarrierStale, RoleGrant, RoleDeny, RoleRevoke)
 KEEP_ERRORS = 20
-#: A master that has more members asking for the whole roster than this at one heartbeat
-#: broadcasts it once instead of sending it to each.
-ROSTER_BROADCAST_FROM = 4
-#: What one member's part of a new master's handshake puts on a shared channel, in
-#: heartbeats' worth of bits: its report (about three), the acknowledgement, a sync when its
-#: report is late, and a roster request.
-HANDSHAKE_PACKETS = 6
-#: On a shared channel, a platform counts the platforms it heard from within this many
-#: seconds in its estimate of the swarm's size (what paces heartbeats and retransmissions
-#: before a view or roster says more): long enough to span a boot, from the heartbeat every
-#: platform broadcasts on starting to the first master's cadence reaching its members.
-HEARD_HORIZON = 10.0
 #: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
 #: ticks late.
 MAX_HEALTH = 8
@@ -155,12 +142,9 @@ class NodeBase:
         self._cadence = self.config.heartbeat_interval
         self._presumed: dict[int, float] = {}
         self._heard_lower: dict[int, float] = {}
-        # On a shared channel: every platform heard lately (platform -> when), for the swarm
-        # size estimate; None without a channel, where nothing needs it.
-        self._heard: dict[int, float] | None = (
-            {} if self.config.channel_bitrate is not None else None
-        )
-        self._heard_pruned_at = now
+        # On a shared channel: every platform heard lately, for the swarm size estimate;
+        # None without a channel, where nothing needs it.
+        self._heard = airtime.HeardLog(now) if self.config.channel_bitrate is not None else None
         # On a shared channel, a star member's heartbeats to a master it just followed wait
         # for its report's acknowledgement (the report's master-bound sequence number), at
         # most until ``_heartbeats_held_until``.
@@ -291,16 +275,13 @@ class NodeBase:
         self._out.send(dst, body, channel, kind)
 
     def _member_cadence(self, members: int | None = None) -> float:
-        """The member heartbeat interval a star master asks for: ``heartbeat_interval``, or
-        slower when the heartbeats of its ``members`` (default: every other platform of
-        :meth:`_swarm_size`) would take more than ``heartbeat_share`` of a channel of
-        ``channel_bitrate``."""
-        cfg = self.config
-        if not self._star or cfg.channel_bitrate is None:
-            return cfg.heartbeat_interval
+        """The member heartbeat interval a star master asks for
+        (:func:`~actorswarm.core.airtime.member_cadence`) for ``members`` (default: every
+        other platform of :meth:`_swarm_size`)."""
+        if not self._star:
+            return self.config.heartbeat_interval
         others = self._swarm_size() - 1 if members is None else members
-        load = max(others, 1) * cfg.heartbeat_bits
-        return max(cfg.heartbeat_interval, load / (cfg.heartbeat_share * cfg.channel_bitrate))
+        return airtime.member_cadence(self.config, others)
 
     def _swarm_size(self) -> int:
         """This platform's estimate of the swarm's size, itself included: the largest of its
@@ -310,178 +291,13 @@ class NodeBase:
         at boot every platform broadcasts a heartbeat once — and a boot paced by the view
         alone would start a swarm of hundreds at 10 Hz on a channel that carries a tenth."""
         size = max(len(self.members), len(self.roster.members), len(self._heard or ()))
-        cfg = self.config
-        member = not self.is_master
-        if member and cfg.channel_bitrate is not None and self._cadence > cfg.heartbeat_interval:
-            # cadence = others × bits / (share × bitrate), inverted (a master's own cadence
-            # follows from this estimate: it must not feed it)
-            share = cfg.heartbeat_share * cfg.channel_bitrate
-            size = max(size, int(self._cadence * share / cfg.heartbeat_bits))
+        if not self.is_master:  # a master's own cadence follows from this: it must not feed it
+            size = max(size, airtime.implied_size(self.config, self._cadence))
         return size + 1
 
-    def _prune_heard(self, now: float) -> None:
-        """Forget the platforms not heard within :data:`HEARD_HORIZON` (once a second)."""
-        heard = self._heard
-        if heard is None or now - self._heard_pruned_at < 1.0:
-            return
-        self._heard_pruned_at = now
-        horizon = now - HEARD_HORIZON
-        for peer in [p for p, t in heard.items() if t < horizon]:
-            del heard[peer]
-
     def _handshake_airtime(self, members: int) -> float:
-        """On a shared channel (``channel_bitrate``), how long the packets a claim sets off
-        take on the air: each of ``members`` reports, is acknowledged, may be sent a sync and
-        heartbeats meanwhile — about :data:`HANDSHAKE_PACKETS` heartbeats' worth each, in the
-        half of the channel the heartbeats leave. 0 without a channel."""
-        cfg = self.config
-        if cfg.channel_bitrate is None:
-            return 0.0
-        bits = members * HANDSHAKE_PACKETS * cfg.heartbeat_bits
-        return bits / ((1.0 - cfg.heartbeat_share) * cfg.channel_bitrate)
-
-    def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
-        """This platform's heartbeat; a star master's carries what its members need."""
-        if suspects is None:
-            suspects = self._suspect_list()
-        if not (self._star and self.is_master):
-            return Heartbeat(
-                is_master=self.is_master,
-                epoch=self.epoch,
-                master=self.master or 0,
-                count=self._hb_count,
-                suspects=suspects,
-            )
-        log = self._roster_log
-        return Heartbeat(
-            is_master=True,
-            epoch=self.epoch,
-            master=self.platform,
-            count=self._hb_count,
-            suspects=suspects,
-            roster=log.version,
-            size=len(self.members),
-            changes=list(log.changes),
-            succession=log.succession(self.members.peers),
-            cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
-        )
-
-    def _suspect_list(self) -> list[int]:
-        """Up to MAX_SUSPECTS suspects, rotating through them when there are more."""
-        suspects = self.members.suspects
-        if not suspects:
-            return []
-        ordered = sorted(suspects)
-        if len(ordered) <= wire.MAX_SUSPECTS:
-            return ordered
-        start = (self._hb_count * wire.MAX_SUSPECTS) % len(ordered)
-        return (ordered[start:] + ordered[:start])[: wire.MAX_SUSPECTS]
-
-    def _send_heartbeat(self, now: float) -> None:
-        """The scheduled heartbeat: to the master alone when following one in a star, else
-        broadcast — except that a masterless star platform that hears a lower ID (or presumes
-        a lower successor alive) keeps quiet: it could not become master, and at boot this is
-        what keeps a thousand platforms from all broadcasting at once."""
-        self._hb_count += 1
-        self._prune_heard(now)
-        # On a shared channel the roster of a new epoch is broadcast unasked
-        # (:meth:`_roster_outrun`), after the claim's heartbeat: a member takes a roster
-        # only from the master it follows.
-        roster_after = (
-            self.config.channel_bitrate is not None and self._roster_told[0] != self.epoch
-        )
-        if self.is_master and self._star:
-            self._cadence = self._member_cadence()
-            self.members.cadence = self._cadence
-            if not roster_after:
-                self._serve_roster_requests(now)
-        bitrate = self.config.channel_bitrate
-        if bitrate is not None:
-            # What the swarm needs to put one packet each on the shared channel: reliable
-            # delivery waits at least that long for an acknowledgement.
-            self.reliable.channel_time = self._swarm_size() * self.config.heartbeat_bits / bitrate
-        hb = self._heartbeat(now)
-        if self._following_star():
-            if self._heartbeats_held(now):
-                self.counters["heartbeat_held"] += 1
-            else:
-                self._emit(self.master, hb, NORMAL)
-        elif self._quiet(now) and not (self._hb_count == 1 and self._heard is not None):
-            # On a shared channel the first heartbeat goes out all the same: one packet per
-            # platform, and every platform hears how many there are (:meth:`_swarm_size`)
-            # before the first claim asks all of them to report at once.
-            self.counters["heartbeat_quiet"] += 1
-        else:
-            self._emit(None, hb, NORMAL)
-        if roster_after and self.is_master and self._star:
-            self._serve_roster_requests(now)
-
-    def _heartbeats_held(self, now: float) -> bool:
-        """On a shared channel, a star member heartbeats to a master it just followed only
-        once its report is acknowledged: a claim at boot sets off a report from every
-        platform before the master knows how many there are and can ask for a cadence, and
-        members heartbeating at 10 Hz meanwhile would fill the channel its heartbeats need
-        (docs/collective-core.md, "Airtime"). By then the master has counted the reports it
-        received, and its heartbeat carries a cadence for them."""
-        return now < self._heartbeats_held_until and self.reliable.master_holds(self._report_seq)
-
-    def _quiet(self, now: float) -> bool:
-        if not self._star or self.is_master or self.master is not None:
-            return False
-        if any(p < self.platform for p in self._presumed):
-            return True
-        return bool(self._lower_heard(now))
-
-    def _lower_heard(self, now: float) -> list[int]:
-        """Lower IDs heard lately without a master (they elect, so I need not be heard).
-
-        A lower ID that is a master does not count: if I do not follow it (its epoch is
-        below mine), it must hear me to claim again above my epoch. "Lately" is as long as
-        a member stays in a view, so a lost heartbeat or two change nothing."""
-        horizon = now - max(self.config.t_join, self.members.silence())
-        heard = self._heard_lower
-        for peer in [p for p, t in heard.items() if t < horizon]:
-            del heard[peer]
-        return list(heard)
-
-    def _roster_outrun(self) -> bool:
-        """On a shared channel: the roster changed since the master's last heartbeat by
-        more than a heartbeat's changes can tell (a new epoch, a swarm joining by the
-        hundred), so every member is behind — one broadcast of the roster serves them all,
-        and saves the channel a request from each. Notes the version told."""
-        log = self._roster_log
-        told_epoch, told_version = self._roster_told
-        self._roster_told = (self.epoch, log.version)
-        if self.config.channel_bitrate is None or not self.members:
-            return False
-        return told_epoch != self.epoch or log.version - told_version > wire.MAX_CHANGES
-
-    def _serve_roster_requests(self, now: float) -> None:
-        """Send the whole roster to the members that asked since the last heartbeat: to each,
-        or once to everyone when many asked (after a failover every member does) or, on a
-        shared channel, when all of them are behind (:meth:`_roster_outrun`)."""
-        outrun = self._roster_outrun()
-        if not self._roster_requests and not (outrun and now >= self._roster_broadcast_at):
-            return
-        requesters = sorted(self._roster_requests)
-        self._roster_requests.clear()
-        members = {p: m.incarnation for p, m in self.members.peers.items()}
-        chunks = RosterLog.chunks(
-            self.epoch, self._roster_log.version, members, self.config.roster_chunk
-        )
-        if outrun or len(requesters) > ROSTER_BROADCAST_FROM:
-            if now < self._roster_broadcast_at:
-                # A roster that changes fast (a swarm booting) is broadcast once per t_join
-                # at most: the members ask again meanwhile, at no cost to anyone else.
-                self._roster_requests.update(requesters)
-                return
-            self._roster_broadcast_at = now + self.config.t_join
-        targets: list[int | None] = (
-            [None] if outrun or len(requesters) > ROSTER_BROADCAST_FROM else list(requesters)
-        )
-        for dst in targets:
-            for chunk in chunks:
-                self._emit(dst, chunk, NORMAL)
+        """:func:`~actorswarm.core.airtime.handshake_airtime` of this platform's channel."""
+        return airtime.handshake_airtime(self.config, members)
 
     def _to_master(self, payload: Payload, now: float) -> None:
         """Barrier and role traffic for the master. Without a master nothing is queued: the

@@ -1,10 +1,11 @@
-"""The membership layer of a node: heartbeats heard, the master's roster, probes of suspects,
-local health, and what a change of the view sets off (see :mod:`.membership`, :mod:`.roster`).
+"""The membership layer of a node: heartbeats sent and heard, the master's roster, probes of
+suspects, local health, and what a change of the view sets off (see :mod:`.membership`,
+:mod:`.roster`; on a shared channel, :mod:`.airtime`).
 """
 
 from __future__ import annotations
 
-from actorswarm.core import wire
+from actorswarm.core import airtime, wire
 from actorswarm.core.election import OnHeartbeat
 from actorswarm.core.events import (
     MemberJoined,
@@ -15,6 +16,7 @@ from actorswarm.core.node_base import (
     NodeBase,
 )
 from actorswarm.core.ready import PROBE
+from actorswarm.core.roster import RosterLog
 from actorswarm.core.wire import (
     NORMAL,
     Heartbeat,
@@ -22,9 +24,156 @@ from actorswarm.core.wire import (
     RosterRequest,
 )
 
+#: A master that has more members asking for the whole roster than this at one heartbeat
+#: broadcasts it once instead of sending it to each.
+ROSTER_BROADCAST_FROM = 4
+
 
 class NodeMembership(NodeBase):
     """See the module docstring."""
+
+    def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
+        """This platform's heartbeat; a star master's carries what its members need."""
+        if suspects is None:
+            suspects = self._suspect_list()
+        if not (self._star and self.is_master):
+            return Heartbeat(
+                is_master=self.is_master,
+                epoch=self.epoch,
+                master=self.master or 0,
+                count=self._hb_count,
+                suspects=suspects,
+            )
+        log = self._roster_log
+        return Heartbeat(
+            is_master=True,
+            epoch=self.epoch,
+            master=self.platform,
+            count=self._hb_count,
+            suspects=suspects,
+            roster=log.version,
+            size=len(self.members),
+            changes=list(log.changes),
+            succession=log.succession(self.members.peers),
+            cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
+        )
+
+    def _suspect_list(self) -> list[int]:
+        """Up to MAX_SUSPECTS suspects, rotating through them when there are more."""
+        suspects = self.members.suspects
+        if not suspects:
+            return []
+        ordered = sorted(suspects)
+        if len(ordered) <= wire.MAX_SUSPECTS:
+            return ordered
+        start = (self._hb_count * wire.MAX_SUSPECTS) % len(ordered)
+        return (ordered[start:] + ordered[:start])[: wire.MAX_SUSPECTS]
+
+    def _send_heartbeat(self, now: float) -> None:
+        """The scheduled heartbeat: to the master alone when following one in a star, else
+        broadcast — except that a masterless star platform that hears a lower ID (or presumes
+        a lower successor alive) keeps quiet: it could not become master, and at boot this is
+        what keeps a thousand platforms from all broadcasting at once."""
+        self._hb_count += 1
+        if self._heard is not None:
+            self._heard.sweep(now)
+        # On a shared channel the roster of a new epoch is broadcast unasked
+        # (:meth:`_roster_outrun`), after the claim's heartbeat: a member takes a roster
+        # only from the master it follows.
+        roster_after = (
+            self.config.channel_bitrate is not None and self._roster_told[0] != self.epoch
+        )
+        if self.is_master and self._star:
+            self._cadence = self._member_cadence()
+            self.members.cadence = self._cadence
+            if not roster_after:
+                self._serve_roster_requests(now)
+        if self.config.channel_bitrate is not None:
+            # What the swarm needs to put one packet each on the shared channel: reliable
+            # delivery waits at least that long for an acknowledgement.
+            self.reliable.channel_time = airtime.channel_time(self.config, self._swarm_size())
+        hb = self._heartbeat(now)
+        if self._following_star():
+            if self._heartbeats_held(now):
+                self.counters["heartbeat_held"] += 1
+            else:
+                self._emit(self.master, hb, NORMAL)
+        elif self._quiet(now) and not (self._hb_count == 1 and self._heard is not None):
+            # On a shared channel the first heartbeat goes out all the same: one packet per
+            # platform, and every platform hears how many there are (:meth:`_swarm_size`)
+            # before the first claim asks all of them to report at once.
+            self.counters["heartbeat_quiet"] += 1
+        else:
+            self._emit(None, hb, NORMAL)
+        if roster_after and self.is_master and self._star:
+            self._serve_roster_requests(now)
+
+    def _heartbeats_held(self, now: float) -> bool:
+        """On a shared channel, a star member heartbeats to a master it just followed only
+        once its report is acknowledged: a claim at boot sets off a report from every
+        platform before the master knows how many there are and can ask for a cadence, and
+        members heartbeating at 10 Hz meanwhile would fill the channel its heartbeats need
+        (docs/collective-core.md, "Airtime"). By then the master has counted the reports it
+        received, and its heartbeat carries a cadence for them."""
+        return now < self._heartbeats_held_until and self.reliable.master_holds(self._report_seq)
+
+    def _quiet(self, now: float) -> bool:
+        if not self._star or self.is_master or self.master is not None:
+            return False
+        if any(p < self.platform for p in self._presumed):
+            return True
+        return bool(self._lower_heard(now))
+
+    def _lower_heard(self, now: float) -> list[int]:
+        """Lower IDs heard lately without a master (they elect, so I need not be heard).
+
+        A lower ID that is a master does not count: if I do not follow it (its epoch is
+        below mine), it must hear me to claim again above my epoch. "Lately" is as long as
+        a member stays in a view, so a lost heartbeat or two change nothing."""
+        horizon = now - max(self.config.t_join, self.members.silence())
+        heard = self._heard_lower
+        for peer in [p for p, t in heard.items() if t < horizon]:
+            del heard[peer]
+        return list(heard)
+
+    def _roster_outrun(self) -> bool:
+        """On a shared channel: the roster changed since the master's last heartbeat by
+        more than a heartbeat's changes can tell (a new epoch, a swarm joining by the
+        hundred), so every member is behind — one broadcast of the roster serves them all,
+        and saves the channel a request from each. Notes the version told."""
+        log = self._roster_log
+        told_epoch, told_version = self._roster_told
+        self._roster_told = (self.epoch, log.version)
+        if self.config.channel_bitrate is None or not self.members:
+            return False
+        return told_epoch != self.epoch or log.version - told_version > wire.MAX_CHANGES
+
+    def _serve_roster_requests(self, now: float) -> None:
+        """Send the whole roster to the members that asked since the last heartbeat: to each,
+        or once to everyone when many asked (after a failover every member does) or, on a
+        shared channel, when all of them are behind (:meth:`_roster_outrun`)."""
+        outrun = self._roster_outrun()
+        if not self._roster_requests and not (outrun and now >= self._roster_broadcast_at):
+            return
+        requesters = sorted(self._roster_requests)
+        self._roster_requests.clear()
+        members = {p: m.incarnation for p, m in self.members.peers.items()}
+        chunks = RosterLog.chunks(
+            self.epoch, self._roster_log.version, members, self.config.roster_chunk
+        )
+        if outrun or len(requesters) > ROSTER_BROADCAST_FROM:
+            if now < self._roster_broadcast_at:
+                # A roster that changes fast (a swarm booting) is broadcast once per t_join
+                # at most: the members ask again meanwhile, at no cost to anyone else.
+                self._roster_requests.update(requesters)
+                return
+            self._roster_broadcast_at = now + self.config.t_join
+        targets: list[int | None] = (
+            [None] if outrun or len(requesters) > ROSTER_BROADCAST_FROM else list(requesters)
+        )
+        for dst in targets:
+            for chunk in chunks:
+                self._emit(dst, chunk, NORMAL)
 
     def _master_unheard_since(self, now: float) -> bool:
         """The followed master is outside the view and silent for ``t_leave``."""
