@@ -46,12 +46,13 @@ from actorswarm.core.wire import (
     MAX_SUSPECTS,
     NEED_ALL,
     Heartbeat,
+    Packet,
     RosterChunk,
     RosterRequest,
     decode,
     encode,
 )
-from actorswarm.sim.radio import LinkModel
+from actorswarm.sim.radio import LinkModel, Transmission
 from actorswarm.sim.swarm import SimSwarm
 
 CONFIG = CoreConfig()
@@ -723,6 +724,34 @@ def test_on_a_shared_channel_a_member_allows_for_the_queue_before_giving_its_mas
     assert gone_at - last_heard >= silence + patience - 1e-9
     assert gone_at - last_heard <= silence + patience + 2 * INTERVAL
     assert swarm.finish() == []
+
+
+@pytest.mark.parametrize("membership", ["star", "broadcast"])
+def test_a_request_the_master_never_acknowledged_is_restated(membership: MembershipKind) -> None:
+    """A barrier request whose every transmission was lost fails at its delivery deadline
+    (on a lossy shared channel a few retries span it). The member still follows the master,
+    so it reports again, the report restates the request, and the barrier releases —
+    before, the request waited unsent until the next master."""
+    config = CoreConfig(membership=membership, delivery_deadline=1.0)
+    swarm = formed(3, config=config)
+    master_rx = swarm.radio._handlers[1]
+    cut = True
+
+    def lossy(tx: Transmission[Packet], now: float) -> None:
+        if not (cut and tx.src == 3 and tx.kind == "Data"):
+            master_rx(tx, now)
+
+    swarm.radio._handlers[1] = lossy
+    for p in (1, 2, 3):
+        swarm.call(p, lambda n: n.request_barrier(9, NEED_ALL, swarm.now))
+    swarm.run_until(swarm.now + 1.5)  # past the deadline: 3's request failed
+    assert swarm.node(3).counters["restated"] >= 1
+    assert not [e for e in swarm.log if isinstance(e.event, BarrierReleased)]
+    cut = False
+    swarm.run_until(swarm.now + 1.0)
+    passed = {e.platform for e in swarm.log if isinstance(e.event, BarrierReleased)}
+    assert passed == {1, 2, 3}
+    assert swarm.node(3).counters["restated"] >= 1
 
 
 def test_on_a_shared_channel_a_new_master_broadcasts_its_roster_unasked() -> None:

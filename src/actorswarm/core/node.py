@@ -211,6 +211,11 @@ class Node(NodeElection):
             self._board.tick(now, self.epoch, self.reliable.timeout(None))
         self.reliable.tick(now)
         self._report_failures()
+        if self._restate:
+            self._restate = False
+            if self.master is not None and not self.is_master:
+                self.counters["restated"] += 1
+                self._report(now)
         slack = self.config.heartbeat_slack or 0.0
         if now + slack >= self._next_heartbeat:
             self._send_heartbeat(now)

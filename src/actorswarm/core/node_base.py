@@ -150,6 +150,8 @@ class NodeBase:
         # most until ``_heartbeats_held_until``.
         self._report_seq = 0
         self._heartbeats_held_until = -math.inf
+        # A master-bound message was given up: report again at the next tick.
+        self._restate = False
         #: Since when this platform has elected as in broadcast mode (no master, no
         #: presumed successor): only then may a platform outside the succession list claim.
         self._listening_since = now
@@ -257,6 +259,12 @@ class NodeBase:
         if not out.failures:
             return
         for failure in out.failures:
+            if failure.reason == "deadline" and isinstance(failure.payload, MASTER_BOUND):
+                # A request or claim the master never acknowledged (on a lossy shared
+                # channel a few retries span the whole deadline) would otherwise wait
+                # unsent until the next master: the next tick reports again, and the
+                # report restates everything still pending.
+                self._restate = True
             reason = {
                 "left": "the destination left the swarm",
                 "stepped_down": "this platform stepped down as master before it was delivered",
