@@ -26,7 +26,7 @@ from typing import TypeVar
 
 import pytest
 
-from actorswarm.core import wire
+from actorswarm.core import airtime, wire
 from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.core.events import (
     BarrierReleased,
@@ -62,6 +62,9 @@ LEAVE = CONFIG.t_leave + CONFIG.probe_window
 EPOCH = 3
 SIM_SWARM = "sim"  # SimSwarm's default swarm name
 FORMED_AT = 2.0  # a simulated swarm of up to 30 platforms has formed well before this
+#: A handshake's airtime per member, in heartbeats' worth of bits over the bit rate: its
+#: packets (HANDSHAKE_PACKETS) in the half of the channel the heartbeats leave.
+HANDSHAKE_SHARE = airtime.HANDSHAKE_PACKETS / (1 - CONFIG.heartbeat_share)
 
 E = TypeVar("E")
 
@@ -752,6 +755,33 @@ def test_a_request_the_master_never_acknowledged_is_restated(membership: Members
     passed = {e.platform for e in swarm.log if isinstance(e.event, BarrierReleased)}
     assert passed == {1, 2, 3}
     assert swarm.node(3).counters["restated"] >= 1
+
+
+def test_on_a_shared_channel_a_master_that_claims_again_holds_its_members() -> None:
+    """A healed partition: the other side's master (16) claims a new epoch, platform 1
+    claims above it while master. Its own members now report again and hold their
+    heartbeats for the acknowledgement, as after any claim; the master holds them for the
+    handshake's airtime, as it holds inherited members (at 500 on 1 Mbit/s, without this,
+    a re-claim declared 384 live members gone)."""
+    config = CoreConfig(channel_bitrate=100_000)
+    swarm = SimSwarm(30, seed=1, config=config)
+    swarm.run_until(8.0)
+    swarm.partition([range(1, 16), range(16, 31)])
+    swarm.run_until(16.0)
+    assert swarm.current_masters() == [1, 16]
+    swarm.heal()
+    healed = swarm.now
+    swarm.run_until(24.0)
+    claims = log_of(swarm, 1, BecameMaster, since=healed)
+    assert claims, "platform 1 did not claim again after the heal"
+    claimed_at = claims[0][0]
+    per_member = HANDSHAKE_SHARE * config.heartbeat_bits / 100_000
+    master = swarm.node(1)
+    for p in range(2, 16):
+        hold = master.members.peers[p].hold_until
+        assert claimed_at + 14 * per_member - 1e-9 <= hold <= claimed_at + 29 * per_member, p
+    assert swarm.current_masters() == [1] and swarm.formed(30)
+    assert swarm.finish() == []
 
 
 def test_on_a_shared_channel_a_new_master_broadcasts_its_roster_unasked() -> None:
