@@ -37,8 +37,14 @@ def test_proc_readers_see_this_process() -> None:
     assert 0 < anon <= rss
     assert read_cpu_seconds(os.getpid()) > 0
     first = read_cpu_ns(os.getpid())
-    sum(range(200_000))  # some CPU
-    assert read_cpu_ns(os.getpid()) > first > 0
+    # The kernel updates a running thread's schedstat at its scheduler events (a tick, a
+    # switch), not at every read: burn CPU until one has happened, within a bound.
+    deadline = time.monotonic() + 5.0
+    later = first
+    while later == first and time.monotonic() < deadline:
+        sum(range(200_000))
+        later = read_cpu_ns(os.getpid())
+    assert later > first > 0
     slept = read_sleeps(os.getpid())
     time.sleep(0.01)  # the main thread sleeps: one voluntary context switch at least
     assert read_sleeps(os.getpid()) > slept
