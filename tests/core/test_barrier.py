@@ -400,6 +400,35 @@ def test_need_all_resolves_via_resolver() -> None:
     assert rel.sizes == {0: 3}
 
 
+def test_need_all_does_not_count_a_request_from_beyond_the_view() -> None:
+    """Every platform means every one in the view: a platform still joining (or one the
+    master dropped) that requests does not stand in for a member that has not yet."""
+    h = Harness(live=3)
+    view = {1, 2, 3}
+    h.master.live = lambda platform: platform in view
+    for platform in (1, 2, 9):
+        h.master.request(platform, _req(NEED_ALL), 0.0, EPOCH)
+    assert h.broadcasts() == [], "member 3 has not asked: 9 is not in the view"
+    view.add(9)  # 9 joins: the view is 4, and 3 still has not asked
+    h.live = 4
+    h.master.needs_changed(0.5, EPOCH)
+    assert h.broadcasts() == []
+    h.master.request(3, _req(NEED_ALL), 0.6, EPOCH)
+    assert {p: i > 0 for p, (_, i) in h.entries().items()} == dict.fromkeys((1, 2, 3, 9), True)
+
+
+def test_need_all_takes_in_a_requester_from_beyond_the_view() -> None:
+    """Once every member has asked, a request from beyond the view is chosen with them
+    (a NEED_ALL part is never smaller than its candidates)."""
+    h = Harness(live=2)
+    h.master.live = lambda platform: platform in {1, 2}
+    for platform in (9, 1, 2):
+        h.master.request(platform, _req(NEED_ALL), 0.0, EPOCH)
+    (rel,) = h.broadcasts()
+    assert rel.sizes == {0: 3}
+    assert {e.platform for e in rel.entries if e.index > 0} == {1, 2, 9}
+
+
 def test_leaving_member_completes_need_all() -> None:
     h = Harness(live=3)
     h.master.request(1, _req(NEED_ALL), 0.0, EPOCH)

@@ -29,7 +29,7 @@ from actorswarm.core.events import (
     SteppedDown,
 )
 from actorswarm.core.node import Node
-from actorswarm.core.wire import PROTOCOL_VERSION, Envelope, Heartbeat, decode, encode
+from actorswarm.core.wire import NEED_ALL, PROTOCOL_VERSION, Envelope, Heartbeat, decode, encode
 
 SWARM = "test-swarm"
 INCARNATION = 1
@@ -270,6 +270,28 @@ def test_barrier_releases_all_three_with_indices(asked_at: float) -> None:
     fired = net.of_type(1, BarrierFired)
     assert [(f.generation, f.chosen) for f in fired] == [(0, {1: (0, 1), 2: (0, 2), 3: (0, 3)})]
     assert all(node.barriers.pending == {} for node in net.nodes.values())
+
+
+def test_a_barrier_of_all_waits_for_every_member_not_for_a_joiner_in_its_place() -> None:
+    """A platform that follows the master before the master admitted it may ask to pass a
+    barrier of all. Its request must not stand in for a member's: the barrier fires when
+    every platform of the master's view has asked, and takes the joiner along."""
+    net = _elected()
+    net.nodes[4] = Node(4, swarm=SWARM, incarnation=INCARNATION, config=net.config, now=net.now)
+    net.events[4] = []
+    while net.nodes[4].master != 1:
+        net.run_until(net.now + 0.01)
+    assert 4 not in net.nodes[1].members, "setup: 4 follows 1, and 1 has not admitted it"
+    for nid in (4, 1, 2):
+        net.act(nid, lambda n: n.request_barrier(1, NEED_ALL, net.now))
+    net.run_until(net.now + 0.05)
+    assert net.of_type(1, BarrierFired) == [], "member 3 has not asked yet"
+    net.act(3, lambda n: n.request_barrier(1, NEED_ALL, net.now))
+    net.run_until(net.now + 1.0)
+    (fired,) = net.of_type(1, BarrierFired)
+    assert sorted(fired.chosen) == [1, 2, 3, 4]
+    for nid in net.nodes:
+        assert [e.chosen for e in net.of_type(nid, BarrierReleased)] == [True], nid
 
 
 def test_role_quota_one_grants_one_denies_other_then_regrants() -> None:

@@ -110,17 +110,31 @@ class BarrierMaster(Completion):
         for key in list(self.open):
             self.try_fire(key, now, epoch)
 
-    def _needs(self, key: int, inst: OpenGeneration) -> dict[int, int]:
-        """What each part waits for now: the least any request asks of it. A need of
-        NEED_ALL is never below the part's candidates: a candidate runs the part's actor,
-        even while the resolver's view of who runs what lags behind."""
-        needs: dict[int, int] = {}
+    def _resolved(self, key: int, inst: OpenGeneration) -> dict[int, tuple[int, int]]:
+        """Per part: what it waits for now, the least any request asks of it, and how many
+        of its candidates must be in the view (0 unless that least need is NEED_ALL's).
+
+        A need of NEED_ALL is never below the part's candidates: a candidate runs the
+        part's actor, even while the resolver's view of who runs what lags behind. But only
+        the view's platforms are "all": a request from beyond it (a platform still joining,
+        or one the master dropped) must not stand in for a member's."""
+        resolved: dict[int, tuple[int, int]] = {}
         for part, count in inst.pairs:
             n = self._resolve_need(key, part, count)
+            live = 0
             if count == NEED_ALL:
-                n = max(n, inst.parts.get(part, 0))
-            needs[part] = min(needs.get(part, n), n)
-        return needs
+                n, live = max(n, inst.parts.get(part, 0)), n
+            if part not in resolved or n < resolved[part][0]:
+                resolved[part] = (n, live)
+        return resolved
+
+    def _live_short(self, inst: OpenGeneration, part: int, need: int) -> bool:
+        """Whether fewer than ``need`` of the part's candidates are in the view. Only asked
+        once the candidates alone are enough, so a request from beyond the view costs one
+        pass over the requests, not one per request."""
+        live = self.live
+        count = sum(1 for p, r in inst.requests.items() if r.part == part and live(p))
+        return count < need
 
     def needs_changed(self, now: float, epoch: int, keys: Iterable[int] | None = None) -> None:
         """What some parts of ``keys`` (None: every key) wait for may have changed (a
@@ -154,11 +168,16 @@ class BarrierMaster(Completion):
             if now < until:
                 return
             del self._holds[key]
-        needs = self._needs(key, inst)
+        resolved = self._resolved(key, inst)
+        needs = {part: n for part, (n, _) in resolved.items()}
         waiting = {part: n for part, n in needs.items() if n >= 1}
         if not waiting:
             return
         if any(inst.parts.get(part, 0) < n for part, n in waiting.items()):
+            return
+        if any(
+            live >= 1 and self._live_short(inst, part, live) for part, (_, live) in resolved.items()
+        ):
             return
         by_part: dict[int, list[tuple[int, BarrierRequest]]] = {}
         for platform, req in inst.requests.items():

@@ -198,6 +198,11 @@ class MasterState:
         #: (the node plugs in its reliable layer's, which paces a shared channel).
         self.retry_delay: Callable[[int, float], float] = config.retry_delay
         self.scatter = scatter
+        #: Whether a platform is in the master's view (itself included). A part that waits
+        #: for every platform (NEED_ALL) counts only their requests: one from beyond the view
+        #: (a platform still joining, or one the master dropped) must not stand in for a
+        #: member's. Default: everyone (a table without a view, as in unit tests).
+        self.live: Callable[[int], bool] = lambda platform: True
         #: Gather by default; a key whose data only ``scatter`` reads says no, and its
         #: release chunks stay O(release_chunk) bytes rather than O(N) each.
         self.gathers: Gathers = lambda key: True

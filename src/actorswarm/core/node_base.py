@@ -225,6 +225,7 @@ class NodeBase:
         )
         master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
         master.gathers = lambda k: self.gathers(k)  # noqa: PLW0108
+        master.live = lambda p: p == self.platform or p in self.members
         master.first_retry = lambda: self.reliable.timeout(None)
         master.retry_delay = self.reliable.retry_delay
         return master
