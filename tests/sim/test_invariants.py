@@ -111,3 +111,33 @@ def test_a_partial_release_beside_a_second_firing_is_still_found() -> None:
     run.event(8.5, 2, _released(10, 1, 1))
     violations = run.finish()
     assert any("platform 4 was chosen (epoch 3)" in v for v in violations), violations
+
+
+@dataclass
+class _View:
+    peers: tuple[int, ...]
+
+
+@dataclass
+class _Master(_Platform):
+    """A master as the checker reads it: its view's peers."""
+
+    members: _View = field(default_factory=lambda: _View(()))
+
+
+def test_a_barrier_of_all_that_leaves_a_member_of_the_view_out_is_found() -> None:
+    checker = InvariantChecker(settle=1.0, incarnation_of=lambda p: 0, all_keys={1})
+    master = cast(Node, _Master(1, members=_View((2, 3, 4))))
+    checker.on_event(1.0, master, _fired(0, 1, {1: (0, 1), 2: (0, 2), 4: (0, 3), 9: (0, 4)}))
+    (violation,) = checker.violations
+    assert "fired barrier 1/0 of all (epoch 1) without [3] of its view" in violation
+    # The whole view chosen (and a platform from beyond it too): nothing to say.
+    checker.on_event(2.0, master, _fired(1, 1, {1: (0, 1), 2: (0, 2), 3: (0, 3), 4: (0, 4)}))
+    assert len(checker.violations) == 1
+
+
+def test_a_barrier_that_is_not_of_all_may_choose_some() -> None:
+    checker = InvariantChecker(settle=1.0, incarnation_of=lambda p: 0, all_keys={2})
+    master = cast(Node, _Master(1, members=_View((2, 3, 4))))
+    checker.on_event(1.0, master, _fired(0, 1, {1: (0, 1), 2: (0, 2)}))
+    assert checker.violations == []

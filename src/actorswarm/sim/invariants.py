@@ -23,6 +23,10 @@ The invariants (docs/design.md §3, issue "collective core"):
 4. **No message reaches the application twice** (app messages, barrier releases).
 5. **Epochs never go backwards** on any platform incarnation.
 6. **No internal error** was caught at a platform's packet boundary.
+7. **A barrier of all leaves no one out**: a master that fires a key every request of which
+   waits for all (``all_keys``, NEED_ALL) chooses every platform of its view, itself
+   included (a complete firing; a timeout or the completion of a predecessor's firing
+   chooses whom it can).
 """
 
 from __future__ import annotations
@@ -59,6 +63,8 @@ class InvariantChecker:
     booted_at: Callable[[int], float] = lambda p: 0.0
     #: How long a master may not know of a reboot (a leave, then a join).
     reboot_blindness: float = 0.0
+    #: Keys whose every request waits for all (NEED_ALL): invariant 7. Workloads add theirs.
+    all_keys: set[int] = field(default_factory=set)
     violations: list[str] = field(default_factory=list)
     _epochs: dict[tuple[int, int], int] = field(default_factory=dict)
     _firings: dict[tuple[int, int], list[_Firing]] = field(default_factory=dict)
@@ -90,6 +96,14 @@ class InvariantChecker:
                 )
             self._epochs[who] = max(last, event.epoch)
         elif isinstance(event, BarrierFired):
+            if event.key in self.all_keys and event.outcome == "complete" and not event.completion:
+                left_out = {node.platform, *node.members.peers} - event.chosen.keys()
+                if left_out:
+                    self._violate(
+                        t,
+                        f"master {node.platform} fired barrier {event.key}/{event.generation} "
+                        f"of all (epoch {event.epoch}) without {sorted(left_out)} of its view",
+                    )
             self._firings.setdefault((event.key, event.generation), []).append(
                 _Firing(
                     event.epoch,

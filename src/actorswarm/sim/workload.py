@@ -33,6 +33,9 @@ class BarrierRounds:
     requests: int = 0
 
     def install(self) -> BarrierRounds:
+        if self.need == NEED_ALL and self.only is None:
+            # Every live platform asks: a firing must choose the master's whole view.
+            self.swarm.checker.all_keys.add(self.key)
         self.swarm.at(self.start, self._round)
         return self
 
