@@ -429,6 +429,31 @@ def test_need_all_takes_in_a_requester_from_beyond_the_view() -> None:
     assert {e.platform for e in rel.entries if e.index > 0} == {1, 2, 9}
 
 
+def test_the_master_names_the_few_members_a_barrier_of_all_awaits() -> None:
+    h = Harness(live=5)
+    view = {1, 2, 3, 4, 5}
+    h.master.live = lambda platform: platform in view
+    h.master.first_retry = lambda: 0.1
+    for platform in (1, 2, 4):
+        h.master.request(platform, _req(NEED_ALL), 0.0, EPOCH)
+    assert h.master.awaited(0.05, lambda: view) == [], "before a first retry's time"
+    assert h.master.awaited(0.2, lambda: view) == [3, 5]
+    h.master.request(9, _req(NEED_ALL), 0.3, EPOCH)  # from beyond the view: no help
+    assert h.master.awaited(0.4, lambda: view) == [3, 5]
+
+
+def test_the_master_names_no_one_when_many_are_missing_or_the_need_is_not_all() -> None:
+    many = Harness(live=40)
+    view = set(range(1, 41))
+    many.master.first_retry = lambda: 0.0
+    many.master.request(1, _req(NEED_ALL), 0.0, EPOCH)
+    assert many.master.awaited(1.0, lambda: view) == [], "39 missing: more than a heartbeat names"
+    counted = Harness(live=3)
+    counted.master.first_retry = lambda: 0.0
+    counted.master.request(1, _req(3), 0.0, EPOCH)
+    assert counted.master.awaited(1.0, lambda: {1, 2, 3}) == [], "a need of 3 awaits no one"
+
+
 def test_leaving_member_completes_need_all() -> None:
     h = Harness(live=3)
     h.master.request(1, _req(NEED_ALL), 0.0, EPOCH)

@@ -29,7 +29,16 @@ from actorswarm.core.events import (
     SteppedDown,
 )
 from actorswarm.core.node import Node
-from actorswarm.core.wire import NEED_ALL, PROTOCOL_VERSION, Envelope, Heartbeat, decode, encode
+from actorswarm.core.wire import (
+    NEED_ALL,
+    PROTOCOL_VERSION,
+    BarrierRequest,
+    Data,
+    Envelope,
+    Heartbeat,
+    decode,
+    encode,
+)
 
 SWARM = "test-swarm"
 INCARNATION = 1
@@ -292,6 +301,52 @@ def test_a_barrier_of_all_waits_for_every_member_not_for_a_joiner_in_its_place()
     assert sorted(fired.chosen) == [1, 2, 3, 4]
     for nid in net.nodes:
         assert [e.chosen for e in net.of_type(nid, BarrierReleased)] == [True], nid
+
+
+def _lose_first_request(node: Node) -> list[int]:
+    """The radio loses the first barrier request ``node`` sends; the list returned fills
+    with one entry when it has."""
+    lost: list[int] = []
+    original = node.ready
+
+    def ready() -> Any:
+        out = original()
+        for i, packet in enumerate(out.packets):
+            body = decode(packet.data).body
+            if not lost and isinstance(body, Data) and isinstance(body.payload, BarrierRequest):
+                del out.packets[i]
+                lost.append(body.seq)
+                break
+        return out
+
+    node.ready = ready  # type: ignore[method-assign]
+    return lost
+
+
+@pytest.mark.parametrize("membership", ["star", "broadcast"])
+def test_a_member_the_master_awaits_sends_its_lost_request_again_at_once(membership: str) -> None:
+    """A barrier of all waits for one member whose request was lost. Its own next retry is
+    far off (a slow retry here; on a shared channel, seconds); the master's heartbeat names
+    it as awaited and it sends the request again at once."""
+    config = CoreConfig(membership=membership)  # type: ignore[arg-type]
+    net = Net([1, 2, 3], config=config)
+    # Platform 3 alone retries slowly: its first retry would be 3 s after its request.
+    slow = CoreConfig(membership=membership, retry_base=3.0, retry_cap=3.0)  # type: ignore[arg-type]
+    net.nodes[3] = Node(3, swarm=SWARM, incarnation=INCARNATION, config=slow, now=0.0)
+    lost = _lose_first_request(net.nodes[3])
+    net.run_until(1.5)
+    assert {n.master for n in net.nodes.values()} == {1}, "setup: one swarm under 1"
+    asked = net.now
+    for nid in (1, 2, 3):
+        net.act(nid, lambda n: n.request_barrier(1, NEED_ALL, net.now))
+    net.run_until(asked + 1.0)
+    assert len(lost) == 1, "setup: 3's request was lost"
+    fired = net.of_type(1, BarrierFired)
+    assert len(fired) == 1, "the barrier did not fire within 1 s of the requests"
+    assert sorted(fired[0].chosen) == [1, 2, 3]
+    ((at, _),) = [(t, e) for t, e in net.events[3] if isinstance(e, BarrierReleased)]
+    assert at - asked < 0.5, f"3 passed {at - asked:.2f} s after asking: not hurried"
+    assert net.nodes[3].counters["hurried"] >= 1
 
 
 def test_role_quota_one_grants_one_denies_other_then_regrants() -> None:

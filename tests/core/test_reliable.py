@@ -355,6 +355,22 @@ def test_master_bound_messages_wait_for_a_master_then_go_in_order() -> None:
     assert r.master == 5
 
 
+def test_hurrying_sends_what_the_master_lacks_again_without_moving_the_retries() -> None:
+    r = Reliable(CoreConfig(retry_base=1.0, retry_cap=1.0))
+    assert r.hurry_master(0.0, 0.2) == 0, "no master: nothing to send"
+    r.retarget(5, 0.0)
+    for n in (1, 2):
+        r.send_to_master(_msg(n), 0.0, EPOCH)
+    _sent(r)
+    r.on_ack(5, Ack(dst=SENDER, dst_incarnation=0, channel=TO_MASTER, seq=1), 0.05)
+    assert r.hurry_master(0.1, 0.2) == 0, "the copy went out 0.1 s ago, under the spacing"
+    assert r.hurry_master(0.3, 0.2) == 1
+    assert [(dst, d.seq) for dst, d in _sent(r)] == [(5, 2)], "only what is unacknowledged"
+    assert r.hurry_master(0.4, 0.2) == 0, "spaced from the hurried copy too"
+    # The retry schedule stands: the first retry 1 s after the first transmission.
+    assert _run(r, 1.5) == [(1.0, 2)]
+
+
 def test_retarget_moves_unacked_in_order_to_new_master() -> None:
     r = Reliable(CoreConfig())
     r.retarget(5, 0.0)

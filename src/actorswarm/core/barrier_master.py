@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Collection, Iterable
 
 import msgspec
 
@@ -17,6 +17,7 @@ from actorswarm.core.barrier_state import (
 from actorswarm.core.events import BarrierFired
 from actorswarm.core.wire import (
     COMPLETE,
+    MAX_AWAITED,
     NEED_ALL,
     TIMEOUT,
     BarrierRequest,
@@ -135,6 +136,30 @@ class BarrierMaster(Completion):
         live = self.live
         count = sum(1 for p, r in inst.requests.items() if r.part == part and live(p))
         return count < need
+
+    def awaited(self, now: float, view: Callable[[], Collection[int]]) -> list[int]:
+        """The platforms of the view (``view``: the master's, itself included; called only
+        when needed) a barrier of all still waits for, when at most :data:`MAX_AWAITED` are
+        missing and the barrier has waited a first retry's time; ascending, at most
+        :data:`MAX_AWAITED`. Only a part that waits for the whole view names anyone (what
+        the engine's resolver counts, the platforms running an actor, is not known here)."""
+        if not self.ready:
+            return []
+        missing: set[int] = set()
+        whole: Collection[int] | None = None
+        for key, inst in self.open.items():
+            if inst.first_at is None or now - inst.first_at < self.first_retry():
+                continue
+            for part, (_, live) in self._resolved(key, inst).items():
+                # The candidates outnumber the view's platforms that asked: a lower bound.
+                if live < 1 or live - inst.parts.get(part, 0) > MAX_AWAITED:
+                    continue
+                if whole is None:
+                    whole = view()
+                if live != len(whole):
+                    continue
+                missing.update(p for p in whole if p not in inst.requests)
+        return sorted(missing)[:MAX_AWAITED]
 
     def needs_changed(self, now: float, epoch: int, keys: Iterable[int] | None = None) -> None:
         """What some parts of ``keys`` (None: every key) wait for may have changed (a

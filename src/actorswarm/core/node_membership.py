@@ -36,6 +36,11 @@ class NodeMembership(NodeBase):
         """This platform's heartbeat; a star master's carries what its members need."""
         if suspects is None:
             suspects = self._suspect_list()
+        awaited = (
+            self._bmaster.awaited(now, lambda: {*self.members.peers, self.platform})
+            if self.is_master
+            else []
+        )
         if not (self._star and self.is_master):
             return Heartbeat(
                 is_master=self.is_master,
@@ -43,6 +48,7 @@ class NodeMembership(NodeBase):
                 master=self.master or 0,
                 count=self._hb_count,
                 suspects=suspects,
+                awaited=awaited,
             )
         log = self._roster_log
         return Heartbeat(
@@ -56,6 +62,7 @@ class NodeMembership(NodeBase):
             changes=list(log.changes),
             succession=log.succession(self.members.peers),
             cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
+            awaited=awaited,
         )
 
     def _suspect_list(self) -> list[int]:
@@ -236,6 +243,8 @@ class NodeMembership(NodeBase):
             return
         if hb.suspects and self.platform in hb.suspects:
             self._answer_probe(sender, now)
+        if hb.awaited and sender == self.master and self.platform in hb.awaited:
+            self._hurry(now)
         self._max_epoch = max(self._max_epoch, hb.epoch)
         if sender == self.master and not self.is_master:
             if incarnation > self._master_incarnation >= 0:
@@ -363,6 +372,14 @@ class NodeMembership(NodeBase):
                 self.reliable.drop_destination(platform, now)
         self.roster.removed.clear()
         self._report_failures()
+
+    def _hurry(self, now: float) -> None:
+        """My master names me as awaited by a barrier of all: what it has not acknowledged
+        of mine goes again now, at most once per two heartbeat intervals (so a request
+        still queued on a busy channel is not sent on every heartbeat)."""
+        sent = self.reliable.hurry_master(now, 2 * self.config.heartbeat_interval)
+        if sent:
+            self.counters["hurried"] += sent
 
     def _answer_probe(self, prober: int, now: float) -> None:
         """A peer suspects me: answer it directly (at most twice per probe interval)."""

@@ -53,6 +53,7 @@ class _Item:
     sent_at: float = 0.0  # first transmission, for round-trip samples
     due: float = 0.0
     sent: bool = False
+    last: float = 0.0  # latest transmission (a hurried copy included)
 
 
 @dataclass(slots=True)
@@ -214,10 +215,20 @@ class Reliable:
             item.sent = False
             heapq.heappush(self._timers, (item.deadline, key[0], key[1], item.seq))
             return
+        self._queue_copy(stream, stream.dst, item, now)
+        if item.sent:
+            item.retries += 1  # this transmission is a retry: the next wait grows
+        else:
+            item.sent_at = now
+        item.due = now + self._retry_delay(item.retries, stream.dst)
+        item.sent = True
+        heapq.heappush(self._timers, (min(item.due, item.deadline), key[0], key[1], item.seq))
+
+    def _queue_copy(self, stream: OutStream, dst: int, item: _Item, now: float) -> None:
         self.output.queue(
-            stream.dst,
+            dst,
             Data(
-                dst=stream.dst,
+                dst=dst,
                 channel=stream.channel,
                 seq=item.seq,
                 floor=stream.floor,
@@ -226,13 +237,23 @@ class Reliable:
             ),
             stream.channel,
         )
-        if item.sent:
-            item.retries += 1  # this transmission is a retry: the next wait grows
-        else:
-            item.sent_at = now
-        item.due = now + self._retry_delay(item.retries, stream.dst)
-        item.sent = True
-        heapq.heappush(self._timers, (min(item.due, item.deadline), key[0], key[1], item.seq))
+        item.last = now
+
+    def hurry_master(self, now: float, spacing: float) -> int:
+        """The master says it still waits for something of mine (it lists me as awaited):
+        send every master-bound message it has not acknowledged again now, unless its
+        latest copy went out less than ``spacing`` ago. The retry schedule is left as it
+        was (a hurried copy is not a retry). Returns how many copies went out."""
+        stream = self._master_stream
+        dst = stream.dst
+        if dst is None:
+            return 0
+        sent = 0
+        for item in stream.items:
+            if item.sent and now - item.last >= spacing:
+                self._queue_copy(stream, dst, item, now)
+                sent += 1
+        return sent
 
     def retarget(
         self,

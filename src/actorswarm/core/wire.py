@@ -204,6 +204,9 @@ Payload = (
 MAX_SUSPECTS: Final = 32
 MAX_CHANGES: Final = 16
 MAX_SUCCESSION: Final = 16
+#: How many platforms a master's heartbeat names as awaited by a barrier of all at most: it
+#: names them only when so few are missing.
+MAX_AWAITED: Final = 16
 
 
 class Heartbeat(_Msg, frozen=True, tag=1):
@@ -221,6 +224,12 @@ class Heartbeat(_Msg, frozen=True, tag=1):
     without asking; ``succession``, the next-lowest live IDs, in order, who take over
     without an election round when the master is lost; ``cadence``, the member heartbeat
     interval the master asks for (seconds, 0: ``heartbeat_interval``).
+
+    A master's heartbeat (either mode) also names in ``awaited`` the platforms of its view a
+    barrier of all still waits for, when at most :data:`MAX_AWAITED` are missing and the
+    barrier has waited a first retry's time: a listed member whose request is on its way
+    sends it again at once instead of at its next retry (a lost request otherwise waits out
+    a retry delay that, on a shared channel, grows to seconds).
     """
 
     is_master: bool
@@ -236,6 +245,7 @@ class Heartbeat(_Msg, frozen=True, tag=1):
     ] = []
     succession: Annotated[list[PlatformId], Meta(max_length=MAX_SUCCESSION)] = []
     cadence: Annotated[float, Meta(ge=0, le=3600)] = 0.0
+    awaited: Annotated[list[PlatformId], Meta(max_length=MAX_AWAITED)] = []
 
 
 class RosterRequest(_Msg, frozen=True, tag=6):
