@@ -7,7 +7,7 @@ import itertools
 import pytest
 
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.reliable import DeliveryFailure, Reliable
+from actorswarm.core.reliable import ANSWERS_FLOOR, DeliveryFailure, Reliable
 from actorswarm.core.wire import (
     NORMAL,
     TO_MASTER,
@@ -259,6 +259,22 @@ def test_on_a_shared_channel_retransmissions_wait_for_the_swarm_and_double() -> 
     resent = [t for t, seq in _run(r, 12.2) if seq == 1]
     assert resent[0] == pytest.approx(12.0 + config.retry_base)
     assert resent[1] - resent[0] == pytest.approx(config.retry_delay(1))
+
+
+def test_a_retransmission_few_must_answer_waits_for_their_channel_time_only() -> None:
+    """A release or bulletin resent to the few members that have not acknowledged it waits
+    for their share of the channel (at least ANSWERS_FLOOR packets' worth), not the whole
+    swarm's."""
+    r = Reliable(CoreConfig())
+    r.channel_time, r.channel_size = 0.8, 1000  # 0.8 ms a packet
+    assert r.retry_delay(1) == pytest.approx(3.2), "the whole swarm: four channel times"
+    assert r.retry_delay(1, answers=1000) == pytest.approx(3.2)
+    assert r.retry_delay(1, answers=500) == pytest.approx(1.6)
+    assert r.retry_delay(0, answers=100) == pytest.approx(0.16)
+    few = r.retry_delay(1, answers=3)
+    assert few == r.retry_delay(1, answers=ANSWERS_FLOOR)
+    # 16 packets take 12.8 ms, under retry_base: the usual doubling from 30 ms.
+    assert few == pytest.approx(0.06)
 
 
 def test_retransmission_times_follow_linear_backoff() -> None:

@@ -300,7 +300,7 @@ class BarrierMaster(Completion):
                 del self.inflight[(rel.key, rel.generation, rel.origin, rel.master)]
             elif now >= rel.due and rel.unacked:
                 rel.retries += 1
-                rel.due = now + self.retry_delay(rel.retries, self.first_retry())
+                rel.due = now + self.retry_delay(rel.retries, self.first_retry(), len(rel.unacked))
                 rel.epoch = epoch
                 self.broadcasts.extend(rel.packets(rel.unacked, self._config.release_chunk))
 

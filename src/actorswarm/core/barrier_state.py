@@ -196,7 +196,11 @@ class MasterState:
         self.first_retry: Callable[[], float] = lambda: config.retry_base
         #: The wait before a release's next retransmission after k, from the first
         #: (the node plugs in its reliable layer's, which paces a shared channel).
-        self.retry_delay: Callable[[int, float], float] = config.retry_delay
+        #: Called with the retries so far, the first retry's delay and how many members the
+        #: retransmission asks to acknowledge.
+        self.retry_delay: Callable[[int, float, int], float] = lambda k, first, answers: (
+            config.retry_delay(k, first)
+        )
         self.scatter = scatter
         #: Whether a platform is in the master's view (itself included). A part that waits
         #: for every platform (NEED_ALL) counts only their requests: one from beyond the view
@@ -262,7 +266,7 @@ class MasterState:
         rel.epoch = epoch
         rel.whole = fired.complete_knowledge and fired.entries.keys() == fired.assigned.keys()
         rel.unacked |= targets
-        rel.due = now + self.retry_delay(0, self.first_retry())
+        rel.due = now + self.retry_delay(0, self.first_retry(), len(rel.unacked))
         self.broadcasts.extend(rel.packets(targets, self._config.release_chunk))
 
     def _resend(self, key: int, fired: Firing, platform: int, now: float, epoch: int) -> None:

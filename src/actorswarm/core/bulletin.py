@@ -68,12 +68,14 @@ class BulletinBoard:
     _timers: list[tuple[float, int]] = field(default_factory=list)
     #: The wait before a bulletin's next retransmission after k, from the first (the node
     #: plugs in its reliable layer's, which paces a shared channel).
-    retry_delay: Callable[[int, float], float] | None = None
+    #: Called with the retries so far, the first retry's delay and how many members the
+    #: retransmission asks to acknowledge.
+    retry_delay: Callable[[int, float, int], float] | None = None
 
-    def _delay(self, retries: int, first_retry: float) -> float:
+    def _delay(self, retries: int, first_retry: float, answers: int) -> float:
         if self.retry_delay is None:
             return self.config.retry_delay(retries, first_retry)
-        return self.retry_delay(retries, first_retry)
+        return self.retry_delay(retries, first_retry, answers)
 
     @property
     def floor(self) -> int:
@@ -100,7 +102,7 @@ class BulletinBoard:
             skip=sorted(skip),
             unacked=unacked,
             deadline=now + self.config.delivery_deadline,
-            due=now + self._delay(0, first_retry),
+            due=now + self._delay(0, first_retry, len(unacked)),
         )
         if unacked:
             self.posted[seq] = item
@@ -160,7 +162,7 @@ class BulletinBoard:
                 heapq.heappush(timers, (min(item.due, item.deadline), seq))
                 continue
             item.retries += 1
-            item.due = now + self._delay(item.retries, first_retry)
+            item.due = now + self._delay(item.retries, first_retry, len(item.unacked))
             heapq.heappush(timers, (min(item.due, item.deadline), seq))
             missing = sorted(item.unacked)
             if len(missing) <= UNICAST_AT_MOST:

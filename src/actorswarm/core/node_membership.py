@@ -98,7 +98,9 @@ class NodeMembership(NodeBase):
         if self.config.channel_bitrate is not None:
             # What the swarm needs to put one packet each on the shared channel: reliable
             # delivery waits at least that long for an acknowledgement.
-            self.reliable.channel_time = airtime.channel_time(self.config, self._swarm_size())
+            size = self._swarm_size()
+            self.reliable.channel_time = airtime.channel_time(self.config, size)
+            self.reliable.channel_size = size
         hb = self._heartbeat(now)
         if self._following_star():
             if self._heartbeats_held(now):

@@ -42,6 +42,11 @@ from actorswarm.core.wire import NORMAL, TO_MASTER, URGENT, Ack, Data, Payload
 #: Key of the master-bound stream in the stream table (no platform has ID -1).
 _MASTER_KEY = (-1, TO_MASTER)
 
+#: The fewest answers a retransmission's wait allows channel time for
+#: (:meth:`Reliable.retry_delay`): the swarm's heartbeats and other traffic are on the air
+#: too.
+ANSWERS_FLOOR = 16
+
 
 @dataclass(slots=True)
 class _Item:
@@ -112,6 +117,8 @@ class Reliable:
         #: On a shared channel (``channel_bitrate``), the time the swarm takes to put one
         #: packet each on the air, set by the platform from its view (0: no channel).
         self.channel_time = 0.0
+        #: The swarm's size behind :attr:`channel_time` (1 without a channel).
+        self.channel_size = 1
 
     # --- sending ---------------------------------------------------------------------
 
@@ -175,7 +182,9 @@ class Reliable:
             est = self.overall
         return est.timeout
 
-    def retry_delay(self, retries: int, base: float | None = None) -> float:
+    def retry_delay(
+        self, retries: int, base: float | None = None, answers: int | None = None
+    ) -> float:
         """The wait before the next retransmission after ``retries`` earlier ones, the
         first being ``base`` (default ``retry_base``): linear (:meth:`CoreConfig.retry_delay`);
         on a shared channel doubling with each retry from at least twice
@@ -186,11 +195,19 @@ class Reliable:
         member at once, a release to all an acknowledgement from each); with every member
         retrying at most once per four channel times, retries take at most a quarter of the
         channel. (Doubling without that cap left a barrier request lost twice at 10 % loss
-        waiting 11 s among 1000 platforms.) Releases and bulletins use it too."""
+        waiting 11 s among 1000 platforms.) Releases and bulletins use it too.
+
+        ``answers``: how many platforms the retransmission asks to acknowledge, when known
+        (a release or bulletin resent to the members that have not acknowledged it): the
+        channel time is then theirs, not the whole swarm's, so that the last few members of
+        a release of 1000 are not retried at the pace its first burst needed. At least
+        :data:`ANSWERS_FLOOR`, for the swarm's own traffic they queue behind."""
         delay = self._config.retry_delay(retries, base)
         slot = self.channel_time
         if slot <= 0.0:
             return delay
+        if answers is not None and answers < self.channel_size:
+            slot *= max(answers, ANSWERS_FLOOR) / self.channel_size
         first = max(2 * slot, self._config.retry_base if base is None else base)
         cap = max(4 * slot, self._config.retry_cap)
         return max(delay, min(first * (1 << min(retries, 4)), cap))
