@@ -39,7 +39,7 @@ from actorswarm.core.events import (
 from actorswarm.core.membership import Membership, leave_silence
 from actorswarm.core.node import Node, Outgoing, Ready
 from actorswarm.core.ready import PROBE
-from actorswarm.core.roster import RosterLog, RosterView
+from actorswarm.core.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.wire import (
     MAX_CHANGES,
     MAX_SUCCESSION,
@@ -345,6 +345,35 @@ def test_full_roster_is_adopted_only_when_every_chunk_arrived(order: list[int]) 
     assert (view.epoch, view.version) == (EPOCH, master.log.version)
     assert view.current
     assert view.rejected == 0
+
+
+def test_members_of_one_process_share_equal_rosters_and_never_a_different_one() -> None:
+    """A pool (the simulator's) hands every member the same roster object when their copies
+    are equal; a member whose copy differs (a forged chunk, another partition's master with
+    the same epoch number) keeps its own; a change makes a new roster, never edits the
+    shared one."""
+    pool = RosterPool()
+    master = MasterModel(CHUNKED_MEMBERS)
+    views = [RosterView(pool) for _ in range(3)]
+    for view in views:
+        for chunk in master.chunks(size=16):
+            view.on_chunk(chunk)
+    assert views[0].members is views[1].members is views[2].members
+    assert views[0].members == CHUNKED_MEMBERS
+    assert pool.shared == 2 * 4 + 2, "two members took the first's 4 chunks, then its roster"
+    # Another master of the same epoch and version, with a different roster.
+    other = RosterView(pool)
+    forged = RosterLog.chunks(EPOCH, master.log.version, {2: 0, 3: 0}, 16)
+    other.on_chunk(forged[0])
+    assert other.members == {2: 0, 3: 0}
+    assert views[0].members == CHUNKED_MEMBERS, "the shared roster is untouched"
+    # A join: each member applies it to a copy; they share the result again.
+    platform = master.join(incarnation=4)
+    for view in views:
+        assert view.on_heartbeat(EPOCH, master.heartbeat()) is False
+    assert views[0].members is views[1].members is views[2].members
+    assert views[0].members == {**CHUNKED_MEMBERS, platform: 4}
+    assert CHUNKED_MEMBERS.keys() == set(range(2, 51)), "the original was not edited"
 
 
 def test_an_incomplete_roster_is_never_adopted() -> None:

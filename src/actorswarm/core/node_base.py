@@ -31,7 +31,7 @@ from actorswarm.core.membership import Membership
 from actorswarm.core.ready import Collector
 from actorswarm.core.reliable import Reliable
 from actorswarm.core.roles import RoleMaster, RoleMember
-from actorswarm.core.roster import RosterLog, RosterView
+from actorswarm.core.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.wire import (
     BULLETIN_STREAM,
     NEED_ALL,
@@ -68,6 +68,7 @@ class NodeBase:
         config: CoreConfig | None = None,
         now: float = 0.0,
         rng: random.Random | None = None,
+        roster_pool: RosterPool | None = None,
     ) -> None:
         if not 1 <= platform <= wire.MAX_PLATFORM:
             raise ValueError(f"platform ID must be 1..{wire.MAX_PLATFORM}, got {platform}")
@@ -131,7 +132,7 @@ class NodeBase:
         # copy it, the member heartbeat interval the master asks for, and the succession
         # entries presumed alive after the master was lost (platform -> presumed until).
         self._star = self.config.membership == "star"
-        self.roster = RosterView()
+        self.roster = RosterView(roster_pool)
         self._roster_log = RosterLog(self.config.succession)
         self._roster_requests: set[int] = set()
         self._roster_asked = -1e9

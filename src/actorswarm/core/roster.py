@@ -84,14 +84,73 @@ class RosterLog:
         ]
 
 
+#: How many rosters a :class:`RosterPool` keeps (the newest per epoch, the newest epochs).
+POOL_EPOCHS = 8
+
+
+class RosterPool:
+    """Rosters shared by the star members of one process (a simulated swarm): a member
+    whose copy equals one the pool holds for the same epoch and version keeps the pool's,
+    so 10 000 members hold one roster of 10 000 rather than 10 000 of them (about 1 MiB
+    each). The copies are never changed in place, so sharing them is safe; they are
+    compared whole before they are shared, so a forged roster, or a partition's master
+    with the same epoch number, is never mistaken for another. A daemon, one member per
+    process, has no use for one."""
+
+    def __init__(self) -> None:
+        self._held: dict[int, tuple[int, dict[int, int]]] = {}  # epoch -> (version, roster)
+        # The chunks of the newest roster on its way: (epoch, version, count) -> index ->
+        # entries. Members gather a roster's chunks over a while, all at once at a boot:
+        # 10 000 members each holding their own parts of a roster of 10 000 was most of
+        # a boot's peak memory.
+        self._parts: dict[tuple[int, int, int], dict[int, list[tuple[int, int]]]] = {}
+        self.shared = 0  # copies replaced by the pool's (rosters and chunks)
+
+    def share(self, epoch: int, version: int, members: dict[int, int]) -> dict[int, int]:
+        """The roster to keep for ``epoch``/``version``: the pool's when it equals
+        ``members``, else ``members`` (which the pool then holds, if newer)."""
+        held = self._held.get(epoch)
+        if held is not None and held[0] == version and held[1] == members:
+            self.shared += 1
+            return held[1]
+        if held is None or version > held[0]:
+            self._held.pop(epoch, None)
+            self._held[epoch] = (version, members)
+            while len(self._held) > POOL_EPOCHS:
+                del self._held[min(self._held)]
+        return members
+
+    def part(self, chunk: RosterChunk) -> list[tuple[int, int]]:
+        """The entries of ``chunk`` to keep until its roster is complete: the pool's copy
+        when it holds an equal one for the same roster and index."""
+        key = (chunk.epoch, chunk.version, chunk.count)
+        entries = list(chunk.members)
+        parts = self._parts.get(key)
+        if parts is None:
+            if self._parts and max(self._parts) > key:
+                return entries  # an older roster than the one the pool gathers
+            self._parts = {key: {}}
+            parts = self._parts[key]
+        held = parts.get(chunk.index)
+        if held is None:
+            parts[chunk.index] = entries
+            return entries
+        if held == entries:
+            self.shared += 1
+            return held
+        return entries
+
+
 class RosterView:
     """A star member's copy of its master's roster.
 
-    ``members`` maps platform to incarnation and is valid for ``epoch``/``version``;
+    ``members`` maps platform to incarnation and is valid for ``epoch``/``version``; it is
+    replaced, never changed in place (a :class:`RosterPool` may share it among members).
     ``succession`` and ``size`` are the master's latest word, whatever the version.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, pool: RosterPool | None = None) -> None:
+        self._pool = pool
         self.epoch = -1
         self.version = 0
         self.members: dict[int, int] = {}
@@ -140,10 +199,13 @@ class RosterView:
             self.rejected += 1
             self.version = 0
             return True
-        self.members = members
+        self.members = self._share(self.epoch, hb.roster, members)
         self.removed.extend(removed)
         self.version = hb.roster
         return False
+
+    def _share(self, epoch: int, version: int, members: dict[int, int]) -> dict[int, int]:
+        return members if self._pool is None else self._pool.share(epoch, version, members)
 
     def on_chunk(self, chunk: RosterChunk) -> bool:
         """Take one chunk of a full roster; True when the roster is complete and adopted."""
@@ -159,7 +221,9 @@ class RosterView:
                 return False
             self._pending = key
             self._parts = {}
-        self._parts[chunk.index] = list(chunk.members)
+        self._parts[chunk.index] = (
+            list(chunk.members) if self._pool is None else self._pool.part(chunk)
+        )
         if len(self._parts) < chunk.count:
             return False
         if (chunk.epoch, chunk.version) < (self.epoch, self.version):
@@ -174,7 +238,7 @@ class RosterView:
                 members[platform] = incarnation
         self.epoch, self.version = chunk.epoch, chunk.version
         self.removed.extend(p for p in self.members if p not in members)
-        self.members = members
+        self.members = self._share(chunk.epoch, chunk.version, members)
         self._pending = None
         self._parts = {}
         return True
