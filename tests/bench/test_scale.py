@@ -66,7 +66,7 @@ def test_a_cell_at_a_small_size_is_sane(membership: Any, size: int) -> None:
 def test_a_cell_is_replayed_exactly_from_its_seed() -> None:
     first = run_cell("broadcast", 6, 0.1, seed=7, scenario=SHORT)
     again = run_cell("broadcast", 6, 0.1, seed=7, scenario=SHORT)
-    wall = {"wall_s"}
+    wall = {"wall_s", "peak_rss_mib"}  # the machine's, not the run's
     figures = {k: v for k, v in to_json(_report([first]))["cells"][0].items() if k not in wall}
     replay = {k: v for k, v in to_json(_report([again]))["cells"][0].items() if k not in wall}
     figures.pop("sim_s_per_wall_s")
@@ -124,8 +124,8 @@ def test_the_report_json_and_picture_of_a_run(tmp_path: Path) -> None:
     assert text.startswith("# Benchmark: what the swarm size costs")
     assert "Command: `actorswarm bench scale --sizes 5,8`" in text
     rows = [line for line in text.splitlines() if line.startswith("| ")]
-    assert rows[0].startswith("| membership | N | loss | wall s | sim s / wall s |")
-    assert len(rows) == 5 and all(line.count("|") == 14 for line in rows)
+    assert rows[0].startswith("| membership | N | loss | wall s | sim s / wall s | peak MiB |")
+    assert len(rows) == 5 and all(line.count("|") == 15 for line in rows)
     assert rows[1].startswith("| broadcast | 5 | 0% |") and "| yes |" in rows[1]
     assert rows[2].startswith("| star | 5 | 0% |")
     data = _strict(json.dumps(to_json(report), allow_nan=False))
@@ -136,6 +136,8 @@ def test_the_report_json_and_picture_of_a_run(tmp_path: Path) -> None:
     for cell in data["cells"]:
         assert cell["all_released"] is True and cell["failover_ms"] > 0
         assert cell["member_recv_pps"] > 0 and cell["sim_s_per_wall_s"] > 0
+        # This process's interpreter and the swarm: tens of MiB, never nothing.
+        assert 10 < cell["peak_rss_mib"] < 4096
     plot_scale(report, tmp_path / "scale.png")
     assert (tmp_path / "scale.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     plot_scale(_report([]), tmp_path / "empty.png")  # nothing measured: the panels say so

@@ -187,6 +187,9 @@ class ScaleCell:
     cadence: bool = False
     #: Wall-clock seconds of the whole run, booting the swarm included.
     wall_s: float = NAN
+    #: The process's peak resident memory over the run, MiB (Linux's ``VmHWM``, reset
+    #: before the run; NaN where ``/proc`` does not allow it).
+    peak_rss_mib: float = NAN
     #: The virtual time the run reached: the scenario's end, unless it went over budget.
     reached_s: float = 0.0
     over_budget: bool = False
@@ -454,6 +457,7 @@ def run_cell(
         channel_bitrate=bitrate,
         cadence=cadence,
     )
+    peak_known = _reset_peak_rss()
     began = time.perf_counter()
     deadline = began + scenario.max_wall
     swarm = SimSwarm(
@@ -500,9 +504,34 @@ def run_cell(
         cell.over_budget = True
     cell.reached_s = swarm.now
     cell.wall_s = time.perf_counter() - began
+    if peak_known:
+        cell.peak_rss_mib = _peak_rss_mib()
     watch.channel.append(swarm.radio.channel_stats())
     _figures(cell, watch, swarm, scenario)
     return cell
+
+
+def _reset_peak_rss() -> bool:
+    """Reset this process's peak resident memory (``VmHWM``) to its current size; False
+    where the system does not allow it (not Linux, or no ``/proc``)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        return False
+    return True
+
+
+def _peak_rss_mib() -> float:
+    """This process's peak resident memory since the last reset, MiB (NaN if unknown)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return NAN
 
 
 def _figures(cell: ScaleCell, watch: _Watch, swarm: SimSwarm, scenario: Scenario) -> None:

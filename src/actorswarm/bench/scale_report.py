@@ -167,10 +167,10 @@ def markdown(report: ScaleReport) -> str:
     # The cadence column only when there is a channel: without one every row has none.
     cadence_head = "| cadence " if channel else ""
     lines += [
-        f"| membership | N | loss {cadence_head}| wall s | sim s / wall s | formed at, s "
-        "| all released | failover ms | non-master rx pkt/s: median (min–max) "
+        f"| membership | N | loss {cadence_head}| wall s | sim s / wall s | peak MiB "
+        "| formed at, s | all released | failover ms | non-master rx pkt/s: median (min–max) "
         "| master rx pkt/s | on-air pkt/s | on-air kbit/s | false leaves / member-hour (count) |",
-        "|---" * (14 if channel else 13) + "|",
+        "|---" * (15 if channel else 14) + "|",
     ]
     cells = sorted(report.cells, key=lambda c: (c.loss, c.size, c.membership, c.cadence))
     for c in cells:
@@ -180,7 +180,7 @@ def markdown(report: ScaleReport) -> str:
         cadence = f"| {_yes(c.cadence)} " if channel else ""
         lines.append(
             f"| {c.membership} | {c.size} | {c.loss:.0%} {cadence}| {_wall(c)} "
-            f"| {c.sim_per_wall:.3g} | {_formed(c)} | {_released(c)} "
+            f"| {c.sim_per_wall:.3g} | {_rate(c.peak_rss_mib)} | {_formed(c)} | {_released(c)} "
             f"| {_num(c.failover_ms)} | {member} | {_rate(c.master_recv_pps)} "
             f"| {_rate(c.air_pps)} | {_num(c.air_kbps, 1)} | {_false_leaves(c)} |"
         )
@@ -193,7 +193,9 @@ def markdown(report: ScaleReport) -> str:
         "How each figure is taken (`src/actorswarm/bench/scale.py`):",
         "",
         "- *wall s*: wall-clock time of the whole run, booting the swarm included; *sim s / "
-        "wall s*: virtual seconds reached per wall-clock second.",
+        "wall s*: virtual seconds reached per wall-clock second; *peak MiB*: the bench "
+        "process's peak resident memory over the run (`VmHWM`, reset before it), the "
+        "interpreter's own included.",
         "- *formed at*: the first virtual time with one master that has every other platform "
         "in its view and its handshake done.",
         "- *all released*: every platform's `BarrierReleased` for the barrier of all, "
