@@ -218,6 +218,22 @@ def test_restart_leaves_then_joins_fresh() -> None:
     assert members.next_deadline() == pytest.approx(1.0)
 
 
+def test_any_packet_of_a_new_incarnation_reveals_the_restart() -> None:
+    """A rebooted peer's first packet may be a claim or a report, before its first
+    heartbeat: the old member leaves on that packet, once, and the new incarnation joins
+    with heartbeats as usual."""
+    members = _joined(Membership(1, CONFIG), [0.0, 0.1, 0.2])
+    assert members.is_newer(PEER, 1) and not members.is_newer(PEER, 0)
+    out: list[Change] = []
+    members.note_incarnation(PEER, 1, out)
+    assert out == [MemberLeft(platform=PEER, incarnation=0, reason="restarted")]
+    assert PEER not in members and not members.is_newer(PEER, 1)
+    members.note_incarnation(PEER, 1, out)
+    assert len(out) == 1, "told once"
+    log = _beats(members, [0.3, 0.4, 0.5], incarnation=1)
+    assert [e for _, e in log] == [MemberJoined(platform=PEER, incarnation=1)]
+
+
 def test_restart_of_a_candidate_starts_counting_again() -> None:
     members = Membership(1, CONFIG)
     _beats(members, [0.0, 0.1])

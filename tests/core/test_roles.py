@@ -119,6 +119,21 @@ def test_member_left_regrants() -> None:
     assert _replies(master) == []
 
 
+def test_a_restarted_holder_is_told_to_drop_what_its_old_incarnation_held() -> None:
+    """A grant to a platform's old incarnation may reach its new one (campaign seed
+    7650551): when the master learns of the reboot, the new incarnation is told to drop
+    the role, and the slot goes to whoever waits."""
+    master = _ready()
+    master.claim(1, _claim())
+    master.claim(2, _claim(bid=5.0))
+    master.claim(3, _claim(bid=6.0))
+    _replies(master)
+    master.member_left(1, restarted=True)
+    assert _replies(master) == [(1, RoleRevoke(role=LEADER)), (2, RoleGrant(role=LEADER))]
+    master.member_left(3, restarted=True)
+    assert _replies(master) == [], "a claimant that only waited held nothing to drop"
+
+
 def test_withdrawn_claim_is_not_granted() -> None:
     master = _ready()
     master.claim(1, _claim())

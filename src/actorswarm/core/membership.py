@@ -169,6 +169,11 @@ class Membership:
             return cfg.t_join
         return max(cfg.t_join, (cfg.join_heartbeats + 1) * self.cadence)
 
+    def is_newer(self, peer: int, incarnation: int) -> bool:
+        """Whether ``incarnation`` is newer than any seen from ``peer`` (see
+        :meth:`note_incarnation`)."""
+        return incarnation > self._latest_incarnation.get(peer, -1)
+
     def is_current(self, peer: int, incarnation: int) -> bool:
         """False for packets of an incarnation older than the newest seen from ``peer``."""
         return incarnation >= self._latest_incarnation.get(peer, incarnation)
@@ -213,6 +218,25 @@ class Membership:
 
     # --- heartbeats -------------------------------------------------------------------------
 
+    def note_incarnation(
+        self, peer: int, incarnation: int, out: list[MemberJoined | MemberLeft]
+    ) -> None:
+        """A packet of ``peer``'s ``incarnation`` (any packet, before it is handled): one of
+        a higher incarnation than the member in the view means the peer rebooted and lost
+        its state, so the old member leaves (reason ``restarted``, appended to ``out``)
+        before anything of the new one is acted on. (Found by a campaign: a claim of the
+        new incarnation granted before its first heartbeat was taken back by the leave
+        that heartbeat then caused, and the new incarnation kept a role nobody knew of.)"""
+        if incarnation <= self._latest_incarnation.get(peer, -1):
+            return
+        self._latest_incarnation[peer] = incarnation
+        member = self.peers.get(peer)
+        if member is not None and member.incarnation < incarnation:
+            self._drop(peer)
+            out.append(
+                MemberLeft(platform=peer, incarnation=member.incarnation, reason="restarted")
+            )
+
     def heartbeat(
         self,
         peer: int,
@@ -242,17 +266,9 @@ class Membership:
                 member.last_count = count
             self._refresh(peer, member, now)
             return member
-        latest = self._latest_incarnation.get(peer, -1)
-        if incarnation < latest:
+        if incarnation < self._latest_incarnation.get(peer, -1):
             return None
-        if incarnation > latest:
-            self._latest_incarnation[peer] = incarnation
-        if member is not None:
-            # A higher incarnation: the peer rebooted and lost its state.
-            self._drop(peer)
-            out.append(
-                MemberLeft(platform=peer, incarnation=member.incarnation, reason="restarted")
-            )
+        self.note_incarnation(peer, incarnation, out)
         cand = self._candidates.get(peer)
         if cand is None or cand.incarnation != incarnation:
             cand = _Candidate(incarnation, deque(maxlen=self._config.join_heartbeats))

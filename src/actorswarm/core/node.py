@@ -342,7 +342,16 @@ class Node(NodeElection):
             self._heard.heard(packet.sender, now)
         if isinstance(body, Heartbeat):
             self._on_heartbeat(packet.sender, packet.incarnation, body, now, packet.seq)
-        elif isinstance(body, Data):
+            return
+        if packet.sender != wire.GROUND_STATION and self.members.is_newer(
+            packet.sender, packet.incarnation
+        ):
+            # A rebooted peer's first packet may come before its first heartbeat: the old
+            # incarnation leaves first, so nothing granted to the new one is taken back.
+            left: list[MemberJoined | MemberLeft] = []
+            self.members.note_incarnation(packet.sender, packet.incarnation, left)
+            self._membership_changed(left, now)
+        if isinstance(body, Data):
             self._on_data(packet.sender, packet.incarnation, body, now)
         elif isinstance(body, Ack):
             if body.dst != self.platform or body.dst_incarnation != self.incarnation:

@@ -409,7 +409,9 @@ class NodeMembership(NodeBase):
                 if self.is_master:
                     self._handshake_waiting.discard(change.platform)
                     self._bmaster.member_left(change.platform, now, self.epoch)
-                    self._rmaster.member_left(change.platform)
+                    self._rmaster.member_left(
+                        change.platform, restarted=change.reason == "restarted"
+                    )
                     self._board.member_left(change.platform)
                     self._roster_log.left(change.platform)
                     if change.platform in self._reported and change.reason != "restarted":

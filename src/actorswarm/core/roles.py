@@ -93,11 +93,17 @@ class RoleMaster:
             for name in sorted(touched | {c.role for c in (*held, *claims)}):
                 self._settle(name)
 
-    def member_left(self, platform: int) -> None:
+    def member_left(self, platform: int, *, restarted: bool = False) -> None:
+        """``platform`` left; its roles go to whoever waits. ``restarted``: it rebooted, and
+        its new incarnation is told to drop what the old one held — a grant to the old one
+        may have reached the new one (a message on its way to a platform is not tied to an
+        incarnation), which would otherwise hold a role the master no longer counts."""
         touched = []
         for name, role in self.roles.items():
             if role.holders.pop(platform, None) is not None:
                 touched.append(name)
+                if restarted:
+                    self.replies.append((platform, RoleRevoke(role=name)))
             role.waiting.pop(platform, None)
         if self.ready:
             for name in touched:
