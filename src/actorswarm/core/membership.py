@@ -224,9 +224,9 @@ class Membership:
         """A packet of ``peer``'s ``incarnation`` (any packet, before it is handled): one of
         a higher incarnation than the member in the view means the peer rebooted and lost
         its state, so the old member leaves (reason ``restarted``, appended to ``out``)
-        before anything of the new one is acted on. (Found by a campaign: a claim of the
-        new incarnation granted before its first heartbeat was taken back by the leave
-        that heartbeat then caused, and the new incarnation kept a role nobody knew of.)"""
+        before anything of the new one is acted on. (Left to the heartbeat, a report or
+        claim of the new incarnation handled before it would be erased by the leave the
+        heartbeat then causes.)"""
         if incarnation <= self._latest_incarnation.get(peer, -1):
             return
         self._latest_incarnation[peer] = incarnation

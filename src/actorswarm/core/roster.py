@@ -99,11 +99,12 @@ class RosterPool:
 
     def __init__(self) -> None:
         self._held: dict[int, tuple[int, dict[int, int]]] = {}  # epoch -> (version, roster)
-        # The chunks of the newest roster on its way: (epoch, version, count) -> index ->
-        # entries. Members gather a roster's chunks over a while, all at once at a boot:
+        # The chunks of the newest roster on its way ((epoch, version, count), and index ->
+        # entries). Members gather a roster's chunks over a while, all at once at a boot:
         # 10 000 members each holding their own parts of a roster of 10 000 was most of
         # a boot's peak memory.
-        self._parts: dict[tuple[int, int, int], dict[int, list[tuple[int, int]]]] = {}
+        self._gathering: tuple[int, int, int] | None = None
+        self._parts: dict[int, list[tuple[int, int]]] = {}
         self.shared = 0  # copies replaced by the pool's (rosters and chunks)
 
     def share(self, epoch: int, version: int, members: dict[int, int]) -> dict[int, int]:
@@ -114,7 +115,6 @@ class RosterPool:
             self.shared += 1
             return held[1]
         if held is None or version > held[0]:
-            self._held.pop(epoch, None)
             self._held[epoch] = (version, members)
             while len(self._held) > POOL_EPOCHS:
                 del self._held[min(self._held)]
@@ -125,15 +125,13 @@ class RosterPool:
         when it holds an equal one for the same roster and index."""
         key = (chunk.epoch, chunk.version, chunk.count)
         entries = list(chunk.members)
-        parts = self._parts.get(key)
-        if parts is None:
-            if self._parts and max(self._parts) > key:
+        if key != self._gathering:
+            if self._gathering is not None and self._gathering > key:
                 return entries  # an older roster than the one the pool gathers
-            self._parts = {key: {}}
-            parts = self._parts[key]
-        held = parts.get(chunk.index)
+            self._gathering, self._parts = key, {}
+        held = self._parts.get(chunk.index)
         if held is None:
-            parts[chunk.index] = entries
+            self._parts[chunk.index] = entries
             return entries
         if held == entries:
             self.shared += 1
