@@ -21,6 +21,7 @@ from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import (
     BarrierFired,
     BarrierReleased,
+    BarrierStaleNotice,
     BecameMaster,
     CoreEvent,
     HandshakeComplete,
@@ -29,6 +30,7 @@ from actorswarm.core.events import (
     SteppedDown,
 )
 from actorswarm.core.node import Node
+from actorswarm.core.ready import Outgoing
 from actorswarm.core.wire import (
     NEED_ALL,
     PROTOCOL_VERSION,
@@ -36,6 +38,7 @@ from actorswarm.core.wire import (
     Data,
     Envelope,
     Heartbeat,
+    Release,
     decode,
     encode,
 )
@@ -59,10 +62,13 @@ class Net:
         self._queue: list[tuple[float, int, int, bytes]] = []
         self._order = itertools.count()
         self.events: dict[int, list[tuple[float, CoreEvent]]] = {i: [] for i in ids}
+        #: Every packet sent: (sender, packet).
+        self.sent: list[tuple[int, Outgoing]] = []
 
     def _collect(self, nid: int) -> None:
         ready = self.nodes[nid].ready()
         for out in ready.packets:
+            self.sent.append((nid, out))
             targets = [d for d in self.nodes if d != nid] if out.dst is None else [out.dst]
             for dst in targets:
                 if dst in self.nodes:
@@ -103,6 +109,16 @@ class Net:
 
     def of_type(self, nid: int, kind: type) -> list[Any]:
         return [e for _, e in self.events[nid] if isinstance(e, kind)]
+
+    def releases(self) -> list[tuple[int, int | None, list[int]]]:
+        """Every release packet sent: (sender, destination, the platforms it names)."""
+        out = []
+        for nid, packet in self.sent:
+            if packet.kind == "Release":
+                rel = decode(packet.data).body
+                assert isinstance(rel, Release)
+                out.append((nid, packet.dst, [e.platform for e in rel.entries]))
+        return out
 
 
 def _elected(ids: tuple[int, ...] = (1, 2, 3)) -> Net:
@@ -301,6 +317,34 @@ def test_a_barrier_of_all_waits_for_every_member_not_for_a_joiner_in_its_place()
     assert sorted(fired.chosen) == [1, 2, 3, 4]
     for nid in net.nodes:
         assert [e.chosen for e in net.of_type(nid, BarrierReleased)] == [True], nid
+
+
+def test_a_release_of_one_goes_to_it_alone_and_the_others_catch_up_by_a_stale_notice() -> None:
+    """A release that names one platform besides the master is sent to that platform only:
+    the others do not wake for it. One that asks for the key later, with the generation it
+    last knew, is told its request is stale and may ask again (the engine does); a release of
+    several goes to everyone."""
+    net = Net([1, 2, 3])
+    net.run_until(1.5)
+    assert all(n.master == 1 for n in net.nodes.values()), "setup: 1 is master"
+    assert net.act(2, lambda n: n.request_barrier(7, 1, net.now)) == 0
+    net.run_until(net.now + 0.5)
+    assert net.releases() == [(1, 2, [2])], "the release of 2 alone went to 2 alone"
+    assert [e.generation for e in net.of_type(2, BarrierReleased)] == [0]
+    assert net.act(3, lambda n: n.request_barrier(7, 1, net.now)) == 0, "3 did not hear of it"
+    net.run_until(net.now + 0.5)
+    assert net.of_type(3, BarrierReleased) == []
+    assert net.of_type(3, BarrierStaleNotice) == [
+        BarrierStaleNotice(key=7, generation=0, current=1)
+    ]
+    assert net.act(3, lambda n: n.request_barrier(7, 1, net.now)) == 1
+    net.run_until(net.now + 0.5)
+    assert [e.generation for e in net.of_type(3, BarrierReleased)] == [1]
+    assert net.releases()[1:] == [(1, 3, [3])]
+    for nid in (2, 3):
+        net.act(nid, lambda n: n.request_barrier(8, 2, net.now))
+    net.run_until(net.now + 0.5)
+    assert net.releases()[2:] == [(1, None, [2, 3])], "a release of two is one broadcast"
 
 
 def _lose_first_request(node: Node) -> list[int]:

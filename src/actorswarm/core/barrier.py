@@ -49,6 +49,7 @@ from actorswarm.core.barrier_state import (
     NeedResolver,
     OutgoingRelease,
     Scatter,
+    addressee,
 )
 
 __all__ = [
@@ -61,4 +62,5 @@ __all__ = [
     "NeedResolver",
     "OutgoingRelease",
     "Scatter",
+    "addressee",
 ]

@@ -330,6 +330,22 @@ class MasterState:
         raise NotImplementedError
 
 
+def addressee(rel: Release, master: int) -> int | None:
+    """Where a release packet goes: to its one candidate besides the master when it names
+    only one (a barrier of one platform, or a retransmission to the last member that has not
+    acknowledged), else to everyone.
+
+    Every other member would wake for such a packet only to learn that the generation fired
+    (:meth:`~actorswarm.core.barrier_member.BarrierMember.on_release`); what not learning it
+    costs is a stale notice on its next request of the key, and the engine asks again. With
+    every one of 31 daemons switching by a barrier of one every second, the overheard
+    releases were more than half of what each member received, and on Zenoh's mesh a
+    broadcast is one copy per peer (docs/benchmarks/README.md, "Releases of one")."""
+    others = {e.platform for e in rel.entries}
+    others.discard(master)
+    return others.pop() if len(others) == 1 else None
+
+
 __all__ = [
     "OUTCOME_NAMES",
     "RECENT_ASSIGNMENTS",
@@ -341,5 +357,6 @@ __all__ = [
     "OpenGeneration",
     "OutgoingRelease",
     "Scatter",
+    "addressee",
     "bid_order",
 ]

@@ -35,6 +35,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from actorswarm.core import wire
+from actorswarm.core.barrier import addressee
 from actorswarm.core.events import (
     AppReceived,
     CoreEvent,
@@ -491,7 +492,7 @@ class Node(NodeElection):
                 bm.on_ack(self.platform, rel.key, rel.generation)
                 if all(e.platform == self.platform for e in rel.entries):
                     continue
-            self._emit(None, rel, NORMAL)
+            self._emit(addressee(rel, self.platform), rel, NORMAL)
         bm.broadcasts.clear()
         for key, generation, unacked in bm.failed:
             self._out.events.append(

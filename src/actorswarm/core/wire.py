@@ -325,7 +325,8 @@ class ReleaseEntry(_Msg, frozen=True):
 
 
 class Release(_Msg, frozen=True, tag=4):
-    """Master releases barrier ``key``/``generation``: one broadcast for every participant.
+    """Master releases barrier ``key``/``generation``: one broadcast for every participant
+    (a packet that names one platform besides the master goes to that platform alone).
 
     Retransmissions carry only the entries of candidates that have not acknowledged.
     ``outcome`` is :data:`COMPLETE` or :data:`TIMEOUT`; ``sizes`` maps part to the number
