@@ -251,6 +251,7 @@ def test_member_claim_records_and_validates() -> None:
         (False, True, RoleGrant(role=LEADER), None, True),  # duplicate grant
         (True, False, _deny([1, 2]), RoleDenied(role=LEADER, holders=(1, 2)), False),
         (False, False, _deny([1]), None, False),  # denial of a withdrawn claim
+        (False, True, _deny([8]), RoleRevoked(role=LEADER), False),  # the master's table wins
         (False, True, RoleRevoke(role=LEADER), RoleRevoked(role=LEADER), False),
         (False, False, RoleRevoke(role=LEADER), None, False),  # revoke of a role not held
     ],
@@ -260,6 +261,7 @@ def test_member_claim_records_and_validates() -> None:
         "grant-again",
         "deny",
         "deny-withdrawn",
+        "deny-held",
         "revoke",
         "revoke-not-held",
     ],
@@ -343,3 +345,29 @@ def test_a_report_without_the_role_frees_the_slot() -> None:
     master.report(4, held=[], claims=[])
     assert master.holders("leader") == (1,)
     assert (1, RoleGrant(role="leader")) in master.replies
+
+
+def test_a_grant_that_arrives_after_the_master_dropped_its_platform_is_given_up() -> None:
+    """Campaign seed 7671936: the master granted 7 a role while 7 was cut off, then took 7
+    for gone and granted the slot to 8. The grant reached 7 after the heal, while 7's rejoin
+    report (written before it) still said "claimed", so the master counts 7 as waiting and
+    denies it. 7 must give the role up and wait again, or two hold a role of quota 1."""
+    master, member = RoleMaster(), RoleMember()
+    master.become_ready()
+    claim = member.claim(LEADER, 1, 7.0)
+    master.claim(7, claim)
+    grant = master.replies.pop()
+    assert grant == (7, RoleGrant(role=LEADER))
+    master.member_left(7)
+    master.claim(8, RoleClaim(role=LEADER, quota=1, bid=8.0))
+    master.report(7, held=[], claims=[claim])
+    assert member.on_reply(grant[1]) == RoleGranted(role=LEADER), "the late grant arrives"
+    deny = [r for p, r in master.replies if p == 7 and isinstance(r, RoleDeny)]
+    assert master.holders(LEADER) == (8,) and len(deny) == 1
+    assert member.on_reply(deny[0]) == RoleRevoked(role=LEADER)
+    assert member.held == {} and member.claims == {LEADER: claim}, "it waits again"
+    assert member.on_reply(deny[0]) is None, "a re-stated denial is not reported again"
+    master.release(8, LEADER)
+    regrant = [r for p, r in master.replies if p == 7 and isinstance(r, RoleGrant)]
+    assert master.holders(LEADER) == (7,) and regrant
+    assert member.on_reply(regrant[-1]) == RoleGranted(role=LEADER)

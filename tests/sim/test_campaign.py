@@ -63,6 +63,7 @@ REGRESSIONS = [
     (2006860, "star"),
     (2009944, "broadcast"),
     (7650551, "star"),
+    (7671936, "star"),
 ]
 
 

@@ -174,6 +174,16 @@ class RoleMember:
             self._denied.discard(reply.role)
             return RoleGranted(role=reply.role)
         if isinstance(reply, RoleDeny):
+            held = self.held.pop(reply.role, None)
+            if held is not None:
+                # The master counts this platform as waiting, not holding: its grant reached
+                # here after the master had dropped the platform (it left, the grant was on
+                # its way) and the rejoin report, made before the grant arrived, said
+                # "claimed". The master's table is what the quota is kept by: hold nothing
+                # and wait again, reported once (campaign seed 7671936).
+                self.claims[reply.role] = held
+                self._denied.add(reply.role)
+                return RoleRevoked(role=reply.role)
             if reply.role not in self.claims or reply.role in self._denied:
                 return None  # report a denial once per claim, not on every re-statement
             self._denied.add(reply.role)
