@@ -302,20 +302,13 @@ class NodeMembership(NodeBase):
         if cadence != self._cadence:
             # Every member hears a master's first slow cadence in the same heartbeat: each
             # takes a phase of its own for it within one interval, or they would all
-            # heartbeat in the same instant on a shared channel. A faster cadence brings the
-            # schedule forward. A slower one spreads the phases over the longer interval:
-            # drawn within the old one, they would fill only its share of the new one
-            # (at 1000 platforms on 1 Mbit/s, cadences 1.2 then 1.6 s, half the members
-            # heartbeat twice in a 2 s window instead of a quarter). Each keeps its next
-            # heartbeat with the odds old / new and otherwise moves it to a uniform point
-            # of the added stretch, so the phases are uniform over the new interval and no
-            # heartbeat comes later than one new interval from now.
+            # heartbeat in the same instant on a shared channel. Later changes keep the
+            # schedule (a new phase at each would put the next heartbeat off again and
+            # again while the master's count grows), bringing it forward when faster.
             if self._cadence == self.config.heartbeat_interval:
                 self._next_heartbeat = now + self._rng.uniform(0, cadence)
-            elif cadence < self._cadence:
+            else:
                 self._next_heartbeat = min(self._next_heartbeat, now + cadence)
-            elif self._rng.random() >= self._cadence / cadence:
-                self._next_heartbeat = now + self._rng.uniform(self._cadence, cadence)
             self._cadence = cadence
         rejected = self.roster.rejected
         behind = self.roster.on_heartbeat(hb.epoch, hb)
