@@ -226,14 +226,21 @@ class BenchResult:
 # --- /proc ------------------------------------------------------------------------------
 
 
-def read_memory_kib(pid: int) -> tuple[int, int]:
-    """(``VmRSS``, ``RssAnon``) of process ``pid`` in KiB, from ``/proc/PID/status``.
-    OSError when the process is gone; ValueError when the fields are missing."""
+def read_status_kib(pid: int | str, names: Sequence[str]) -> dict[str, int]:
+    """The fields ``names`` (in KiB, e.g. ``VmRSS``, ``VmHWM``) that ``/proc/PID/status``
+    has for process ``pid`` (or ``"self"``). OSError when the process is gone."""
     fields: dict[str, int] = {}
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         name, _, value = line.partition(":")
-        if name in ("VmRSS", "RssAnon"):
+        if name in names:
             fields[name] = int(value.split()[0])
+    return fields
+
+
+def read_memory_kib(pid: int) -> tuple[int, int]:
+    """(``VmRSS``, ``RssAnon``) of process ``pid`` in KiB, from ``/proc/PID/status``.
+    OSError when the process is gone; ValueError when the fields are missing."""
+    fields = read_status_kib(pid, ("VmRSS", "RssAnon"))
     if "VmRSS" not in fields:
         raise ValueError(f"/proc/{pid}/status has no VmRSS (a kernel thread or a zombie?)")
     return fields["VmRSS"], fields.get("RssAnon", fields["VmRSS"])

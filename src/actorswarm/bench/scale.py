@@ -51,6 +51,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from actorswarm.bench.daemons import read_status_kib
 from actorswarm.bench.tables import strict_json
 from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.core.events import (
@@ -525,13 +526,10 @@ def _reset_peak_rss() -> bool:
 def _peak_rss_mib() -> float:
     """This process's peak resident memory since the last reset, MiB (NaN if unknown)."""
     try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024
+        peak = read_status_kib("self", ("VmHWM",)).get("VmHWM")
     except (OSError, ValueError, IndexError):
-        pass
-    return NAN
+        return NAN
+    return NAN if peak is None else peak / 1024
 
 
 def _figures(cell: ScaleCell, watch: _Watch, swarm: SimSwarm, scenario: Scenario) -> None:
