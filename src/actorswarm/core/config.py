@@ -48,10 +48,12 @@ class CoreConfig:
 
     Wake-ups: with ``heartbeat_slack`` a heartbeat due within that many seconds goes out
     at a :meth:`~actorswarm.core.node.Node.tick` the host makes anyway (a packet woke it),
-    instead of at a wake of its own, keeping its schedule's phase. A star member's
-    heartbeat sent on time moves its schedule half a slack later, so a member's heartbeats
-    drift until they ride on the wakes its master's cause, and then keep that phase. The
-    rate stays one per interval; a gap grows by at most half the slack. A real
+    instead of at a wake of its own, keeping its schedule's phase. A star member that
+    follows a live master rides on its master's heartbeats instead (the wakes they cause):
+    each of its heartbeats is due a cadence and a slack after the last and may go up to two
+    slacks early, so it goes out with the master's next heartbeat whenever that comes a
+    cadence later give or take a slack, however the master's drift; its gaps stay within
+    the cadence ± the slack. A real
     daemon, whose every wake costs CPU, sets it when the configuration does not
     (``actorswarm.daemon.config``); the default, None (0), sends every heartbeat exactly
     on its schedule.

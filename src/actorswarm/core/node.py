@@ -110,7 +110,9 @@ class Node(NodeElection):
         is within ``heartbeat_slack`` (a heartbeat then goes out on this wake instead of
         at a wake of its own; see :class:`~actorswarm.core.config.CoreConfig`)."""
         deadline = self.next_deadline()
-        return deadline is not None and deadline <= now + (self.config.heartbeat_slack or 0.0)
+        if deadline is not None and deadline <= now + (self.config.heartbeat_slack or 0.0):
+            return True
+        return now + self._heartbeat_window() >= self._next_heartbeat
 
     def next_deadline(self) -> float | None:
         """The latest time by which :meth:`tick` must be called next."""
@@ -217,22 +219,39 @@ class Node(NodeElection):
             if self.master is not None and not self.is_master:
                 self.counters["restated"] += 1
                 self._report(now)
-        slack = self.config.heartbeat_slack or 0.0
-        if now + slack >= self._next_heartbeat:
+        if now + self._heartbeat_window() >= self._next_heartbeat:
             self._send_heartbeat(now)
             interval = self._cadence if self._following_star() else self.config.heartbeat_interval
             if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
                 self._rephase = False
                 interval *= self._rng.uniform(0.5, 1.5)
-            # Sent early, on a tick the host made anyway: keep the phase, so the rate stays
-            # one per interval. A star member that sent on time, on a wake of its own,
-            # drifts half a slack later, towards its master's heartbeats (what wakes it),
-            # until one lands within the slack; then it keeps that phase.
-            late = now >= self._next_heartbeat
-            drift = slack / 2 if late and self._following_star() else 0.0
-            self._next_heartbeat += interval + drift
+            if self._rides_master():
+                # Anchored on this wake, which its master's heartbeat most likely caused:
+                # the next one rides on the master's next heartbeat if that comes a
+                # cadence from now give or take a slack. A master sends early itself (its
+                # own slack) and its heartbeats arrive with the jitter of a loaded host and
+                # a radio; a schedule that kept its own phase lost the master's at every
+                # early one and woke twice per interval until it drifted back. Gaps stay
+                # within cadence ± slack; the rate is at most the master's.
+                self._next_heartbeat = now + interval + (self.config.heartbeat_slack or 0.0)
+            else:
+                # Sent early, on a tick the host made anyway: keep the phase, so the rate
+                # stays one per interval.
+                self._next_heartbeat += interval
             if self._next_heartbeat <= now:  # the host fell behind: do not burst
                 self._next_heartbeat = now + interval
+
+    def _rides_master(self) -> bool:
+        """Whether this platform's heartbeats ride on its master's: a star member following
+        a live master, with a heartbeat slack (a daemon)."""
+        return bool(self.config.heartbeat_slack) and self._following_star()
+
+    def _heartbeat_window(self) -> float:
+        """How long before its time a heartbeat goes out on a wake the host makes anyway:
+        the slack, or two slacks for a heartbeat that rides on its master's (its schedule
+        is a slack past the master's next heartbeat, see :meth:`tick`)."""
+        slack = self.config.heartbeat_slack or 0.0
+        return 2 * slack if self._rides_master() else slack
 
     def request_barrier(
         self,

@@ -119,7 +119,7 @@ class PlatformEndpoint:
         deadline = self.engine.next_deadline()
         # Within the runtime's step slack the engine ticks too: an actor step then rides
         # on this wake (the engine's other timers check their own times).
-        if deadline is not None and deadline <= now + self.runtime.step_slack:
+        if deadline is not None and deadline <= now + self.runtime.step_window:
             self.engine.tick(now)
         self._service(now)
 

@@ -22,13 +22,18 @@ resources) and its priority.
   shared blackboard; what the plugins emit is returned to the engine. A plugin that raises is
   isolated: its actor goes to ``error`` (its hardware is released), the error is kept with the
   plugin's name, and the platform and the other actors go on.
-* **Step slack.** With ``step_slack`` a step due within that many seconds runs at a
+* **Step slack.** With ``step_slack`` a step due within two slacks runs at a
   :meth:`ActorRuntime.step` the host makes anyway (a packet woke it) and keeps its
   schedule's phase; a step that needed a wake of its own moves its schedule half a slack
   later. So the steps drift until they ride on wakes that come at their rate anyway (a
   daemon's heartbeats), then keep that phase: one wake of the host per period instead of
-  two. The rate stays ``rate`` once they ride; a gap grows by at most half the slack while
-  they drift. The default, 0, steps every actor exactly ``1 / rate`` after its last step.
+  two. The window is two slacks wide because those wakes come off their own schedule by up
+  to a slack (a master sends its heartbeat up to a slack early on a wake it makes anyway, and
+  a loaded host or a radio adds jitter); with one slack, a step lost the wakes at every early
+  one and drifted round the period to find them again. The rate stays ``rate`` once they
+  ride; a gap is off the period by at most two slacks, and grows by at most half a slack
+  while they drift. The default, 0, steps every actor exactly ``1 / rate`` after its last
+  step.
 * **Switch times.** Each :meth:`ActorRuntime.switch` is timed from the call to the end of
   the new actor's first OODA step (pausing the old actor, starting or re-activating the new
   one, and whatever the host does before it steps it); the samples wait in a bounded buffer
@@ -155,7 +160,7 @@ class ActorRuntime:
         self.areas: Mapping[str, Sequence[tuple[float, float]]] = dict(areas or {})
         self.collective: Collective = collective or NullCollective()
         self.period = 1.0 / rate
-        #: How early a step may run on a wake the host makes anyway (the module docstring).
+        #: The slack of the steps' schedule (the module docstring).
         self.step_slack = step_slack
         self._rng = random.Random(f"runtime:{seed}:{platform}")
         self._defs: dict[str, _ActorDef] = {}
@@ -364,11 +369,11 @@ class ActorRuntime:
     def step(self, now: float) -> list[Emitted]:
         """Step every running actor that is due; return what the plugins emitted."""
         out: list[Emitted] = []
-        slack = self.step_slack
+        window = self.step_window
         for name, entry in list(self._loaded.items()):
             if entry.acb.status is not ActorStatus.RUNNING:
                 continue
-            if now < min(self._due(entry), entry.next_step - slack):
+            if now < min(self._due(entry), entry.next_step - window):
                 continue
             emitted: list[Emitted] = []
             timings: dict[str, float] = {}
@@ -391,12 +396,18 @@ class ActorRuntime:
             out.extend(e if e.actor else dataclasses.replace(e, actor=name) for e in emitted)
         return out
 
+    @property
+    def step_window(self) -> float:
+        """How early a step may run on a wake the host makes anyway: two slacks (the module
+        docstring)."""
+        return 2 * self.step_slack
+
     def _next_step(self, due: float, now: float) -> float:
         """When the actor whose step was due at ``due`` and ran at ``now`` steps next."""
         slack = self.step_slack
         if not slack:
             return now + self.period
-        if due - slack <= now < due:
+        if due - self.step_window <= now < due:
             return due + self.period  # rode on a wake made anyway: keep the phase
         if now < due:
             return now + self.period  # a plugin's own deadline, well before the schedule
