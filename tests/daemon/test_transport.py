@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 import time
 
 import pytest
@@ -131,3 +133,68 @@ def test_multicast_members_join_often_and_within_their_lease() -> None:
     assert data["scouting"]["multicast"]["enabled"] is False
     short = ZenohSettings(multicast=False, broadcast="multicast", lease_ms=400).config()
     assert json.loads(str(short))["transport"]["multicast"]["join_interval"] == 100
+
+
+_THREAD_STATE_PROBE = """
+import sys, threading, time
+import zenoh
+from actorswarm.transport import zenoh_transport
+
+keep = sys.argv[1] == "keep"
+local = threading.local()
+seen = []
+
+def callback(sample):
+    if keep and threading.get_ident() not in zenoh_transport._KEPT:
+        zenoh_transport._keep_thread_state()
+    local.count = getattr(local, "count", 0) + 1
+    seen.append(local.count)
+
+def config(*pairs):
+    cfg = zenoh.Config()
+    cfg.insert_json5("scouting/multicast/enabled", "false")
+    for key, value in pairs:
+        cfg.insert_json5(key, value)
+    return cfg
+
+port = sys.argv[2]
+listen = config(("listen/endpoints", f'["tcp/127.0.0.1:{port}"]'))
+connect = config(("listen/endpoints", "[]"), ("connect/endpoints", f'["tcp/127.0.0.1:{port}"]'))
+with zenoh.open(listen) as receiver, zenoh.open(connect) as sender:
+    # As the transport's: on Zenoh's own thread, not a Python thread of zenoh-python's.
+    handler = zenoh.handlers.Callback(callback, indirect=False)
+    sub = receiver.declare_subscriber("probe/thread-state", handler)
+    time.sleep(0.5)
+    for _ in range(5):
+        sender.put("probe/thread-state", b"x")
+        time.sleep(0.05)
+    time.sleep(0.3)
+assert threading.get_ident() not in zenoh_transport._KEPT, "ran on the main thread"
+print(seen)
+"""
+
+
+@pytest.mark.parametrize("keep", [True, False])
+def test_zenohs_thread_keeps_a_python_thread_state_between_callbacks(keep: bool) -> None:
+    """Zenoh calls Python from its own thread between ``PyGILState_Ensure`` and
+    ``Release``: without more, every callback gets a new thread state (its thread-local
+    data starts empty each time) that is made and torn down per sample. The transport's
+    callback keeps one for good on its first call (``_keep_thread_state``), so a
+    thread-local count carries from one callback to the next. In a fresh interpreter each,
+    so no earlier callback has kept Zenoh's thread already."""
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            _THREAD_STATE_PROBE,
+            "keep" if keep else "plain",
+            str(30000 + os.getpid() % 20000 + keep),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    )
+    seen = json.loads(out.stdout.strip().splitlines()[-1])
+    assert len(seen) == 5, out
+    assert seen == ([1, 2, 3, 4, 5] if keep else [1, 1, 1, 1, 1])
