@@ -40,6 +40,12 @@ packets, received bytes]`` on the wire, :class:`~actorswarm.daemon.loop.Traffic`
 * ``switched``: the single Actor switch time of a switch to ``actor`` (from ``frm``):
   ``took_ms`` from the switch call to the end of the new actor's first OODA step.
 
+And for the operator (:mod:`actorswarm.daemon.records`; the engine keeps none of these, so a
+daemon that runs for months does not grow): ``ignored``, an event the current actor has no
+transition for (``on``, ``why``), and ``plugin-failed``, a plugin that raised (``actor``,
+``plugin``, ``error``; its actor is in ``error``). ``status.json`` shows the last
+:data:`~actorswarm.daemon.records.STATUS_TRANSITIONS` transitions; the log has them all.
+
 With ``--vehicle mavlink`` the daemon flies a PX4 or ArduPilot autopilot
 (:class:`~actorswarm.vehicles.mavlink.vehicle.MavlinkVehicle`, served by its own thread):
 ``status.json`` carries its ``vehicle`` state (link, autopilot, mode, armed, the plan in
@@ -62,7 +68,7 @@ import logging
 import os
 import signal
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -71,11 +77,13 @@ from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.endpoint import PlatformEndpoint
 from actorswarm.daemon.heap import HeapTrim
 from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
+from actorswarm.daemon.records import STATUS_TRANSITIONS, EngineRecords
 from actorswarm.daemon.state import StateDir, WritePacer
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
 
 if TYPE_CHECKING:
+    from actorswarm.engine.records import TransitionRecord
     from actorswarm.vehicles.mavlink.vehicle import MavlinkVehicle
     from actorswarm.world.config import WorldConfig
 
@@ -112,11 +120,9 @@ class DaemonOptions:
 
 @dataclass(slots=True)
 class _Seen:
-    """What the daemon's loop already reported: the master it logged, how many transitions
-    it logged."""
+    """What the daemon's loop already reported: the master it logged."""
 
     master: int | None = None
-    transitions: int = 0
 
 
 def _log(event: str, **fields: Any) -> None:
@@ -131,6 +137,7 @@ def _status(
     traffic: Traffic,
     autopilot: MavlinkVehicle | None = None,
     receive: Callable[[], dict[str, int]] | None = None,
+    transitions: Iterable[TransitionRecord] | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """What ``status.json`` says: the platform's state, and the packet counters that move
     all the time (written less often when nothing else changed)."""
@@ -149,7 +156,9 @@ def _status(
         "script": engine.script_sha,
         "transitions": [
             {"t": r.t, "from": r.src, "to": r.dst, "event": r.event, "cause": r.cause}
-            for r in engine.transitions[-200:]
+            for r in (
+                engine.transitions[-STATUS_TRANSITIONS:] if transitions is None else transitions
+            )
         ],
         "secure": guard.secure,
         "rejected": dict(guard.rejected),
@@ -189,6 +198,7 @@ class DaemonFiles:
         autopilot: MavlinkVehicle | None = None,
         *,
         receive: Callable[[], dict[str, int]] | None = None,
+        transitions: Iterable[TransitionRecord] | None = None,
     ) -> None:
         self.state = state
         self.status_file = state.path / "status.json"
@@ -197,6 +207,8 @@ class DaemonFiles:
         self.traffic = traffic
         self.autopilot = autopilot
         self.receive = receive
+        #: The transitions status.json shows (None: the engine's last ones).
+        self.transitions = transitions
         self.status = WritePacer(_STATUS_EVERY, _METERS_EVERY)
         self.replay = WritePacer(_REPLAY_EVERY, seen=guard.replay_snapshot())
 
@@ -215,7 +227,12 @@ class DaemonFiles:
 
     def _save_status(self, now: float, *, closing: bool = False) -> None:
         content, meters = _status(
-            self.endpoint, self.guard, self.traffic, self.autopilot, self.receive
+            self.endpoint,
+            self.guard,
+            self.traffic,
+            self.autopilot,
+            self.receive,
+            self.transitions,
         )
         if self.status.changed(now, content, meters, closing=closing):
             _write_status(self.status_file, content, meters, now)
@@ -302,6 +319,7 @@ async def _main(options: DaemonOptions) -> int:
     )
     seen = _Seen()
     traffic = Traffic()
+    records = EngineRecords(engine, endpoint.runtime, _log)
     files = DaemonFiles(
         state,
         endpoint,
@@ -309,6 +327,7 @@ async def _main(options: DaemonOptions) -> int:
         traffic,
         autopilot,
         receive=lambda: {**inbox.as_dict(), **transport.receive_counters()},
+        transitions=records.recent,
     )
     raised = 0
 
@@ -354,17 +373,7 @@ async def _main(options: DaemonOptions) -> int:
                     traffic=after,
                 )
             engine.fired.clear()
-        fresh = engine.transitions[seen.transitions :]
-        for r in fresh:
-            _log(
-                "transition",
-                at=r.t,
-                frm=r.src,
-                to=r.dst,
-                on=r.event,
-                cause=r.cause,
-                traffic=after,
-            )
+        switched = records.drain(after)
         for timing in endpoint.runtime.drain_switches():
             _log(
                 "switched",
@@ -373,8 +382,7 @@ async def _main(options: DaemonOptions) -> int:
                 actor=timing.dst,
                 took_ms=round(timing.seconds * 1000, 3),
             )
-        if fresh:
-            seen.transitions += len(fresh)
+        if switched:
             # A crash from now on resumes these actors, not the ones before the switch.
             endpoint.backup()
         files.wake(t)
