@@ -98,15 +98,16 @@ def test_load_imports_what_the_value_names() -> None:
 
 
 def test_checking_a_script_in_a_daemon_does_not_import_importlib_metadata() -> None:
-    """What a platform does when a script is deployed: check it (the checker lists the
+    """What a platform's checker does when a script is deployed (in the child process a
+    daemon checks it in, ``actorswarm.dsl.isolated``): check it (the checker lists the
     installed plugins and loads their classes)."""
     script = Path(__file__).resolve().parents[2] / "examples" / "branch_merge.xml"
     code = (
         "import json, sys\n"
         "import actorswarm.daemon.run\n"
-        "from actorswarm.engine.engine import _check\n"
-        f"result = _check(open({str(script)!r}).read(), 'branch_merge.xml')\n"
-        "print(json.dumps([not result.errors, [m for m in ('importlib.metadata', 'email',\n"
+        "from actorswarm.dsl.isolated import check_in_process\n"
+        f"model = check_in_process(open({str(script)!r}).read(), 'branch_merge.xml')\n"
+        "print(json.dumps([bool(model.actors), [m for m in ('importlib.metadata', 'email',\n"
         "                  'zipfile', 'csv') if m in sys.modules]]))\n"
     )
     out = subprocess.run(

@@ -79,6 +79,7 @@ from actorswarm.daemon.heap import HeapTrim
 from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
 from actorswarm.daemon.records import STATUS_TRANSITIONS, EngineRecords
 from actorswarm.daemon.state import StateDir, WritePacer
+from actorswarm.dsl.isolated import check_isolated
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
 
@@ -288,6 +289,8 @@ async def _main(options: DaemonOptions) -> int:
 
     engine.on_deployed = deployed
     engine.on_started = started
+    # Scripts are checked in a child process: the daemon never carries the checker.
+    engine.checker = check_isolated
     running = state.running()
     if running is not None:
         kept = state.script(running)

@@ -47,7 +47,6 @@ go is :mod:`.slots`, the records :mod:`.records`.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
 import msgspec
 
@@ -55,15 +54,13 @@ from actorswarm.core.digest import sha256_hex
 from actorswarm.core.events import AppReceived
 from actorswarm.core.node import Node
 from actorswarm.core.wire import GROUND_STATION
+from actorswarm.dsl.isolated import ScriptChecker, ScriptRefused, check_in_process
 from actorswarm.engine import commands as cmds
 from actorswarm.engine.machine import ActorMachine
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.records import Cause, CommandRecord, FiredRecord, TransitionRecord
 from actorswarm.engine.runtime import ActorContext, ActorHost
 from actorswarm.runtime.storage import BackupStore
-
-if TYPE_CHECKING:
-    from actorswarm.dsl.checker import CheckResult
 
 __all__ = ["CommandRecord", "FiredRecord", "TaskEngine", "TransitionRecord"]
 
@@ -92,6 +89,10 @@ class TaskEngine(ActorMachine):
         #: hash when a script starts: a daemon keeps both in its state directory.
         self.on_deployed: Callable[[str, bytes], None] | None = None
         self.on_started: Callable[[str], None] | None = None
+        #: Checks a script deployed or kept and gives its model, or raises ScriptRefused
+        #: (default: in this process; a daemon checks in a child process, so it never
+        #: carries the checker, actorswarm.dsl.isolated).
+        self.checker: ScriptChecker = check_in_process
 
     def _app(self, msg: AppReceived, now: float) -> None:
         if msg.topic != cmds.TOPIC_COMMAND:
@@ -197,11 +198,13 @@ class TaskEngine(ActorMachine):
         text = b"".join(parts[i] for i in range(chunk.total))
         if sha256_hex(text) != chunk.sha256:
             raise ValueError("the script does not hash to the SHA-256 it was sent with")
-        result = _check(text.decode("utf-8", errors="replace"), f"deploy:{chunk.sha256[:12]}")
-        if result.script is None or not result.ok:
-            first = next((str(d) for d in result.diagnostics), "the script is invalid")
-            raise ValueError(f"script refused: {first}")
-        self._deployed[chunk.sha256] = Plan.build(result.script)
+        try:
+            script = self.checker(
+                text.decode("utf-8", errors="replace"), f"deploy:{chunk.sha256[:12]}"
+            )
+        except ScriptRefused as exc:
+            raise ValueError(f"script refused: {exc}") from None
+        self._deployed[chunk.sha256] = Plan.build(script)
         if self.on_deployed is not None:
             self.on_deployed(chunk.sha256, text)
         self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
@@ -211,11 +214,11 @@ class TaskEngine(ActorMachine):
         """Register ``script`` as deployed (a daemon restarting with the scripts of its state
         directory); returns its SHA-256. ValueError when the script is invalid."""
         sha = sha256_hex(script)
-        result = _check(script.decode("utf-8", errors="replace"), f"kept:{sha[:12]}")
-        if result.script is None or not result.ok:
-            first = next((str(d) for d in result.diagnostics), "the script is invalid")
-            raise ValueError(f"script {sha[:12]} refused: {first}")
-        self._deployed[sha] = Plan.build(result.script)
+        try:
+            model = self.checker(script.decode("utf-8", errors="replace"), f"kept:{sha[:12]}")
+        except ScriptRefused as exc:
+            raise ValueError(f"script {sha[:12]} refused: {exc}") from None
+        self._deployed[sha] = Plan.build(model)
         return sha
 
     def rejoin(self, sha: str, now: float) -> bool:
@@ -287,12 +290,3 @@ class TaskEngine(ActorMachine):
             )
         )
         self._announce(now)
-
-
-def _check(text: str, path: str) -> CheckResult:
-    """The DSL checker on a script deployed or kept. Imported here, not with the module: the
-    checker (parser, rules, plugin discovery through the installed entry points) costs
-    memory and start-up time a platform without a script does not need."""
-    from actorswarm.dsl.checker import check
-
-    return check(text, path=path)
