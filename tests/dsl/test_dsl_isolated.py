@@ -39,7 +39,7 @@ def test_a_refused_script_is_refused_with_the_checkers_first_diagnostic() -> Non
     assert str(there.value).startswith("bad.xml:"), str(there.value)
 
 
-def test_a_child_that_fails_or_answers_garbage_refuses_the_script(
+def test_a_child_that_fails_hangs_or_answers_garbage_refuses_the_script(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     failing = tmp_path / "failing"
@@ -55,9 +55,22 @@ def test_a_child_that_fails_or_answers_garbage_refuses_the_script(
     monkeypatch.setattr(isolated.sys, "executable", str(garbage))
     with pytest.raises(ScriptRefused, match="unreadable"):
         check_isolated(text, "s.xml")
+    hanging = tmp_path / "hanging"
+    hanging.write_text("#!/bin/sh\nexec sleep 30\n")
+    hanging.chmod(0o755)
+    monkeypatch.setattr(isolated.sys, "executable", str(hanging))
+    with pytest.raises(ScriptRefused, match=r"did not answer in 0\.5 s"):
+        check_isolated(text, "s.xml", timeout=0.5)
+
+
+def test_with_no_interpreter_to_start_the_script_is_checked_here(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    text = (EXAMPLES / "branch_merge.xml").read_text()
     monkeypatch.setattr(isolated.sys, "executable", str(tmp_path / "missing"))
-    with pytest.raises(ScriptRefused, match="did not run"):
-        check_isolated(text, "s.xml")
+    assert check_isolated(text, "s.xml") == check_in_process(text, "s.xml")
+    with pytest.raises(ScriptRefused, match=r"^bad\.xml:"):
+        check_isolated(text.replace('sysNum="', 'sysNum="x', 1), "bad.xml")
 
 
 def test_the_calling_process_never_imports_the_checker() -> None:

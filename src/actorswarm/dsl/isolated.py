@@ -85,7 +85,8 @@ def _refreeze(obj: Any) -> Any:
 def check_isolated(text: str, path: str, *, timeout: float = CHECK_TIMEOUT) -> TaskScript:
     """The checker's verdict on ``text`` from a child interpreter (see the module's
     docstring). A child that fails, hangs past ``timeout`` seconds or answers garbage
-    refuses the script, saying so."""
+    refuses the script, saying so; when no child can be started at all, the script is
+    checked in this process."""
     env = dict(os.environ)
     # The child imports what this process would: the same package, the same plugins.
     env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
@@ -99,8 +100,12 @@ def check_isolated(text: str, path: str, *, timeout: float = CHECK_TIMEOUT) -> T
             env=env,
             check=False,
         )
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        raise ScriptRefused(f"{path}: the checker did not run: {exc}") from exc
+    except OSError:
+        # No interpreter to start (an embedded Python, a sandbox without fork): the check
+        # itself matters more than the memory it keeps.
+        return check_in_process(text, path)
+    except subprocess.TimeoutExpired as exc:
+        raise ScriptRefused(f"{path}: the checker did not answer in {timeout:g} s") from exc
     if done.returncode != 0:
         why = done.stderr.decode("utf-8", errors="replace").strip().splitlines()
         raise ScriptRefused(
