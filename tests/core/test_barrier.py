@@ -8,6 +8,7 @@ from typing import Any
 import pytest
 
 from actorswarm.core.barrier import BarrierMaster, BarrierMember
+from actorswarm.core.barrier_member import PASSED_KEPT
 from actorswarm.core.barrier_state import ASSIGNMENT_ALL_CARRY
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import BarrierFired, BarrierReleased, BarrierStaleNotice
@@ -689,6 +690,25 @@ def test_member_passes_each_generation_once_and_acks_duplicates() -> None:
     )
     again, ack_again = member.on_release(rel)
     assert (again, ack_again) == (None, True), "a retransmission is acked, not passed again"
+
+
+def test_a_member_that_passes_for_ever_keeps_a_bounded_memory_of_it() -> None:
+    """A platform switching every second for a month passes millions of generations of one
+    key: it remembers the last PASSED_KEPT, and a retransmission of any generation it
+    passed, the oldest included, is still acknowledged and not passed again."""
+    member = BarrierMember(2)
+    releases = []
+    for generation in range(1000):
+        member.request(KEY, {0: 1}, float(generation))
+        rel = _release([(2, 1)], generation=generation)
+        releases.append(rel)
+        event, ack = member.on_release(rel)
+        assert event is not None and ack
+    assert sum(len(kept) for kept in member._passed.values()) == PASSED_KEPT
+    member.request(KEY, {0: 1}, 1000.0)  # a request pending meanwhile: generation 1000
+    for rel in (releases[0], releases[500], releases[-PASSED_KEPT], releases[-1]):
+        assert member.on_release(rel) == (None, True)
+    assert member.pending[KEY][0].generation == 1000, "the pending request is untouched"
 
 
 def test_member_not_chosen() -> None:

@@ -25,6 +25,9 @@ from actorswarm.core.wire import (
     ReleaseRecord,
 )
 
+#: Generations passed that a member remembers per key (see ``BarrierMember._passed``).
+PASSED_KEPT = 64
+
 
 class BarrierMember:
     """A platform's side: its pending requests, the generations it knows, what it passed."""
@@ -36,7 +39,12 @@ class BarrierMember:
         # The last few releases passed per key: a master rebuilding state after a partition
         # may need an older one than the last (the other side moved on meanwhile).
         self.recent: dict[int, deque[ReleaseRecord]] = {}
-        self._passed: set[tuple[int, int]] = set()
+        # The generations passed per key, the last PASSED_KEPT: a retransmitted release of
+        # one of them is acknowledged and not delivered again. An older one needs no entry:
+        # passing raised ``known`` past it, so every request since names a later generation
+        # and such a release is refused as for a request no longer held. (A set of every
+        # generation ever passed grew by one a switch for as long as a platform ran.)
+        self._passed: dict[int, deque[int]] = {}
 
     def request(
         self,
@@ -111,7 +119,8 @@ class BarrierMember:
                 # whose entry is in another chunk of the release waits for that chunk.)
                 self.known[rel.key] = max(self.known.get(rel.key, 0), rel.generation + 1)
             return None, False
-        if (rel.key, rel.generation) in self._passed:
+        passed = self._passed.get(rel.key)
+        if passed is not None and rel.generation in passed:
             return None, True  # a retransmission: acknowledge again, deliver nothing
         if pending is None or pending[0].generation > rel.generation:
             # A release for a request this platform no longer holds (e.g. it was told the
@@ -119,7 +128,7 @@ class BarrierMember:
             # generation that names this platform is the master placing a late request.)
             return None, True
         del self.pending[rel.key]
-        self._passed.add((rel.key, rel.generation))
+        self._passed.setdefault(rel.key, deque(maxlen=PASSED_KEPT)).append(rel.generation)
         self.known[rel.key] = max(self.known.get(rel.key, 0), rel.generation + 1)
         size = rel.sizes.get(mine.part, 0)
         self.recent.setdefault(rel.key, deque(maxlen=RECENT_RELEASES)).append(
