@@ -49,11 +49,11 @@ class CoreConfig:
     Wake-ups: with ``heartbeat_slack`` a heartbeat due within that many seconds goes out
     at a :meth:`~actorswarm.core.node.Node.tick` the host makes anyway (a packet woke it),
     instead of at a wake of its own, keeping its schedule's phase. A star member that
-    follows a live master rides on its master's heartbeats instead (the wakes they cause):
-    each of its heartbeats is due a cadence and a slack after the last and may go up to two
-    slacks early, so it goes out with the master's next heartbeat whenever that comes a
-    cadence later give or take a slack, however the master's drift; its gaps stay within
-    the cadence ± the slack. A real
+    follows a live master rides on its master's heartbeats (the wakes they cause) within a
+    slack either side of its phase, since those come up to a slack early or late; a
+    heartbeat that needed a wake of its own moves its phase half a slack later, until they
+    ride. The rate stays one per cadence however often the host wakes; a gap is off the
+    cadence by at most two slacks. A real
     daemon, whose every wake costs CPU, sets it when the configuration does not
     (``actorswarm.daemon.config``); the default, None (0), sends every heartbeat exactly
     on its schedule.

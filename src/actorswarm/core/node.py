@@ -225,15 +225,12 @@ class Node(NodeElection):
             if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
                 self._rephase = False
                 interval *= self._rng.uniform(0.5, 1.5)
-            if self._rides_master():
-                # Anchored on this wake, which its master's heartbeat most likely caused:
-                # the next one rides on the master's next heartbeat if that comes a
-                # cadence from now give or take a slack. A master sends early itself (its
-                # own slack) and its heartbeats arrive with the jitter of a loaded host and
-                # a radio; a schedule that kept its own phase lost the master's at every
-                # early one and woke twice per interval until it drifted back. Gaps stay
-                # within cadence ± slack; the rate is at most the master's.
-                self._next_heartbeat = now + interval + (self.config.heartbeat_slack or 0.0)
+            if self._rides_master() and now >= self._next_heartbeat:
+                # A wake of its own: nothing it could ride on came within a slack of its
+                # time. Half a slack later next time, towards the wakes its master's
+                # heartbeats cause, until they come within the window; then it keeps that
+                # phase (below), so the rate stays one per cadence however often it wakes.
+                self._next_heartbeat += interval + (self.config.heartbeat_slack or 0.0) / 2
             else:
                 # Sent early, on a tick the host made anyway: keep the phase, so the rate
                 # stays one per interval.
@@ -248,8 +245,12 @@ class Node(NodeElection):
 
     def _heartbeat_window(self) -> float:
         """How long before its time a heartbeat goes out on a wake the host makes anyway:
-        the slack, or two slacks for a heartbeat that rides on its master's (its schedule
-        is a slack past the master's next heartbeat, see :meth:`tick`)."""
+        the slack; or, for one that rides on its master's, two slacks before the time it
+        goes out on a wake of its own, a window a slack either side of its phase: the
+        master's heartbeats come up to a slack early (a busy master sends early on a wake
+        it makes anyway) or late (a loaded host, a radio's jitter), and a window of one
+        slack before lost them at every early one, waking twice per interval until the
+        phase drifted back (see :meth:`tick`)."""
         slack = self.config.heartbeat_slack or 0.0
         return 2 * slack if self._rides_master() else slack
 
