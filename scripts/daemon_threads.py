@@ -2,9 +2,9 @@
 """Where the daemons running on this machine spend their CPU, and how often their loops
 wake (docs/benchmarks/README.md, "Heartbeats that stay on the master's wakes"). Run it
 while a swarm of daemons runs (``actorswarm bench table1 --mode real``, ``actorswarm
-bench daemons``, ``actorswarm launch``...):
+bench daemons``, ``actorswarm launch``...), with the project's interpreter:
 
-    python3 scripts/daemon_threads.py [--window 40]
+    .venv/bin/python scripts/daemon_threads.py [--window 40]
 
 Every process whose command line holds ``daemon`` and ``--platform N`` is a daemon. Over
 ``--window`` seconds, from ``/proc/PID/task/*/stat`` and ``status``: each daemon's CPU as
@@ -21,12 +21,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import statistics
 import time
 from pathlib import Path
 
-_VOLUNTARY = re.compile(r"voluntary_ctxt_switches:\s+(\d+)")
+from actorswarm.bench.daemons import read_cpu_seconds, read_sleeps
 
 
 def _platform(pid: str) -> int | None:
@@ -42,29 +41,19 @@ def _platform(pid: str) -> int | None:
         return None
 
 
-def _snapshot() -> dict[int, tuple[int, int, int]]:
-    """platform -> (main thread's CPU ticks, other threads' CPU ticks, main thread's
+def _snapshot() -> dict[int, tuple[float, float, int]]:
+    """platform -> (main thread's CPU seconds, the process's CPU seconds, main thread's
     voluntary context switches)."""
-    out: dict[int, tuple[int, int, int]] = {}
+    out: dict[int, tuple[float, float, int]] = {}
     for pid in filter(str.isdigit, os.listdir("/proc")):
         platform = _platform(pid)
         if platform is None:
             continue
-        main = other = wakes = 0
         try:
-            for tid in os.listdir(f"/proc/{pid}/task"):
-                fields = Path(f"/proc/{pid}/task/{tid}/stat").read_text().rsplit(")", 1)[1]
-                ticks = int(fields.split()[11]) + int(fields.split()[12])  # utime + stime
-                if tid == pid:
-                    main = ticks
-                    status = Path(f"/proc/{pid}/task/{tid}/status").read_text()
-                    found = _VOLUNTARY.search(status)
-                    wakes = int(found.group(1)) if found else 0
-                else:
-                    other += ticks
-        except OSError:  # the daemon exited meanwhile
+            main = read_cpu_seconds(int(pid), thread=int(pid))
+            out[platform] = (main, read_cpu_seconds(int(pid)), read_sleeps(int(pid)))
+        except (OSError, ValueError):  # the daemon exited meanwhile
             continue
-        out[platform] = (main, other, wakes)
     return out
 
 
@@ -73,17 +62,16 @@ def main() -> None:
     parser.add_argument("--window", type=float, default=40.0, help="seconds (default 40)")
     parser.add_argument("--json", action="store_true", help="every daemon's figures too")
     args = parser.parse_args()
-    hz = os.sysconf("SC_CLK_TCK")
     before = _snapshot()
     time.sleep(args.window)
     after = _snapshot()
     rows: dict[int, dict[str, float]] = {}
-    for platform, (main0, other0, wakes0) in before.items():
+    for platform, (main0, whole0, wakes0) in before.items():
         if platform not in after:
             continue
-        main1, other1, wakes1 = after[platform]
-        python = 100.0 * (main1 - main0) / hz / args.window
-        zenoh = 100.0 * (other1 - other0) / hz / args.window
+        main1, whole1, wakes1 = after[platform]
+        python = 100.0 * (main1 - main0) / args.window
+        zenoh = 100.0 * ((whole1 - whole0) - (main1 - main0)) / args.window
         rows[platform] = {
             "cpu": round(python + zenoh, 2),
             "python": round(python, 2),

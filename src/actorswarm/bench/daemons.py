@@ -276,10 +276,12 @@ def read_sleeps(pid: int) -> int:
     raise ValueError(f"/proc/{pid}/task/{pid}/status has no voluntary_ctxt_switches")
 
 
-def read_cpu_seconds(pid: int) -> float:
-    """CPU time process ``pid`` used so far (user + system, all its threads), seconds.
-    OSError when the process is gone."""
-    text = Path(f"/proc/{pid}/stat").read_text()
+def read_cpu_seconds(pid: int, thread: int | None = None) -> float:
+    """CPU time process ``pid`` used so far (user + system, all its threads; or only its
+    thread ``thread``, e.g. ``pid`` for the main one), seconds. OSError when the process
+    is gone."""
+    where = f"/proc/{pid}" if thread is None else f"/proc/{pid}/task/{thread}"
+    text = Path(f"{where}/stat").read_text()
     # The command name (field 2) is in parentheses and may hold spaces: split after it.
     rest = text[text.rindex(")") + 2 :].split()
     utime, stime = int(rest[11]), int(rest[12])  # fields 14 and 15 of proc(5)
