@@ -568,6 +568,64 @@ def test_a_completion_does_not_pass_for_the_whole_firing() -> None:
     assert [rel.total for rel in decided] == [2], "a firing decided here knows its total"
 
 
+def _first_firing(**kw: Any) -> ReleaseRecord:
+    """Generation 4 as master 1 decided it in epoch 1: platforms 1 and 2 of 2."""
+    return ReleaseRecord(
+        key=KEY, generation=4, part=0, size=2, outcome=COMPLETE, origin=1, origin_master=1, **kw
+    )
+
+
+def test_a_completion_is_known_to_the_next_master_as_a_partial_assignment() -> None:
+    """Campaign seed 7734060: a master completes a predecessor's firing for a candidate
+    whose release is then lost, and steps down. Its successor learns the firing whole as it
+    was first decided (a member's report): without the completion's entries it would take
+    that candidate for one the firing never named and call its request stale, although it
+    was chosen. The completing master and the members that passed the completion report
+    those entries as a *partial* assignment, which names candidates without claiming all."""
+    completing = Harness(ready=False)
+    completing.master.platform = 5
+    completing.master.record_released(2, _first_firing(index=2))  # seen without the rest
+    completing.master.request(3, _req(NEED_ALL, generation=4, bid=3.0, epoch=1), 0.0, 2)
+    completing.master.request(4, _req(NEED_ALL, generation=4, bid=4.0, epoch=1), 0.0, 2)
+    completing.master.become_ready(0.1, 2)
+    rels = completing.broadcasts()
+    added = {e.platform: (e.part, e.index) for rel in rels for e in rel.entries}
+    assert set(added) == {3, 4} and all(rel.total == 0 for rel in rels)
+
+    member = BarrierMember(4)
+    member.known[KEY] = 4
+    member.request(KEY, {0: NEED_ALL}, 0.0, bid=4.0, epoch=1)
+    for rel in rels:
+        member.on_release(rel)
+    [kept] = member.records()
+    assert (kept.assignment, kept.partial) == ({}, added), "the entries it saw, as partial"
+
+    [handed] = completing.master.decided(5)
+    assert handed.assignment == {} and handed.partial == {2: (0, 2), **added}
+    assert handed.index == 0 and 5 not in handed.partial
+
+    def successor(*records: tuple[int, ReleaseRecord]) -> Harness:
+        h = Harness(ready=False)
+        h.master.record_released(1, _first_firing(index=1, assignment={1: (0, 1), 2: (0, 2)}))
+        for platform, rec in records:
+            h.master.record_released(platform, rec)
+        h.master.request(3, _req(NEED_ALL, generation=4, bid=3.0, epoch=1), 0.5, EPOCH)
+        h.master.become_ready(0.6, EPOCH)
+        h.master.tick(0.6 + CoreConfig().doubt_timeout, EPOCH)
+        return h
+
+    for records in ([(5, handed)], [(4, kept)]):
+        h = successor(*records)
+        assert h.notices() == [], records
+        assert h.entries() == {3: added[3]}, "3's entry of the completion, sent again"
+        assert 5 not in h.master.fired[KEY][4][0].assigned, "a former master is no candidate"
+    alone = successor()
+    assert [(p, n.generation) for p, n in alone.notices()] == [(3, 4)], (
+        "without the completion's entries, 3 is taken for a late request"
+    )
+    assert alone.broadcasts() == []
+
+
 def test_completion_of_timeout_firing_grows_it() -> None:
     h = Harness(ready=False)
     rec = ReleaseRecord(key=KEY, generation=0, part=0, index=1, size=1, outcome=TIMEOUT)

@@ -127,15 +127,18 @@ class Completion(MasterState):
             )
             firings.append(fired)
         fired.sizes[rec.part] = max(fired.sizes.get(rec.part, 0), rec.size)
-        if not rec.assignment or platform in rec.assignment:
-            # (A former master reports the firings it decided, in which it may have had no
-            # part: that does not make it a candidate of them.)
+        named = rec.assignment or rec.partial
+        if not named or platform in named:
+            # (A former master reports the firings it decided or completed, in which it may
+            # have had no part: that does not make it a candidate of them.)
             fired.assigned[platform] = (rec.part, rec.index)
+        for other, (part, index) in named.items():
+            # Candidates the reporter saw: all of them, or (partial) some, e.g. those a
+            # completion added after another reporter saw the firing whole.
+            fired.assigned.setdefault(other, (part, index))
+            fired.sizes[part] = max(fired.sizes.get(part, 0), index)
         if rec.assignment:
-            # The reporter saw the whole firing: every candidate and its index is known.
-            for other, (part, index) in rec.assignment.items():
-                fired.assigned.setdefault(other, (part, index))
-                fired.sizes[part] = max(fired.sizes.get(part, 0), index)
+            # The reporter saw the whole firing as its master decided it.
             fired.complete_knowledge = True
         for ident, req in list(self._doubtful.items()):
             if ident[1] == rec.key and req.generation == rec.generation:

@@ -22,6 +22,7 @@ from actorswarm.core.wire import (
     BarrierRequest,
     BarrierStale,
     Release,
+    ReleaseEntry,
     ReleaseRecord,
 )
 
@@ -131,6 +132,9 @@ class BarrierMember:
         self._passed.setdefault(rel.key, deque(maxlen=PASSED_KEPT)).append(rel.generation)
         self.known[rel.key] = max(self.known.get(rel.key, 0), rel.generation + 1)
         size = rel.sizes.get(mine.part, 0)
+        whole = self._carries(rel)
+        seen = {e.platform: (e.part, e.index) for e in rel.entries}
+        partial = not whole and not rel.total and self._keeps(rel.entries)
         self.recent.setdefault(rel.key, deque(maxlen=RECENT_RELEASES)).append(
             ReleaseRecord(
                 key=rel.key,
@@ -141,11 +145,8 @@ class BarrierMember:
                 outcome=rel.outcome,
                 origin=rel.origin,
                 origin_master=rel.origin_master,
-                assignment=(
-                    {e.platform: (e.part, e.index) for e in rel.entries}
-                    if self._carries(rel)
-                    else {}
-                ),
+                assignment=seen if whole else {},
+                partial=seen if partial else {},
             )
         )
         event = BarrierReleased(
@@ -170,9 +171,20 @@ class BarrierMember:
         chunks, which no one sees whole."""
         if not rel.total or len(rel.entries) != rel.total:
             return False
-        if rel.total <= ASSIGNMENT_ALL_CARRY:
+        return self._keeps(rel.entries)
+
+    def _keeps(self, entries: list[ReleaseEntry]) -> bool:
+        """Whether this platform keeps ``entries`` for its reports: all of few, or the
+        lowest :data:`ASSIGNMENT_CARRIERS` IDs of many (a report stays small).
+
+        Of a release its master could not send whole (it completes a predecessor's firing
+        with what it adds, ``total`` 0), the entries are kept as a *partial* assignment:
+        without them, a later master that knows the predecessor's firing whole from another
+        report would take a candidate the completion added for one the firing never named,
+        and refuse it as stale although it was chosen (campaign seed 7734060)."""
+        if len(entries) <= ASSIGNMENT_ALL_CARRY:
             return True
-        lowest = heapq.nsmallest(ASSIGNMENT_CARRIERS, (e.platform for e in rel.entries))
+        lowest = heapq.nsmallest(ASSIGNMENT_CARRIERS, (e.platform for e in entries))
         return self.platform in lowest
 
     def adopt_epoch(self, epoch: int, master: int = 0) -> None:
@@ -189,8 +201,10 @@ class BarrierMember:
         for recs in self.recent.values():
             keep_from = len(recs) - RECENT_ASSIGNMENTS
             for i, rec in enumerate(recs):
-                strip = i < keep_from and rec.assignment
-                out.append(msgspec.structs.replace(rec, assignment={}) if strip else rec)
+                strip = i < keep_from and (rec.assignment or rec.partial)
+                out.append(
+                    msgspec.structs.replace(rec, assignment={}, partial={}) if strip else rec
+                )
         return out
 
     def on_stale(self, notice: BarrierStale) -> BarrierStaleNotice | None:

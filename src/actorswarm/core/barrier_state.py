@@ -302,14 +302,21 @@ class MasterState:
         """The firings this master decided or knows in full, as records for a report to its
         successor: a master that steps down right after a firing may be the only one that
         knows it (its release may not have reached anyone yet), and without this record its
-        successor could fire the generation again without the first firing's candidates."""
+        successor could fire the generation again without the first firing's candidates.
+
+        A predecessor's firing this master completed goes as a *partial* assignment (the
+        candidates it knows, those it added among them): its successor may know that
+        firing whole as it was first decided, from a member's report, and would refuse a
+        candidate the completion added, whose release was lost, as late."""
         out = []
         for key, gens in self.fired.items():
             for generation in sorted(gens)[-RECENT_ASSIGNMENTS:]:
                 for fired in gens[generation]:
-                    if not fired.complete_knowledge or not fired.assigned:
+                    whole = fired.complete_knowledge
+                    if not fired.assigned or not (whole or fired.entries):
                         continue
                     part, index = fired.assigned.get(platform, (min(fired.sizes, default=0), 0))
+                    known = dict(fired.assigned)
                     out.append(
                         ReleaseRecord(
                             key=key,
@@ -319,8 +326,9 @@ class MasterState:
                             size=fired.sizes.get(part, 0),
                             outcome=fired.outcome,
                             origin=fired.origin,
-                            assignment=dict(fired.assigned),
+                            assignment=known if whole else {},
                             origin_master=fired.master,
+                            partial={} if whole else known,
                         )
                     )
         return out

@@ -121,6 +121,10 @@ class ReleaseRecord(_Msg, frozen=True):
     assignment: dict[PlatformId, tuple[Key, Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]]] = {}
     #: The master that decided the firing (with ``origin``, its epoch, the firing's name).
     origin_master: PlatformId = 0
+    #: Entries of the firing this member saw without seeing all of it (a master completing
+    #: a predecessor's firing sends only what it adds): each names a candidate of the firing,
+    #: but a platform it does not name may be one too.
+    partial: dict[PlatformId, tuple[Key, Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]]] = {}
 
 
 class RoleClaim(_Msg, frozen=True, tag=4):
