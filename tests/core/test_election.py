@@ -46,6 +46,7 @@ class Hb(NamedTuple):
     sender_is_master: bool
     sender_epoch: int
     expected: OnHeartbeat
+    master_suspected: bool = False
 
 
 HEARTBEAT_TABLE = [
@@ -68,6 +69,21 @@ HEARTBEAT_TABLE = [
     Hb("follower: my master reclaims higher epoch", 3, False, 4, 1, True, 1, True, 5, FOLLOW),
     Hb("follower: my master, older epoch packet", 3, False, 4, 1, True, 1, True, 3, IGNORE),
     Hb("higher epoch, higher-ID sender, my master alive", 4, False, 2, 1, True, 3, True, 3, IGNORE),
+    Hb(
+        "higher epoch, higher-ID sender, my master suspected",
+        *(4, False, 2, 1, True, 3, True, 3, FOLLOW),
+        master_suspected=True,
+    ),
+    Hb(
+        "same epoch, higher-ID sender, my master suspected",
+        *(4, False, 2, 1, True, 3, True, 2, IGNORE),
+        master_suspected=True,
+    ),
+    Hb(
+        "higher epoch, member sender, my master suspected",
+        *(4, False, 2, 1, True, 3, False, 3, IGNORE),
+        master_suspected=True,
+    ),
     Hb("higher epoch, sender outranks my live master", 4, False, 2, 3, True, 1, True, 3, FOLLOW),
     Hb("higher epoch, own master lost", 4, False, 2, 1, False, 3, True, 3, FOLLOW),
     Hb("higher epoch, no master at all", 4, False, 2, None, False, 3, True, 3, FOLLOW),
@@ -91,6 +107,7 @@ def test_on_heartbeat_decision_table(row: Hb) -> None:
         sender=row.sender,
         sender_is_master=row.sender_is_master,
         sender_epoch=row.sender_epoch,
+        master_suspected=row.master_suspected,
     )
     assert got is row.expected, f"{row.name}: got {got.name}, want {row.expected.name}"
 
@@ -179,6 +196,7 @@ def on_heartbeat_plain(
     sender: int,
     sender_is_master: bool,
     sender_epoch: int,
+    master_suspected: bool = False,
 ) -> OnHeartbeat:
     """``on_heartbeat`` as nested conditionals: an independent statement of the rules."""
     if is_master:
@@ -193,8 +211,9 @@ def on_heartbeat_plain(
             return OnHeartbeat.DEMOTED
         return OnHeartbeat.IGNORE
     if sender_epoch > epoch:
-        if master is not None and master_alive and master < sender:
+        if master is not None and master_alive and master < sender and not master_suspected:
             # My master is alive and outranks the sender: it will claim above this epoch.
+            # (Suspected, it is likely dead: the claim confirms it.)
             return OnHeartbeat.IGNORE
         return OnHeartbeat.FOLLOW
     if sender_epoch == epoch and not master_alive:
@@ -241,6 +260,7 @@ hearings = st.builds(
     sender=ids,
     sender_is_master=st.booleans(),
     sender_epoch=ids,
+    master_suspected=st.booleans(),
 )
 claimants = st.builds(
     Claimant,
@@ -268,9 +288,9 @@ def test_claim_table_matches_plain_conditionals(c: Claimant) -> None:
 
 
 def all_hearings() -> list[Hearing]:
-    """Every combination of small inputs (10 240 of them)."""
+    """Every combination of small inputs (20 480 of them)."""
     maybe = (None, *SMALL)
-    grid = itertools.product(SMALL, BOOLS, SMALL, maybe, BOOLS, SMALL, BOOLS, SMALL)
+    grid = itertools.product(SMALL, BOOLS, SMALL, maybe, BOOLS, SMALL, BOOLS, SMALL, BOOLS)
     return [Hearing(*values) for values in grid]
 
 

@@ -387,6 +387,18 @@ def test_hurrying_sends_what_the_master_lacks_again_without_moving_the_retries()
     assert _run(r, 1.5) == [(1.0, 2)]
 
 
+def test_copies_of_a_master_bound_message_go_out_at_once_and_count_as_one() -> None:
+    r = Reliable(CoreConfig(retry_base=1.0, retry_cap=1.0))
+    r.send_to_master(_msg(1), 0.0, EPOCH, copies=3)
+    assert _sent(r) == [], "no master: the message waits, copies and all"
+    r.retarget(5, 0.0)
+    assert [(dst, d.seq) for dst, d in _sent(r)] == [(5, 1)], "moved once to the new master"
+    seq = r.send_to_master(_msg(2), 0.1, EPOCH, copies=3)
+    assert [(dst, d.seq) for dst, d in _sent(r)] == [(5, seq)] * 3
+    r.on_ack(5, Ack(dst=SENDER, dst_incarnation=0, channel=TO_MASTER, seq=seq), 0.2)
+    assert not r.master_holds(seq) and _run(r, 3.0) == [], "one acknowledgement settles all"
+
+
 def test_retarget_moves_unacked_in_order_to_new_master() -> None:
     r = Reliable(CoreConfig())
     r.retarget(5, 0.0)

@@ -19,8 +19,8 @@ Table I's CPU figure and switch times are wall-clock measurements of this proces
   window, at the master and averaged over every non-master; bytes per packet over every
   packet sent in the window.
 * **Table III**: :func:`actorswarm.bench.core.run_failover` — the master crashes at a random
-  heartbeat phase; the time until the new master's handshake is complete, i.e. every
-  survivor acknowledged it.
+  heartbeat phase (in a swarm in which every platform has the whole swarm in its view); the
+  time until a new master has every survivor in its view and each of them reported to it.
 
 Tables II and III run the collective core with :attr:`SimSettings.membership` (the row
 records it); Table I with the core's default.

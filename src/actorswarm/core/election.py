@@ -118,6 +118,9 @@ class Hearing(NamedTuple):
     sender: int
     sender_is_master: bool
     sender_epoch: int
+    #: Whether this platform suspects ``master``: silent past its suspicion time, not yet
+    #: past its leave time (which under loss waits for many more missed heartbeats).
+    master_suspected: bool = False
 
 
 #: How a platform reacts to a heartbeat (or a ``Sync``, which shows a master): first match.
@@ -144,17 +147,20 @@ HEARTBEAT_RULES: Final[tuple[Rule[Hearing, OnHeartbeat], ...]] = (
         "it is master no more (an older epoch is a late packet from before its claim)",
     ),
     Rule(
-        "H5", _FOLLOWER, "a master, higher epoch, ID above my master's",
+        "H5", _FOLLOWER, "a master, higher epoch, ID above my master's, which I do not suspect",
         lambda h: (
             h.sender_is_master and h.sender_epoch > h.epoch
-            and h.master is not None and h.master < h.sender
+            and h.master is not None and h.master < h.sender and not h.master_suspected
         ),
         OnHeartbeat.IGNORE, "my master outranks it and will claim above its epoch",
     ),
     Rule(
         "H6", _MEMBER, "a master with a higher epoch",
         lambda h: h.sender_is_master and h.sender_epoch > h.epoch,
-        OnHeartbeat.FOLLOW, "the newest claim wins; epochs only grow",
+        OnHeartbeat.FOLLOW,
+        "the newest claim wins; epochs only grow (a claim while I suspect my master confirms"
+        " the suspicion: the claimant's own detector fired; if my master lives, it claims"
+        " above the claimant and I follow it back)",
     ),
     Rule(
         "H7", _MASTERLESS, "a master of my epoch",
@@ -183,17 +189,27 @@ def on_heartbeat(
     sender: int,
     sender_is_master: bool,
     sender_epoch: int,
+    master_suspected: bool = False,
 ) -> OnHeartbeat:
     """Decide how to react to ``sender``'s heartbeat (``sender_is_master``, ``sender_epoch``).
 
     ``master`` is the master of this platform's epoch (itself when it is master), and
-    ``master_alive`` whether this platform still follows it (False after it left the view).
+    ``master_alive`` whether this platform still follows it (False after it left the view),
+    ``master_suspected`` whether it has been silent past its suspicion time.
     A master must always hold the highest epoch of its component, so a master that hears an
     epoch at least as high as its own claims again. The decision of :data:`HEARTBEAT_RULES`.
     """
     rules = _HEARTBEAT_BY_ROLE[role_of(is_master, master, master_alive)]
     h = Hearing(
-        self_id, is_master, epoch, master, master_alive, sender, sender_is_master, sender_epoch
+        self_id,
+        is_master,
+        epoch,
+        master,
+        master_alive,
+        sender,
+        sender_is_master,
+        sender_epoch,
+        master_suspected,
     )
     return first_match(rules, h).then
 

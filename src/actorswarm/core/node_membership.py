@@ -286,6 +286,9 @@ class NodeMembership(NodeBase):
             return
         if self._apply(action, sender, hb.epoch, now):
             if action is OnHeartbeat.FOLLOW and self.master == sender:
+                # Known from its first heartbeat, so that its reboot is noticed even if it
+                # is the last one heard (campaign seed 951123, broadcast).
+                self._master_incarnation = incarnation
                 self._on_master_heartbeat(sender, hb, now)
             return
         if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any

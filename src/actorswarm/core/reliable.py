@@ -137,11 +137,17 @@ class Reliable:
             stream = self._out[(dst, channel)] = OutStream(dst, channel)
         self._enqueue(stream, payload, now, epoch)
 
-    def send_to_master(self, payload: Payload, now: float, epoch: int) -> int:
+    def send_to_master(self, payload: Payload, now: float, epoch: int, *, copies: int = 1) -> int:
         """Queue a master-bound message; it waits while there is no master (see retarget).
+        ``copies`` > 1 sends its first transmission that many times over (each copy may be
+        lost on its own; the first that arrives is delivered, the rest are duplicates).
         Returns its sequence number on the master-bound stream."""
         stream = self._master_stream
         self._enqueue(stream, payload, now, epoch)
+        item = stream.items[-1]
+        if stream.dst is not None and item.sent:
+            for _ in range(copies - 1):
+                self._queue_copy(stream, stream.dst, item, now)
         return stream.next_seq - 1
 
     def master_holds(self, seq: int) -> bool:
