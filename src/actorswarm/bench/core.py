@@ -149,6 +149,27 @@ def run_barrier(
     return run, swarm.finish()
 
 
+def acknowledged_master(swarm: SimSwarm, since: float, epoch: int) -> int | None:
+    """A master that claimed after ``since`` in an epoch above ``epoch`` and is acknowledged
+    by every live platform: all of them in its view, each reported in its handshake (which
+    ``HandshakeComplete`` alone does not say: a member that joins its view after the first
+    round is waited for too). None while there is none."""
+    for rec in reversed(swarm.masters):
+        if rec.t < since:
+            break
+        node = swarm.nodes.get(rec.platform)
+        if (
+            node is not None
+            and node.is_master
+            and node.epoch > epoch
+            and node.handshake_complete
+            and not node.reports_awaited
+            and len(node.view) == len(swarm.nodes)
+        ):
+            return rec.platform
+    return None
+
+
 def run_failover(
     size: int, seed: int, link: LinkModel, config: CoreConfig
 ) -> tuple[FailoverRun, list[str]]:
@@ -160,17 +181,6 @@ def run_failover(
     crash_at = swarm.now + rng.uniform(0.0, config.heartbeat_interval)
     claimed: list[tuple[float, int]] = []
     acked: list[tuple[float, int]] = []
-
-    def acknowledged(node: Any) -> bool:
-        """``node`` is a new master, and every survivor is in its view and reported to it."""
-        return bool(
-            node.is_master
-            and node.epoch > old_epoch
-            and node.handshake_complete
-            and not node.reports_awaited
-            and len(node.view) == size - 1
-        )
-
     swarm.at(crash_at, swarm.crash, old)
     swarm.run_until(crash_at)
     limit = crash_at + 10 * config.t_leave
@@ -179,7 +189,9 @@ def run_failover(
         # of a member that joined the new master's view after its first round of the
         # handshake shows in no event.
         swarm.run_until(swarm.now + ACK_POLL)
-        acked += [(swarm.now, p) for p, n in swarm.nodes.items() if acknowledged(n)]
+        new = acknowledged_master(swarm, crash_at, old_epoch)
+        if new is not None:
+            acked.append((swarm.now, new))
     for rec in swarm.masters:
         if rec.t >= crash_at and rec.epoch > old_epoch:
             claimed.append((rec.t, rec.platform))

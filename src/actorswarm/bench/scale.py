@@ -29,7 +29,8 @@ The report (Markdown, picture) is drawn by :mod:`actorswarm.bench.scale_report`.
 Figures of a cell (:class:`ScaleCell`): the wall time of the whole run (booting included);
 when the swarm formed (one master, every other platform in its view, its handshake done);
 how many platforms the barrier released; the failover time (the crash → the first new
-master whose handshake completed, from ``SimSwarm.masters``); over the quiet window, the
+master every survivor acknowledged: all in its view, each reported to it, polled every
+5 ms of virtual time); over the quiet window, the
 packets received per second by the median non-master and by the master, the packets and
 bits per second sent on the air (a broadcast counts once: the radio counts a transmission
 at its sender), and the master's false leaves — ``MemberLeft`` of a platform that was alive —
@@ -51,6 +52,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from actorswarm.bench.core import ACK_POLL, acknowledged_master
 from actorswarm.bench.daemons import read_status_kib
 from actorswarm.bench.tables import strict_json
 from actorswarm.core.config import CoreConfig, MembershipKind
@@ -203,8 +205,8 @@ class ScaleCell:
     released: int = 0
     #: The barrier requested → the last platform released (NaN unless every one was).
     release_ms: float = NAN
-    #: The master that crashed, the first new master whose handshake completed, and the
-    #: time from the crash to that completion.
+    #: The master that crashed, the first new master every survivor acknowledged, and the
+    #: time from the crash to that.
     old_master: int = -1
     new_master: int = -1
     failover_ms: float = NAN
@@ -317,6 +319,8 @@ class _Watch:
         self.not_chosen: set[int] = set()
         self.crashed: set[int] = set()
         self.crash_epoch = -1
+        #: (when, who): the first new master every survivor acknowledged after the crash.
+        self.acknowledged: tuple[float, int] | None = None
         self.before: dict[int, dict[str, Any]] = {}
         self.after: dict[int, dict[str, Any]] = {}
         self.masters_before: list[int] = []
@@ -420,6 +424,17 @@ class _Watch:
         self.cell.old_master = old
         self.crashed.add(old)
         self.swarm.crash(old)
+        self.swarm.at(self.swarm.now + ACK_POLL, self.poll_acknowledged)
+
+    def poll_acknowledged(self) -> None:
+        """Every :data:`ACK_POLL` after the master's crash, until a new master is
+        acknowledged by every survivor (the last report shows in no event)."""
+        swarm = self.swarm
+        new = acknowledged_master(swarm, self.scenario.crash_at, self.crash_epoch)
+        if new is not None:
+            self.acknowledged = (swarm.now, new)
+        elif swarm.now + ACK_POLL <= self.scenario.end:
+            swarm.at(swarm.now + ACK_POLL, self.poll_acknowledged)
 
 
 def run_cell(
@@ -578,20 +593,13 @@ def _figures(cell: ScaleCell, watch: _Watch, swarm: SimSwarm, scenario: Scenario
         if watch.not_chosen:
             cell.errors.append(f"not chosen by a barrier of all: {sorted(watch.not_chosen)[:10]}")
     if cell.old_master >= 0:
-        done = [
-            rec
-            for rec in swarm.masters
-            if rec.t >= scenario.crash_at
-            and rec.platform != cell.old_master
-            and rec.epoch > watch.crash_epoch
-            and rec.handshake_done is not None
-        ]
-        if done:
-            first = min(done, key=lambda rec: rec.handshake_done or math.inf)
-            cell.new_master = first.platform
-            cell.failover_ms = ((first.handshake_done or NAN) - scenario.crash_at) * 1000
+        if watch.acknowledged is not None:
+            at, cell.new_master = watch.acknowledged
+            cell.failover_ms = (at - scenario.crash_at) * 1000
         elif not cell.over_budget:
-            cell.errors.append(f"no new master had completed its handshake by t = {reached:g} s")
+            cell.errors.append(
+                f"no new master was acknowledged by every survivor by t = {reached:g} s"
+            )
     if not cell.over_budget:
         violations = swarm.finish()
         cell.violations = len(violations)
