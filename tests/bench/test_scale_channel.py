@@ -18,6 +18,7 @@ from actorswarm.bench.scale import ScaleCell, ScaleReport, Scenario, run_cell, t
 from actorswarm.bench.scale_report import markdown, plot_scale
 from actorswarm.cli.app import app
 from actorswarm.cli.bench_scale import Cadence, cadences, parse_bitrate
+from actorswarm.core.config import CoreConfig
 
 #: Ten platforms on a 70 kbit/s channel: at 10 Hz their heartbeats alone (about 790 bits
 #: each on the air) need more than the channel has; the quiet window (3–5 s) starts after
@@ -107,7 +108,11 @@ def test_cadence_lowers_the_packets_on_the_air(rows: tuple[ScaleCell, ...]) -> N
     # The master asked its nine members for slower heartbeats (9 × 800 bits in half of
     # 70 kbit/s: 206 ms), and watches them accordingly.
     assert on.member_cadence_ms == pytest.approx(9 * 800 / (0.5 * 70_000) * 1000)
-    assert on.leave_timeout_ms > off.leave_timeout_ms
+    config = CoreConfig()
+    slower = on.member_cadence_ms / 1000 / config.heartbeat_interval
+    assert on.leave_timeout_ms == pytest.approx(
+        (config.t_leave * slower + config.probe_window) * 1000
+    ), "suspicion after t_leave scaled to the cadence, then the probe window"
     assert on.air_pps < off.air_pps and on.channel_pps < off.channel_pps
     assert on.airtime_drops < off.airtime_drops
     # The heartbeats themselves are the same size either way (the cadence is not in them).
@@ -116,13 +121,18 @@ def test_cadence_lowers_the_packets_on_the_air(rows: tuple[ScaleCell, ...]) -> N
 
 
 def test_the_master_declares_the_crashed_member_gone(rows: tuple[ScaleCell, ...]) -> None:
+    off, on = rows
     for cell in rows:
         assert cell.crashed_member == 10  # the highest ID; platform 1 is the master
         assert 0 < cell.member_leave_ms < (SLOW.crash_at - SLOW.member_crash_at) * 1000
-        assert cell.run_false_leaves == 0  # its leave is not a false one
         # The barrier of all was requested by all ten; a member that crashes before its
         # release is no longer expected.
         assert cell.expected in (9, 10)
+    assert on.run_false_leaves == 0  # its leave is not a false one
+    # Not told of the channel, the master takes the drops of the overloaded channel for
+    # radio loss, beats faster (``fast_master_loss``) and overloads it more: on this seed
+    # it declares two live members gone (docs/deploying.md: set ``channel_bitrate``).
+    assert off.run_false_leaves <= 2
 
 
 def test_without_a_channel_the_load_is_still_counted() -> None:

@@ -68,6 +68,11 @@ BAD_VALUES: list[tuple[str, dict[str, Any]]] = [
     ("detector", {"detector": None}),
     ("boot_wait", {"boot_wait": -1.0}),
     ("boot_wait", {"boot_wait": math.nan}),
+    ("fast_master_loss", {"fast_master_loss": 0}),
+    ("fast_master_loss", {"fast_master_loss": 1.0}),
+    ("fast_master_loss", {"fast_master_loss": math.nan}),
+    ("fast_master_loss", {"fast_master_loss": True}),
+    ("fast_master_loss", {"fast_master_loss": "0.2"}),
 ]
 
 

@@ -957,7 +957,10 @@ def test_under_loss_a_member_that_suspects_its_master_follows_the_claim_at_once(
     Without the rule (the control, on the same seed) the last one trails by 0.25–0.45 s."""
 
     def settled() -> SimSwarm:
-        swarm = SimSwarm(40, seed=seed, link=LinkModel(loss=0.3))
+        # (At the ordinary heartbeat rate: a fast master, tested below, shortens the wait
+        # for everyone alike.)
+        config = CoreConfig(fast_master_loss=None)
+        swarm = SimSwarm(40, seed=seed, link=LinkModel(loss=0.3), config=config)
         swarm.run_until(5.0)
         assert swarm.current_masters() == [1]
         assert all(len(node.view) == 40 for node in swarm.nodes.values()), "setup: settled"
@@ -975,6 +978,49 @@ def test_under_loss_a_member_that_suspects_its_master_follows_the_claim_at_once(
     monkeypatch.setattr(node_base, "on_heartbeat", never_suspects)
     control, _ = _follow_tail(settled())
     assert control > 0.2, f"control: {control:.3f} s"
+
+
+def test_under_heavy_loss_the_master_beats_faster_and_a_failover_takes_less() -> None:
+    """At 30 % loss the master measures the loss from its members' heartbeats and beats
+    twice per interval, saying so in its heartbeats; its members, watching it alone, judge
+    its silence in those heartbeats, and its successor claims sooner after a crash (on
+    every seed tried; 0.51 s against 0.82 s on average over eight). On a clean radio it
+    keeps the ordinary rate."""
+
+    def settled(seed: int, loss: float, fast: float | None) -> SimSwarm:
+        config = CoreConfig(fast_master_loss=fast)
+        swarm = SimSwarm(30, seed=seed, link=LinkModel(loss=loss), config=config)
+        swarm.run_until(4.0)
+        assert swarm.current_masters() == [1]
+        return swarm
+
+    def master_rate(swarm: SimSwarm) -> float:
+        # The count a heartbeat carries numbers the scheduled ones (probes repeat it).
+        sent = swarm.node(1)._hb_count
+        swarm.run_until(swarm.now + 2.0)
+        return (swarm.node(1)._hb_count - sent) / 2.0
+
+    def claim_after(swarm: SimSwarm) -> float:
+        swarm.crash(1)
+        crashed = swarm.now
+        swarm.run_until(crashed + 3.0)
+        claims = [m for m in swarm.masters if m.t > crashed]
+        assert len(claims) == 1 and claims[0].handshake_done is not None, claims
+        assert swarm.finish() == []
+        return claims[0].t - crashed
+
+    assert master_rate(settled(1, 0.0, 0.15)) == pytest.approx(1 / INTERVAL, abs=1)
+    fast = settled(1, 0.3, 0.15)
+    assert master_rate(fast) == pytest.approx(2 / INTERVAL, rel=0.1), "twice the rate"
+    assert fast.node(7).members.cadence == pytest.approx(INTERVAL / 2), "its members know it"
+    slow = settled(1, 0.3, None)
+    assert master_rate(slow) == pytest.approx(1 / INTERVAL, abs=1)
+    assert slow.node(7).members.cadence == INTERVAL
+    for seed in (1, 2, 3, 4):
+        quick = claim_after(settled(seed, 0.3, 0.15))
+        unhurried = claim_after(settled(seed, 0.3, None))
+        assert quick <= CONFIG.t_leave + CONFIG.probe_window + 0.05, f"claim after {quick:.3f} s"
+        assert quick < unhurried, f"seed {seed}: {quick:.3f} s fast, {unhurried:.3f} s not"
 
 
 # --- 5. Forged or garbled roster traffic -----------------------------------------------------

@@ -40,7 +40,11 @@ class CoreConfig:
     watcher's heartbeats and asked directly every ``probe_interval``); it leaves when the
     probes have failed for at least ``probe_window`` and its silence exceeds what the view's
     size and the measured loss make likely for a live peer: the timeout is chosen so that a
-    watcher declares a live peer gone at most ``false_leave_rate`` times a second.
+    watcher declares a live peer gone at most ``false_leave_rate`` times a second. A star
+    master whose measured loss reaches ``fast_master_loss`` (None: never; not on a shared
+    channel) heartbeats twice per ``heartbeat_interval`` until it falls below two thirds of
+    that, and says so in its heartbeats: its members, watching it alone, need half the time
+    to tell its silence from loss, so a failover under heavy loss takes about half as long.
 
     Airtime (§3.1): with ``channel_bitrate`` (bit/s of the shared radio) set, the master
     slows its members' heartbeats so that they use at most ``heartbeat_share`` of the channel
@@ -83,6 +87,7 @@ class CoreConfig:
     probe_window: float = 0.06
     probe_interval: float = 0.05
     false_leave_rate: float = 1.0 / 3600.0
+    fast_master_loss: float | None = 0.15
     channel_bitrate: float | None = None
     heartbeat_share: float = 0.5
     heartbeat_bits: int = 800
@@ -164,6 +169,10 @@ class CoreConfig:
                 "channel_bitrate: must be a positive bit rate or None, "
                 f"got {self.channel_bitrate!r}"
             )
+        fast = self.fast_master_loss
+        number = isinstance(fast, float | int) and not isinstance(fast, bool)
+        if fast is not None and not (number and 0 < fast < 1):
+            raise ConfigError(f"fast_master_loss: must be in (0, 1) or None, got {fast!r}")
         if not 0 < self.heartbeat_share <= 1:
             raise ConfigError(f"heartbeat_share: must be in (0, 1], got {self.heartbeat_share!r}")
         slack = self.heartbeat_slack

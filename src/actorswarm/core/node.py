@@ -221,7 +221,7 @@ class Node(NodeElection):
                 self._report(now)
         if now + self._heartbeat_window() >= self._next_heartbeat:
             self._send_heartbeat(now)
-            interval = self._cadence if self._following_star() else self.config.heartbeat_interval
+            interval = self._own_interval()
             if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
                 self._rephase = False
                 interval *= self._rng.uniform(0.5, 1.5)

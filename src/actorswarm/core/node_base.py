@@ -145,6 +145,9 @@ class NodeBase:
         # Shared channel: the roster (epoch, version) of the master's last heartbeat.
         self._roster_told = (0, 0)
         self._cadence = self.config.heartbeat_interval
+        #: As a star master: heartbeating twice per interval under heavy loss
+        #: (``CoreConfig.fast_master_loss``).
+        self._fast = False
         self._presumed: dict[int, float] = {}
         self._heard_lower: dict[int, float] = {}
         # On a shared channel: every platform heard lately, for the swarm size estimate;

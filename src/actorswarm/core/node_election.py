@@ -221,6 +221,8 @@ class NodeElection(NodeMembership):
             # the master's roster (fetched anew: it is the new master's, or newer).
             for peer in [p for p in self.members.peers if p != master]:
                 self.members.forget(peer)
+            # Until its heartbeats say otherwise, the master beats at the ordinary interval.
+            self.members.cadence = self.config.heartbeat_interval
             # On a shared channel the master's heartbeats queue behind the reports its
             # claim sets off (``_handshake_airtime``): not given up before they had theirs.
             airtime = self._handshake_airtime(self._swarm_size() - 1)
@@ -247,6 +249,9 @@ class NodeElection(NodeMembership):
         self.master = None
         self._master_incarnation = -1
         self._listening_since = now
+        if self._star:
+            # Masterless, it watches whoever broadcasts, at the ordinary interval.
+            self.members.cadence = self.config.heartbeat_interval
         if self._star:
             # The master's succession list says who takes over: each successor is presumed
             # alive for a while per rank, so the first live one claims without a round of

@@ -63,7 +63,36 @@ class NodeMembership(NodeBase):
             succession=log.succession(self.members.peers),
             cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
             awaited=awaited,
+            interval=self._own_interval() if self._fast else 0.0,
         )
+
+    def _own_interval(self) -> float:
+        """How often this platform heartbeats: a star member following a master at the
+        cadence its master asks for; a star master at half ``heartbeat_interval`` while it
+        is fast (:meth:`_update_fast`); anyone else at ``heartbeat_interval``."""
+        if self._following_star():
+            return self._cadence
+        if self._fast:
+            return self.config.heartbeat_interval / 2
+        return self.config.heartbeat_interval
+
+    def _update_fast(self) -> None:
+        """A star master heartbeats faster while the loss it measures is heavy
+        (``fast_master_loss``, with a third of it as hysteresis). Its members watch it
+        alone, and the silence that tells a dead master from a run of losses is a number of
+        its heartbeats: at twice the rate, half the time. Not on a shared channel, where a
+        master's heartbeat (roster, succession) is the largest regular packet on the air."""
+        cfg = self.config
+        threshold = cfg.fast_master_loss
+        if (
+            threshold is None
+            or cfg.channel_bitrate is not None
+            or not (self._star and self.is_master)
+        ):
+            self._fast = False
+            return
+        loss = self.members.loss.value
+        self._fast = loss >= threshold or (self._fast and loss >= threshold * 2 / 3)
 
     def _suspect_list(self) -> list[int]:
         """Up to MAX_SUSPECTS suspects, rotating through them when there are more."""
@@ -90,6 +119,7 @@ class NodeMembership(NodeBase):
         roster_after = (
             self.config.channel_bitrate is not None and self._roster_told[0] != self.epoch
         )
+        self._update_fast()
         if self.is_master and self._star:
             self._cadence = self._member_cadence()
             self.members.cadence = self._cadence
@@ -301,6 +331,9 @@ class NodeMembership(NodeBase):
         succession list, and the roster (asking for all of it when behind)."""
         if not self._star:
             return
+        # The one peer this member watches heartbeats at this interval: its silence is
+        # judged in those heartbeats (loss-aware leave time, suspicion).
+        self.members.cadence = hb.interval or self.config.heartbeat_interval
         cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
         if cadence != self._cadence:
             # Every member hears a master's first slow cadence in the same heartbeat: each
