@@ -1023,6 +1023,17 @@ def test_under_heavy_loss_the_master_beats_faster_and_a_failover_takes_less() ->
         assert quick < unhurried, f"seed {seed}: {quick:.3f} s fast, {unhurried:.3f} s not"
 
 
+@pytest.mark.parametrize("membership", ["star", "broadcast"])
+def test_view_size_is_the_views_length_in_every_state(membership: MembershipKind) -> None:
+    swarm = SimSwarm(12, seed=4, config=CoreConfig(membership=membership))
+    for until, fault in ((0.2, None), (1.5, 1), (2.3, None), (4.0, 5), (6.0, None)):
+        swarm.run_until(until)
+        for node in swarm.nodes.values():
+            assert node.view_size == len(node.view), (until, node.platform, node.view)
+        if fault is not None:
+            swarm.crash(fault)
+
+
 # --- 5. Forged or garbled roster traffic -----------------------------------------------------
 
 MEMBER = 3

@@ -82,7 +82,7 @@ def _stable_swarm(size: int, seed: int, link: LinkModel, config: CoreConfig) -> 
     # roster, which comes after the handshake; a successor that took over without it would
     # wait for the reports of the few members it knew of, and the rest would join later).
     deadline = swarm.now + 10.0
-    while not all(len(node.view) == size for node in swarm.nodes.values()):
+    while not all(node.view_size == size for node in swarm.nodes.values()):
         if swarm.now >= deadline:
             raise RuntimeError(f"a swarm of {size} (seed {seed}): views incomplete after 10 s")
         swarm.run_until(swarm.now + 0.05)
@@ -164,7 +164,7 @@ def acknowledged_master(swarm: SimSwarm, since: float, epoch: int) -> int | None
             and node.epoch > epoch
             and node.handshake_complete
             and not node.reports_awaited
-            and len(node.view) == len(swarm.nodes)
+            and node.view_size == len(swarm.nodes)
         ):
             return rec.platform
     return None

@@ -210,6 +210,15 @@ class NodeBase:
             return tuple(sorted({*self.roster.members, self.master or 0, self.platform} - {0}))
         return tuple(sorted((*self.members.peers, self.platform)))
 
+    @property
+    def view_size(self) -> int:
+        """``len(self.view)``, without building the view (O(1))."""
+        if self._following_star():
+            roster = self.roster.members
+            extra = {self.platform, self.master or 0} - {0}
+            return len(roster) + sum(1 for p in extra if p not in roster)
+        return len(self.members) + 1
+
     def _following_star(self) -> bool:
         """A star member that follows a live remote master (heartbeats to it only)."""
         return self._star and self.master is not None and not self.is_master
