@@ -201,8 +201,9 @@ def markdown(report: ScaleReport) -> str:
         "- *all released*: every platform's `BarrierReleased` for the barrier of all, "
         f"before the run ended (the master crashes {s.crash_at - s.barrier_at:g} s after the "
         "request).",
-        "- *failover*: the master crashes → the first new master whose handshake completed "
-        "(every member in its view acknowledged it).",
+        "- *failover*: the master crashes → the first new master that every survivor "
+        "acknowledged: all of them in its view, each reported to it (looked at every 5 ms "
+        "of virtual time).",
         f"- *rx pkt/s, on air*: the radio's counters over {s.quiet_from:g}–{s.barrier_at:g} s: "
         "packets delivered per second to each non-master (median, and the range over them) "
         "and to the master; packets and kbit sent per second by every platform, a broadcast "

@@ -63,7 +63,7 @@ class NodeMembership(NodeBase):
             succession=log.succession(self.members.peers),
             cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
             awaited=awaited,
-            interval=self._own_interval() if self._fast else 0.0,
+            interval_ms=round(self._own_interval() * 1000) if self._fast else 0,
         )
 
     def _own_interval(self) -> float:
@@ -333,7 +333,7 @@ class NodeMembership(NodeBase):
             return
         # The one peer this member watches heartbeats at this interval: its silence is
         # judged in those heartbeats (loss-aware leave time, suspicion).
-        self.members.cadence = hb.interval or self.config.heartbeat_interval
+        self.members.cadence = hb.interval_ms / 1000 or self.config.heartbeat_interval
         cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
         if cadence != self._cadence:
             # Every member hears a master's first slow cadence in the same heartbeat: each

@@ -227,8 +227,9 @@ class Heartbeat(_Msg, frozen=True, tag=1):
     ``(platform, -1)`` for a leave), so a member one or a few versions behind catches up
     without asking; ``succession``, the next-lowest live IDs, in order, who take over
     without an election round when the master is lost; ``cadence``, the member heartbeat
-    interval the master asks for (seconds, 0: ``heartbeat_interval``); ``interval``, the
-    master's own heartbeat interval (0: ``heartbeat_interval``; shorter under heavy loss).
+    interval the master asks for (seconds, 0: ``heartbeat_interval``); ``interval_ms``, the
+    master's own heartbeat interval in milliseconds (0: ``heartbeat_interval``; shorter
+    under heavy loss; an integer, one byte on the wire when 0).
 
     A master's heartbeat (either mode) also names in ``awaited`` the platforms of its view a
     barrier of all still waits for, when at most :data:`MAX_AWAITED` are missing and the
@@ -251,7 +252,7 @@ class Heartbeat(_Msg, frozen=True, tag=1):
     succession: Annotated[list[PlatformId], Meta(max_length=MAX_SUCCESSION)] = []
     cadence: Annotated[float, Meta(ge=0, le=3600)] = 0.0
     awaited: Annotated[list[PlatformId], Meta(max_length=MAX_AWAITED)] = []
-    interval: Annotated[float, Meta(ge=0, le=3600)] = 0.0
+    interval_ms: Annotated[int, Meta(ge=0, le=3_600_000)] = 0
 
 
 class RosterRequest(_Msg, frozen=True, tag=6):
