@@ -163,3 +163,10 @@ def test_retry_delay_starts_from_a_measured_base() -> None:
     assert config.retry_delay(0, base=0.025) == pytest.approx(0.025)
     assert config.retry_delay(2, base=0.025) == pytest.approx(0.065)
     assert config.retry_delay(9, base=0.025) == pytest.approx(0.1)
+
+
+def test_a_config_file_turns_the_fast_master_off_with_false() -> None:
+    assert CoreConfig.from_mapping({"fast_master_loss": False}).fast_master_loss is None
+    assert CoreConfig.from_mapping({"fast_master_loss": 0.25}).fast_master_loss == 0.25
+    with pytest.raises(ConfigError, match="fast_master_loss"):
+        CoreConfig.from_mapping({"fast_master_loss": True})

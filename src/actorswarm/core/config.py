@@ -246,6 +246,8 @@ class CoreConfig:
             raise ConfigError(
                 f"unknown core setting(s): {', '.join(unknown)}; known: {', '.join(sorted(known))}"
             )
+        if values.get("fast_master_loss") is False:  # TOML has no None: false means never
+            values = {**values, "fast_master_loss": None}
         try:
             return cls(**values)
         except TypeError as exc:  # wrong type that dataclasses itself refuses
