@@ -126,8 +126,15 @@ class NodeElection(NodeMembership):
         self._reported.clear()
         self._rejoining.clear()
         if not self.is_master:
+            # The firings it decided in an earlier term, which it would have reported to the
+            # master it stepped down to: it may claim again before it reported them to anyone
+            # (two masters settling after a heal), and a candidate of one whose release was
+            # lost could then never be completed (campaign seed 7765517).
+            decided = self._bmaster.decided(self.platform)
             self.is_master = True
             self._bmaster = self._new_barrier_master()
+            for record in decided:
+                self._bmaster.record_released(self.platform, record)
             self._rmaster = RoleMaster()
             if self._star:
                 # The predecessor's roster: those platforms were members a moment ago. They
