@@ -148,6 +148,14 @@ def swarm_campaign(
         int | None,
         typer.Option(min=1, help="Worker processes.", show_default="the number of CPUs"),
     ] = None,
+    renew: Annotated[
+        bool,
+        typer.Option(
+            "--renew",
+            help="Renewable barrier requests, as the task engine makes them, and a barrier "
+            "of one platform at a time (another run of the same schedules).",
+        ),
+    ] = False,
 ) -> None:
     """Run seeded random fault schedules and check every invariant and the recovery.
 
@@ -166,26 +174,28 @@ def swarm_campaign(
     )
     began = time.perf_counter()
     if seed is not None:
-        failed = _replay_seed(seed, modes)
+        failed = _replay_seed(seed, modes, renew)
         total = len(modes)
     else:
         from actorswarm.sim.campaign_runner import default_workers
 
         total = count * len(modes)
-        failed = _run_campaign(start, count, modes, workers or default_workers(), began)
+        failed = _run_campaign(
+            start, count, modes, workers or default_workers(), began, renew=renew
+        )
     wall = time.perf_counter() - began
     console.print(f"{total - failed} passed, {failed} failed in {wall:.1f} s")
     if failed:
         raise typer.Exit(1)
 
 
-def _replay_seed(seed: int, modes: tuple[MembershipKind, ...]) -> int:
+def _replay_seed(seed: int, modes: tuple[MembershipKind, ...], renew: bool = False) -> int:
     """Run one seed in each of ``modes`` here, printing its schedule; the failures."""
     from actorswarm.sim.campaign import make_case, run_case
 
     failed = 0
     for mode in modes:
-        case = make_case(seed, mode)
+        case = make_case(seed, mode, renew=renew)
         console.print(case.describe(), markup=False, soft_wrap=True)
         with console.status(f"running seed {seed} ({mode})"):
             result = run_case(case)
@@ -196,7 +206,13 @@ def _replay_seed(seed: int, modes: tuple[MembershipKind, ...]) -> int:
 
 
 def _run_campaign(
-    start: int, count: int, modes: tuple[MembershipKind, ...], workers: int, began: float
+    start: int,
+    count: int,
+    modes: tuple[MembershipKind, ...],
+    workers: int,
+    began: float,
+    *,
+    renew: bool = False,
 ) -> int:
     """Run seeds ``start..start+count-1`` in each of ``modes`` on ``workers`` processes,
     printing failures as they come and the progress (a bar on a terminal, otherwise a line
@@ -251,7 +267,7 @@ def _run_campaign(
                 )
 
         try:
-            run_campaign(start, count, modes, workers=workers, on_result=on_result)
+            run_campaign(start, count, modes, workers=workers, on_result=on_result, renew=renew)
         except KeyboardInterrupt:
             bar.stop()
             console.print(

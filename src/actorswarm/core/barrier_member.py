@@ -60,10 +60,12 @@ class BarrierMember:
         epoch: int = 0,
         occasion: str = "",
         master: int = 0,
+        renew: bool = False,
     ) -> BarrierRequest:
         """Record a request for the open generation of ``key`` and return it (to send).
 
-        ``epoch`` is the master epoch this platform follows now, ``master`` its master."""
+        ``epoch`` is the master epoch this platform follows now, ``master`` its master;
+        ``renew``: see :attr:`~actorswarm.core.wire.BarrierRequest.renew`."""
         if key in self.pending:
             raise ValueError(
                 f"platform {self.platform} already waits on barrier key {key} "
@@ -85,6 +87,7 @@ class BarrierMember:
             epoch=epoch,
             occasion=occasion,
             master=master,
+            renew=renew,
         )
         self.pending[key] = (req, now)
         return req
@@ -106,6 +109,7 @@ class BarrierMember:
                     epoch=req.epoch,
                     occasion=req.occasion,
                     master=req.master,
+                    renew=req.renew,
                 )
             )
         return out

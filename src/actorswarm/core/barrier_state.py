@@ -337,6 +337,11 @@ class MasterState:
         """A member's request (:class:`~actorswarm.core.barrier_master.BarrierMaster`)."""
         raise NotImplementedError
 
+    def try_fire(self, key: int, now: float, epoch: int) -> None:
+        """Fire ``key`` if its open generation can fire now
+        (:class:`~actorswarm.core.barrier_master.BarrierMaster`)."""
+        raise NotImplementedError
+
 
 def addressee(rel: Release, master: int) -> int | None:
     """Where a release packet goes: to its one candidate besides the master when it names

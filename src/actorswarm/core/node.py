@@ -265,12 +265,17 @@ class Node(NodeElection):
         data: Any = None,
         timeout: float | None = None,
         occasion: str = "",
+        renew: bool = False,
     ) -> int:
         """Ask to pass barrier ``key``; returns the generation asked for.
 
         ``need`` is the number of participants (or :data:`~actorswarm.core.wire.NEED_ALL`),
         or a map part -> number for a barrier of several parts. The answer comes as a
         :class:`~actorswarm.core.events.BarrierReleased` (or ``BarrierStaleNotice``) event.
+        ``renew``: this platform would ask again for the open generation if told the one
+        it asks for is stale, so the master may count it for that one at once
+        (:attr:`~actorswarm.core.wire.BarrierRequest.renew`); the release may then name a
+        later generation than the one returned.
         """
         needs = {part: need} if isinstance(need, int) else dict(need)
         req = self.barriers.request(
@@ -284,6 +289,7 @@ class Node(NodeElection):
             epoch=self.epoch,
             occasion=occasion,
             master=self._epoch_master or 0,
+            renew=renew,
         )
         self._to_master(req, now)
         return req.generation

@@ -79,6 +79,10 @@ class BarrierRequest(_Msg, frozen=True, tag=1):
     ``epoch`` is the epoch the member followed when it asked: a firing decided in an older
     epoch cannot have counted this request (a rebooted platform never "completes" a firing
     that happened before it asked).
+
+    A request counts for the generation it names and no other (docs/design.md §4), with
+    one exception its requester asks for, ``renew`` below: a request the requester would
+    make again at once for the next generation if this one were refused.
     """
 
     key: Key
@@ -97,6 +101,13 @@ class BarrierRequest(_Msg, frozen=True, tag=1):
     #: rebooted platform that heard nobody's epoch): a master of the same epoch but another
     #: ID is another regime, whose firing this request may belong to.
     master: PlatformId = 0
+    #: The requester asks again at once for the open generation when told this one is
+    #: stale (the task engine does, for every candidacy of a transition). A master that
+    #: would refuse it as stale counts it for the open generation instead when it alone
+    #: fires that generation: a release to this platform alone, which no other platform can
+    #: have passed, so nothing is lost for a later master to complete. Otherwise, and for a
+    #: request without it, the master refuses as before.
+    renew: bool = False
 
 
 class BarrierStale(_Msg, frozen=True, tag=2):

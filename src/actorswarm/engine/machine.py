@@ -331,6 +331,9 @@ class ActorMachine:
             data={"event": data, "at": None if at is None else [at[0], at[1], at[2]]},
             timeout=timeout,
             occasion=occasion,
+            # Told the generation is stale, this platform asks again for the open one
+            # (_stale): the master may do that for it, saving the round trip.
+            renew=True,
         )
 
     def _released(self, event: BarrierReleased, now: float) -> None:

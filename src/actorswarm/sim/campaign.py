@@ -17,6 +17,12 @@ the default, or ``"broadcast"``); the mode does not change the schedule, so seed
 same faults in both modes. A failing case prints the command that replays it:
 ``actorswarm swarm campaign --seed S --membership M``. Many seeds at once, on every core:
 :mod:`actorswarm.sim.campaign_runner`.
+
+With ``renew`` (``--renew``) a case's barrier requests are all renewable, as the task
+engine's are (:attr:`~actorswarm.core.wire.BarrierRequest.renew`), and a third barrier
+round, of one platform at a time, makes the master renew requests often. The schedule is
+the same; the run is another one (more requests, other packets), so a seed replays with
+the ``renew`` it failed with.
 """
 
 from __future__ import annotations
@@ -65,13 +71,15 @@ class Case:
     faults_until: float
     quiet: float
     membership: MembershipKind = "star"
+    renew: bool = False
 
     def describe(self) -> str:
         """One line: the seed, the membership mode, the swarm, the link and the schedule."""
         link = self.link
         burst = "bursty " if link.burst is not None else ""
         return (
-            f"seed {self.seed}: {self.membership} membership, {self.size} platforms, "
+            f"seed {self.seed}: {self.membership} membership"
+            f"{', renewable requests' if self.renew else ''}, {self.size} platforms, "
             f"{self.detector} detector"
             f"{', takeover' if self.takeover else ''}, {burst}loss {link.loss:.2f}, "
             f"jitter {link.jitter * 1000:.0f} ms, dup {link.duplicate:.2f}, "
@@ -81,7 +89,8 @@ class Case:
     @property
     def replay(self) -> str:
         """The command that runs this case again, event for event."""
-        return f"actorswarm swarm campaign --seed {self.seed} --membership {self.membership}"
+        renew = " --renew" if self.renew else ""
+        return f"actorswarm swarm campaign --seed {self.seed} --membership {self.membership}{renew}"
 
 
 @dataclass(slots=True)
@@ -102,8 +111,9 @@ class CaseResult:
         return "\n".join(lines)
 
 
-def make_case(seed: int, membership: MembershipKind = "star") -> Case:
-    """The fault schedule of ``seed`` (deterministic), to run in ``membership`` mode.
+def make_case(seed: int, membership: MembershipKind = "star", *, renew: bool = False) -> Case:
+    """The fault schedule of ``seed`` (deterministic), to run in ``membership`` mode, with
+    renewable barrier requests when ``renew`` (the module docstring).
 
     The schedule depends on ``seed`` only: both modes of a seed get the same swarm, link and
     faults, and a seed keeps the schedule it has always had (the draws below must stay in
@@ -166,6 +176,7 @@ def make_case(seed: int, membership: MembershipKind = "star") -> Case:
         faults_until=faults_until,
         quiet=6.0,
         membership=membership,
+        renew=renew,
     )
 
 
@@ -181,8 +192,12 @@ def run_case(case: Case) -> CaseResult:
     )
     swarm = SimSwarm(case.size, seed=case.seed, config=config, link=case.link)
     end = case.faults_until + case.quiet
-    BarrierRounds(swarm, key=1, every=0.25, start=1.0).install()
-    BarrierRounds(swarm, key=2, need=2, every=0.5, start=1.2, timeout=2.0).install()
+    renew = case.renew
+    BarrierRounds(swarm, key=1, every=0.25, start=1.0, renew=renew).install()
+    BarrierRounds(swarm, key=2, need=2, every=0.5, start=1.2, timeout=2.0, renew=renew).install()
+    if renew:
+        # One platform per firing, every platform asking: most requests cross a firing.
+        BarrierRounds(swarm, key=3, need=1, every=0.3, start=1.1, renew=True).install()
     RoleChurn(swarm, case.seed, quota=1).install()
     AppChatter(swarm, case.seed).install()
 

@@ -61,19 +61,20 @@ def campaign_jobs(
     return [(seed, mode) for seed in range(start, start + count) for mode in modes]
 
 
-def run_job(job: Job) -> CaseResult:
-    """Run one case. An exception inside the case is a failure of that case (a problem
-    with its traceback, and the replay command in its explanation), not of the campaign."""
+def run_job(job: Job, renew: bool = False) -> CaseResult:
+    """Run one case (with renewable requests when ``renew``). An exception inside the case
+    is a failure of that case (a problem with its traceback, and the replay command in its
+    explanation), not of the campaign."""
     seed, membership = job
-    case = make_case(seed, membership)
+    case = make_case(seed, membership, renew=renew)
     try:
         return run_case(case)
     except Exception:
         return CaseResult(case, [], [f"the run raised:\n{traceback.format_exc().rstrip()}"])
 
 
-def _run_chunk(jobs: list[Job]) -> list[CaseResult]:
-    return [run_job(job) for job in jobs]
+def _run_chunk(jobs: list[Job], renew: bool = False) -> list[CaseResult]:
+    return [run_job(job, renew) for job in jobs]
 
 
 def _ignore_interrupt() -> None:
@@ -95,6 +96,7 @@ def run_campaign(
     workers: int = 1,
     chunk: int | None = None,
     on_result: Callable[[CaseResult], None] | None = None,
+    renew: bool = False,
 ) -> list[CaseResult]:
     """Run seeds ``start .. start + count - 1`` in each mode of ``membership``; return the
     failed results, ordered by seed, then mode.
@@ -105,6 +107,8 @@ def run_campaign(
     worker processes (never more than there are chunks), each a fresh interpreter, so no
     state of this process reaches a case. ``chunk`` is the number of cases per task
     (default: up to :data:`MAX_CHUNK`, fewer when there are few cases per worker).
+    ``renew``: every case with renewable barrier requests
+    (:func:`~actorswarm.sim.campaign.make_case`).
 
     The verdict of every case is the same whatever ``workers`` and ``chunk`` are. An
     exception raised by ``on_result`` or a ``KeyboardInterrupt`` stops the campaign: queued
@@ -125,7 +129,7 @@ def run_campaign(
 
     if workers == 1 or len(jobs) <= 1:
         for job in jobs:
-            record(run_job(job))
+            record(run_job(job, renew))
     else:
         size = chunk or max(1, min(MAX_CHUNK, len(jobs) // (workers * 4)))
         tasks = list(_chunks(jobs, size))
@@ -138,7 +142,7 @@ def run_campaign(
         )
         try:
             pending: set[Future[list[CaseResult]]] = {
-                executor.submit(_run_chunk, task) for task in tasks
+                executor.submit(_run_chunk, task, renew) for task in tasks
             }
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)

@@ -20,7 +20,9 @@ from actorswarm.sim.swarm import SimSwarm
 class BarrierRounds:
     """Every ``every`` seconds, each live platform without a pending request on ``key`` asks
     to pass it again (``need`` participants; NEED_ALL: every live platform in the master's
-    view). Platforms listed in ``only`` are the only ones taking part, when given."""
+    view). Platforms listed in ``only`` are the only ones taking part, when given.
+    ``renew``: each request may be counted for the open generation instead of refused as
+    stale (:attr:`~actorswarm.core.wire.BarrierRequest.renew`, what the task engine asks)."""
 
     swarm: SimSwarm
     key: int = 1
@@ -30,6 +32,7 @@ class BarrierRounds:
     stop: float = float("inf")
     timeout: float | None = None
     only: frozenset[int] | None = None
+    renew: bool = False
     requests: int = 0
 
     def install(self) -> BarrierRounds:
@@ -52,7 +55,9 @@ class BarrierRounds:
 
     def _ask(self, node: Node) -> None:
         self.requests += 1
-        node.request_barrier(self.key, self.need, self.swarm.now, timeout=self.timeout)
+        node.request_barrier(
+            self.key, self.need, self.swarm.now, timeout=self.timeout, renew=self.renew
+        )
 
 
 @dataclass(slots=True)
