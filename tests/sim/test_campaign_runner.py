@@ -169,3 +169,19 @@ def test_cli_refuses_bad_options_clearly(args: list[str], needles: list[str]) ->
     assert "Invalid value for" in words, result.output
     for needle in needles:
         assert needle in words, result.output
+
+
+def test_renew_reaches_every_case_in_the_workers_and_in_a_replay(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    pooled: list[CaseResult] = []
+    run_campaign(30, 2, "star", workers=2, chunk=1, on_result=pooled.append, renew=True)
+    assert sorted((r.case.seed, r.case.renew) for r in pooled) == [(30, True), (31, True)]
+    from actorswarm.sim import campaign
+
+    failing = _fake_run_case({(5, "star")})
+    monkeypatch.setattr(campaign, "run_case", failing)
+    result = runner.invoke(app, ["swarm", "campaign", "--seed", "5", "--renew"])
+    assert result.exit_code == 1, result.output
+    assert "seed 5: star membership, renewable requests, " in result.output
+    assert "replay: actorswarm swarm campaign --seed 5 --membership star --renew" in result.output
