@@ -123,3 +123,42 @@ def test_status_reports_the_actor_control_blocks() -> None:
     for key in ("name", "actor_id", "status", "priority", "software", "hardware", "permission"):
         assert key in acb, key
     assert acb["status"] == "running" and acb["priority"] == 3
+
+
+def test_a_stale_plugin_barrier_request_is_answered_on_the_blackboard() -> None:
+    """Its generation fired before the request reached the master: the plugin is told so
+    (it waited for nothing before), with the generation open now."""
+    from actorswarm.core.events import BarrierStaleNotice
+    from actorswarm.runtime.collective import plugin_view
+
+    notice = BarrierStaleNotice(key=PLUGIN_KEY_BASE + 7, generation=3, current=5)
+    assert plugin_view(notice) == {
+        "kind": "barrier",
+        "key": 7,
+        "generation": 3,
+        "chosen": False,
+        "index": 0,
+        "size": 0,
+        "data": None,
+        "gathered": [],
+        "outcome": "stale",
+        "current": 5,
+    }
+    # A transition group's notice is the engine's, not a plugin's.
+    assert plugin_view(BarrierStaleNotice(key=7, generation=3, current=5)) is None
+
+
+def test_a_plugin_barrier_may_be_renewable() -> None:
+    from actorswarm.runtime.collective import NodeCollective
+
+    calls: list[tuple[int, dict[str, Any]]] = []
+
+    class FakeNode:
+        def request_barrier(self, key: int, need: int, now: float, **kw: Any) -> int:
+            calls.append((key, kw))
+            return 0
+
+    collective = NodeCollective(FakeNode(), lambda: 1.5)  # type: ignore[arg-type]
+    collective.barrier(7, 2, renew=True)
+    collective.barrier(8, 2)
+    assert [(k - PLUGIN_KEY_BASE, kw["renew"]) for k, kw in calls] == [(7, True), (8, False)]

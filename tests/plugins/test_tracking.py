@@ -27,7 +27,15 @@ class FakeCollective:
         self.claims: list[tuple[str, int, float | None]] = []
         self.releases: list[str] = []
 
-    def barrier(self, key: int, need: int, *, bid: float | None = None, data: Any = None) -> int:
+    def barrier(
+        self,
+        key: int,
+        need: int,
+        *,
+        bid: float | None = None,
+        data: Any = None,
+        renew: bool = False,
+    ) -> int:
         raise AssertionError("no barriers expected")
 
     def claim_role(self, role: str, quota: int, *, bid: float | None = None) -> None:

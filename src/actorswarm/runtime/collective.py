@@ -10,6 +10,11 @@ to the ``"collective"`` list on the blackboard of every running actor:
 
 * ``{"kind": "barrier", "key": k, "generation": g, "chosen": bool, "index": i, "size": n,
   "data": scattered, "gathered": [[platform, data], ...], "outcome": "complete"|"timeout"}``
+* ``{"kind": "barrier", "key": k, "generation": g, "outcome": "stale", "current": c, ...}``
+  (``chosen`` False, ``index`` and ``size`` 0, no data): generation ``g`` had fired before
+  the request reached the master, which waits for requests of ``c`` now; the plugin asks
+  again to pass the next one (or asks with ``renew=True``, and the master may do that for
+  it).
 * ``{"kind": "role", "role": name, "state": "granted"|"denied"|"revoked"}``
 """
 
@@ -20,6 +25,7 @@ from typing import Any
 
 from actorswarm.core.events import (
     BarrierReleased,
+    BarrierStaleNotice,
     CoreEvent,
     RoleDenied,
     RoleGranted,
@@ -39,11 +45,19 @@ class NodeCollective:
         self._node = node
         self._clock = clock
 
-    def barrier(self, key: int, need: int, *, bid: float | None = None, data: Any = None) -> int:
+    def barrier(
+        self,
+        key: int,
+        need: int,
+        *,
+        bid: float | None = None,
+        data: Any = None,
+        renew: bool = False,
+    ) -> int:
         if not 0 <= key < 1_000_000:
             raise ValueError(f"plugin barrier key must be 0..999999, got {key}")
         return self._node.request_barrier(
-            PLUGIN_KEY_BASE + key, need, self._clock(), bid=bid, data=data
+            PLUGIN_KEY_BASE + key, need, self._clock(), bid=bid, data=data, renew=renew
         )
 
     def claim_role(self, role: str, quota: int, *, bid: float | None = None) -> None:
@@ -66,6 +80,21 @@ def plugin_view(event: CoreEvent) -> dict[str, Any] | None:
             "data": event.data,
             "gathered": [list(pair) for pair in event.gathered],
             "outcome": event.outcome,
+        }
+    if isinstance(event, BarrierStaleNotice) and event.key >= PLUGIN_KEY_BASE:
+        # Without it a plugin whose request crossed a firing waited for an answer that
+        # never came.
+        return {
+            "kind": "barrier",
+            "key": event.key - PLUGIN_KEY_BASE,
+            "generation": event.generation,
+            "chosen": False,
+            "index": 0,
+            "size": 0,
+            "data": None,
+            "gathered": [],
+            "outcome": "stale",
+            "current": event.current,
         }
     if isinstance(event, RoleGranted | RoleDenied | RoleRevoked):
         state = {RoleGranted: "granted", RoleDenied: "denied", RoleRevoked: "revoked"}

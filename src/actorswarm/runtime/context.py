@@ -138,10 +138,21 @@ class Collective(Protocol):
     the master answers later, through the core's events.
     """
 
-    def barrier(self, key: int, need: int, *, bid: float | None = None, data: Any = None) -> int:
+    def barrier(
+        self,
+        key: int,
+        need: int,
+        *,
+        bid: float | None = None,
+        data: Any = None,
+        renew: bool = False,
+    ) -> int:
         """Ask to pass barrier ``key`` together with ``need`` platforms (lower ``bid`` wins
         a place; None: the platform ID), attaching ``data`` to gather. Returns the
-        generation asked for."""
+        generation asked for. A request for a generation that fired before it reached the
+        master is answered ``"outcome": "stale"`` (ask again to take part in the next);
+        with ``renew`` the master may count it for the open generation instead, when it
+        alone fires that one (docs/collective-core.md, "Renewable requests")."""
         ...
 
     def claim_role(self, role: str, quota: int, *, bid: float | None = None) -> None:
@@ -180,7 +191,15 @@ class NullCollective:
             "to give it one"
         )
 
-    def barrier(self, key: int, need: int, *, bid: float | None = None, data: Any = None) -> int:
+    def barrier(
+        self,
+        key: int,
+        need: int,
+        *,
+        bid: float | None = None,
+        data: Any = None,
+        renew: bool = False,
+    ) -> int:
         raise self._refuse(f"barrier({key}, {need})")
 
     def claim_role(self, role: str, quota: int, *, bid: float | None = None) -> None:
