@@ -33,3 +33,16 @@ def test_memory_store_skips_a_damaged_latest() -> None:
     store.write(b"two")
     store.damage_latest()
     assert store.latest() == b"one"
+
+
+def test_a_restarted_store_numbers_on_and_prunes_what_it_found(tmp_path: Path) -> None:
+    first = FileBackupStore(tmp_path, keep=3)
+    for i in range(4):
+        first.write(f"a{i}".encode())
+    (tmp_path / "backup-notes.bin").write_bytes(b"not a backup")  # ignored, left alone
+    again = FileBackupStore(tmp_path, keep=3)  # the daemon started again
+    assert again.write(b"b0") == 5 and again.write(b"b1") == 6
+    names = sorted(p.name for p in tmp_path.glob("backup-*.bin"))
+    assert names == ["backup-000004.bin", "backup-000005.bin", "backup-000006.bin",
+                     "backup-notes.bin"]  # fmt: skip
+    assert again.latest() == b"b1"
