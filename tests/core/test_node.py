@@ -202,7 +202,7 @@ HOSTILE: list[tuple[str, bytes, str]] = [
     ("framed-garbage", frame(b"\xff\x00garbage\x13"), "malformed"),
     ("framed-truncated", frame(_VALID[:-7]), "malformed"),
     ("wrong-swarm", frame(_envelope(swarm="other-swarm")), "swarm"),
-    ("wrong-version", frame(_envelope(version=2)), "version"),
+    ("wrong-version", frame(_envelope(version=PROTOCOL_VERSION + 1)), "version"),
     ("unknown-type", frame(_envelope(type=42)), "type"),
     ("sender-70000", frame(_envelope(sender=70000)), "malformed"),
     ("negative-seq", frame(_envelope(seq=-1)), "malformed"),

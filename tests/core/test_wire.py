@@ -197,7 +197,7 @@ DECODE_ERRORS: list[tuple[str, bytes, str]] = [
         "checksum",
     ),
     ("one-bit-flipped", _flip(VALID, 30), "checksum"),
-    ("unframed-envelope", _envelope(version=2), "checksum"),
+    ("unframed-envelope", _envelope(version=PROTOCOL_VERSION + 1), "checksum"),
     # a correct CRC over bytes that are not an envelope
     ("framed-nil", frame(b"\xc0"), "malformed"),
     ("framed-garbage", frame(b"\xff\xfe\x00 not msgpack"), "malformed"),
@@ -205,8 +205,9 @@ DECODE_ERRORS: list[tuple[str, bytes, str]] = [
     ("framed-trailing-bytes", frame(VALID[:-4] + b"\x00"), "malformed"),
     ("framed-deep-nesting", frame(b"\x91" * 5000 + b"\xc0"), "malformed"),
     # a correct CRC over an envelope that fails one semantic check
-    ("version-2", frame(_envelope(version=2)), "version"),
+    ("version-next", frame(_envelope(version=PROTOCOL_VERSION + 1)), "version"),
     ("version-0", frame(_envelope(version=0)), "version"),
+    ("version-1", frame(_envelope(version=1)), "version"),
     ("wrong-swarm", frame(_envelope(swarm="beta")), "swarm"),
     ("type-0", frame(_envelope(type=0)), "type"),
     ("type-99", frame(_envelope(type=99)), "type"),
@@ -456,7 +457,7 @@ def test_oversized_is_refused_before_decoding() -> None:
 
 def test_version_checked_before_swarm_and_type() -> None:
     with pytest.raises(WireError) as info:
-        decode(frame(_envelope(version=2, swarm="beta", type=99)), swarm=SWARM)
+        decode(frame(_envelope(version=PROTOCOL_VERSION + 1, swarm="beta", type=99)), swarm=SWARM)
     assert info.value.reason == "version"
     with pytest.raises(WireError) as info2:
         decode(frame(_envelope(swarm="beta", type=99)), swarm=SWARM)
@@ -465,7 +466,7 @@ def test_version_checked_before_swarm_and_type() -> None:
 
 def test_frame_check_comes_before_every_semantic_check() -> None:
     """A damaged packet is refused as damaged, whatever its (untrustworthy) header says."""
-    hostile = frame(_envelope(version=2, swarm="beta", type=99, sender=70000))
+    hostile = frame(_envelope(version=PROTOCOL_VERSION + 1, swarm="beta", type=99, sender=70000))
     with pytest.raises(WireError) as info:
         decode(_flip(hostile, 8 * len(hostile) - 1), swarm=SWARM)
     assert info.value.reason == "checksum", f"{info.value}"

@@ -29,7 +29,11 @@ from typing import Annotated, Any, Final
 import msgspec
 from msgspec import Meta, Struct
 
-PROTOCOL_VERSION: Final = 1
+#: The wire format's version, in every packet's header: a packet of any other is refused
+#: before its body is read (:class:`WireError` ``version``; a daemon's guard counts it as
+#: malformed), so a swarm half upgraded says so instead of half working.
+#: Raised whenever a message's fields change (2: ``BarrierRequest.renew``).
+PROTOCOL_VERSION: Final = 2
 GROUND_STATION: Final = 0
 MAX_PLATFORM: Final = 65535
 
