@@ -190,3 +190,28 @@ def test_a_clean_stop_backs_up_only_what_the_last_backup_does_not_hold(tmp_path:
     assert endpoint.backup(changed_only=True) is None  # the same state: not written again
     assert sorted(p.name for p in tmp_path.iterdir()) == ["backup-000001.bin"]
     assert endpoint.backup() == 2  # asked for (a transition, the operator): written
+
+
+def test_a_log_line_that_cannot_be_written_does_not_stop_the_daemon(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import io
+    import json
+    import sys
+
+    from actorswarm.daemon import run
+
+    run._log("master", master=3)
+    (line,) = capsys.readouterr().err.splitlines()
+    assert json.loads(line)["event"] == "master" and json.loads(line)["master"] == 3
+
+    class Gone(io.StringIO):
+        def write(self, text: str) -> int:
+            raise BrokenPipeError("the reader of stderr went away")
+
+    monkeypatch.setattr(sys, "stderr", Gone())
+    run._log("master", master=4)  # lost, and no exception
+    closed = io.StringIO()
+    closed.close()
+    monkeypatch.setattr(sys, "stderr", closed)
+    run._log("master", master=5)  # ValueError on a closed file: lost too

@@ -63,6 +63,7 @@ platform leave within its failure-detection time) and the process exits 0.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import logging
 import os
@@ -131,8 +132,11 @@ def _log(event: str, **fields: Any) -> None:
     # straight to stderr, one line at a time, not through ``logging``: a daemon writes two
     # or three lines per switch, and the logging module's record and handler were a tenth
     # of a member's Python time during a run of collective switches.
+    # A line that cannot be written (stderr closed, its reader gone) is lost, as the
+    # logging module would lose it; the daemon goes on.
     line = json.dumps({"t": round(clock(), 6), "event": event, **fields}, default=str)
-    sys.stderr.write(line + "\n")
+    with contextlib.suppress(OSError, ValueError):
+        sys.stderr.write(line + "\n")
 
 
 def _status(
