@@ -50,18 +50,18 @@ finally:
 """
 
 
-def _find(platform: int) -> int:
-    """The PID of the daemon started with ``--platform <platform>``."""
+def _find(platform: int) -> tuple[int, list[str]]:
+    """The PID and command line of the daemon started with ``--platform <platform>``."""
     found = []
     for pid in filter(str.isdigit, os.listdir("/proc")):
         try:
-            argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+            argv = [os.fsdecode(a) for a in Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")]
         except OSError:
             continue
-        if b"daemon" in argv and b"--platform" in argv:
-            at = argv.index(b"--platform") + 1
-            if at < len(argv) and argv[at] == str(platform).encode():
-                found.append(int(pid))
+        if "daemon" in argv and "--platform" in argv:
+            at = argv.index("--platform") + 1
+            if at < len(argv) and argv[at] == str(platform):
+                found.append((int(pid), [a for a in argv if a]))
     if len(found) != 1:
         raise SystemExit(f"expected one daemon with --platform {platform}, found {len(found)}")
     return found[0]
@@ -98,8 +98,7 @@ def main() -> None:
     if args.seconds <= 0 or args.top <= 0:
         parser.error("--seconds and --top must be positive")
 
-    pid = _find(args.platform)
-    argv = [a.decode() for a in Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0") if a]
+    pid, argv = _find(args.platform)
     if "actorswarm" not in argv or argv.index("actorswarm") < 1:
         raise SystemExit(f"daemon {pid} was not started as `python -m actorswarm`: {argv}")
     python, rest = argv[0], argv[argv.index("actorswarm") + 1 :]
