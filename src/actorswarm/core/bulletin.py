@@ -24,7 +24,7 @@ retransmission that names others only is ignored (its name may be in another chu
 acknowledgement is cumulative.
 
 A bulletin still unacknowledged by a target at its deadline is given up and reported as a
-:class:`~actorswarm.core.reliable.DeliveryFailure`, like any reliable message; a target that
+:class:`~actorswarm.core.ready.DeliveryFailure`, like any reliable message; a target that
 leaves the view is dropped from it.
 """
 
@@ -35,8 +35,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.ready import Collector
-from actorswarm.core.reliable import DeliveryFailure
+from actorswarm.core.ready import Collector, DeliveryFailure
 from actorswarm.core.wire import NORMAL, AppMessage, Bulletin, BulletinAck
 
 #: Above this many unacknowledged targets a retransmission is one broadcast naming them

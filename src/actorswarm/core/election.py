@@ -23,7 +23,7 @@ appointed"), and becomes it through a handshake:
 Epochs only grow on a platform (within one incarnation), which the simulator checks.
 
 The decisions are tables of :class:`Rule` rows, :data:`HEARTBEAT_RULES` and :data:`CLAIM_RULES`;
-``python -m actorswarm.core.election_doc`` renders them into docs/collective-core.md.
+``python -m actorswarm.docgen.election`` renders them into docs/collective-core.md.
 """
 
 from __future__ import annotations

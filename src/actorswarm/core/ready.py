@@ -17,7 +17,7 @@ numbered in the order it was produced, whichever part produced it: what the stre
 first keeps its place. A :class:`Ready` lists the ground-station (urgent) channel first,
 then every packet in that order.
 
-Messages given up (:class:`~actorswarm.core.reliable.DeliveryFailure`) wait in
+Messages given up (:class:`DeliveryFailure`, from the streams and the board) wait in
 :attr:`Collector.failures` until the node turns them into
 :class:`~actorswarm.core.events.DeliveryFailed` events, at the points of its step where it
 reports them (after the retransmission timers ran, after the view changed): their place
@@ -27,19 +27,26 @@ among the other events is the node's to decide.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 from actorswarm.core import wire
 from actorswarm.core.events import CoreEvent
-from actorswarm.core.wire import URGENT
+from actorswarm.core.wire import URGENT, Payload
 
-if TYPE_CHECKING:  # a record type only: the streams import this module
-    from actorswarm.core.reliable import DeliveryFailure
-
-__all__ = ["PROBE", "Collector", "Outgoing", "Ready"]
+__all__ = ["PROBE", "Collector", "DeliveryFailure", "Outgoing", "Ready"]
 
 #: The :attr:`Outgoing.kind` of a heartbeat that probes a suspect or answers a probe.
 PROBE = "Probe"
+
+
+@dataclass(frozen=True, slots=True)
+class DeliveryFailure:
+    """A message given up: it missed its deadline (``dst`` None: it never found a master),
+    or its destination left the swarm. Produced by the reliable streams and the bulletin
+    board, carried in :attr:`Collector.failures` until the node reports it."""
+
+    dst: int | None
+    payload: Payload
+    reason: str = "deadline"
 
 
 @dataclass(frozen=True, slots=True)

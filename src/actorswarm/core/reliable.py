@@ -6,7 +6,8 @@ Each (destination, channel) has an :class:`OutStream`: a queue of messages numbe
 The first ``window`` of them are in flight; each is retransmitted until the destination
 acknowledges it, the delay growing linearly (``retry_base + k * retry_step``, capped at
 ``retry_cap``) so a congested radio is not flooded. A message that is still unacknowledged at
-its deadline is dropped and reported (:class:`DeliveryFailure`) — never silently lost.
+its deadline is dropped and reported (:class:`~actorswarm.core.ready.DeliveryFailure`) —
+never silently lost.
 
 Every data packet carries ``floor``, the lowest sequence its sender still holds. A receiver
 never waits for anything below the floor, which makes abandoned messages, a receiver that
@@ -35,7 +36,7 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.ready import Collector
+from actorswarm.core.ready import Collector, DeliveryFailure
 from actorswarm.core.rtt import RttEstimator
 from actorswarm.core.wire import NORMAL, TO_MASTER, URGENT, Ack, Data, Payload
 
@@ -85,16 +86,6 @@ class InStream:
     incarnation: int
     expected: int = 0  # 0: nothing received yet; initialised from the first floor
     buffer: dict[int, tuple[int, Payload]] = field(default_factory=dict)  # seq -> (epoch, ...)
-
-
-@dataclass(frozen=True, slots=True)
-class DeliveryFailure:
-    """A message given up: it missed its deadline (``dst`` None: it never found a master),
-    or its destination left the swarm."""
-
-    dst: int | None
-    payload: Payload
-    reason: str = "deadline"
 
 
 class Reliable:

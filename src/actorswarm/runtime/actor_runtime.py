@@ -52,9 +52,9 @@ import dataclasses
 import random
 import time
 from collections import deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import msgspec
 
@@ -72,8 +72,40 @@ from actorswarm.runtime.plugin import BUSES, Plugin
 from actorswarm.runtime.registry import resolve
 from actorswarm.runtime.resources import ResourceArbiter
 
-if TYPE_CHECKING:  # the script model is data handed down; no import of the layer above
-    from actorswarm.dsl.model import TaskScript
+# What the runtime reads of a task script, stated here so that the layer above (the DSL's
+# model, which satisfies these structurally) is never imported, not even for type checking.
+
+
+class PluginDefinition(Protocol):
+    """A plugin named on a bus of an actor: its registry name and its parameters."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def param_map(self) -> dict[str, str]: ...
+
+
+class ActorDefinition(Protocol):
+    """An actor of a script: its name, ID, priority and plugins by bus."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def id(self) -> int: ...
+
+    @property
+    def priority(self) -> int: ...
+
+    def plugins(self) -> Iterable[tuple[str, PluginDefinition]]: ...
+
+
+class ScriptDefinition(Protocol):
+    """A task script as far as the runtime needs it: its actors."""
+
+    @property
+    def actors(self) -> Sequence[ActorDefinition]: ...
 
 
 class UnsupportedPlugin(ValueError):
@@ -176,7 +208,7 @@ class ActorRuntime:
 
     # --- the script ----------------------------------------------------------------------
 
-    def use_script(self, script: TaskScript) -> None:
+    def use_script(self, script: ScriptDefinition) -> None:
         """Learn the actors of ``script``: their plugins (resolved now, so a missing plugin
         fails here, not in flight), params, priorities and hardware."""
         defs: dict[str, _ActorDef] = {}

@@ -1,13 +1,15 @@
 """The election rules of :mod:`actorswarm.core.election`, rendered for docs/collective-core.md.
 
 The block between ``<!-- election-table:begin -->`` and ``<!-- election-table:end -->`` in
-that document is generated: two markdown tables (:data:`~.election.HEARTBEAT_RULES`,
-:data:`~.election.CLAIM_RULES`) and a Mermaid ``stateDiagram-v2`` of the role transitions
-their rows imply (:data:`~.election.ENTERS`; a claim makes a platform master)::
+that document is generated: two markdown tables
+(:data:`~actorswarm.core.election.HEARTBEAT_RULES`,
+:data:`~actorswarm.core.election.CLAIM_RULES`) and a Mermaid ``stateDiagram-v2`` of the role
+transitions their rows imply (:data:`~actorswarm.core.election.ENTERS`; a claim makes a
+platform master)::
 
-    python -m actorswarm.core.election_doc           # print the block
-    python -m actorswarm.core.election_doc --write   # rewrite the block in the document
-    python -m actorswarm.core.election_doc --check   # exit 1 with a diff if it is stale
+    python -m actorswarm.docgen.election           # print the block
+    python -m actorswarm.docgen.election --write   # rewrite the block in the document
+    python -m actorswarm.docgen.election --check   # exit 1 with a diff if it is stale
 
 Nothing outside the markers is touched.
 """
@@ -25,7 +27,7 @@ from actorswarm.core.election import CLAIM_RULES, ENTERS, HEARTBEAT_RULES, Role,
 
 BEGIN: Final = "<!-- election-table:begin -->"
 END: Final = "<!-- election-table:end -->"
-COMMAND: Final = "python -m actorswarm.core.election_doc --write"
+COMMAND: Final = "python -m actorswarm.docgen.election --write"
 #: docs/collective-core.md of the source tree this module belongs to.
 DOC: Final = Path(__file__).resolve().parents[3] / "docs" / "collective-core.md"
 
@@ -134,7 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """The command line: 0 when done or up to date, 1 when ``--check`` finds the document
     stale (a unified diff goes to stdout), 2 when its markers are missing."""
     parser = argparse.ArgumentParser(
-        prog="python -m actorswarm.core.election_doc", description=__doc__.splitlines()[0]
+        prog="python -m actorswarm.docgen.election", description=__doc__.splitlines()[0]
     )
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--write", action="store_true", help="rewrite the block in the document")

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from actorswarm.core.election import CLAIM_RULES, HEARTBEAT_RULES
-from actorswarm.core.election_doc import BEGIN, COMMAND, END, main, render, splice
+from actorswarm.docgen.election import BEGIN, COMMAND, END, main, render, splice
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "collective-core.md"
+DOC = Path(__file__).resolve().parents[1] / "docs" / "collective-core.md"
 
 
 def test_doc_block_is_generated_from_the_rules() -> None:
