@@ -16,14 +16,14 @@ Nothing outside the markers is touched.
 
 from __future__ import annotations
 
-import argparse
-import difflib
 import sys
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, Final
 
 from actorswarm.core.election import CLAIM_RULES, ENTERS, HEARTBEAT_RULES, Role, Rule
+from actorswarm.docgen.block import GeneratedBlock
+from actorswarm.docgen.block import splice as splice_block
 
 BEGIN: Final = "<!-- election-table:begin -->"
 END: Final = "<!-- election-table:end -->"
@@ -118,57 +118,18 @@ def render() -> str:
     return "\n".join(lines) + "\n"
 
 
-def splice(text: str, block: str) -> str:
-    """``text`` with the lines between the markers replaced by ``block``.
+BLOCK: Final = GeneratedBlock("election rules", DOC, BEGIN, END, COMMAND, render)
 
-    Raises ValueError unless ``text`` holds exactly one begin marker followed by one end
-    marker, each on a line of its own.
-    """
-    lines = text.splitlines(keepends=True)
-    begins = [i for i, line in enumerate(lines) if line.strip() == BEGIN]
-    ends = [i for i, line in enumerate(lines) if line.strip() == END]
-    if len(begins) != 1 or len(ends) != 1 or ends[0] < begins[0]:
-        raise ValueError(f"expected one {BEGIN} line followed by one {END} line")
-    return "".join([*lines[: begins[0] + 1], block, *lines[ends[0] :]])
+
+def splice(text: str, block: str) -> str:
+    """``text`` with the election block replaced by ``block`` (see
+    :func:`actorswarm.docgen.block.splice`)."""
+    return splice_block(text, block, BEGIN, END)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The command line: 0 when done or up to date, 1 when ``--check`` finds the document
-    stale (a unified diff goes to stdout), 2 when its markers are missing."""
-    parser = argparse.ArgumentParser(
-        prog="python -m actorswarm.docgen.election", description=__doc__.splitlines()[0]
-    )
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--write", action="store_true", help="rewrite the block in the document")
-    mode.add_argument("--check", action="store_true", help="exit 1 if the block is stale")
-    parser.add_argument("--doc", type=Path, default=DOC, help=f"the document (default {DOC})")
-    args = parser.parse_args(argv)
-    block = render()
-    if not (args.write or args.check):
-        sys.stdout.write(block)
-        return 0
-    text = args.doc.read_text(encoding="utf-8")
-    try:
-        wanted = splice(text, block)
-    except ValueError as exc:
-        print(f"{args.doc}: {exc}", file=sys.stderr)
-        return 2
-    if wanted == text:
-        print(f"{args.doc}: election rules up to date")
-        return 0
-    if args.write:
-        args.doc.write_text(wanted, encoding="utf-8")
-        print(f"{args.doc}: election rules rewritten")
-        return 0
-    diff = difflib.unified_diff(
-        text.splitlines(keepends=True),
-        wanted.splitlines(keepends=True),
-        f"{args.doc} (now)",
-        f"{args.doc} (generated)",
-    )
-    sys.stdout.writelines(diff)
-    print(f"{args.doc}: election rules out of date; regenerate with: {COMMAND}", file=sys.stderr)
-    return 1
+    """The command line (:meth:`actorswarm.docgen.block.GeneratedBlock.main`)."""
+    return BLOCK.main(argv)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,194 @@
+"""The architecture pictures of docs/design.md, drawn from the code itself.
+
+Two Mermaid diagrams between ``<!-- architecture:begin -->`` and ``<!-- architecture:end -->``:
+
+- **the packages and their imports**: an arrow ``a --> b`` when a module of package ``a``
+  imports one of ``b`` at run time (imports under ``if TYPE_CHECKING:`` are not
+  dependencies); arrows implied by a longer path are left out, so the picture stays
+  readable while every dependency remains reachable along the arrows;
+- **the parts of a platform's** :class:`~actorswarm.core.node.Node`: its class chain (each
+  class with its length in lines) and the objects each class creates and keeps
+  (``self.x = Part(...)``), named by attribute.
+
+::
+
+    python -m actorswarm.docgen.architecture           # print the block
+    python -m actorswarm.docgen.architecture --write   # rewrite the block in the document
+    python -m actorswarm.docgen.architecture --check   # exit 1 with a diff if it is stale
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import sys
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Final
+
+from actorswarm.docgen.block import GeneratedBlock
+
+BEGIN: Final = "<!-- architecture:begin -->"
+END: Final = "<!-- architecture:end -->"
+COMMAND: Final = "python -m actorswarm.docgen.architecture --write"
+#: The package's source folder, and docs/design.md of the tree it belongs to.
+PACKAGE: Final = Path(__file__).resolve().parents[1]
+DOC: Final = PACKAGE.parents[1] / "docs" / "design.md"
+#: Tooling that reads the layers and is no layer itself.
+LEFT_OUT: Final = frozenset({"docgen"})
+
+
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    """The ids of every node under an ``if TYPE_CHECKING:`` block."""
+    inside: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            inside.update(id(child) for child in ast.walk(node))
+    return inside
+
+
+def _imported(tree: ast.AST) -> Iterator[str]:
+    """The absolute module names ``tree`` imports at run time."""
+    skip = _type_checking_nodes(tree)
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            yield node.module
+        elif isinstance(node, ast.Import):
+            yield from (alias.name for alias in node.names)
+
+
+def package_imports(root: Path = PACKAGE) -> dict[str, set[str]]:
+    """Package → the other packages of ``root`` its modules import at run time (modules at
+    the top of ``root`` count as packages of their own name)."""
+    graph: dict[str, set[str]] = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = path.relative_to(root).parts
+        package = parts[0] if len(parts) > 1 else path.stem
+        if package in LEFT_OUT or package in {"__init__", "__main__"}:
+            continue
+        deps = graph.setdefault(package, set())
+        for module in _imported(ast.parse(path.read_text(encoding="utf-8"))):
+            names = module.split(".")
+            inside = names[0] == root.name and len(names) > 1
+            if inside and names[1] != package and names[1] not in LEFT_OUT:
+                deps.add(names[1])
+    return graph
+
+
+def _reachable(graph: Mapping[str, set[str]], start: str) -> set[str]:
+    seen: set[str] = set()
+    todo = list(graph.get(start, ()))
+    while todo:
+        node = todo.pop()
+        if node not in seen:
+            seen.add(node)
+            todo.extend(graph.get(node, ()))
+    return seen
+
+
+def reduced(graph: Mapping[str, set[str]]) -> dict[str, set[str]]:
+    """``graph`` without the arrows that a longer path implies (its transitive reduction,
+    where it has no cycle; an arrow on a cycle is kept)."""
+    out: dict[str, set[str]] = {}
+    for node, deps in graph.items():
+        keep = set()
+        for dep in deps:
+            via_other = any(
+                dep in _reachable(graph, other) and node not in _reachable(graph, other)
+                for other in deps - {dep}
+            )
+            if not via_other:
+                keep.add(dep)
+        out[node] = keep
+    return out
+
+
+def packages_diagram(root: Path = PACKAGE) -> list[str]:
+    graph = reduced(package_imports(root))
+    lines = ["```mermaid", "flowchart TD"]
+    for node in sorted(graph):
+        lines.extend(f"    {node} --> {dep}" for dep in sorted(graph[node]))
+    lines.append("```")
+    return lines
+
+
+def _on_self(target: ast.expr) -> bool:
+    """Whether ``target`` is ``self.<name>``."""
+    return (
+        isinstance(target, ast.Attribute)
+        and isinstance(target.value, ast.Name)
+        and target.value.id == "self"
+    )
+
+
+def _parts(cls: type) -> dict[str, str]:
+    """Attribute → class name of what ``cls``'s own methods create and keep
+    (``self.x = Part(...)``, also as one arm of a conditional expression)."""
+    module = sys.modules[cls.__module__]
+    found: dict[str, str] = {}
+    for node in ast.walk(ast.parse(inspect.getsource(cls))):
+        if not isinstance(node, ast.Assign | ast.AnnAssign) or node.value is None:
+            continue
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+        values = (
+            [node.value.body, node.value.orelse]
+            if isinstance(node.value, ast.IfExp)
+            else [node.value]
+        )
+        for value in values:
+            if not (isinstance(value, ast.Call) and isinstance(value.func, ast.Name)):
+                continue
+            made = getattr(module, value.func.id, None)
+            if not (inspect.isclass(made) and made.__module__.startswith("actorswarm.")):
+                continue
+            for target in targets:
+                if _on_self(target):
+                    assert isinstance(target, ast.Attribute)
+                    found.setdefault(target.attr, made.__name__)
+    return found
+
+
+def node_diagram(qualified: str = "actorswarm.core.node:Node") -> list[str]:
+    module_name, _, name = qualified.partition(":")
+    top: type = getattr(importlib.import_module(module_name), name)
+    chain = [c for c in top.__mro__ if c.__module__.startswith("actorswarm.")]
+    lines = ["```mermaid", "classDiagram"]
+    for cls in chain:
+        length = len(inspect.getsource(cls).splitlines())
+        module = cls.__module__.removeprefix("actorswarm.")
+        lines.append(f'    class {cls.__name__}["{cls.__name__} ({module}, {length} lines)"]')
+    for lower, upper in zip(chain[1:], chain, strict=False):
+        lines.append(f"    {lower.__name__} <|-- {upper.__name__}")
+    for cls in chain:
+        for attr, part in sorted(_parts(cls).items()):
+            lines.append(f"    {cls.__name__} *-- {part} : {attr}")
+    lines.append("```")
+    return lines
+
+
+def render() -> str:
+    """The generated block, without its markers."""
+    lines = [
+        f"<!-- Generated from the source tree by `{COMMAND}`. -->",
+        "",
+        "The packages of `src/actorswarm/` and what each imports at run time (an arrow that",
+        "a longer path implies is left out):",
+        "",
+        *packages_diagram(),
+        "",
+        "A platform's `Node`: its class chain, each class with its length, and the parts",
+        "each class creates and keeps:",
+        "",
+        *node_diagram(),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+BLOCK: Final = GeneratedBlock("architecture pictures", DOC, BEGIN, END, COMMAND, render)
+
+
+if __name__ == "__main__":
+    sys.exit(BLOCK.main())

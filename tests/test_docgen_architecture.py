@@ -1,0 +1,61 @@
+"""The architecture pictures of docs/design.md are drawn from the code and kept current."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from actorswarm.docgen import architecture
+from actorswarm.docgen.block import splice
+
+DOC = Path(__file__).resolve().parents[1] / "docs" / "design.md"
+
+
+def test_design_doc_pictures_match_the_code() -> None:
+    text = DOC.read_text(encoding="utf-8")
+    wanted = splice(text, architecture.render(), architecture.BEGIN, architecture.END)
+    assert wanted == text, f"{DOC.name} is stale; regenerate with: {architecture.COMMAND}"
+
+
+def _package(root: Path, name: str, files: dict[str, str]) -> None:
+    folder = root / name
+    folder.mkdir(parents=True)
+    for file, text in files.items():
+        (folder / file).write_text(text, encoding="utf-8")
+
+
+def test_imports_are_read_at_run_time_only_and_implied_arrows_left_out(tmp_path: Path) -> None:
+    root = tmp_path / "pkg"
+    _package(root, "low", {"__init__.py": ""})
+    _package(root, "mid", {"__init__.py": "", "a.py": "from pkg.low import x\n"})
+    _package(
+        root,
+        "top",
+        {
+            "__init__.py": "",
+            "b.py": (
+                "from typing import TYPE_CHECKING\n"
+                "import pkg.mid.a\n"
+                "from pkg.low import y\n"
+                "if TYPE_CHECKING:\n"
+                "    from pkg.side import z\n"
+                "def f():\n"
+                "    import pkg.lazy\n"
+            ),
+        },
+    )
+    graph = architecture.package_imports(root)
+    assert graph["top"] == {"mid", "low", "lazy"}  # lazy imports count, TYPE_CHECKING not
+    assert graph["mid"] == {"low"}
+    assert architecture.reduced(graph)["top"] == {"mid", "lazy"}  # top → low is implied
+
+
+def test_a_cycle_keeps_its_arrows() -> None:
+    graph = {"a": {"b", "c"}, "b": {"a"}, "c": set()}
+    assert architecture.reduced(graph) == {"a": {"b", "c"}, "b": {"a"}, "c": set()}
+
+
+def test_node_picture_names_its_class_chain_and_parts() -> None:
+    block = architecture.render()
+    assert "class Node[" in block
+    assert "*-- Reliable : reliable" in block
+    assert "*-- Collector : _out" in block
