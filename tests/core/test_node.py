@@ -455,3 +455,15 @@ def test_batch_processes_ground_station_traffic_first() -> None:
     topics = [e.topic for e in node.ready().events if hasattr(e, "topic")]
     assert topics == ["operator", "swarm"]
     assert node.counters["drop:checksum"] + node.counters["drop:malformed"] == 1
+
+
+def test_every_body_type_but_heartbeats_has_one_handler() -> None:
+    """Dispatch is one table from body type to handler: a body type the wire can carry and
+    the table lacks would be dropped as an internal error."""
+    import typing
+
+    from actorswarm.core import node as node_module
+    from actorswarm.core.wire import Body, Heartbeat
+
+    bodies = set(typing.get_args(Body)) - {Heartbeat}
+    assert set(node_module._BODY_HANDLERS) == bodies

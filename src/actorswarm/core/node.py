@@ -31,8 +31,8 @@ platform nor change its state.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from typing import Any
+from collections.abc import Callable, Iterable
+from typing import Any, Final
 
 from actorswarm.core import wire
 from actorswarm.core.barrier import addressee
@@ -367,7 +367,7 @@ class Node(NodeElection):
         body = packet.body
         if self._heard is not None and packet.sender != wire.GROUND_STATION:
             self._heard.heard(packet.sender, now)
-        if isinstance(body, Heartbeat):
+        if type(body) is Heartbeat:
             self._on_heartbeat(packet.sender, packet.incarnation, body, now, packet.seq)
             return
         if packet.sender != wire.GROUND_STATION and self.members.is_newer(
@@ -378,34 +378,57 @@ class Node(NodeElection):
             left: list[MemberJoined | MemberLeft] = []
             self.members.note_incarnation(packet.sender, packet.incarnation, left)
             self._membership_changed(left, now)
-        if isinstance(body, Data):
-            self._on_data(packet.sender, packet.incarnation, body, now)
-        elif isinstance(body, Ack):
-            if body.dst != self.platform or body.dst_incarnation != self.incarnation:
-                self.counters["drop:not_for_me"] += 1
-                return
-            self.reliable.on_ack(packet.sender, body, now)
-        elif isinstance(body, Release):
-            self._on_release(packet.sender, body, now)
-        elif isinstance(body, RosterRequest):
-            if not (self._star and self.is_master and body.epoch == self.epoch):
-                self.counters["drop:roster"] += 1
-                return
-            self._roster_requests.add(packet.sender)
-        elif isinstance(body, RosterChunk):
-            self._on_roster_chunk(packet.sender, body, now)
-        elif isinstance(body, Bulletin):
-            self._on_bulletin(packet.sender, packet.incarnation, body, now)
-        elif isinstance(body, BulletinAck):
-            if body.dst != self.platform or body.dst_incarnation != self.incarnation:
-                self.counters["drop:not_for_me"] += 1
-                return
-            self._board.on_ack(packet.sender, body)
-        else:  # ReleaseAck
-            if body.dst != self.platform or not self.is_master or body.epoch != self.epoch:
-                self.counters["drop:stale_epoch"] += 1
-                return
-            self._bmaster.on_ack(packet.sender, body.key, body.generation)
+        _BODY_HANDLERS[type(body)](self, packet, now)
+
+    # --- one handler per body type (the table _BODY_HANDLERS below the class) -----------
+
+    def _packet_data(self, packet: Packet, now: float) -> None:
+        assert isinstance(packet.body, Data)
+        self._on_data(packet.sender, packet.incarnation, packet.body, now)
+
+    def _packet_ack(self, packet: Packet, now: float) -> None:
+        body = packet.body
+        assert isinstance(body, Ack)
+        if body.dst != self.platform or body.dst_incarnation != self.incarnation:
+            self.counters["drop:not_for_me"] += 1
+            return
+        self.reliable.on_ack(packet.sender, body, now)
+
+    def _packet_release(self, packet: Packet, now: float) -> None:
+        assert isinstance(packet.body, Release)
+        self._on_release(packet.sender, packet.body, now)
+
+    def _packet_roster_request(self, packet: Packet, now: float) -> None:
+        body = packet.body
+        assert isinstance(body, RosterRequest)
+        if not (self._star and self.is_master and body.epoch == self.epoch):
+            self.counters["drop:roster"] += 1
+            return
+        self._roster_requests.add(packet.sender)
+
+    def _packet_roster_chunk(self, packet: Packet, now: float) -> None:
+        assert isinstance(packet.body, RosterChunk)
+        self._on_roster_chunk(packet.sender, packet.body, now)
+
+    def _packet_bulletin(self, packet: Packet, now: float) -> None:
+        assert isinstance(packet.body, Bulletin)
+        self._on_bulletin(packet.sender, packet.incarnation, packet.body, now)
+
+    def _packet_bulletin_ack(self, packet: Packet, now: float) -> None:
+        body = packet.body
+        assert isinstance(body, BulletinAck)
+        if body.dst != self.platform or body.dst_incarnation != self.incarnation:
+            self.counters["drop:not_for_me"] += 1
+            return
+        self._board.on_ack(packet.sender, body)
+
+    def _packet_release_ack(self, packet: Packet, now: float) -> None:
+        body = packet.body
+        assert isinstance(body, ReleaseAck)
+        if body.dst != self.platform or not self.is_master or body.epoch != self.epoch:
+            self.counters["drop:stale_epoch"] += 1
+            return
+        self._bmaster.on_ack(packet.sender, body.key, body.generation)
 
     def _on_bulletin(self, sender: int, incarnation: int, bulletin: Bulletin, now: float) -> None:
         delivered, ack = self._inbox.on_bulletin(sender, incarnation, bulletin)
@@ -542,3 +565,17 @@ class Node(NodeElection):
 
 
 __all__ = ["Node", "Outgoing", "Ready"]
+
+
+#: What a received packet's body is handed to (heartbeats are taken first, in
+#: :meth:`Node._dispatch`); the wire decoder produces no other body type.
+_BODY_HANDLERS: Final[dict[type[Any], Callable[[Node, Packet, float], None]]] = {
+    Data: Node._packet_data,
+    Ack: Node._packet_ack,
+    Release: Node._packet_release,
+    RosterRequest: Node._packet_roster_request,
+    RosterChunk: Node._packet_roster_chunk,
+    Bulletin: Node._packet_bulletin,
+    BulletinAck: Node._packet_bulletin_ack,
+    ReleaseAck: Node._packet_release_ack,
+}

@@ -47,6 +47,7 @@ go is :mod:`.slots`, the records :mod:`.records`.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any, Final
 
 import msgspec
 
@@ -130,48 +131,57 @@ class TaskEngine(ActorMachine):
             self._result(name, True, message, now)
 
     def _execute(self, command: cmds.Command, now: float) -> str | None:
-        if isinstance(command, cmds.DeployChunk):
-            return self._deploy_chunk(command, now)
-        if isinstance(command, cmds.Start):
-            return self._start_script(command.sha256, now)
-        if isinstance(command, cmds.Inject):
-            running = set(self.runtime.running())
-            if command.actors and not running & set(command.actors):
-                return f"not running {', '.join(command.actors)}: event {command.event} skipped"
-            self.inject(
-                command.event,
-                now,
-                data=command.data,
-                occasion=command.occasion,
-                shared=not command.actors,
-            )
-            return f"event {command.event} delivered"
-        if isinstance(command, cmds.Force):
-            return self._force(command, now)
-        if isinstance(command, cmds.ForceStart):
-            self._known_actor(command.actor)
-            self.runtime.start(command.actor, now, ActorContext())
-            self._record("", command.actor, now, "", "forced")
-            return f"started {command.actor}"
-        if isinstance(command, cmds.ForceStop):
-            self.runtime.stop(command.actor, now)
-            self._record(command.actor, "", now, "", "forced")
-            return f"stopped {command.actor}"
-        if isinstance(command, cmds.Pause):
-            self.runtime.pause(command.actor, now)
-            self._announce(now)
-            return f"paused {command.actor}"
-        if isinstance(command, cmds.Activate):
-            self.runtime.activate(command.actor, now)
-            self._announce(now)
-            return f"activated {command.actor}"
-        if isinstance(command, cmds.Backup):
-            snapshot = self.runtime.snapshot()
-            generation = self.store.write(snapshot)
-            self._reply(cmds.BackupReply(generation=generation, size=len(snapshot)), now)
-            return None
-        self._reply(self._status(now), now)  # Status
-        return None
+        """Carry out ``command`` by its handler (:data:`_COMMAND_HANDLERS`); returns the
+        message of its :class:`~actorswarm.engine.commands.Result`, or None when the handler
+        answered with a reply of its own."""
+        return _COMMAND_HANDLERS[type(command)](self, command, now)
+
+    # --- one handler per command (the table _COMMAND_HANDLERS below the class) ----------
+
+    def _cmd_start(self, command: cmds.Start, now: float) -> str:
+        return self._start_script(command.sha256, now)
+
+    def _cmd_inject(self, command: cmds.Inject, now: float) -> str:
+        running = set(self.runtime.running())
+        if command.actors and not running & set(command.actors):
+            return f"not running {', '.join(command.actors)}: event {command.event} skipped"
+        self.inject(
+            command.event,
+            now,
+            data=command.data,
+            occasion=command.occasion,
+            shared=not command.actors,
+        )
+        return f"event {command.event} delivered"
+
+    def _cmd_force_start(self, command: cmds.ForceStart, now: float) -> str:
+        self._known_actor(command.actor)
+        self.runtime.start(command.actor, now, ActorContext())
+        self._record("", command.actor, now, "", "forced")
+        return f"started {command.actor}"
+
+    def _cmd_force_stop(self, command: cmds.ForceStop, now: float) -> str:
+        self.runtime.stop(command.actor, now)
+        self._record(command.actor, "", now, "", "forced")
+        return f"stopped {command.actor}"
+
+    def _cmd_pause(self, command: cmds.Pause, now: float) -> str:
+        self.runtime.pause(command.actor, now)
+        self._announce(now)
+        return f"paused {command.actor}"
+
+    def _cmd_activate(self, command: cmds.Activate, now: float) -> str:
+        self.runtime.activate(command.actor, now)
+        self._announce(now)
+        return f"activated {command.actor}"
+
+    def _cmd_backup(self, command: cmds.Backup, now: float) -> None:
+        snapshot = self.runtime.snapshot()
+        generation = self.store.write(snapshot)
+        self._reply(cmds.BackupReply(generation=generation, size=len(snapshot)), now)
+
+    def _cmd_status(self, command: cmds.Status, now: float) -> None:
+        self._reply(self._status(now), now)
 
     def _status(self, now: float | None = None) -> cmds.StatusReply:
         position = self.runtime.position()
@@ -290,3 +300,18 @@ class TaskEngine(ActorMachine):
             )
         )
         self._announce(now)
+
+
+#: Each operator command's handler; a test checks that every command type has one.
+_COMMAND_HANDLERS: Final[dict[type[Any], Callable[[TaskEngine, Any, float], str | None]]] = {
+    cmds.DeployChunk: TaskEngine._deploy_chunk,
+    cmds.Start: TaskEngine._cmd_start,
+    cmds.Inject: TaskEngine._cmd_inject,
+    cmds.Force: TaskEngine._force,
+    cmds.ForceStart: TaskEngine._cmd_force_start,
+    cmds.ForceStop: TaskEngine._cmd_force_stop,
+    cmds.Pause: TaskEngine._cmd_pause,
+    cmds.Activate: TaskEngine._cmd_activate,
+    cmds.Backup: TaskEngine._cmd_backup,
+    cmds.Status: TaskEngine._cmd_status,
+}

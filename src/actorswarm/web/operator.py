@@ -23,7 +23,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol, TypeVar
+from typing import Any, Final, Literal, Protocol, TypeVar
 
 from actorswarm.dsl.checker import check
 from actorswarm.dsl.model import TaskScript
@@ -32,7 +32,7 @@ from actorswarm.engine import commands as cmds
 from actorswarm.ground.station import GroundStation, NotConfirmed, ReplyRecord
 from actorswarm.web import protocol as proto
 
-__all__ = ["Driver", "Operator", "Outcome", "Timeouts"]
+__all__ = ["PAGE_COMMANDS", "Driver", "Operator", "Outcome", "Timeouts"]
 
 _T = TypeVar("_T")
 
@@ -224,33 +224,13 @@ class Operator:
 
     @staticmethod
     def _command(request: proto.Command) -> tuple[str, cmds.Command, str]:
-        """The ground-station command of ``request``: (reply name, command, description)."""
-        if isinstance(request, proto.Event):
-            only = f" (holders of {', '.join(request.actors)})" if request.actors else ""
-            # The occasion is set by the sender below, as GroundStation.event does.
-            return (
-                "Inject",
-                cmds.Inject(event=request.name, actors=request.actors),
-                f"event {request.name}{only}",
-            )
-        if isinstance(request, proto.Force):
-            src = request.src or "any actor"
-            return (
-                "Force",
-                cmds.Force(to=request.to, src=request.src, params=request.params),
-                f"force {src} -> {request.to}",
-            )
-        if isinstance(request, proto.Pause):
-            return "Pause", cmds.Pause(actor=request.actor), f"pause {request.actor}"
-        if isinstance(request, proto.Activate):
-            return "Activate", cmds.Activate(actor=request.actor), f"activate {request.actor}"
-        if isinstance(request, proto.StartActor):
-            return "ForceStart", cmds.ForceStart(actor=request.actor), f"start {request.actor}"
-        if isinstance(request, proto.StopActor):
-            return "ForceStop", cmds.ForceStop(actor=request.actor), f"stop {request.actor}"
-        if isinstance(request, proto.Backup):
-            return "Backup", cmds.Backup(), "backup"
-        raise ValueError(f"{type(request).__name__} is not a ground-station command")
+        """The ground-station command of ``request``: (reply name, command, description),
+        by the one table :data:`PAGE_COMMANDS`."""
+        make = PAGE_COMMANDS.get(type(request))
+        if make is None:
+            raise ValueError(f"{type(request).__name__} is not a ground-station command")
+        command, asked = make(request)
+        return type(command).__name__, command, asked
 
     def _targets(self, platforms: str | None) -> list[int]:
         if platforms is None or not platforms.strip():
@@ -360,3 +340,28 @@ def _ids(targets: list[int]) -> str:
     if not targets:
         return "nobody"
     return f"platform{'s' if len(targets) > 1 else ''} {id_ranges(frozenset(targets))}"
+
+
+def _event(request: proto.Event) -> tuple[cmds.Command, str]:
+    only = f" (holders of {', '.join(request.actors)})" if request.actors else ""
+    # The occasion is set by the sender, as GroundStation.event does.
+    return cmds.Inject(event=request.name, actors=request.actors), f"event {request.name}{only}"
+
+
+def _force(request: proto.Force) -> tuple[cmds.Command, str]:
+    command = cmds.Force(to=request.to, src=request.src, params=request.params)
+    return command, f"force {request.src or 'any actor'} -> {request.to}"
+
+
+#: The page's requests that are ground-station commands, each mapped onto the command the
+#: platforms carry out (:mod:`actorswarm.engine.commands`) and the words that describe it;
+#: the reply to expect is named by the command's type.
+PAGE_COMMANDS: Final[dict[type[Any], Callable[[Any], tuple[cmds.Command, str]]]] = {
+    proto.Event: _event,
+    proto.Force: _force,
+    proto.Pause: lambda r: (cmds.Pause(actor=r.actor), f"pause {r.actor}"),
+    proto.Activate: lambda r: (cmds.Activate(actor=r.actor), f"activate {r.actor}"),
+    proto.StartActor: lambda r: (cmds.ForceStart(actor=r.actor), f"start {r.actor}"),
+    proto.StopActor: lambda r: (cmds.ForceStop(actor=r.actor), f"stop {r.actor}"),
+    proto.Backup: lambda r: (cmds.Backup(), "backup"),
+}
