@@ -22,15 +22,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from actorswarm.runtime.context import Detection
-from actorswarm.world.config import CameraConfig
+from actorswarm.world.config import CameraConfig, WorldConfig
+from actorswarm.world.targets import Targets
+from actorswarm.world.vehicles import SimVehicle
 
-if TYPE_CHECKING:
-    from actorswarm.world.world import World
-
-__all__ = ["SimCamera", "detect", "footprint_radius"]
+__all__ = ["Scene", "SimCamera", "detect", "footprint_radius"]
 
 Point3 = tuple[float, float, float]
 
@@ -72,14 +71,29 @@ def detect(
     return out
 
 
+class Scene(Protocol):
+    """What a camera needs of the world (:class:`~actorswarm.world.world.World` is one):
+    the vehicles, the targets where they are now, the camera's configuration."""
+
+    @property
+    def config(self) -> WorldConfig: ...
+
+    @property
+    def targets(self) -> Targets: ...
+
+    def vehicle(self, platform: int) -> SimVehicle: ...
+
+    def target_positions(self) -> dict[str, Point3]: ...
+
+
 class SimCamera:
     """The :class:`~actorswarm.runtime.context.Camera` of ``platform``'s vehicle in
     ``world``, at the world's current time."""
 
     __slots__ = ("_platform", "_world")
 
-    def __init__(self, world: World, platform: int) -> None:
-        world.fleet.index(platform)  # KeyError now, not at the first frame
+    def __init__(self, world: Scene, platform: int) -> None:
+        world.vehicle(platform)  # KeyError now, not at the first frame
         self._world = world
         self._platform = platform
 
