@@ -148,7 +148,8 @@ _Record = TypeVar("_Record", bound="DataclassInstance")
 def _record(cls: type[_Record], data: dict[str, Any]) -> _Record:
     """``cls`` from its fields in ``data``: a float written as null comes back as NaN, one
     absent (a run saved before it was measured) takes its default. TypeError for a field
-    ``cls`` does not have or a required one missing."""
+    ``cls`` does not have or a required one missing; ValueError for a float that is not
+    a number."""
     floats = {f.name for f in fields(cls) if f.type == "float"}
     restored = {
         name: (math.nan if value is None else float(value)) if name in floats else value
@@ -159,7 +160,7 @@ def _record(cls: type[_Record], data: dict[str, Any]) -> _Record:
 
 def from_json(data: dict[str, Any]) -> BenchResult:
     """A result back from :func:`to_json` (to render a saved run again); null times come
-    back as NaN. KeyError or TypeError for data of another shape."""
+    back as NaN. KeyError, TypeError or ValueError for data of another shape."""
     sizes = [
         _record(
             SizeResult,
