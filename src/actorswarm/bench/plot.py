@@ -13,9 +13,7 @@ import statistics
 from pathlib import Path
 
 from actorswarm.bench.core import SizeResult
-
-#: The paper's collective Actor switch times (Table II a, one plugin), for comparison.
-PAPER_SWITCH_MS = {5: 352, 10: 516, 15: 546, 20: 588, 25: 1246, 30: 1332}
+from actorswarm.bench.paper import TABLE2
 
 
 def _series(values: list[list[float]]) -> tuple[list[float], list[float], list[float]]:
@@ -48,7 +46,10 @@ def plot_core(
         med, lo, hi = _series(runs)
         ax.errorbar(sizes, med, yerr=[lo, hi], marker=marker, capsize=3, label=label)
     ax.axhline((3 * latency + 0.005) * 1000, color="grey", ls="--", label="target")
-    paper = sorted(PAPER_SWITCH_MS.items())
+    # The paper's collective Actor switch times (Table II a, one plugin), for comparison.
+    paper = sorted(
+        (n, p.transition_ms) for (case, n, k), p in TABLE2.items() if case == "switch" and k == 1
+    )
     ax.plot([n for n, _ in paper], [ms for _, ms in paper], "k^:", label="paper (Table II a)")
     ax.set(
         xscale="log",

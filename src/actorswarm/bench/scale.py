@@ -53,7 +53,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from actorswarm.bench.core import ACK_POLL, acknowledged_master
-from actorswarm.bench.daemons import read_status_kib
+from actorswarm.bench.daemons.probe import read_status_kib
 from actorswarm.bench.tables import strict_json
 from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.core.events import (
@@ -670,7 +670,7 @@ def run_scale(
     :func:`run_cell`), so the rows of one size are measured one after the other, with the
     same seed — into one :class:`ScaleReport`. ``done`` is called with the report so far
     after every cell (to print it, to save it)."""
-    from actorswarm.bench.daemons import machine_info
+    from actorswarm.bench.daemons.probe import machine_info
 
     report = ScaleReport(
         command=command,

@@ -26,13 +26,19 @@ __all__ = [
     "Summary",
     "Table1Row",
     "Table2Row",
+    "Table2Sample",
     "Table3Row",
+    "TableSettings",
     "TablesReport",
     "from_json",
     "merge",
     "percentile",
     "quiet",
+    "record_sample",
+    "sample_lists",
+    "strict_json",
     "summarize",
+    "table1_units",
     "to_json",
 ]
 
@@ -151,6 +157,32 @@ class Table2Row:
     membership: str = field(default_factory=_default_membership)
 
 
+@dataclass(frozen=True, slots=True)
+class Table2Sample:
+    """One repetition of a :class:`Table2Row`: a value for each of its sample lists, in
+    the same order (NaN for what the repetition did not produce)."""
+
+    transition_ms: float
+    master_pps: float
+    member_pps: float
+    bytes_per_packet: float
+    master_packets: float
+    member_packets: float
+
+
+def sample_lists(row: Table2Row) -> list[list[float]]:
+    """The sample lists of ``row``, in :class:`Table2Sample`'s field order."""
+    return [getattr(row, f.name) for f in fields(Table2Sample)]
+
+
+def record_sample(row: Table2Row, sample: Table2Sample | None) -> None:
+    """Append one repetition to every sample list of ``row`` (NaN everywhere for None: a
+    repetition that failed)."""
+    values = [math.nan] * len(fields(Table2Sample)) if sample is None else astuple(sample)
+    for samples, value in zip(sample_lists(row), values, strict=True):
+        samples.append(value)
+
+
 @dataclass(slots=True)
 class Table3Row:
     """The master's daemon killed → a new master acknowledged by every survivor; one
@@ -259,6 +291,25 @@ class Progress(Protocol):
 
 def quiet(message: str, *, advance: int = 0) -> None:
     """A :class:`Progress` that says nothing."""
+
+
+@dataclass(frozen=True, slots=True)
+class TableSettings:
+    """How much both modes measure: the settings the simulated tables
+    (:class:`~actorswarm.bench.tables_sim.SimSettings`) and the real ones
+    (:class:`~actorswarm.bench.tables_real.RealSettings`) share; each adds its own."""
+
+    repeat: int = 10
+    #: Table I: the platform measured has this many peers (a swarm of ``peers + 1``).
+    peers: int = 30
+    #: Table I: the window of each repetition, seconds (virtual ones in the simulator).
+    window: float = 10.0
+    seed: int = 1
+
+
+def table1_units(plugins: Sequence[int], settings: TableSettings) -> int:
+    """The progress units of Table I, in either mode: one per repetition."""
+    return len(plugins) * settings.repeat
 
 
 _Row = TypeVar("_Row", Table1Row, Table2Row, Table3Row)

@@ -69,7 +69,6 @@ from typing import TYPE_CHECKING, Any
 
 from actorswarm.bench.daemons import (
     LogTail,
-    Settings,
     describe_swarm,
     ground_session,
     measure_failover,
@@ -87,7 +86,18 @@ from actorswarm.bench.scripts import (
     table1_script,
     table2_script,
 )
-from actorswarm.bench.tables import Progress, Table1Row, Table2Row, Table3Row, quiet
+from actorswarm.bench.tables import (
+    Progress,
+    Table1Row,
+    Table2Row,
+    Table2Sample,
+    Table3Row,
+    TableSettings,
+    quiet,
+    record_sample,
+    sample_lists,
+    table1_units,
+)
 from actorswarm.daemon.launch import LocalSwarm
 from actorswarm.daemon.loop import clock
 from actorswarm.engine import commands as cmds
@@ -116,14 +126,11 @@ _FIRED_GRACE = 2.0
 
 
 @dataclass(frozen=True, slots=True)
-class RealSettings:
-    """How much to measure with real daemons. Times are seconds."""
+class RealSettings(TableSettings):
+    """How much to measure with real daemons: what both modes share, and how long to wait
+    for the daemons. Times are seconds; Table I's ``window`` is the measured daemon's CPU
+    window."""
 
-    repeat: int = 10
-    #: Table I: the daemon measured has this many peers (a swarm of ``peers + 1``).
-    peers: int = 30
-    #: Table I: the CPU window of each repetition.
-    window: float = 10.0
     #: Waiting for a swarm to agree (every view full, one master), for a deployment to be
     #: confirmed and started, and for a restarted daemon to be taken back.
     boot_timeout: float = 240.0
@@ -131,12 +138,6 @@ class RealSettings:
     run_timeout: float = 15.0
     #: Quiet time after a script starts, before measuring.
     settle: float = 2.0
-    seed: int = 1
-
-
-def table1_units(plugins: Sequence[int], settings: RealSettings) -> int:
-    """The progress units :func:`real_table1` reports: one per repetition."""
-    return len(plugins) * settings.repeat
 
 
 def table23_units(
@@ -306,17 +307,7 @@ def _table1_row(
 # --- Table II ------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
-class _Sample:
-    transition_ms: float
-    master_pps: float
-    member_pps: float
-    bytes_per_packet: float
-    master_packets: float
-    member_packets: float
-
-
-_FAILED = _Sample(NAN, NAN, NAN, NAN, NAN, NAN)
+_FAILED = Table2Sample(NAN, NAN, NAN, NAN, NAN, NAN)
 
 
 def _first(lines: list[dict[str, Any]], **match: Any) -> dict[str, Any] | None:
@@ -342,125 +333,229 @@ def _window(start: dict[str, Any], end: dict[str, Any]) -> tuple[float, int, int
     return seconds, (sp1 - sp0) + (rp1 - rp0), (sb1 - sb0) + (rb1 - rb0)
 
 
-async def _transition(
-    gs: GroundSession,
-    swarm: LocalSwarm,
-    logs: LogTail,
-    *,
-    event: tuple[str, int],
-    dst: str,
-    targets: list[int],
-    master: int,
-    timeout: float,
-) -> tuple[_Sample, str]:
-    """Send ``event`` to ``targets`` and measure their switch to ``dst``: the sample, and
-    "" or what went wrong (then some fields are NaN)."""
-    name, key = event
-    await asyncio.sleep(_GAP)
-    logs.mark()
-    if master not in targets:
-        # Sent first, limited to an actor the master does not run: it skips the event,
-        # and its command line marks when the event reached it (see the module docstring).
-        def mark_master(st: GroundStation, now: float) -> None:
-            st.event(name, now, platforms=[master], actors=[dst])
+@dataclass(slots=True)
+class _Table2:
+    """Table II on one swarm of daemons, driven by one ground station: the switch and
+    branch cases of each plugin count, repetition by repetition (see the module
+    docstring)."""
 
-        gs.do(mark_master)
-    sent_at = clock()
+    gs: GroundSession
+    swarm: LocalSwarm
+    logs: LogTail
+    settings: RealSettings
+    rng: random.Random
+    progress: Progress
 
-    def fire(st: GroundStation, now: float) -> None:
-        st.event(name, now, platforms=targets)
+    @property
+    def everyone(self) -> list[int]:
+        return list(range(1, self.swarm.size + 1))
 
-    gs.do(fire)
-
-    def switched() -> dict[int, dict[str, Any]]:
-        got = {}
-        for p in targets:
-            line = _first(logs.lines(p), event="transition", on=name, to=dst)
-            if line is not None:
-                got[p] = line
-        return got
-
-    def fired() -> dict[str, Any] | None:
-        return _first(logs.lines(master), event="fired", key=key)
-
-    if not await gs.wait_for(lambda: len(switched()) == len(targets), timeout):
-        missing = sorted(set(targets) - set(switched()))
-        return _FAILED, (
-            f"{name}: after {timeout:g} s platforms {missing} had not switched to {dst} "
-            f"(of {targets})"
+    async def rows(self, switch_row: Table2Row, branch_row: Table2Row) -> None:
+        """Both cases of one plugin count, on a new version of the script."""
+        size, count, settings = self.swarm.size, switch_row.plugins, self.settings
+        a, b, c = actor_names(count)
+        label = f"real table II: N={size}, {count} plugin(s)"
+        self.progress(f"{label}: deploying")
+        failed = await _deploy(
+            self.gs,
+            self.swarm,
+            table2_script(size, count),
+            f"table2-p{count}",
+            _only(a),
+            settings.boot_timeout,
         )
-    await gs.wait_for(lambda: fired() is not None, _FIRED_GRACE)
-    ends = switched()
-    transition_ms = (max(float(line["at"]) for line in ends.values()) - sent_at) * 1000
-    problems: list[str] = []
-    packets = octets = 0
+        if failed:
+            for row in (switch_row, branch_row):
+                row.errors.append(failed)
+                _not_run(sample_lists(row), settings.repeat, self.progress, f"{label}: not run")
+            return
+        await asyncio.sleep(settings.settle)
+        await self.switch_case(switch_row, a, b)
+        await self.branch_case(branch_row, a, c)
 
-    def window(platform: int, end: dict[str, Any] | None, what: str) -> tuple[float, float]:
-        """(packets per second, packets) of ``platform`` from its command line to ``end``."""
-        nonlocal packets, octets
-        start = _first(logs.lines(platform), event="command", command="Inject", on=name)
-        span = None if start is None or end is None else _window(start, end)
-        if span is None:
-            problems.append(
-                f"no traffic window for platform {platform} ({what}): "
-                f"command line {'found' if start else 'missing'}, "
-                f"end line {'found' if end else 'missing'}"
-                + ("" if start is None or end is None else ", ending before it began")
+    async def transition(
+        self, event: tuple[str, int], dst: str, targets: list[int], master: int
+    ) -> tuple[Table2Sample, str]:
+        """Send ``event`` to ``targets`` and measure their switch to ``dst``: the sample,
+        and "" or what went wrong (then some fields are NaN)."""
+        timeout = self.settings.run_timeout
+        name, key = event
+        await asyncio.sleep(_GAP)
+        self.logs.mark()
+        if master not in targets:
+            # Sent first, limited to an actor the master does not run: it skips the event,
+            # and its command line marks when the event reached it (see the module docstring).
+            def mark_master(st: GroundStation, now: float) -> None:
+                st.event(name, now, platforms=[master], actors=[dst])
+
+            self.gs.do(mark_master)
+        sent_at = clock()
+
+        def fire(st: GroundStation, now: float) -> None:
+            st.event(name, now, platforms=targets)
+
+        self.gs.do(fire)
+
+        def switched() -> dict[int, dict[str, Any]]:
+            got = {}
+            for p in targets:
+                line = _first(self.logs.lines(p), event="transition", on=name, to=dst)
+                if line is not None:
+                    got[p] = line
+            return got
+
+        def fired() -> dict[str, Any] | None:
+            return _first(self.logs.lines(master), event="fired", key=key)
+
+        if not await self.gs.wait_for(lambda: len(switched()) == len(targets), timeout):
+            missing = sorted(set(targets) - set(switched()))
+            return _FAILED, (
+                f"{name}: after {timeout:g} s platforms {missing} had not switched to {dst} "
+                f"(of {targets})"
             )
-            return NAN, NAN
-        seconds, n, size = span
-        packets += n
-        octets += size
-        return n / seconds, n
+        await self.gs.wait_for(lambda: fired() is not None, _FIRED_GRACE)
+        ends = switched()
+        transition_ms = (max(float(line["at"]) for line in ends.values()) - sent_at) * 1000
+        problems: list[str] = []
+        packets = octets = 0
 
-    end = fired()
-    if end is not None and end.get("outcome") != "complete":
-        problems.append(f"the master released {name} with outcome {end.get('outcome')}")
-    master_pps, master_packets = window(master, end, "master")
-    members = [window(p, ends[p], "member") for p in targets if p != master]
+        def window(platform: int, end: dict[str, Any] | None, what: str) -> tuple[float, float]:
+            """(packets per second, packets) of ``platform`` from its command line to ``end``."""
+            nonlocal packets, octets
+            start = _first(self.logs.lines(platform), event="command", command="Inject", on=name)
+            span = None if start is None or end is None else _window(start, end)
+            if span is None:
+                problems.append(
+                    f"no traffic window for platform {platform} ({what}): "
+                    f"command line {'found' if start else 'missing'}, "
+                    f"end line {'found' if end else 'missing'}"
+                    + ("" if start is None or end is None else ", ending before it began")
+                )
+                return NAN, NAN
+            seconds, n, size = span
+            packets += n
+            octets += size
+            return n / seconds, n
 
-    def mean(values: list[float]) -> float:
-        # Over every switching non-master, or not at all: a partial mean would mislead.
-        return statistics.fmean(values) if values and not any(map(math.isnan, values)) else NAN
+        end = fired()
+        if end is not None and end.get("outcome") != "complete":
+            problems.append(f"the master released {name} with outcome {end.get('outcome')}")
+        master_pps, master_packets = window(master, end, "master")
+        members = [window(p, ends[p], "member") for p in targets if p != master]
 
-    sample = _Sample(
-        transition_ms=transition_ms,
-        master_pps=master_pps,
-        member_pps=mean([rate for rate, _ in members]),
-        bytes_per_packet=octets / packets if packets else NAN,
-        master_packets=master_packets,
-        member_packets=mean([n for _, n in members]),
-    )
-    return sample, "; ".join(problems)
+        def mean(values: list[float]) -> float:
+            # Over every switching non-master, or not at all: a partial mean would mislead.
+            return statistics.fmean(values) if values and not any(map(math.isnan, values)) else NAN
+
+        sample = Table2Sample(
+            transition_ms=transition_ms,
+            master_pps=master_pps,
+            member_pps=mean([rate for rate, _ in members]),
+            bytes_per_packet=octets / packets if packets else NAN,
+            master_packets=master_packets,
+            member_packets=mean([n for _, n in members]),
+        )
+        return sample, "; ".join(problems)
+
+    async def home(self, home: str) -> bool:
+        """Force every platform back to actor ``home`` (after a transition that went wrong)
+        and wait until their status files say so."""
+
+        def force(st: GroundStation, now: float) -> None:
+            st.send(cmds.Force(to=home), self.everyone, now)
+
+        self.gs.do(force)
+        return await self.gs.wait_for(
+            lambda: all(self.swarm.status(p).get("actors") == [home] for p in self.everyone),
+            self.settings.run_timeout,
+        )
+
+    async def master(self) -> int | None:
+        await self.gs.wait_for(
+            lambda: self.swarm.agreed_master() is not None, self.settings.run_timeout
+        )
+        return self.swarm.agreed_master()
+
+    def not_run(self, row: Table2Row, count: int, label: str) -> None:
+        _not_run(sample_lists(row), count, self.progress, f"{label}: not run")
+
+    async def repetition(
+        self, row: Table2Row, i: int, what: tuple[tuple[str, int], str, list[int]], label: str
+    ) -> tuple[Table2Sample, int] | None:
+        """Repetition ``i`` of ``row``: ``what`` = (event, the actor to switch to, the
+        platforms it is sent to). Records the sample (and what went wrong) in ``row``;
+        returns it with the master it was measured against, or None when there was no
+        master to measure against (the rest of the row is then recorded as not run)."""
+        event, dst, targets = what
+        master = await self.master()
+        if master is None:
+            row.errors.append(f"repetition {i + 1}: no agreed master")
+            self.not_run(row, self.settings.repeat - i, label)
+            return None
+        sample, problem = await self.transition(event, dst, targets, master)
+        record_sample(row, sample)
+        self.progress(f"{label} {i + 1} done", advance=1)
+        if problem:
+            where = "" if len(targets) == self.swarm.size else f" (platforms {targets})"
+            row.errors.append(f"repetition {i + 1}{where}: {problem}")
+        return sample, master
+
+    async def stuck(self, row: Table2Row, i: int, home: str, label: str) -> bool:
+        """After repetition ``i`` went wrong: force everyone home; when even that fails,
+        the rest of ``row`` is recorded as not run (True)."""
+        if await self.home(home):
+            return False
+        row.errors.append(f"after repetition {i + 1}: {_STUCK}")
+        self.not_run(row, self.settings.repeat - i - 1, label)
+        return True
+
+    async def switch_case(self, row: Table2Row, a: str, b: str) -> None:
+        label = f"real table II: N={self.swarm.size}, {row.plugins} plugin(s), switch"
+        repeat = self.settings.repeat
+        at = a  # where every platform is
+        for i in range(repeat):
+            event, dst = (GO, b) if at == a else (BACK, a)
+            self.progress(f"{label} {i + 1}/{repeat} ({at} → {dst})")
+            measured = await self.repetition(row, i, (event, dst, self.everyone), label)
+            if measured is None:
+                return
+            if not math.isnan(measured[0].transition_ms):
+                at = dst
+            elif await self.stuck(row, i, a, label):
+                return
+            else:
+                at = a
+        if at != a:  # home for the branch case, unmeasured
+            master = await self.master() or 1
+            back, _ = await self.transition(BACK, a, self.everyone, master)
+            if math.isnan(back.transition_ms):  # not every platform came back: force them
+                await self.home(a)
+
+    async def branch_case(self, row: Table2Row, a: str, c: str) -> None:
+        label = f"real table II: N={self.swarm.size}, {row.plugins} plugin(s), branch"
+        repeat = self.settings.repeat
+        if self.swarm.size < 2:
+            row.errors.append("a branch needs at least two platforms")
+            self.not_run(row, repeat, label)
+            return
+        for i in range(repeat):
+            chosen = sorted(self.rng.sample(self.everyone, 2))
+            self.progress(f"{label} {i + 1}/{repeat} (platforms {chosen[0]} and {chosen[1]})")
+            measured = await self.repetition(row, i, (SPLIT, c, chosen), label)
+            if measured is None:
+                return
+            sample, master = measured
+            back_ok = False
+            if not math.isnan(sample.transition_ms):
+                back, _ = await self.transition(REJOIN, a, chosen, master)
+                back_ok = not math.isnan(back.transition_ms)
+            if not back_ok and await self.stuck(row, i, a, label):
+                return
 
 
-async def _home(
-    gs: GroundSession, swarm: LocalSwarm, home: str, platforms: list[int], timeout: float
-) -> bool:
-    """Force ``platforms`` back to actor ``home`` (after a transition that went wrong) and
-    wait until their status files say so."""
-
-    def force(st: GroundStation, now: float) -> None:
-        st.send(cmds.Force(to=home), platforms, now)
-
-    gs.do(force)
-    return await gs.wait_for(
-        lambda: all(swarm.status(p).get("actors") == [home] for p in platforms), timeout
-    )
-
-
-def _record(row: Table2Row, sample: _Sample) -> None:
-    for values, value in zip(_samples(row), _fields(sample), strict=True):
-        values.append(value)
-
-
-def _fields(sample: _Sample) -> list[float]:
-    return [getattr(sample, name) for name in _Sample.__slots__]
-
-
-def _samples(row: Table2Row) -> list[list[float]]:
-    """The row's sample lists, in :class:`_Sample`'s field order."""
-    return [getattr(row, name) for name in _Sample.__slots__]
+def _only(actor: str) -> Callable[[list[str]], bool]:
+    """Accepts a platform that runs ``actor`` and nothing else."""
+    return lambda actors: actors == [actor]
 
 
 async def _table2(
@@ -471,160 +566,10 @@ async def _table2(
     rng: random.Random,
     progress: Progress,
 ) -> None:
-    size = swarm.size
-    everyone = list(range(1, size + 1))
     async with ground_session(swarm) as gs:
+        table = _Table2(gs, swarm, logs, settings, rng, progress)
         for switch_row, branch_row in rows:
-            count = switch_row.plugins
-            a, b, c = actor_names(count)
-            label = f"real table II: N={size}, {count} plugin(s)"
-            progress(f"{label}: deploying")
-            failed = await _deploy(
-                gs,
-                swarm,
-                table2_script(size, count),
-                f"table2-p{count}",
-                _only(a),
-                settings.boot_timeout,
-            )
-            if failed:
-                for row in (switch_row, branch_row):
-                    row.errors.append(failed)
-                    _not_run(_samples(row), settings.repeat, progress, f"{label}: not run")
-                continue
-            await asyncio.sleep(settings.settle)
-            await _switch_case(gs, swarm, logs, switch_row, (a, b), everyone, settings, progress)
-            await _branch_case(
-                gs, swarm, logs, branch_row, (a, c), everyone, settings, rng, progress
-            )
-
-
-def _only(actor: str) -> Callable[[list[str]], bool]:
-    """Accepts a platform that runs ``actor`` and nothing else."""
-    return lambda actors: actors == [actor]
-
-
-async def _master(gs: GroundSession, swarm: LocalSwarm, timeout: float) -> int | None:
-    await gs.wait_for(lambda: swarm.agreed_master() is not None, timeout)
-    return swarm.agreed_master()
-
-
-async def _repetition(
-    gs: GroundSession,
-    swarm: LocalSwarm,
-    logs: LogTail,
-    row: Table2Row,
-    i: int,
-    what: tuple[tuple[str, int], str, list[int]],
-    settings: RealSettings,
-    progress: Progress,
-    label: str,
-) -> tuple[_Sample, int] | None:
-    """Repetition ``i`` of ``row``: ``what`` = (event, the actor to switch to, the platforms
-    it is sent to). Records the sample (and what went wrong) in ``row``; returns it with the
-    master it was measured against, or None when there was no master to measure against
-    (the rest of the row is then recorded as not run)."""
-    event, dst, targets = what
-    master = await _master(gs, swarm, settings.run_timeout)
-    if master is None:
-        row.errors.append(f"repetition {i + 1}: no agreed master")
-        _not_run(_samples(row), settings.repeat - i, progress, f"{label}: not run")
-        return None
-    sample, problem = await _transition(
-        gs,
-        swarm,
-        logs,
-        event=event,
-        dst=dst,
-        targets=targets,
-        master=master,
-        timeout=settings.run_timeout,
-    )
-    _record(row, sample)
-    progress(f"{label} {i + 1} done", advance=1)
-    if problem:
-        where = "" if len(targets) == swarm.size else f" (platforms {targets})"
-        row.errors.append(f"repetition {i + 1}{where}: {problem}")
-    return sample, master
-
-
-async def _switch_case(
-    gs: GroundSession,
-    swarm: LocalSwarm,
-    logs: LogTail,
-    row: Table2Row,
-    actors: tuple[str, str],
-    everyone: list[int],
-    settings: RealSettings,
-    progress: Progress,
-) -> None:
-    a, b = actors
-    label = f"real table II: N={swarm.size}, {row.plugins} plugin(s), switch"
-    at = a  # where every platform is
-    for i in range(settings.repeat):
-        event, dst = (GO, b) if at == a else (BACK, a)
-        progress(f"{label} {i + 1}/{settings.repeat} ({at} → {dst})")
-        measured = await _repetition(
-            gs, swarm, logs, row, i, (event, dst, everyone), settings, progress, label
-        )
-        if measured is None:
-            return
-        sample, _ = measured
-        if math.isnan(sample.transition_ms):
-            if not await _home(gs, swarm, a, everyone, settings.run_timeout):
-                row.errors.append(f"after repetition {i + 1}: {_STUCK}")
-                _not_run(_samples(row), settings.repeat - i - 1, progress, f"{label}: not run")
-                return
-            at = a
-        else:
-            at = dst
-    if at != a:  # home for the branch case, unmeasured
-        master = await _master(gs, swarm, settings.run_timeout) or 1
-        back, _ = await _transition(
-            gs, swarm, logs, event=BACK, dst=a, targets=everyone, master=master,
-            timeout=settings.run_timeout,
-        )  # fmt: skip
-        if math.isnan(back.transition_ms):  # not every platform came back: force them
-            await _home(gs, swarm, a, everyone, settings.run_timeout)
-
-
-async def _branch_case(
-    gs: GroundSession,
-    swarm: LocalSwarm,
-    logs: LogTail,
-    row: Table2Row,
-    actors: tuple[str, str],
-    everyone: list[int],
-    settings: RealSettings,
-    rng: random.Random,
-    progress: Progress,
-) -> None:
-    a, c = actors
-    label = f"real table II: N={swarm.size}, {row.plugins} plugin(s), branch"
-    if len(everyone) < 2:
-        row.errors.append("a branch needs at least two platforms")
-        _not_run(_samples(row), settings.repeat, progress, f"{label}: not run")
-        return
-    for i in range(settings.repeat):
-        chosen = sorted(rng.sample(everyone, 2))
-        progress(f"{label} {i + 1}/{settings.repeat} (platforms {chosen[0]} and {chosen[1]})")
-        measured = await _repetition(
-            gs, swarm, logs, row, i, (SPLIT, c, chosen), settings, progress, label
-        )
-        if measured is None:
-            return
-        sample, master = measured
-        back_ok = False
-        if not math.isnan(sample.transition_ms):
-            back, _ = await _transition(
-                gs, swarm, logs, event=REJOIN, dst=a, targets=chosen, master=master,
-                timeout=settings.run_timeout,
-            )  # fmt: skip
-            back_ok = not math.isnan(back.transition_ms)
-        if not back_ok and not await _home(gs, swarm, a, everyone, settings.run_timeout):
-            row.errors.append(f"after repetition {i + 1}: {_STUCK}")
-            _not_run(_samples(row), settings.repeat - i - 1, progress, f"{label}: not run")
-            return
+            await table.rows(switch_row, branch_row)
 
 
 # --- Tables II and III ---------------------------------------------------------------------
@@ -681,7 +626,7 @@ def _one_size(
         if failed:
             for row in [r for pair in pairs for r in pair]:
                 row.errors.append(failed)
-                _not_run(_samples(row), settings.repeat, progress, f"N={size}: not run")
+                _not_run(sample_lists(row), settings.repeat, progress, f"N={size}: not run")
             if row3 is not None:
                 row3.errors.append(failed)
                 _not_run([row3.election_ms], settings.repeat, progress, f"N={size}: not run")
@@ -706,10 +651,9 @@ def _table3(
         row.errors.append("a failover needs at least two platforms")
         _not_run([row.election_ms], settings.repeat, progress, f"{label}: not run")
         return
-    timing = Settings(boot_timeout=settings.boot_timeout, run_timeout=settings.run_timeout)
     for i in range(settings.repeat):
         progress(f"{label}: master failover {i + 1}/{settings.repeat}")
-        run = measure_failover(swarm, logs, timing, rng)
+        run = measure_failover(swarm, logs, settings, rng)
         row.election_ms.append(NAN if math.isnan(run.to_all_s) else run.to_all_s * 1000)
         if run.error:
             row.errors.append(f"failover {i + 1} (platform {run.killed} killed): {run.error}")

@@ -44,7 +44,17 @@ from actorswarm.bench.scripts import (
     table1_script,
     table2_script,
 )
-from actorswarm.bench.tables import Progress, Table1Row, Table2Row, Table3Row, quiet
+from actorswarm.bench.tables import (
+    Progress,
+    Table1Row,
+    Table2Row,
+    Table2Sample,
+    Table3Row,
+    TableSettings,
+    quiet,
+    record_sample,
+    table1_units,
+)
 from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.dsl import check
 from actorswarm.dsl.model import TaskScript
@@ -59,6 +69,7 @@ __all__ = [
     "sim_table1",
     "sim_table2",
     "sim_table3",
+    "table1_units",
 ]
 
 NAN = float("nan")
@@ -70,10 +81,11 @@ BIG = 100
 
 
 @dataclass(frozen=True, slots=True)
-class SimSettings:
-    """How the simulated tables run. Times are seconds (virtual unless said otherwise)."""
+class SimSettings(TableSettings):
+    """How the simulated tables run: what both modes share, and the simulated radio, the
+    membership scheme and the repetitions beyond the paper's sizes. Times are seconds
+    (virtual unless said otherwise)."""
 
-    repeat: int = 10
     #: Repetitions at the sizes beyond the paper's (≥ 100): a 1000-platform swarm runs at
     #: about 100 s of wall time per simulated second on a 2-core machine, so forming it
     #: and one repetition take 5–10 minutes (much longer under heavy loss).
@@ -82,16 +94,12 @@ class SimSettings:
     #: packet and receiver.
     latency: float = 0.01
     jitter: float = 0.005
-    #: Table I: a swarm of ``peers + 1`` platforms, ``window`` virtual seconds per repetition.
-    peers: int = 30
-    window: float = 10.0
     #: A transition that has not reached every platform after this long failed.
     run_timeout: float = 30.0
     #: A swarm with no master that has everyone in its view this long after boot is
     #: reported as not formed (1000 platforms under 30 % loss: members are falsely declared
     #: gone faster than they rejoin).
     settle_timeout: float = 15.0
-    seed: int = 1
     #: Tables II and III: the core's membership scheme (``CoreConfig.membership``): "star"
     #: (members heartbeat to the master only) or "broadcast" (everyone to everyone).
     membership: MembershipKind = "star"
@@ -187,21 +195,7 @@ def sim_table1(
     return rows
 
 
-def table1_units(plugins: Sequence[int], settings: SimSettings) -> int:
-    return len(plugins) * settings.repeat
-
-
 # --- Table II ------------------------------------------------------------------------------
-
-
-@dataclass(slots=True)
-class _Sample:
-    transition_ms: float
-    master_pps: float
-    member_pps: float
-    bytes_per_packet: float
-    master_packets: float
-    member_packets: float
 
 
 def _totals(sim: TaskSim) -> dict[int, tuple[int, int, int, int]]:
@@ -214,7 +208,7 @@ def _fire(
     event: tuple[str, str, str],
     targets: Iterable[int],
     timeout: float,
-) -> tuple[_Sample | None, str]:
+) -> tuple[Table2Sample | None, str]:
     """Send ``event`` from the ground station to ``targets`` and run until each of them has
     switched (or ``timeout``). The sample, or None and why not."""
     name, _, dst = event
@@ -255,7 +249,7 @@ def _fire(
     sent_packets = sum(d[0] for d in moved.values())
     sent_bytes = sum(d[1] for d in moved.values())
     return (
-        _Sample(
+        Table2Sample(
             transition_ms=(last - sent_at) * 1000,
             master_pps=master_packets / window,
             member_pps=member_packets / window,
@@ -283,10 +277,9 @@ def _left_out(
     return sorted(set(targets) - chosen)
 
 
-def _record(row: Table2Row, sample: _Sample | None, why: str, replay: str) -> None:
+def _record(row: Table2Row, sample: Table2Sample | None, why: str, replay: str) -> None:
     """Append one repetition to every sample list of ``row`` (NaN for a failed one)."""
-    for name in _Sample.__slots__:
-        getattr(row, name).append(NAN if sample is None else getattr(sample, name))
+    record_sample(row, sample)
     if sample is None:
         row.errors.append(f"{why} (replay: {replay})")
 
