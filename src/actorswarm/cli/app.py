@@ -19,7 +19,14 @@ import typer
 from rich.console import Console
 
 from actorswarm import __version__
-from actorswarm.cli.common import check_script, read_world
+from actorswarm.cli.common import (
+    check_script,
+    output_dir,
+    output_file,
+    output_paths,
+    read_world,
+)
+from actorswarm.cli.errors import guard_commands
 from actorswarm.cli.web_cmd import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -35,7 +42,10 @@ if TYPE_CHECKING:
     from actorswarm.core.config import MembershipKind
 
 app = typer.Typer(
-    help="actorswarm: program robot swarms as Actors.",
+    help="actorswarm: program robot swarms as Actors.\n\n"
+    "Exit status 2, with one line on stderr saying what and what to do: the command could "
+    "not run as given (an option, a file that cannot be read or written, a port in use, "
+    "unusable keys). Each command's help lists its other statuses.",
     no_args_is_help=True,
     add_completion=False,
 )
@@ -117,6 +127,7 @@ def swarm_demo(
     restart, a partition with two masters, the heal — with every invariant checked."""
     from actorswarm.sim.demo import run_demo
 
+    output_paths({"--json": json_out})
     report = run_demo(size=size, seed=seed, loss=loss, latency=latency / 1000.0, console=console)
     if json_out is not None:
         json_out.write_text(json.dumps(report, indent=2, default=str))
@@ -299,6 +310,7 @@ def bench_core(
     from actorswarm.core.config import CoreConfig
 
     size_list = _int_list(sizes, "--sizes", 2, 5000)
+    output_paths({"--out": out, "--json": json_out, "--plot": plot})
     config = CoreConfig(adaptive_retry=adaptive_retry)
     results = []
     with console.status("benchmarking") as status:
@@ -411,6 +423,7 @@ def bench_daemons(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    output_paths({"--out": out, "--json": json_out, "--dir": directory}, dirs=("--dir",))
     settings = Settings(
         broadcast=broadcast,
         group=group,
@@ -467,6 +480,7 @@ def bench_switch(
     from actorswarm.bench.switch import markdown, run, to_json
 
     counts = _int_list(plugins, "--plugins", 1, 64)
+    output_paths({"--out": out, "--json": json_out})
     rows = run(counts, runs)
     text = markdown(rows)
     typer.echo(text)
@@ -497,6 +511,7 @@ def bench_plot(
     except (OSError, ValueError, KeyError, TypeError) as exc:
         typer.echo(f"{results}: not a bench core result file ({exc})", err=True)
         raise typer.Exit(2) from None
+    output_file(out, "--out")
     plot_core(data, out, latency=latency / 1000.0, loss=loss, t_leave=CoreConfig().t_leave)
     console.print(f"picture written to {out}")
 
@@ -608,6 +623,10 @@ def sim(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    if record is not None:
+        output_file(record, "--record")
+    if json_out not in (None, "-"):
+        output_file(Path(json_out), "--json")
     problems = schedule_problems(script, duration, events, faults)
     for problem in problems:
         typer.echo(problem, err=True)
@@ -731,8 +750,11 @@ def demo(
             (p, f.t) for f in (parse_fault("kill", k) for k in kill or []) for p in sorted(f.ids)
         )
     except (KeyError, ValueError) as exc:
-        typer.echo(str(exc).strip('"'), err=True)
+        # A KeyError's str() is its repr: print the message itself.
+        typer.echo(str(exc.args[0]) if exc.args else str(exc), err=True)
         raise typer.Exit(2) from None
+    if not serve:
+        output_dir(out, "--out")
     if serve:
         from actorswarm.cli.web_cmd import serve_mission
 
@@ -777,9 +799,13 @@ def plot(
 
     try:
         data = read_record(recording)
-    except (RecordError, OSError) as exc:
+    except OSError as exc:
+        typer.echo(f"{recording}: cannot read the recording: {exc.strerror or exc}", err=True)
+        raise typer.Exit(2) from None
+    except RecordError as exc:
         typer.echo(f"{recording}: {exc}", err=True)
         raise typer.Exit(2) from None
+    output_dir(out, "--out")
     stem = recording.stem
     for path in (
         trajectory_png(data, out / f"{stem}-trajectories.png"),
@@ -852,6 +878,11 @@ def task_graph(
     if script is None:
         raise typer.Exit(code or 1)
     typer.echo(to_mermaid(script) if fmt is GraphFormat.mermaid else to_dot(script), nl=False)
+
+
+# Last, after every command (and every group's) is registered: one line and exit status 2
+# for the expected errors of any command (actorswarm.cli.errors).
+guard_commands(app)
 
 
 def main() -> None:

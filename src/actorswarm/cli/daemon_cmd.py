@@ -66,7 +66,12 @@ def daemon(
         ),
     ] = None,
     state_dir: Annotated[
-        Path | None, typer.Option(help="Where the platform keeps its state (default ./state-ID).")
+        Path | None,
+        typer.Option(
+            help="Where the platform keeps its state (default: "
+            "$XDG_STATE_HOME/actorswarm/SWARM/platform-ID, or ~/.local/state/actorswarm/... "
+            "without XDG_STATE_HOME)."
+        ),
     ] = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,

@@ -4,14 +4,13 @@ a clear error and exit status 2 when they are not usable (:mod:`.swarm_setup`)."
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from actorswarm.cli.swarm_setup import check_swarm, packet_guard, zenoh_settings
+from actorswarm.cli.swarm_setup import check_swarm, packet_guard, user_state_dir, zenoh_settings
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings
 
@@ -112,5 +111,4 @@ def link(
 
 def default_state_file(swarm: str) -> Path:
     """Where ``gs deploy`` remembers what it deployed to ``swarm``."""
-    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
-    return Path(base) / "actorswarm" / f"gs-{swarm}.json"
+    return user_state_dir() / f"gs-{swarm}.json"
