@@ -90,7 +90,7 @@ def _check_ports(launcher: Launcher, file: Path) -> None:
     for key, endpoint in wanted:
         problem = busy_endpoint(endpoint)
         if problem is not None:
-            raise refuse(f"{file}: {problem}; choose other {key} in the file (or stop what holds it)")
+            raise refuse(f"{file}: {problem}; choose other {key} in the file (or free the port)")
 
 
 def _may_read_stdin() -> bool:
