@@ -27,6 +27,7 @@ from actorswarm.cli.common import (
     read_world,
 )
 from actorswarm.cli.errors import guard_commands
+from actorswarm.cli.help_format import plain_help
 from actorswarm.cli.web_cmd import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -113,6 +114,27 @@ def _int_list(text: str, flag: str, low: int, high: int) -> list[int]:
 def version() -> None:
     """Print the version."""
     console.print(f"actorswarm {__version__}")
+
+
+def _print_version(asked: bool) -> None:
+    if asked:
+        typer.echo(f"actorswarm {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    show_version: Annotated[
+        bool,
+        typer.Option(
+            "--version",
+            is_eager=True,
+            callback=_print_version,
+            help="Print the version and exit.",
+        ),
+    ] = False,
+) -> None:
+    """actorswarm: program robot swarms as Actors."""
 
 
 @swarm_app.command("demo")
@@ -549,14 +571,29 @@ def sim(
     ] = None,
     duration: Annotated[float, typer.Option(min=0.1, help="Virtual seconds to run.")] = 30.0,
     event: Annotated[
-        list[str] | None, typer.Option(help="NAME@T[:IDS]: a ground-station event.")
+        list[str] | None,
+        typer.Option(
+            metavar="NAME@T[:IDS]",
+            help="A ground-station event NAME at T seconds (to platforms IDS; default every one).",
+        ),
     ] = None,
-    kill: Annotated[list[str] | None, typer.Option(help="ID@T: crash platforms.")] = None,
-    restart: Annotated[list[str] | None, typer.Option(help="ID@T: reboot platforms.")] = None,
+    kill: Annotated[
+        list[str] | None, typer.Option(metavar="IDS@T", help="Crash platforms IDS at T seconds.")
+    ] = None,
+    restart: Annotated[
+        list[str] | None,
+        typer.Option(metavar="IDS@T", help="Reboot platforms IDS at T seconds."),
+    ] = None,
     partition: Annotated[
-        list[str] | None, typer.Option(help="IDS[@T]: cut these platforms off.")
+        list[str] | None,
+        typer.Option(
+            metavar="IDS[@T]",
+            help="Cut platforms IDS off from the others at T seconds (default: from the start).",
+        ),
     ] = None,
-    heal: Annotated[list[str] | None, typer.Option(help="@T: end every partition.")] = None,
+    heal: Annotated[
+        list[str] | None, typer.Option(metavar="@T", help="End every partition at T seconds.")
+    ] = None,
     world: Annotated[Path | None, typer.Option(help="World description (TOML).")] = None,
     no_world: Annotated[
         bool, typer.Option("--no-world", help="Protocol and plugins only, no vehicles.")
@@ -722,7 +759,9 @@ def demo(
             "distance-based loss.",
         ),
     ] = 0.0,
-    kill: Annotated[list[str] | None, typer.Option(help="ID@T: crash platforms.")] = None,
+    kill: Annotated[
+        list[str] | None, typer.Option(metavar="IDS@T", help="Crash platforms IDS at T seconds.")
+    ] = None,
     realtime: Annotated[
         bool, typer.Option("--realtime", help="Pace the run to the wall clock.")
     ] = False,
@@ -832,7 +871,7 @@ class GraphFormat(StrEnum):
 
 @task_app.command("check")
 def task_check(
-    files: Annotated[list[Path], typer.Argument(help="Task scripts to check.")],
+    files: Annotated[list[Path], typer.Argument(metavar="FILE", help="Task scripts to check.")],
     max_bytes: Annotated[
         int, typer.Option(min=1, help="Refuse scripts larger than this many bytes.")
     ] = DEFAULT_MAX_BYTES,
@@ -883,6 +922,7 @@ def task_graph(
 # Last, after every command (and every group's) is registered: one line and exit status 2
 # for the expected errors of any command (actorswarm.cli.errors).
 guard_commands(app)
+plain_help(app)
 
 
 def main() -> None:

@@ -113,7 +113,7 @@ def daemon(
     ] = None,
     config: Annotated[
         Path | None,
-        typer.Option(help="A TOML file with any of these options (and a \\[core] table)."),
+        typer.Option(help="A TOML file with any of these options (and a [core] table)."),
     ] = None,
 ) -> None:
     """Run one platform of a real swarm over Zenoh until SIGTERM/SIGINT."""

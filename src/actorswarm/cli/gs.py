@@ -34,6 +34,9 @@ from actorswarm.cli.swarm_options import (
     link,
 )
 
+#: Where ``deploy`` remembers and ``start`` finds the script, as the help says it.
+_STATE_DEFAULT = "$XDG_STATE_HOME/actorswarm/gs-SWARM.json, or ~/.local/state/actorswarm/..."
+
 gs_app = typer.Typer(
     help="The ground station over a real swarm: deploy, start, event, force, pause, "
     "activate, stop, backup, status; record it, or watch it on the web page.",
@@ -53,7 +56,10 @@ def gs_deploy(
     group: GroupOpt = None,
     interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 10.0,
-    state: Annotated[Path | None, typer.Option(help="Where to remember the deployment.")] = None,
+    state: Annotated[
+        Path | None,
+        typer.Option(help="Where to remember the deployment.", show_default=_STATE_DEFAULT),
+    ] = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
     world: Annotated[
@@ -117,7 +123,10 @@ def gs_start(
     force: Annotated[
         bool, typer.Option("--force", help="Start without every confirmation.")
     ] = False,
-    state: Annotated[Path | None, typer.Option(help="Where deploy remembered the script.")] = None,
+    state: Annotated[
+        Path | None,
+        typer.Option(help="Where deploy remembered the script.", show_default=_STATE_DEFAULT),
+    ] = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
 ) -> None:

@@ -130,7 +130,8 @@ def gs_force(
     ] = None,
     to: Annotated[str, typer.Option("--to", help="The actor to switch to.")] = "",
     param: Annotated[
-        list[str] | None, typer.Option(help="KEY=VALUE for the new actor (repeatable).")
+        list[str] | None,
+        typer.Option(metavar="KEY=VALUE", help="A param of the new actor (repeatable)."),
     ] = None,
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,

@@ -38,9 +38,12 @@ __all__ = [
 
 SwarmOpt = Annotated[str, typer.Option(help="The swarm's name (its Zenoh namespace).")]
 ConnectOpt = Annotated[
-    list[str] | None, typer.Option(help="Zenoh endpoint to connect to (repeatable).")
+    list[str] | None,
+    typer.Option(metavar="ENDPOINT", help="Zenoh endpoint to connect to (repeatable)."),
 ]
-ListenOpt = Annotated[list[str] | None, typer.Option(help="Zenoh endpoint to listen on.")]
+ListenOpt = Annotated[
+    list[str] | None, typer.Option(metavar="ENDPOINT", help="Zenoh endpoint to listen on.")
+]
 MulticastOpt = Annotated[
     bool | None,
     typer.Option(
