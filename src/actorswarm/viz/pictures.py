@@ -36,6 +36,11 @@ _DPI = 120
 
 
 def _title(recording: Recording, what: str) -> str:
+    """``what``, after the mission's name (a shipped mission: two share one script) or
+    else the script's."""
+    mission = recording.meta.get("mission")
+    if isinstance(mission, str) and mission:
+        return f"{mission} mission: {what}"
     name = recording.meta.get("script") or recording.meta.get("name")
     return f"{name}: {what}" if isinstance(name, str) and name else what
 
