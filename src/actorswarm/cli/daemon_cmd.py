@@ -16,7 +16,22 @@ from typing import Annotated
 import typer
 
 from actorswarm.cli.daemon_start import start_daemon
-from actorswarm.cli.swarm_options import ConnectOpt, InsecureOpt, KeysOpt, ListenOpt
+
+# The daemon's own (the ground station's read the environment too, cli.swarm_options).
+ConnectOpt = Annotated[
+    list[str] | None,
+    typer.Option(metavar="ENDPOINT", help="Zenoh endpoint to connect to (repeatable)."),
+]
+ListenOpt = Annotated[
+    list[str] | None, typer.Option(metavar="ENDPOINT", help="Zenoh endpoint to listen on.")
+]
+KeysOpt = Annotated[
+    Path | None,
+    typer.Option(help="The swarm's key directory (default: the user's; see `keys init`)."),
+]
+InsecureOpt = Annotated[
+    bool, typer.Option("--insecure", help="No packet authentication (trusted networks only).")
+]
 
 __all__ = ["daemon"]
 

@@ -340,8 +340,8 @@ def _captions(ax: Axes, recording: Recording, end: float, peak: float) -> None:
     (widths estimated from the text at 8 pt on the 9-inch figure)."""
     groups: dict[tuple[str, float], list[str]] = {}
     for moment in _collectives(recording):
-        moves = f"{len(moment.platforms)} × {moment.src or '-'} → {moment.dst or '-'}"
-        groups.setdefault((moment.label, round(moment.t, 1)), []).append(moves)
+        move = f"{len(moment.platforms)} × {moment.src or '-'} → {moment.dst or '-'}"
+        groups.setdefault((moment.label, round(moment.t, 1)), []).append(move)
     span = max(end, 1e-9)
     per_char = span * 4.6 / 560.0  # data units per character: 8 pt text, ~560 pt of axes
     rows: list[list[tuple[float, float]]] = []
