@@ -40,7 +40,8 @@ def test_init_refuses_to_overwrite_unless_forced(tmp_path: Path) -> None:
     before = load_keys(tmp_path).swarm_fingerprint
     result = runner.invoke(keys_app, ["init", "--dir", str(tmp_path)])
     assert result.exit_code == 1
-    assert "refusing to overwrite" in result.output and "--force" in result.output
+    assert "already holds keys" in result.output and "keys init --force" in result.output
+    assert "force=True" not in result.output
     assert load_keys(tmp_path).swarm_fingerprint == before
     forced = runner.invoke(keys_app, ["init", "--dir", str(tmp_path), "--force"])
     assert forced.exit_code == 0, forced.output

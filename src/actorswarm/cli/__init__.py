@@ -19,11 +19,13 @@ def main() -> None:
     args = sys.argv[1:]
     if args[:1] == ["daemon"]:
         from actorswarm.cli.daemon_start import parse_daemon_args, start_daemon
+        from actorswarm.cli.errors import run_guarded
 
         options = parse_daemon_args(args[1:])
         if options is not None:
             try:
-                code = start_daemon(**options)
+                # A busy port or a bad path: one line and exit 2, as every command.
+                code = run_guarded(lambda: start_daemon(**options))
             except KeyboardInterrupt:  # before the daemon's own signal handlers: as typer
                 print("\nAborted!", file=sys.stderr)
                 code = 1

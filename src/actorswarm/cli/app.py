@@ -19,7 +19,15 @@ import typer
 from rich.console import Console
 
 from actorswarm import __version__
-from actorswarm.cli.common import check_script, read_world
+from actorswarm.cli.common import (
+    check_script,
+    output_dir,
+    output_file,
+    output_paths,
+    read_world,
+)
+from actorswarm.cli.errors import guard_commands
+from actorswarm.cli.help_format import plain_help
 from actorswarm.cli.web_cmd import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -35,7 +43,10 @@ if TYPE_CHECKING:
     from actorswarm.core.config import MembershipKind
 
 app = typer.Typer(
-    help="actorswarm: program robot swarms as Actors.",
+    help="actorswarm: program robot swarms as Actors.\n\n"
+    "Exit status 2, with one line on stderr saying what and what to do: the command could "
+    "not run as given (an option, a file that cannot be read or written, a port in use, "
+    "unusable keys). Each command's help lists its other statuses.",
     no_args_is_help=True,
     add_completion=False,
 )
@@ -105,6 +116,27 @@ def version() -> None:
     console.print(f"actorswarm {__version__}")
 
 
+def _print_version(asked: bool) -> None:
+    if asked:
+        typer.echo(f"actorswarm {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    show_version: Annotated[
+        bool,
+        typer.Option(
+            "--version",
+            is_eager=True,
+            callback=_print_version,
+            help="Print the version and exit.",
+        ),
+    ] = False,
+) -> None:
+    """actorswarm: program robot swarms as Actors."""
+
+
 @swarm_app.command("demo")
 def swarm_demo(
     size: Annotated[int, typer.Option(min=2, max=200, help="Platforms in the swarm.")] = 10,
@@ -117,6 +149,7 @@ def swarm_demo(
     restart, a partition with two masters, the heal — with every invariant checked."""
     from actorswarm.sim.demo import run_demo
 
+    output_paths({"--json": json_out})
     report = run_demo(size=size, seed=seed, loss=loss, latency=latency / 1000.0, console=console)
     if json_out is not None:
         json_out.write_text(json.dumps(report, indent=2, default=str))
@@ -299,6 +332,7 @@ def bench_core(
     from actorswarm.core.config import CoreConfig
 
     size_list = _int_list(sizes, "--sizes", 2, 5000)
+    output_paths({"--out": out, "--json": json_out, "--plot": plot})
     config = CoreConfig(adaptive_retry=adaptive_retry)
     results = []
     with console.status("benchmarking") as status:
@@ -411,6 +445,7 @@ def bench_daemons(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    output_paths({"--out": out, "--json": json_out, "--dir": directory}, dirs=("--dir",))
     settings = Settings(
         broadcast=broadcast,
         group=group,
@@ -467,6 +502,7 @@ def bench_switch(
     from actorswarm.bench.switch import markdown, run, to_json
 
     counts = _int_list(plugins, "--plugins", 1, 64)
+    output_paths({"--out": out, "--json": json_out})
     rows = run(counts, runs)
     text = markdown(rows)
     typer.echo(text)
@@ -497,6 +533,7 @@ def bench_plot(
     except (OSError, ValueError, KeyError, TypeError) as exc:
         typer.echo(f"{results}: not a bench core result file ({exc})", err=True)
         raise typer.Exit(2) from None
+    output_file(out, "--out")
     plot_core(data, out, latency=latency / 1000.0, loss=loss, t_leave=CoreConfig().t_leave)
     console.print(f"picture written to {out}")
 
@@ -534,14 +571,29 @@ def sim(
     ] = None,
     duration: Annotated[float, typer.Option(min=0.1, help="Virtual seconds to run.")] = 30.0,
     event: Annotated[
-        list[str] | None, typer.Option(help="NAME@T[:IDS]: a ground-station event.")
+        list[str] | None,
+        typer.Option(
+            metavar="NAME@T[:IDS]",
+            help="A ground-station event NAME at T seconds (to platforms IDS; default every one).",
+        ),
     ] = None,
-    kill: Annotated[list[str] | None, typer.Option(help="ID@T: crash platforms.")] = None,
-    restart: Annotated[list[str] | None, typer.Option(help="ID@T: reboot platforms.")] = None,
+    kill: Annotated[
+        list[str] | None, typer.Option(metavar="IDS@T", help="Crash platforms IDS at T seconds.")
+    ] = None,
+    restart: Annotated[
+        list[str] | None,
+        typer.Option(metavar="IDS@T", help="Reboot platforms IDS at T seconds."),
+    ] = None,
     partition: Annotated[
-        list[str] | None, typer.Option(help="IDS[@T]: cut these platforms off.")
+        list[str] | None,
+        typer.Option(
+            metavar="IDS[@T]",
+            help="Cut platforms IDS off from the others at T seconds (default: from the start).",
+        ),
     ] = None,
-    heal: Annotated[list[str] | None, typer.Option(help="@T: end every partition.")] = None,
+    heal: Annotated[
+        list[str] | None, typer.Option(metavar="@T", help="End every partition at T seconds.")
+    ] = None,
     world: Annotated[Path | None, typer.Option(help="World description (TOML).")] = None,
     no_world: Annotated[
         bool, typer.Option("--no-world", help="Protocol and plugins only, no vehicles.")
@@ -608,6 +660,10 @@ def sim(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    if record is not None:
+        output_file(record, "--record")
+    if json_out not in (None, "-"):
+        output_file(Path(json_out), "--json")
     problems = schedule_problems(script, duration, events, faults)
     for problem in problems:
         typer.echo(problem, err=True)
@@ -703,7 +759,9 @@ def demo(
             "distance-based loss.",
         ),
     ] = 0.0,
-    kill: Annotated[list[str] | None, typer.Option(help="ID@T: crash platforms.")] = None,
+    kill: Annotated[
+        list[str] | None, typer.Option(metavar="IDS@T", help="Crash platforms IDS at T seconds.")
+    ] = None,
     realtime: Annotated[
         bool, typer.Option("--realtime", help="Pace the run to the wall clock.")
     ] = False,
@@ -731,8 +789,11 @@ def demo(
             (p, f.t) for f in (parse_fault("kill", k) for k in kill or []) for p in sorted(f.ids)
         )
     except (KeyError, ValueError) as exc:
-        typer.echo(str(exc).strip('"'), err=True)
+        # A KeyError's str() is its repr: print the message itself.
+        typer.echo(str(exc.args[0]) if exc.args else str(exc), err=True)
         raise typer.Exit(2) from None
+    if not serve:
+        output_dir(out, "--out")
     if serve:
         from actorswarm.cli.web_cmd import serve_mission
 
@@ -777,9 +838,13 @@ def plot(
 
     try:
         data = read_record(recording)
-    except (RecordError, OSError) as exc:
+    except OSError as exc:
+        typer.echo(f"{recording}: cannot read the recording: {exc.strerror or exc}", err=True)
+        raise typer.Exit(2) from None
+    except RecordError as exc:
         typer.echo(f"{recording}: {exc}", err=True)
         raise typer.Exit(2) from None
+    output_dir(out, "--out")
     stem = recording.stem
     for path in (
         trajectory_png(data, out / f"{stem}-trajectories.png"),
@@ -806,7 +871,7 @@ class GraphFormat(StrEnum):
 
 @task_app.command("check")
 def task_check(
-    files: Annotated[list[Path], typer.Argument(help="Task scripts to check.")],
+    files: Annotated[list[Path], typer.Argument(metavar="FILE", help="Task scripts to check.")],
     max_bytes: Annotated[
         int, typer.Option(min=1, help="Refuse scripts larger than this many bytes.")
     ] = DEFAULT_MAX_BYTES,
@@ -852,6 +917,12 @@ def task_graph(
     if script is None:
         raise typer.Exit(code or 1)
     typer.echo(to_mermaid(script) if fmt is GraphFormat.mermaid else to_dot(script), nl=False)
+
+
+# Last, after every command (and every group's) is registered: one line and exit status 2
+# for the expected errors of any command (actorswarm.cli.errors).
+guard_commands(app)
+plain_help(app)
 
 
 def main() -> None:

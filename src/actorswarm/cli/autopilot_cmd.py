@@ -54,6 +54,10 @@ def autopilot(
     from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
     from actorswarm.vehicles.mavlink.frame import parse_origin
 
+    busy = _udp_port_taken(listen)
+    if busy:
+        typer.echo(f"autopilot: --listen {listen}: {busy}; choose another port", err=True)
+        raise typer.Exit(2)
     try:
         options = AutopilotOptions(
             listen,
@@ -82,3 +86,24 @@ def autopilot(
         sim.run(stop)
     finally:
         sim.close()
+
+
+def _udp_port_taken(url: str) -> str:
+    """Why the ``udpin:HOST:PORT`` endpoint ``url`` cannot be listened on, or "". pymavlink
+    binds with SO_REUSEADDR, so a second autopilot on the same port would start silently
+    and share the first one's packets: a bind without it says the port is taken."""
+    import socket
+
+    kind, _, rest = url.partition(":")
+    host, sep, port = rest.rpartition(":")
+    if kind != "udpin" or not sep or not port.isdigit():
+        return ""
+    try:
+        family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        with socket.socket(family, socket.SOCK_DGRAM) as probe:
+            probe.bind((host, int(port)))
+    except OSError as exc:
+        if isinstance(exc, socket.gaierror):
+            return ""  # pymavlink says what is wrong with the name
+        return f"{exc.strerror or exc} (another autopilot or program holds it)"
+    return ""

@@ -23,6 +23,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from actorswarm.cli.bench_tables import Membership, memberships
+from actorswarm.cli.common import output_paths
 
 if TYPE_CHECKING:
     from actorswarm.bench.scale import ScaleCell, ScaleReport
@@ -232,6 +233,7 @@ def bench_scale(
     for flag, path in (("--out", out), ("--json", json_out), ("--plot", plot)):
         args += [flag, str(path)] if path is not None else []
     command = "actorswarm bench scale " + shlex.join(args)
+    output_paths({"--out": out, "--json": json_out, "--plot": plot})
     total = len(size_list) * len(losses) * len(schemes) * len(rows)
     saved: list[ScaleReport] = []
 

@@ -29,6 +29,8 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from actorswarm.cli.common import output_paths
+
 if TYPE_CHECKING:
     from actorswarm.bench.tables import TablesReport
     from actorswarm.core.config import MembershipKind
@@ -234,6 +236,7 @@ def bench_tables(
         cases=_cases(cases),
         memberships=memberships(membership),
     )
+    output_paths({"--out": out, "--json": json_out, "--dir": directory}, dirs=("--out", "--dir"))
     command = "actorswarm bench " + shlex.join(sys.argv[2:])  # '' stays visible
 
     def terminated(signum: int, frame: object) -> None:
@@ -417,6 +420,7 @@ def bench_report(
     later file (same table, mode, size, plugins, loss) replaces the earlier one."""
     from actorswarm.bench.tables import MODES, from_json, merge
 
+    output_paths({"--out": out, "--json": json_out}, dirs=("--out",))
     reports = []
     for spec in results:
         path, _, only = str(spec).rpartition(":")

@@ -14,7 +14,15 @@ if TYPE_CHECKING:
     from actorswarm.dsl import TaskScript
     from actorswarm.world.config import WorldConfig
 
-__all__ = ["check_script", "id_list", "int_list_or_count", "read_world"]
+__all__ = [
+    "check_script",
+    "id_list",
+    "int_list_or_count",
+    "output_dir",
+    "output_file",
+    "output_paths",
+    "read_world",
+]
 
 
 def id_list(text: str, flag: str) -> list[int]:
@@ -71,3 +79,59 @@ def check_script(
     for diagnostic in result.diagnostics:
         typer.echo(str(diagnostic), err=True)
     return (0 if result.ok else 1), result.script
+
+
+def output_dir(path: Path, flag: str) -> Path:
+    """The directory ``path`` of option ``flag``, created when missing, checked before any
+    work is done (so nothing is computed for a place that cannot hold it); a clear error
+    and exit 2 when it cannot be used."""
+    import os
+
+    if path.exists() and not path.is_dir():
+        typer.echo(f"{flag} {path}: is a file; give a directory (created when missing)", err=True)
+        raise typer.Exit(2)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        typer.echo(f"{flag} {path}: cannot create the directory: {exc.strerror or exc}", err=True)
+        raise typer.Exit(2) from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        typer.echo(f"{flag} {path}: the directory is not writable; choose another", err=True)
+        raise typer.Exit(2)
+    return path
+
+
+def output_file(path: Path, flag: str) -> Path:
+    """The file ``path`` of option ``flag``, checked before any work is done: its directory
+    is created when missing and must be writable, and it must not be a directory (an
+    existing file is replaced); a clear error and exit 2 otherwise."""
+    import os
+
+    parent = path.parent
+    problem = ""
+    if path.is_dir():
+        problem = "is a directory; give a file name"
+    else:
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            problem = f"cannot create its directory {parent}: {exc.strerror or exc}"
+        else:
+            if not os.access(parent, os.W_OK | os.X_OK):
+                problem = f"the directory {parent} is not writable; choose another place"
+    if problem:
+        typer.echo(f"{flag} {path}: {problem}", err=True)
+        raise typer.Exit(2)
+    return path
+
+
+def output_paths(flags: dict[str, Path | None], dirs: tuple[str, ...] = ()) -> None:
+    """Check every output of a command before it runs (:func:`output_file`, or
+    :func:`output_dir` for the flags in ``dirs``); None and ``-`` (stdout) are skipped."""
+    for flag, path in flags.items():
+        if path is None or str(path) == "-":
+            continue
+        if flag in dirs:
+            output_dir(path, flag)
+        else:
+            output_file(path, flag)

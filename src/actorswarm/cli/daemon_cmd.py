@@ -16,7 +16,22 @@ from typing import Annotated
 import typer
 
 from actorswarm.cli.daemon_start import start_daemon
-from actorswarm.cli.swarm_options import ConnectOpt, InsecureOpt, KeysOpt, ListenOpt
+
+# The daemon's own (the ground station's read the environment too, cli.swarm_options).
+ConnectOpt = Annotated[
+    list[str] | None,
+    typer.Option(metavar="ENDPOINT", help="Zenoh endpoint to connect to (repeatable)."),
+]
+ListenOpt = Annotated[
+    list[str] | None, typer.Option(metavar="ENDPOINT", help="Zenoh endpoint to listen on.")
+]
+KeysOpt = Annotated[
+    Path | None,
+    typer.Option(help="The swarm's key directory (default: the user's; see `keys init`)."),
+]
+InsecureOpt = Annotated[
+    bool, typer.Option("--insecure", help="No packet authentication (trusted networks only).")
+]
 
 __all__ = ["daemon"]
 
@@ -66,7 +81,12 @@ def daemon(
         ),
     ] = None,
     state_dir: Annotated[
-        Path | None, typer.Option(help="Where the platform keeps its state (default ./state-ID).")
+        Path | None,
+        typer.Option(
+            help="Where the platform keeps its state (default: "
+            "$XDG_STATE_HOME/actorswarm/SWARM/platform-ID, or ~/.local/state/actorswarm/... "
+            "without XDG_STATE_HOME)."
+        ),
     ] = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
@@ -108,7 +128,7 @@ def daemon(
     ] = None,
     config: Annotated[
         Path | None,
-        typer.Option(help="A TOML file with any of these options (and a \\[core] table)."),
+        typer.Option(help="A TOML file with any of these options (and a [core] table)."),
     ] = None,
 ) -> None:
     """Run one platform of a real swarm over Zenoh until SIGTERM/SIGINT."""

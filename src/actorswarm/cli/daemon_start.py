@@ -155,7 +155,14 @@ def start_daemon(
     """Check the options (the command line, then the ``--config`` file, then the defaults)
     and run the daemon until a signal; returns its exit status. A problem with the options
     is printed on stderr and raises SystemExit(2) before anything starts."""
-    from actorswarm.cli.swarm_setup import check_swarm, packet_guard, refuse, zenoh_settings
+    from actorswarm.cli.swarm_setup import (
+        busy_endpoint,
+        check_swarm,
+        default_daemon_state,
+        packet_guard,
+        refuse,
+        zenoh_settings,
+    )
     from actorswarm.core.config import CoreConfig
     from actorswarm.daemon.config import (
         DaemonConfigError,
@@ -221,11 +228,17 @@ def start_daemon(
         interface or file.interface,
         lease if lease is not None else file.lease,
     )
+    for endpoint in settings.listen:
+        problem = busy_endpoint(endpoint)
+        if problem is not None:
+            raise refuse(f"{problem}; choose another --listen endpoint")
     options = DaemonOptions(
         guard=guard,
         platform=platform,
         swarm=swarm,
-        state_dir=state_dir or file.path(file.state_dir, base) or Path(f"state-{platform}"),
+        state_dir=state_dir
+        or file.path(file.state_dir, base)
+        or default_daemon_state(swarm, platform),
         zenoh=settings,
         config=daemon_core(core),
         world=world_config,

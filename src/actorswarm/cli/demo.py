@@ -95,7 +95,7 @@ def _summary_table(report: dict[str, Any], mission: Mission) -> Table:
     if report.get("wrecks"):
         table.add_row(
             "lost vehicles",
-            ", ".join(f"{w['platform']} at {w['t']:.1f} s" for w in report["wrecks"]),
+            ", ".join(f"platform {w['platform']} at {w['t']:.1f} s" for w in report["wrecks"]),
         )
     if report["plugin_failures"]:
         table.add_row("plugin failures", str(len(report["plugin_failures"])))

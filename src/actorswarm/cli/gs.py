@@ -18,7 +18,7 @@ from typing import Annotated, Any
 
 import typer
 
-from actorswarm.cli.common import check_script, int_list_or_count, read_world
+from actorswarm.cli.common import check_script, int_list_or_count, output_file, read_world
 from actorswarm.cli.swarm_options import (
     BroadcastOpt,
     ConnectOpt,
@@ -34,11 +34,39 @@ from actorswarm.cli.swarm_options import (
     link,
 )
 
+#: Where ``deploy`` remembers and ``start`` finds the script, as the help says it.
+_STATE_DEFAULT = "$XDG_STATE_HOME/actorswarm/gs-SWARM.json, or ~/.local/state/actorswarm/..."
+
 gs_app = typer.Typer(
     help="The ground station over a real swarm: deploy, start, event, force, pause, "
     "activate, stop, backup, status; record it, or watch it on the web page.",
     no_args_is_help=True,
 )
+
+
+@gs_app.callback()
+def _connection(
+    ctx: typer.Context,
+    profile: Annotated[
+        Path | None,
+        typer.Option(
+            envvar="ACTORSWARM_PROFILE",
+            help="A profile file (TOML) with the connection settings (swarm, connect, "
+            "multicast, keys or insecure...), as `actorswarm launch` writes one; the command "
+            "line and the ACTORSWARM_* environment variables come first.",
+        ),
+    ] = None,
+) -> None:
+    """The ground station over a real swarm. Connection settings come from each
+    command's options, the ACTORSWARM_* environment variables, then --profile."""
+    from actorswarm.cli.profile import ProfileError, apply_profile
+
+    try:
+        # Before the command reads its options (and so their environment variables).
+        ctx.call_on_close(apply_profile(profile))
+    except ProfileError as exc:
+        typer.echo(str(exc), err=True)
+        raise typer.Exit(2) from None
 
 
 @gs_app.command("deploy")
@@ -53,7 +81,10 @@ def gs_deploy(
     group: GroupOpt = None,
     interface: InterfaceOpt = None,
     timeout: TimeoutOpt = 10.0,
-    state: Annotated[Path | None, typer.Option(help="Where to remember the deployment.")] = None,
+    state: Annotated[
+        Path | None,
+        typer.Option(help="Where to remember the deployment.", show_default=_STATE_DEFAULT),
+    ] = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
     world: Annotated[
@@ -71,6 +102,7 @@ def gs_deploy(
     message, and the exit status is 1 (2 when the script or the world cannot be read)."""
     ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     platforms = int_list_or_count(expect, "--expect")
+    output_file(state or default_state_file(ln.swarm), "--state")  # before anything is sent
     areas = None if world is None else [area.name for area in read_world(world).areas]
     code, script = check_script(file, areas=areas)
     if script is None or code:
@@ -91,7 +123,7 @@ def gs_deploy(
 
     sha, missing, unreachable, why = asyncio.run(go())
     confirmed = sorted(set(platforms) - set(missing))
-    path = state or default_state_file(swarm)
+    path = state or default_state_file(ln.swarm)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps({"sha256": sha, "file": str(file.resolve()), "expect": platforms}))
     typer.echo(f"script {sha[:12]}: confirmed by {len(confirmed)} of {len(platforms)}: {confirmed}")
@@ -117,7 +149,10 @@ def gs_start(
     force: Annotated[
         bool, typer.Option("--force", help="Start without every confirmation.")
     ] = False,
-    state: Annotated[Path | None, typer.Option(help="Where deploy remembered the script.")] = None,
+    state: Annotated[
+        Path | None,
+        typer.Option(help="Where deploy remembered the script.", show_default=_STATE_DEFAULT),
+    ] = None,
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
 ) -> None:
@@ -125,7 +160,7 @@ def gs_start(
     from actorswarm.ground.station import NotConfirmed
 
     ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
-    path = state or default_state_file(swarm)
+    path = state or default_state_file(ln.swarm)
     try:
         saved: dict[str, Any] = json.loads(path.read_text())
         data = Path(saved["file"]).read_bytes()

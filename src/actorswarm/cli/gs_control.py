@@ -11,6 +11,7 @@ for unusable options.
 from __future__ import annotations
 
 import asyncio
+import re
 from collections.abc import Callable
 from typing import Annotated
 
@@ -33,6 +34,7 @@ from actorswarm.cli.swarm_options import (
 )
 from actorswarm.engine import commands as cmds
 from actorswarm.ground.station import GroundStation
+from actorswarm.suggest import did_you_mean
 
 __all__ = ["register"]
 
@@ -67,12 +69,29 @@ async def _run(
         return targets, got, set(gs.station.unreachable) - set(got), why
 
 
-def _execute(ln: Link, name: str, send: Send, platforms: str | None, timeout: float) -> None:
+def _execute(
+    ln: Link,
+    name: str,
+    send: Send,
+    platforms: str | None,
+    timeout: float,
+    actor: str | None = None,
+) -> None:
     """Send, wait, print the outcome per platform and why the silent ones said nothing,
-    exit with the status of the module docstring."""
+    exit with the status of the module docstring. When every platform refused for the
+    same reason, that reason is one line for all of them, with a suggestion for ``actor``
+    (the command's ACTOR) when the platforms named the actors they have."""
     chosen = None if platforms is None else id_list(platforms, "--platforms")
     targets, answers, unreachable, why = asyncio.run(_run(ln, name, send, chosen, timeout))
-    for p in targets:
+    same = _one_refusal(targets, answers)
+    if same is not None:
+        hint = ""
+        if actor is not None:
+            have = sorted({a for m in re.findall(r"\(loaded: ([^)]*)\)", same) for a in
+                           m.split(", ") if a and a != "none"})  # fmt: skip
+            hint = did_you_mean(actor, have)
+        typer.echo(f"  {_ids(targets)}: FAILED: {same}{hint}")
+    for p in targets if same is None else ():
         silent = "no answer"
         if p in unreachable:
             silent = f"unreachable: nothing acknowledged in {timeout:g} s"
@@ -82,6 +101,30 @@ def _execute(ln: Link, name: str, send: Send, platforms: str | None, timeout: fl
         typer.echo(line, err=True)
     if not targets or set(targets) - set(answers) or not any(ok for ok, _ in answers.values()):
         raise typer.Exit(1)
+
+
+def _one_refusal(targets: list[int], answers: dict[int, tuple[bool, str]]) -> str | None:
+    """The reason, when more than one platform was asked and every one refused for the
+    same reason (its own number taken out); None otherwise."""
+    if len(targets) < 2 or set(targets) - set(answers):
+        return None
+    reasons = {
+        re.sub(r" on platform \d+", "", message) for ok, message in answers.values() if not ok
+    }
+    if len(reasons) != 1 or any(ok for ok, _ in answers.values()):
+        return None
+    return reasons.pop()
+
+
+def _ids(platforms: list[int]) -> str:
+    """``1-4,7``: the platforms as ranges."""
+    parts: list[str] = []
+    for p in sorted(platforms):
+        if parts and parts[-1].split("-")[-1] == str(p - 1):
+            parts[-1] = f"{parts[-1].split('-')[0]}-{p}"
+        else:
+            parts.append(str(p))
+    return ",".join(parts)
 
 
 def _to(command: cmds.Command) -> Send:
@@ -130,7 +173,8 @@ def gs_force(
     ] = None,
     to: Annotated[str, typer.Option("--to", help="The actor to switch to.")] = "",
     param: Annotated[
-        list[str] | None, typer.Option(help="KEY=VALUE for the new actor (repeatable).")
+        list[str] | None,
+        typer.Option(metavar="KEY=VALUE", help="A param of the new actor (repeatable)."),
     ] = None,
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
@@ -175,7 +219,7 @@ def _actor_command(name: str, make: Callable[[str], cmds.Command], doc: str) -> 
         insecure: InsecureOpt = False,
     ) -> None:
         ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
-        _execute(ln, name, _to(make(actor)), platforms, timeout)
+        _execute(ln, name, _to(make(actor)), platforms, timeout, actor)
 
     command.__doc__ = doc
     return command

@@ -59,7 +59,14 @@ def keys_init(
     try:
         paths = init_keys(target, force=force)
         keys = load_keys(target)
-    except (KeysExistError, KeyFileError) as exc:
+    except KeysExistError as exc:
+        names = ", ".join(p.name for p in exc.paths)
+        raise _fail(
+            f"{target} already holds keys ({names}): keep them, or replace them with "
+            "`actorswarm keys init --force` (every platform then needs the new swarm.key and "
+            "ground_station.pub)"
+        ) from None
+    except KeyFileError as exc:
         raise _fail(str(exc)) from None
     typer.echo(f"Created keys in {paths.directory}")
     typer.echo(

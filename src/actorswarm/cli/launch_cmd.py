@@ -11,9 +11,12 @@ from __future__ import annotations
 import os
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+if TYPE_CHECKING:
+    from actorswarm.launch.runner import Launcher
 
 __all__ = ["launch"]
 
@@ -69,9 +72,51 @@ def launch(
         for p in plan.plans:
             typer.echo(" ".join(launcher.swarm.command(p.platform, *plan.daemon_args(p))))
         return
+    _check_ports(launcher, file)
+    _gs_settings(launcher, keys)
     if _may_read_stdin():
         launcher.listen(sys.stdin)
     raise typer.Exit(launcher.run(live=console.is_terminal, interval=interval))
+
+
+def _check_ports(launcher: Launcher, file: Path) -> None:
+    """Refuse (exit 2, before any daemon starts) when a port the launch needs is taken: a
+    daemon would otherwise die at start with the error in its log only."""
+    from actorswarm.cli.swarm_setup import busy_endpoint, refuse
+
+    wanted = [("ports", e) for e in launcher.swarm.endpoints]
+    web = launcher.plan.web
+    if web is not None:
+        wanted.append(("web", f"tcp/127.0.0.1:{web}"))
+    for key, endpoint in wanted:
+        problem = busy_endpoint(endpoint)
+        if problem is not None:
+            raise refuse(f"{file}: {problem}; choose other {key} in the file (or free the port)")
+
+
+def _gs_settings(launcher: Launcher, keys: Path | None) -> None:
+    """Write the ground station's settings of this swarm as a profile next to the daemons'
+    files and print the ``gs`` lines that reach it."""
+    import shlex
+
+    from actorswarm.cli.profile import profile_text
+
+    plan = launcher.plan
+    endpoints = list(launcher.swarm.endpoints)
+    profile = plan.directory / "gs-profile.toml"
+    profile.parent.mkdir(parents=True, exist_ok=True)
+    profile.write_text(
+        profile_text(plan.swarm, endpoints, plan.multicast, keys, plan.insecure), encoding="utf-8"
+    )
+    args = ["--swarm", plan.swarm, "--multicast" if plan.multicast else "--no-multicast"]
+    for endpoint in endpoints:
+        args += ["--connect", endpoint]
+    args += ["--insecure"] if plan.insecure else ["--keys", str(keys)] if keys else []
+    typer.echo(f"ground station of this swarm: actorswarm gs status {shlex.join(args)}")
+    typer.echo(
+        f"  or, with its settings in {profile}: actorswarm gs --profile {profile} status "
+        f"(or export ACTORSWARM_PROFILE={profile})"
+    )
 
 
 def _may_read_stdin() -> bool:

@@ -4,14 +4,13 @@ a clear error and exit status 2 when they are not usable (:mod:`.swarm_setup`)."
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from actorswarm.cli.swarm_setup import check_swarm, packet_guard, zenoh_settings
+from actorswarm.cli.swarm_setup import check_swarm, packet_guard, user_state_dir, zenoh_settings
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings
 
@@ -37,40 +36,70 @@ __all__ = [
     "zenoh_settings",
 ]
 
-SwarmOpt = Annotated[str, typer.Option(help="The swarm's name (its Zenoh namespace).")]
-ConnectOpt = Annotated[
-    list[str] | None, typer.Option(help="Zenoh endpoint to connect to (repeatable).")
+# The ground station's connection options also come from the environment or a profile
+# (actorswarm.cli.profile): ACTORSWARM_SWARM, ACTORSWARM_CONNECT...
+SwarmOpt = Annotated[
+    str, typer.Option(envvar="ACTORSWARM_SWARM", help="The swarm's name (its Zenoh namespace).")
 ]
-ListenOpt = Annotated[list[str] | None, typer.Option(help="Zenoh endpoint to listen on.")]
+ConnectOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        metavar="ENDPOINT",
+        envvar="ACTORSWARM_CONNECT",
+        help="Zenoh endpoint to connect to (repeatable).",
+    ),
+]
+ListenOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        metavar="ENDPOINT", envvar="ACTORSWARM_LISTEN", help="Zenoh endpoint to listen on."
+    ),
+]
 MulticastOpt = Annotated[
     bool | None,
     typer.Option(
         "--multicast/--no-multicast",
+        envvar="ACTORSWARM_MULTICAST",
         help="Multicast scouting of peers (default on with --broadcast mesh, off with multicast).",
     ),
 ]
 BroadcastOpt = Annotated[
     str | None,
     typer.Option(
+        envvar="ACTORSWARM_BROADCAST",
         help="How the swarm's broadcasts travel: mesh (the default) or multicast (everything "
-        "on --group; every platform must say the same)."
+        "on --group; every platform must say the same).",
     ),
 ]
 GroupOpt = Annotated[
     str | None,
-    typer.Option(help="The multicast group, ADDRESS:PORT (default 224.0.0.225:7448)."),
+    typer.Option(
+        envvar="ACTORSWARM_GROUP",
+        help="The multicast group, ADDRESS:PORT (default 224.0.0.225:7448).",
+    ),
 ]
 InterfaceOpt = Annotated[
     str | None,
-    typer.Option(help="The network interface of the multicast group (wlan0; default: any)."),
+    typer.Option(
+        envvar="ACTORSWARM_INTERFACE",
+        help="The network interface of the multicast group (wlan0; default: any).",
+    ),
 ]
 TimeoutOpt = Annotated[float, typer.Option(min=0.1, help="Seconds to wait for the swarm.")]
 KeysOpt = Annotated[
     Path | None,
-    typer.Option(help="The swarm's key directory (default: the user's; see `keys init`)."),
+    typer.Option(
+        envvar="ACTORSWARM_KEYS",
+        help="The swarm's key directory (default: the user's; see `keys init`).",
+    ),
 ]
 InsecureOpt = Annotated[
-    bool, typer.Option("--insecure", help="No packet authentication (trusted networks only).")
+    bool,
+    typer.Option(
+        "--insecure",
+        envvar="ACTORSWARM_INSECURE",
+        help="No packet authentication (trusted networks only).",
+    ),
 ]
 
 
@@ -112,5 +141,4 @@ def link(
 
 def default_state_file(swarm: str) -> Path:
     """Where ``gs deploy`` remembers what it deployed to ``swarm``."""
-    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
-    return Path(base) / "actorswarm" / f"gs-{swarm}.json"
+    return user_state_dir() / f"gs-{swarm}.json"

@@ -18,7 +18,15 @@ from actorswarm.transport.zenoh_transport import (
     key_prefix,
 )
 
-__all__ = ["check_swarm", "packet_guard", "refuse", "zenoh_settings"]
+__all__ = [
+    "busy_endpoint",
+    "check_swarm",
+    "default_daemon_state",
+    "packet_guard",
+    "refuse",
+    "user_state_dir",
+    "zenoh_settings",
+]
 
 
 def refuse(message: str) -> SystemExit:
@@ -90,3 +98,46 @@ def check_swarm(swarm: str) -> None:
         key_prefix(swarm)
     except ValueError as exc:
         raise refuse(str(exc)) from None
+
+
+def busy_endpoint(endpoint: str) -> str | None:
+    """Why this machine cannot listen on the Zenoh ``endpoint`` (``tcp/HOST:PORT``,
+    ``udp/HOST:PORT``; others are not checked), one line; None when it can (at the moment
+    of asking: another process may still take it before Zenoh does)."""
+    import socket
+
+    proto, _, rest = endpoint.partition("/")
+    rest = rest.split("#")[0].split("?")[0]
+    host, sep, port_text = rest.rpartition(":")
+    if proto not in ("tcp", "udp") or not sep or not port_text.isdigit() or int(port_text) == 0:
+        return None
+    host = host.strip("[]")
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    kind = socket.SOCK_STREAM if proto == "tcp" else socket.SOCK_DGRAM
+    try:
+        with socket.socket(family, kind) as sock:
+            if proto == "tcp":
+                # As a listener does: a port in TIME_WAIT is free, one listened on is not.
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind((host, int(port_text)))
+    except OSError as exc:
+        if exc.errno in (None, 0) or isinstance(exc, socket.gaierror):
+            return None  # a name Zenoh resolves itself: let it say what is wrong
+        return f"cannot listen on {endpoint}: {exc.strerror or exc}"
+    return None
+
+
+def user_state_dir() -> Path:
+    """The user's state directory for actorswarm: ``$XDG_STATE_HOME/actorswarm``, or
+    ``~/.local/state/actorswarm``."""
+    import os
+
+    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
+    return Path(base) / "actorswarm"
+
+
+def default_daemon_state(swarm: str, platform: int) -> Path:
+    """Where a daemon keeps its state without ``--state-dir``: under the user's state
+    directory, per swarm and platform (not in the working directory, which may be a
+    checkout)."""
+    return user_state_dir() / swarm / f"platform-{platform}"

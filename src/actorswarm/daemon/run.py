@@ -80,11 +80,13 @@ from actorswarm.daemon.heap import HeapTrim
 from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
 from actorswarm.daemon.records import STATUS_TRANSITIONS, EngineRecords
 from actorswarm.daemon.state import StateDir, WritePacer
-from actorswarm.dsl.isolated import check_isolated
+from actorswarm.dsl.isolated import ScriptRefused, check_isolated, check_isolated_async
 from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
 
 if TYPE_CHECKING:
+    from actorswarm.dsl.model import TaskScript
+    from actorswarm.engine.engine import TaskEngine
     from actorswarm.engine.records import TransitionRecord
     from actorswarm.vehicles.mavlink.vehicle import MavlinkVehicle
     from actorswarm.world.config import WorldConfig
@@ -314,6 +316,10 @@ async def _main(options: DaemonOptions) -> int:
 
     transport = ZenohTransport(options.swarm, options.platform, options.zenoh)
     inbox = Inbox(loop, transport)
+    # A deployed script is checked by a child process while the loop goes on serving: a
+    # check on the loop (0.2 s idle, over 1 s on a loaded host) would silence the platform
+    # long enough for the swarm to think it gone.
+    engine.check_later = _check_later(engine, inbox)
     _log(
         "started",
         platform=options.platform,
@@ -411,6 +417,28 @@ async def _main(options: DaemonOptions) -> int:
             autopilot.close()
         _log("stopped", platform=options.platform, backup=generation)
     return 0
+
+
+def _check_later(engine: TaskEngine, inbox: Inbox) -> Callable[[str, str], None]:
+    """The engine's ``check_later``: the check runs as a task of the running loop, its
+    verdict is handed to the engine, and the loop is woken to send the answer."""
+    tasks: set[asyncio.Task[None]] = set()
+
+    async def check(sha: str, text: str) -> None:
+        verdict: TaskScript | ScriptRefused
+        try:
+            verdict = await check_isolated_async(text, f"deploy:{sha[:12]}")
+        except ScriptRefused as exc:
+            verdict = exc
+        engine.checked(sha, verdict, clock())
+        inbox.poke()
+
+    def start(sha: str, text: str) -> None:
+        task = asyncio.get_running_loop().create_task(check(sha, text))
+        tasks.add(task)  # kept until done: the loop holds tasks only weakly
+        task.add_done_callback(tasks.discard)
+
+    return start
 
 
 def _operator_override(autopilot: MavlinkVehicle, commands: list[Any]) -> None:

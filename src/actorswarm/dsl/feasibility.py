@@ -34,9 +34,12 @@ exists at which the group could fire.
 Branch counts bound the holders too (:func:`most_holders`): every platform that ever runs an
 actor started in one of the actors that lead to it, and a platform that started in an actor
 no transition re-enters (a *closed* actor) can only have left it through that actor's
-transitions. A ``sysNum="all"`` transition out of a closed actor fires once (it takes every
-holder, and none can come back), so its branch of ``cnt="4"`` sends 4 platforms in all; a
-numeric ``sysNum`` n out of a closed actor started on N platforms fires at most N // n times.
+transitions. As for reachability, the group's own successors do not count as re-entering:
+until the group first fired they bring nobody back, so an actor that only the group's
+release re-enters is closed for the group's bound. A ``sysNum="all"`` transition out of
+a closed actor fires once (it takes every holder, and none can come back), so its branch
+of ``cnt="4"`` sends 4 platforms in all; a numeric ``sysNum`` n out of a closed actor
+started on N platforms fires at most N // n times.
 So in "take off, then 4 to Escort and the rest to Search", at most 4 platforms can ever run
 Escort, and a transition of Escort with ``sysNum="6"`` can never fire.
 
@@ -51,7 +54,7 @@ from __future__ import annotations
 
 from collections import defaultdict, deque
 from collections.abc import Hashable, Iterable, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from actorswarm.dsl.model import Position, TaskScript, Transition
 from actorswarm.dsl.syntax import id_ranges
@@ -385,11 +388,14 @@ def infeasible_groups(script: TaskScript) -> Iterator[Infeasible]:
     full = Reach.build(classes, graph, most_holders(script, graph))
     for group in groups(script):
         # Leaving out the edges *from* a lone transition's own actor cannot change whether
-        # that actor is reached, so only a group of several needs its own reachability (the
-        # bound from counts of the full graph is looser, never wrong: fewer edges only
-        # lower it).
+        # that actor is reached, so only a group of several needs its own reachability. The
+        # bound from counts can change, though: an actor re-entered only through the group's
+        # own release is closed until the group first fired (a cycle back through the group
+        # does not bring anybody before that).
         if len(group.members) == 1:
-            swarm = full
+            without = edges(script, without=group.members)
+            most = most_holders(script, without, without=group.members)
+            swarm = full if most == full.most else replace(full, most=most)
         else:
             without = edges(script, without=group.members)
             swarm = Reach.build(

@@ -29,7 +29,13 @@ import msgspec
 
 from actorswarm.dsl.model import TaskScript, frozen_map
 
-__all__ = ["ScriptChecker", "ScriptRefused", "check_in_process", "check_isolated"]
+__all__ = [
+    "ScriptChecker",
+    "ScriptRefused",
+    "check_in_process",
+    "check_isolated",
+    "check_isolated_async",
+]
 
 #: What a checker is: (script text, the name diagnostics give it) -> its model.
 ScriptChecker = Callable[[str, str], TaskScript]
@@ -82,19 +88,46 @@ def _refreeze(obj: Any) -> Any:
     return obj
 
 
+def _child() -> tuple[list[str], dict[str, str]]:
+    """The child's command and environment: it imports what this process would, the same
+    package and the same plugins."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
+    return [sys.executable, "-m", "actorswarm.dsl.isolated"], env
+
+
+def _request(text: str, path: str) -> bytes:
+    return msgspec.msgpack.encode({"text": text, "path": path})
+
+
+def _answer(path: str, returncode: int, stdout: bytes, stderr: bytes) -> TaskScript:
+    """The model the child sent back, or ScriptRefused saying why not."""
+    if returncode != 0:
+        why = stderr.decode("utf-8", errors="replace").strip().splitlines()
+        raise ScriptRefused(
+            f"{path}: the checker failed (exit {returncode}): {why[-1] if why else ''}"
+        )
+    try:
+        verdict = msgspec.msgpack.decode(stdout, type=_Verdict)
+    except msgspec.DecodeError as exc:
+        raise ScriptRefused(f"{path}: the checker's answer is unreadable: {exc}") from exc
+    if verdict.script is None:
+        raise ScriptRefused(verdict.first or f"{path}: the script is invalid")
+    script: TaskScript = _refreeze(verdict.script)
+    return script
+
+
 def check_isolated(text: str, path: str, *, timeout: float = CHECK_TIMEOUT) -> TaskScript:
     """The checker's verdict on ``text`` from a child interpreter (see the module's
     docstring). A child that fails, hangs past ``timeout`` seconds or answers garbage
     refuses the script, saying so; when no child can be started at all, the script is
-    checked in this process."""
-    env = dict(os.environ)
-    # The child imports what this process would: the same package, the same plugins.
-    env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
-    request = msgspec.msgpack.encode({"text": text, "path": path})
+    checked in this process. Blocks the caller while the child runs: an event loop uses
+    :func:`check_isolated_async`."""
+    command, env = _child()
     try:
         done = subprocess.run(
-            [sys.executable, "-m", "actorswarm.dsl.isolated"],
-            input=request,
+            command,
+            input=_request(text, path),
             capture_output=True,
             timeout=timeout,
             env=env,
@@ -106,19 +139,35 @@ def check_isolated(text: str, path: str, *, timeout: float = CHECK_TIMEOUT) -> T
         return check_in_process(text, path)
     except subprocess.TimeoutExpired as exc:
         raise ScriptRefused(f"{path}: the checker did not answer in {timeout:g} s") from exc
-    if done.returncode != 0:
-        why = done.stderr.decode("utf-8", errors="replace").strip().splitlines()
-        raise ScriptRefused(
-            f"{path}: the checker failed (exit {done.returncode}): {why[-1] if why else ''}"
-        )
+    return _answer(path, done.returncode, done.stdout, done.stderr)
+
+
+async def check_isolated_async(
+    text: str, path: str, *, timeout: float = CHECK_TIMEOUT
+) -> TaskScript:
+    """:func:`check_isolated` for an event loop: the loop keeps running (heartbeats, the
+    swarm's packets) while the child checks; same verdicts. A child past ``timeout`` is
+    killed."""
+    import asyncio
+
+    command, env = _child()
     try:
-        verdict = msgspec.msgpack.decode(done.stdout, type=_Verdict)
-    except msgspec.DecodeError as exc:
-        raise ScriptRefused(f"{path}: the checker's answer is unreadable: {exc}") from exc
-    if verdict.script is None:
-        raise ScriptRefused(verdict.first or f"{path}: the script is invalid")
-    script: TaskScript = _refreeze(verdict.script)
-    return script
+        child = await asyncio.create_subprocess_exec(
+            *command,
+            stdin=asyncio.subprocess.PIPE,
+            stdout=asyncio.subprocess.PIPE,
+            stderr=asyncio.subprocess.PIPE,
+            env=env,
+        )
+    except OSError:
+        return check_in_process(text, path)  # as check_isolated: no child to start
+    try:
+        stdout, stderr = await asyncio.wait_for(child.communicate(_request(text, path)), timeout)
+    except TimeoutError as exc:
+        child.kill()
+        await child.wait()
+        raise ScriptRefused(f"{path}: the checker did not answer in {timeout:g} s") from exc
+    return _answer(path, child.returncode or 0, stdout, stderr)
 
 
 def main() -> None:

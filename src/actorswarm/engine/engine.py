@@ -47,7 +47,7 @@ go is :mod:`.slots`, the records :mod:`.records`.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import msgspec
 
@@ -62,6 +62,9 @@ from actorswarm.engine.plan import Plan
 from actorswarm.engine.records import Cause, CommandRecord, FiredRecord, TransitionRecord
 from actorswarm.engine.runtime import ActorContext, ActorHost
 from actorswarm.runtime.storage import BackupStore
+
+if TYPE_CHECKING:
+    from actorswarm.dsl.model import TaskScript
 
 __all__ = ["CommandRecord", "FiredRecord", "TaskEngine", "TransitionRecord"]
 
@@ -94,6 +97,12 @@ class TaskEngine(ActorMachine):
         #: (default: in this process; a daemon checks in a child process, so it never
         #: carries the checker, actorswarm.dsl.isolated).
         self.checker: ScriptChecker = check_in_process
+        #: When set (a daemon), a deployed script is checked without blocking: called with
+        #: ``(sha256, text)`` once the script is whole, it arranges for :meth:`checked` to
+        #: be called with the verdict later; the DeployAck (or the refusal) waits for it.
+        self.check_later: Callable[[str, str], None] | None = None
+        # Scripts whose verdict check_later owes: the bytes, to keep once it is given.
+        self._checking: dict[str, bytes] = {}
 
     def _app(self, msg: AppReceived, now: float) -> None:
         if msg.topic != cmds.TOPIC_COMMAND:
@@ -200,6 +209,8 @@ class TaskEngine(ActorMachine):
         if chunk.sha256 in self._deployed:
             self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
             return None
+        if chunk.sha256 in self._checking:
+            return None  # a retransmission while the check runs: the verdict answers it
         parts = self._chunks.setdefault(chunk.sha256, {})
         parts[chunk.index] = chunk.data
         if len(parts) < chunk.total:
@@ -208,6 +219,10 @@ class TaskEngine(ActorMachine):
         text = b"".join(parts[i] for i in range(chunk.total))
         if sha256_hex(text) != chunk.sha256:
             raise ValueError("the script does not hash to the SHA-256 it was sent with")
+        if self.check_later is not None:
+            self._checking[chunk.sha256] = text
+            self.check_later(chunk.sha256, text.decode("utf-8", errors="replace"))
+            return None
         try:
             script = self.checker(
                 text.decode("utf-8", errors="replace"), f"deploy:{chunk.sha256[:12]}"
@@ -219,6 +234,22 @@ class TaskEngine(ActorMachine):
             self.on_deployed(chunk.sha256, text)
         self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
         return None
+
+    def checked(self, sha: str, verdict: TaskScript | ScriptRefused, now: float) -> None:
+        """The verdict of a check :attr:`check_later` ran for the deployed script ``sha``:
+        the script is kept and acknowledged, or refused with the reason, as an in-line check
+        would have (the outcome is recorded as a ``DeployChunk`` command)."""
+        text = self._checking.pop(sha, None)
+        if text is None:
+            return
+        if isinstance(verdict, ScriptRefused):
+            self.commands.append(CommandRecord(t=now, command="DeployChunk", event="", ok=False))
+            self._result("DeployChunk", False, f"script refused: {verdict}", now)
+            return
+        self._deployed[sha] = Plan.build(verdict)
+        if self.on_deployed is not None:
+            self.on_deployed(sha, text)
+        self._reply(cmds.DeployAck(sha256=sha), now)
 
     def adopt(self, script: bytes) -> str:
         """Register ``script`` as deployed (a daemon restarting with the scripts of its state

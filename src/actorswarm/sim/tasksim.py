@@ -358,12 +358,22 @@ class TaskSim:
         completed = bool(final) and all(
             actors and all(a in terminal for a in actors) for actors in final.values()
         )
+        # Why not: the actors still held that have transitions, with the events they wait
+        # for (a platform running nothing waits for nothing it can get).
+        waiting = {
+            actor: sorted({t.event for ts in self.script.transitions.values() for t in ts
+                           if t.actor == actor})
+            for actors in final.values()
+            for actor in actors
+            if actor not in terminal
+        }  # fmt: skip
         traffic = {
             str(p): {k: v for k, v in row.items() if k != "by_kind"}
             for p, row in self.swarm.traffic().items()
         }
         return {
             "completed": completed,
+            "waiting": dict(sorted(waiting.items())),
             "sim_time_s": round(self.swarm.now, 6),
             "final_actors": final,
             "transitions": sorted(self.records, key=lambda r: (r["t"], r["platform"])),
@@ -469,10 +479,29 @@ def steps(transitions: Iterable[dict[str, Any]]) -> list[Step]:
     return out
 
 
+def _why_not(report: dict[str, Any]) -> str:
+    """Why a run did not complete, in a few words: which actors still have transitions and
+    on how many platforms, and the events those wait for."""
+    holders: dict[str, int] = {}
+    idle = 0
+    for actors in report["final_actors"].values():
+        idle += not actors
+        for actor in actors:
+            holders[actor] = holders.get(actor, 0) + 1
+    parts = []
+    for actor, events in report.get("waiting", {}).items():
+        on = f" waits for {' or '.join(events)}" if events else ""
+        parts.append(f"{actor} on {holders.get(actor, 0)}{on}")
+    if idle:
+        parts.append(f"{idle} platform(s) run no actor")
+    return "; ".join(parts) or "no platform ran"
+
+
 def summary(report: dict[str, Any]) -> list[str]:
     """A few human-readable lines about a run's report."""
     lines = [
-        f"simulated {report['sim_time_s']:.1f} s; completed: {report['completed']}",
+        f"simulated {report['sim_time_s']:.1f} s; completed: {report['completed']}"
+        + ("" if report["completed"] else f" ({_why_not(report)})"),
     ]
     for first, last, event, src, dst, cause, who in steps(report["transitions"]):
         spread = f" (+{(last - first) * 1000:.0f} ms)" if last > first else ""

@@ -36,6 +36,11 @@ _DPI = 120
 
 
 def _title(recording: Recording, what: str) -> str:
+    """``what``, after the mission's name (a shipped mission: two share one script) or
+    else the script's."""
+    mission = recording.meta.get("mission")
+    if isinstance(mission, str) and mission:
+        return f"{mission} mission: {what}"
     name = recording.meta.get("script") or recording.meta.get("name")
     return f"{name}: {what}" if isinstance(name, str) and name else what
 
@@ -150,7 +155,14 @@ def trajectory_png(recording: Recording, out: Path) -> Path:
     mid_x = float(every_x.min() + every_x.max()) / 2
     snap_handles: list[Line2D] = []
     snap_colours = colormaps["Dark2"]
-    for k, moment in enumerate(_collectives(recording)):
+    captions: set[str] = set()
+    for moment in _collectives(recording):
+        # Parts of one release (a merge: C → D and B → D on one event) are one snapshot.
+        caption = f"{moment.label} @ {moment.t:.1f} s"
+        if caption in captions:
+            continue
+        captions.add(caption)
+        k = len(captions) - 1
         at = np.array(
             [
                 [np.interp(moment.t, times, xyz[:, 0]), np.interp(moment.t, times, xyz[:, 1])]
@@ -162,7 +174,6 @@ def trajectory_png(recording: Recording, out: Path) -> Path:
             continue
         c = snap_colours(k % snap_colours.N)
         ax.scatter(at[:, 0], at[:, 1], s=30, marker="^", color=c, alpha=0.85, zorder=6)
-        caption = f"{moment.label} @ {moment.t:.1f} s"
         x = float(at[:, 0].mean())
         right = x > mid_x  # caption inwards, so it stays inside the axes
         ax.annotate(
@@ -193,15 +204,26 @@ def trajectory_png(recording: Recording, out: Path) -> Path:
     ]
     if recording.targets:
         handles.append(
-            Line2D([], [], marker="D", linestyle="--", color="black", label="target (end: ◆)")
+            Line2D(
+                [],
+                [],
+                marker="D",
+                markerfacecolor="black",
+                markeredgecolor="black",
+                linestyle="--",
+                linewidth=3.0,
+                color="0.45",
+                alpha=0.8,
+                label="target route (end: ◆)",
+            )
         )
     fig.legend(handles=handles, loc="outside right upper", fontsize=8, framealpha=0.9)
     return _save(fig, out)
 
 
 def _areas_and_targets(ax: Axes, recording: Recording) -> None:
-    """The world's areas (shaded outlines, named) and each target's path (dashed black,
-    a diamond where it ended), under the vehicles' paths."""
+    """The world's areas (shaded outlines, named) and each target's path (a wide dashed
+    grey band, a diamond where it ended), under the vehicles' paths."""
     for name, polygon in recording.areas().items():
         ax.add_patch(
             Polygon(polygon, closed=True, facecolor="0.9", edgecolor="0.6", linewidth=0.8, zorder=1)
@@ -219,7 +241,11 @@ def _areas_and_targets(ax: Axes, recording: Recording) -> None:
     for name, (_, xyz) in recording.targets.items():
         if not len(xyz):
             continue
-        ax.plot(xyz[:, 0], xyz[:, 1], linestyle="--", color="black", linewidth=1.0, zorder=3)
+        # A wide grey band under the vehicles' paths: a tracker following the target
+        # flies on it and stays visible.
+        ax.plot(
+            xyz[:, 0], xyz[:, 1], linestyle="--", color="0.45", linewidth=4.0, alpha=0.6, zorder=1.5
+        )
         ax.scatter([xyz[-1, 0]], [xyz[-1, 1]], marker="D", s=40, color="black", zorder=6)
         ax.annotate(
             name,
@@ -301,17 +327,45 @@ def timeline_png(recording: Recording, out: Path) -> Path:
         base = top
     peak = float(base.max()) if len(base) else 1.0
 
-    for k, moment in enumerate(_collectives(recording)):
-        ax.axvline(moment.t, color="black", linestyle="--", linewidth=0.9, zorder=3)
-        ax.annotate(
-            f"{moment.label} ({len(moment.platforms)} × {moment.src or '-'} → {moment.dst or '-'})",
-            (moment.t, peak * (1.04 - 0.08 * (k % 3))),
-            textcoords="offset points",
-            xytext=(3, 0),
-            fontsize=8,
-            va="top",
-        )
+    _captions(ax, recording, end, peak)
     ax.set_xlim(0.0, max(end, 1e-9))
     ax.set_ylim(0.0, max(peak, 1.0) * 1.15)
     ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
     return _save(fig, out)
+
+
+def _captions(ax: Axes, recording: Recording, end: float, peak: float) -> None:
+    """A dashed line at each collective transition and its caption, the parts of one
+    release in one caption; a caption goes on the highest row where it overlaps none
+    (widths estimated from the text at 8 pt on the 9-inch figure)."""
+    groups: dict[tuple[str, float], list[str]] = {}
+    for moment in _collectives(recording):
+        move = f"{len(moment.platforms)} × {moment.src or '-'} → {moment.dst or '-'}"
+        groups.setdefault((moment.label, round(moment.t, 1)), []).append(move)
+    span = max(end, 1e-9)
+    per_char = span * 4.6 / 560.0  # data units per character: 8 pt text, ~560 pt of axes
+    rows: list[list[tuple[float, float]]] = []
+    for (label, t), moves in sorted(groups.items(), key=lambda g: g[0][1]):
+        ax.axvline(t, color="black", linestyle="--", linewidth=0.9, zorder=3)
+        text = f"{label} ({', '.join(moves)})"
+        width = per_char * (len(text) + 2)
+        right = t + width > span  # no room to the right: the caption ends at its line
+        x0, x1 = (t - width, t) if right else (t, t + width)
+        row = next(
+            (i for i, taken in enumerate(rows) if all(x1 < a or x0 > b for a, b in taken)),
+            len(rows),
+        )
+        if row == len(rows):
+            rows.append([])
+        rows[row].append((x0, x1))
+        ax.annotate(
+            text,
+            (t, peak * (1.04 - 0.07 * row)),
+            textcoords="offset points",
+            xytext=(-3 if right else 3, 0),
+            ha="right" if right else "left",
+            fontsize=8,
+            va="top",
+            bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8},
+            zorder=4,
+        )

@@ -16,8 +16,13 @@ const state = { hello: null, names: [], t0: 0, selected: null, legend: "" };
 
 const link = new Link(receive, (up) => {
   $("link").className = `link ${up ? "up" : "down"}`;
-  $("link").textContent = up ? "live" : "reconnecting…";
+  $("link").textContent = up ? badge() : "reconnecting…";
 });
+
+// What the connected page shows: a recording played back is not live.
+function badge() {
+  return state.hello && state.hello.kind === "replay" ? "replay" : "live";
+}
 const map = new SwarmMap($("map"), $("tooltip"), $("map-note"), { onSelect: select });
 const graph = new StateGraph($("graph"));
 const timeline = new Timeline($("timeline"), $("step-count"));
@@ -87,6 +92,7 @@ function hello(m) {
   showSpeed(m.speed);
   showReplay(m.replay, m.t0 || 0);
   document.body.dataset.kind = m.kind;
+  if ($("link").classList.contains("up")) $("link").textContent = badge();
   graph.show(m.script);
   map.setAreas(m.areas);
   map.setHistory(m.trails);

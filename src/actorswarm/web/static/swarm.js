@@ -75,7 +75,7 @@ export class SwarmPanel {
     const actors = running.length ? running.map(pill) : resting.slice(0, 1).map(pill);
     const more = running.length ? resting : resting.slice(1);
     if (more.length) {
-      actors.push(el("span", { class: "muted", title: more.map((a) => `${a.name}: ${a.status}`).join("\n") }, `+${more.length} ${more.every((a) => a.status === "sleeping") ? "sleeping" : "loaded"}`));
+      actors.push(el("span", { class: "muted", title: more.map((a) => `${a.name}: ${a.status}`).join("\n") }, `+${more.length} ${more.every((a) => a.status === "sleeping") ? "paused" : "loaded"}`));
     }
     if (!actors.length) actors.push("—");
     return el(
