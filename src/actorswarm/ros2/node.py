@@ -152,25 +152,39 @@ class Inlet:
 class Call:
     """A service call in flight: :meth:`done` once answered or timed out; :meth:`result`
     the response, or :class:`Ros2Error` naming the service when it failed or never
-    answered."""
+    answered. The request is sent once the service is found (a request sent before
+    discovery matched it would be lost), both within ``timeout``; :meth:`done` (on the
+    loop's thread) looks."""
 
-    def __init__(self, service: str, future: Any, timeout: float) -> None:
+    def __init__(self, service: str, client: Any, request: Any, timeout: float) -> None:
         self.service = service
-        self._future = future
+        self._client = client
+        self._request = request
+        self._future: Any = None
         self._deadline = time.monotonic() + timeout
         self._timeout = timeout
 
+    def _send(self) -> None:
+        if self._future is None and self._client.service_is_ready():
+            self._future = self._client.call_async(self._request)
+
     def done(self) -> bool:
-        return bool(self._future.done()) or time.monotonic() >= self._deadline
+        self._send()
+        answered = self._future is not None and bool(self._future.done())
+        return answered or time.monotonic() >= self._deadline
 
     def result(self) -> Any:
-        if self._future.done():
-            error = self._future.exception()
+        self._send()
+        future = self._future
+        if future is not None and future.done():
+            error = future.exception()
             if error is not None:
                 raise Ros2Error(f"service {self.service}: the call failed: {error}")
-            return self._future.result()
+            return future.result()
         if time.monotonic() >= self._deadline:
-            self._future.cancel()
+            if future is None:
+                raise Ros2Error(f"service {self.service}: not found within {self._timeout:g} s")
+            future.cancel()
             raise Ros2Error(f"service {self.service}: no answer within {self._timeout:g} s")
         raise Ros2Error(f"service {self.service}: not answered yet")
 
@@ -382,7 +396,7 @@ class RosNode:
             except Exception as exc:
                 raise Ros2Error(f"service {service}: cannot call it: {exc}") from None
             self._clients[key] = client
-        return Call(self.resolve(service), client.call_async(request), timeout)
+        return Call(self.resolve(service), client, request, timeout)
 
     def serve(
         self,
