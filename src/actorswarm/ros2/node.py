@@ -46,6 +46,8 @@ __all__ = ["QOS", "Call", "Inlet", "RosNode", "Waker"]
 Qos = Literal["reliable", "sensor", "latched"]
 QOS: Final[tuple[str, ...]] = ("reliable", "sensor", "latched")
 
+#: Seconds between two looks at the graph for topics of another type.
+_GRAPH_EVERY: Final = 2.0
 #: Errors kept until drained; older ones are dropped (a node that fails for hours).
 _ERRORS_KEPT: Final = 100
 
@@ -234,6 +236,8 @@ class RosNode:
         self._clients: dict[tuple[str, str], Any] = {}
         self.inlets: list[Inlet] = []
         self._closed = False
+        self._graph_due = 0.0
+        self._mismatches: set[tuple[str, tuple[str, ...]]] = set()
 
     # --- lifetime -----------------------------------------------------------------------
 
@@ -284,11 +288,31 @@ class RosNode:
         self._wake()
 
     def drain_errors(self) -> list[str]:
-        """(Loop thread.) The errors reported since the last call, oldest first."""
+        """(Loop thread.) The errors reported since the last call, oldest first; every
+        :data:`_GRAPH_EVERY` seconds the graph is looked at too, for a subscribed topic
+        that others publish with another type (not every rmw reports it as an event)."""
+        now = time.monotonic()
+        if now >= self._graph_due and self.inlets:
+            self._graph_due = now + _GRAPH_EVERY
+            self._check_types()
         with self._errors_lock:
             out = list(self._errors)
             self._errors.clear()
         return out
+
+    def _check_types(self) -> None:
+        try:
+            graph = self.topic_types()
+        except Exception:  # the node is going away
+            return
+        for inlet in self.inlets:
+            others = [t for t in graph.get(inlet.topic, []) if t != inlet.type_name]
+            if others and (inlet.topic, tuple(others)) not in self._mismatches:
+                self._mismatches.add((inlet.topic, tuple(others)))
+                self.error(
+                    f"topic {inlet.topic}: published as {', '.join(others)}, subscribed as "
+                    f"{inlet.type_name}: those messages are not received"
+                )
 
     # --- topics -------------------------------------------------------------------------
 
