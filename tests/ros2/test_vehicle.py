@@ -83,7 +83,7 @@ def test_the_vehicle_flies_the_robot_over_ros2(ros_domain: int) -> None:
                 proc.wait(10)
                 assert await until(lambda: lost(vehicle, events), 5.0), events
                 seen["lost"] = vehicle.status()
-            seen["errors"] = vehicle.drain_errors()
+            seen["errors"] = vehicle.drain_errors() + node.drain_errors()
             seen["events"] = events
             return seen
         finally:
@@ -142,12 +142,12 @@ def test_a_pose_topic_of_another_type_is_named(ros_domain: int) -> None:
 
     async def go() -> list[str]:
         node = RosNode("platform", "/sw/p3")
-        vehicle = Ros2Vehicle(node, Ros2VehicleSettings(pose_type="nav_msgs/msg/Odometry"))
+        Ros2Vehicle(node, Ros2VehicleSettings(pose_type="nav_msgs/msg/Odometry"))
         node.start()
         errors: list[str] = []
         try:
             with robot("/sw/p3"):  # publishes PoseStamped on pose
-                await until(lambda: bool(errors.extend(vehicle.drain_errors()) or errors), 10.0)
+                await until(lambda: bool(errors.extend(node.drain_errors()) or errors), 10.0)
                 return errors
         finally:
             node.close()

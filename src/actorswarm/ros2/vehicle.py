@@ -226,7 +226,9 @@ class Ros2Vehicle:
         return out
 
     def drain_errors(self) -> list[str]:
-        out, self._errors = self._errors + self.node.drain_errors(), []
+        """What failed since the last call (a service that refused or never answered); the
+        node's own errors are its owner's to drain."""
+        out, self._errors = self._errors, []
         return out
 
     def status(self) -> dict[str, Any]:
