@@ -56,7 +56,7 @@ def test_the_bridge_publishes_what_the_ground_station_knows(ros_domain: int) -> 
                     ("p1/pose", "geometry_msgs/msg/PoseStamped", "reliable"),
                     ("p1/fix", "sensor_msgs/msg/NavSatFix", "reliable"),
                     ("p1/actor", "std_msgs/msg/String", "latched"),
-                    ("p1/vehicle", "diagnostic_msgs/msg/DiagnosticArray", "reliable"),
+                    ("p1/vehicle_state", "diagnostic_msgs/msg/DiagnosticArray", "reliable"),
                     ("master", "std_msgs/msg/UInt16", "latched"),
                     ("membership", "diagnostic_msgs/msg/DiagnosticArray", "reliable"),
                     ("markers", "visualization_msgs/msg/MarkerArray", "reliable"),
@@ -98,7 +98,7 @@ def test_the_bridge_publishes_what_the_ground_station_knows(ros_domain: int) -> 
     assert fix.longitude == pytest.approx(8.0 + 10 / 75_900, abs=2e-5)
     assert fix.altitude == pytest.approx(512.0, abs=0.01)
     assert got["p1/actor"].data == "Search"
-    vehicle = got["p1/vehicle"].status[0]
+    vehicle = got["p1/vehicle_state"].status[0]
     assert vehicle.level == b"\x02"  # ERROR: the link to the vehicle is lost
     assert {kv.key: kv.value for kv in vehicle.values}["mode"] == "GUIDED"
     assert got["master"].data == 1

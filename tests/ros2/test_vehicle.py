@@ -52,7 +52,10 @@ def test_the_vehicle_flies_the_robot_over_ros2(ros_domain: int) -> None:
     from actorswarm.ros2.vehicle import Ros2Vehicle
 
     settings = Ros2VehicleSettings(
-        takeoff_service="takeoff", land_service="land", offset=(100.0, 0.0, 0.0), pose_timeout=0.5
+        takeoff_service="robot/takeoff",
+        land_service="robot/land",
+        offset=(100.0, 0.0, 0.0),
+        pose_timeout=0.5,
     )
 
     async def go() -> dict[str, object]:
@@ -68,7 +71,7 @@ def test_the_vehicle_flies_the_robot_over_ros2(ros_domain: int) -> None:
             return math.dist(vehicle.position(), (x, y, z)) < 0.3
 
         try:
-            with robot("/sw/p1", "--at", "2,3") as proc:
+            with robot("/sw/p1/robot", "--at", "2,3") as proc:
                 assert await until(lambda: located(vehicle), 10.0)
                 seen["start"] = vehicle.position()  # the robot's (2, 3, 0), shifted
                 vehicle.takeoff(5.0)
@@ -113,7 +116,7 @@ def test_odometry_in_and_a_missing_service_named(ros_domain: int) -> None:
         node.start()
         errors: list[str] = []
         try:
-            with robot("/sw/p2", "--at=-1,1", "--pose-type", "odometry"):
+            with robot("/sw/p2/robot", "--at=-1,1", "--pose-type", "odometry"):
                 assert await until(lambda: located(vehicle), 10.0)
                 vehicle.takeoff(2.0)  # no such service: the setpoint alone flies it
 
@@ -146,7 +149,7 @@ def test_a_pose_topic_of_another_type_is_named(ros_domain: int) -> None:
         node.start()
         errors: list[str] = []
         try:
-            with robot("/sw/p3"):  # publishes PoseStamped on pose
+            with robot("/sw/p3/robot"):  # publishes PoseStamped on pose
                 await until(lambda: bool(errors.extend(node.drain_errors()) or errors), 10.0)
                 return errors
         finally:
@@ -154,7 +157,7 @@ def test_a_pose_topic_of_another_type_is_named(ros_domain: int) -> None:
 
     errors = asyncio.run(go())
     assert errors and errors[0] == (
-        "topic /sw/p3/pose: published as geometry_msgs/msg/PoseStamped, subscribed as "
+        "topic /sw/p3/robot/pose: published as geometry_msgs/msg/PoseStamped, subscribed as "
         "nav_msgs/msg/Odometry: those messages are not received"
     )
 

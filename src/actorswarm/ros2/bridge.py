@@ -14,7 +14,7 @@ platform N, under ``/<swarm>/pN/`` (what is sent, QoS):
                                                            ``--origin`` only)
 ``actor``          ``std_msgs/String``: the running        latched, on change
                    actors, comma-separated ("" for none)
-``vehicle``        ``diagnostic_msgs/DiagnosticArray``:    reliable, on each status
+``vehicle_state``  ``diagnostic_msgs/DiagnosticArray``:    reliable, on each status
                    the vehicle's own status entries
 =================  ======================================  ==========================
 
@@ -106,6 +106,8 @@ class GroundView:
         self.membership = Membership(t_leave)
         self.platforms: dict[int, Platform] = {}
         self.master: int | None = None
+        #: When the last status reply came (the station's clock; None: none yet).
+        self.answered: float | None = None
         #: Platforms whose status changed since the last :meth:`take_changed`.
         self._changed: set[int] = set()
 
@@ -118,6 +120,7 @@ class GroundView:
                 p.actors = dict(reply.actors)
                 p.vehicle = dict(reply.vehicle)
                 p.script = reply.script
+                self.answered = record.t
                 if reply.position is not None and len(reply.position) >= 3:
                     x, y, z = reply.position[:3]
                     p.position = (float(x), float(y), float(z))
@@ -189,7 +192,7 @@ class GroundBridge:
         for number in view.take_changed():
             p = view.platforms[number]
             self.node.publish(
-                f"{self.root}/p{number}/vehicle",
+                f"{self.root}/p{number}/vehicle_state",
                 "diagnostic_msgs/msg/DiagnosticArray",
                 msgs.diagnostics(stamp, f"p{number}", p.vehicle, vehicles.alarm(p.vehicle)),
             )

@@ -35,6 +35,10 @@ if TYPE_CHECKING:
 
 __all__ = ["gs_ros2", "register"]
 
+#: Seconds without a status answer, and without another session heard, before the bridge
+#: renews its session (another ``gs`` command displaced it and is done), as ``gs record``.
+_DISPLACED = 3.0
+
 
 def gs_ros2(
     swarm: SwarmOpt = "swarm",
@@ -126,7 +130,8 @@ async def _run(
                 bridge.enable_commands(asyncio.get_running_loop(), gs.do)
             for what, text in describe(settings, ln.swarm).items():
                 report(f"ros2 {what}: {text}")
-            end = None if duration is None else clock() + duration
+            started = clock()
+            end = None if duration is None else started + duration
             next_poll = clock() + min(poll, 1.0)  # heartbeats first: who is there
             while end is None or clock() < end:
                 now = clock()
@@ -137,6 +142,14 @@ async def _run(
                 for action in bridge.actions:
                     report(f"operator (ROS 2): {action}")
                 bridge.actions.clear()
+                answered = view.answered if view.answered is not None else started
+                if (
+                    view.alive()
+                    and now - answered > max(3 * poll, _DISPLACED)
+                    and now - gs.station.other_session_heard > _DISPLACED
+                ):
+                    gs.renew()  # another operator's session displaced this one and is done
+                    view.answered = now
                 if now >= next_poll:
                     alive = view.alive()
                     if alive:

@@ -9,7 +9,8 @@ robot has them. Topic names are configurable; ``{platform}`` in a name is replac
 platform's ID. :data:`PROFILES` holds the names of the common stacks:
 
 ``generic``
-    ``pose`` in, ``setpoint`` out, under the daemon's namespace ``/<swarm>/p<N>/``.
+    ``robot/pose`` in, ``robot/setpoint`` out, under the daemon's namespace
+    ``/<swarm>/p<N>/`` (the robot's own node in ``/<swarm>/p<N>/robot``).
 ``aerostack2``
     ``/drone{platform}/self_localization/pose`` in (sensor QoS), ``/drone{platform}/
     motion_reference/pose`` out, frame ``earth``. Aerostack2's take-off and landing are
@@ -52,10 +53,10 @@ __all__ = ["PROFILES", "Ros2Vehicle", "Ros2VehicleSettings"]
 class Ros2VehicleSettings:
     """Where a ROS 2 robot's pose and setpoints travel (see the module docstring)."""
 
-    pose_topic: str = "pose"
+    pose_topic: str = "robot/pose"
     pose_type: str = "geometry_msgs/msg/PoseStamped"
     pose_qos: str = "reliable"
-    setpoint_topic: str = "setpoint"
+    setpoint_topic: str = "robot/setpoint"
     setpoint_qos: str = "reliable"
     frame: str = "map"
     takeoff_service: str | None = None
@@ -138,6 +139,8 @@ class Ros2Vehicle:
         self._battery = 1.0
         #: The setpoint streamed (robot frame), None: none yet (nothing is sent).
         self._target: tuple[float, float, float] | None = None
+        #: A take-off asked for before the first pose: its height, flown once located.
+        self._pending_takeoff: float | None = None
         self._link: Literal["waiting", "up", "lost"] = "waiting"
         self._events: list[str] = []
         self._errors: list[str] = []
@@ -215,6 +218,9 @@ class Ros2Vehicle:
         elif self._last is None:
             self._last = (now, robot)
         self._seen_at = now
+        if self._pending_takeoff is not None:
+            self._target = (robot[0], robot[1], robot[2] + self._pending_takeoff)
+            self._pending_takeoff = None
         if self._link != "up":
             if self._link == "lost":
                 self._events.append("vehicle_link_restored")
@@ -284,8 +290,11 @@ class Ros2Vehicle:
     def takeoff(self, altitude: float) -> None:
         if self._override is not None:
             return
-        x, y, z = self._here or (0.0, 0.0, 0.0)
-        self._target = (x, y, z + altitude)
+        if self._here is None:
+            self._pending_takeoff = altitude  # no pose yet: where to climb is not known
+        else:
+            x, y, z = self._here
+            self._target = (x, y, z + altitude)
         if self.settings.takeoff_service:
             self._trigger(self.settings.takeoff_service, "take-off")
 
