@@ -109,10 +109,9 @@ def field(message: Any, path: str) -> Any:
         try:
             value = value[int(part)] if part.lstrip("-").isdigit() else getattr(value, part)
         except (AttributeError, IndexError, TypeError, KeyError):
-            raise Ros2Error(
-                f"the message has no field {path!r} (at {part!r}): "
-                f"{type(message).__name__} has {', '.join(_fields(message))}"
-            ) from None
+            fields = _fields(message)
+            known = f": {type(message).__name__} has {', '.join(fields)}" if fields else ""
+            raise Ros2Error(f"the message has no field {path!r} (at {part!r}){known}") from None
     return value
 
 
