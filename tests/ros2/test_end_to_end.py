@@ -61,6 +61,9 @@ def test_daemons_fly_ros2_robots_seen_and_commanded_over_ros2(
             e for p in (1, 2) for e in swarm.events(p, "transition") if e["on"] == "seen_event"
         ]
         started = swarm.events(1, "started")[0]
+        # A clean stop closes the node (an executor thread left at exit would abort).
+        assert swarm.stop(1) == 0
+        assert swarm.events(1, "stopped")
     assert started["vehicle"] == "ros2" and started["ros2"] == "/e2e/p1/platform"
     for p in (1, 2):
         assert seen[f"p{p}/actor"] == ["Hover", "Watch", "Found"], (seen, bridge_log)
