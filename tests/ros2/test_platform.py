@@ -132,7 +132,7 @@ def test_a_flood_is_bounded_and_counted_and_the_loop_stays_free(ros_domain: int)
 
     async def go() -> tuple[list[int], int, dict[str, dict[str, int]], float]:
         loop = asyncio.get_running_loop()
-        ros = PlatformRos.open(1, "sw", loop)
+        ros = PlatformRos(1, "sw", loop)
         wakes = [0]
         ros.on_wake(lambda: wakes.__setitem__(0, wakes[0] + 1))
         reader = ros.subscribe("/sw/flood", "std_msgs/msg/Int32", keep=10)

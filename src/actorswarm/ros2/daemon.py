@@ -103,7 +103,7 @@ def open_ros(
     from actorswarm.ros2.platform import PlatformRos
     from actorswarm.ros2.vehicle import Ros2Vehicle
 
-    ros = PlatformRos.open(platform, swarm, loop, domain=options.domain)
+    ros = PlatformRos(platform, swarm, loop, domain=options.domain)
     vehicle = None
     if options.vehicle is not None:
         try:

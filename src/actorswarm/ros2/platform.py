@@ -27,6 +27,7 @@ from __future__ import annotations
 import asyncio
 import weakref
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 from actorswarm.ros2.load import message_type
@@ -61,34 +62,30 @@ class PlatformRos:
     docstring). :meth:`start` after the daemon's loop is running; :meth:`close` at its
     stop."""
 
-    def __init__(self, node: RosNode, platform: int, swarm: str) -> None:
-        self.node = node
-        self.platform = platform
-        self.swarm = swarm
-        self.namespace = f"/{swarm}/p{platform}"
-        self._topics: dict[tuple[str, str, str], tuple[Inlet, weakref.WeakSet[Reader]]] = {}
-        self._reports: list[str] = []
-        self._wake_loop: Any = lambda: None
-
-    @classmethod
-    def open(
-        cls,
+    def __init__(
+        self,
         platform: int,
         swarm: str,
         loop: asyncio.AbstractEventLoop,
         *,
         domain: int | None = None,
-    ) -> PlatformRos:
-        """A node for ``platform``, waking ``loop`` when messages come; :class:`~actorswarm.
-        ros2.load.Ros2Error` (or ``Ros2Unavailable``) when it cannot be made."""
-        holder: list[PlatformRos] = []
-        waker = Waker(loop, lambda: holder[0]._wake_loop() if holder else None)
-        node = RosNode("platform", f"/{swarm}/p{platform}", wake=waker, domain_id=domain)
-        ros = cls(node, platform, swarm)
-        holder.append(ros)
-        return ros
+    ) -> None:
+        """The node of ``platform``, waking ``loop`` when messages come (``domain`` None:
+        ``ROS_DOMAIN_ID``); :class:`~actorswarm.ros2.load.Ros2Error` (or
+        ``Ros2Unavailable``) when it cannot be made."""
+        self.platform = platform
+        self.swarm = swarm
+        self.namespace = f"/{swarm}/p{platform}"
+        self._topics: dict[tuple[str, str, str], tuple[Inlet, weakref.WeakSet[Reader]]] = {}
+        self._reports: list[str] = []
+        self._wake_loop: Callable[[], None] = lambda: None
+        waker = Waker(loop, self._woken)
+        self.node = RosNode("platform", self.namespace, wake=waker, domain_id=domain)
 
-    def on_wake(self, callback: Any) -> None:
+    def _woken(self) -> None:
+        self._wake_loop()
+
+    def on_wake(self, callback: Callable[[], None]) -> None:
         """Call ``callback()`` on the loop when ROS 2 brought something (the daemon's
         ``inbox.poke``)."""
         self._wake_loop = callback

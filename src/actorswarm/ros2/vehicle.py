@@ -178,14 +178,7 @@ class Ros2Vehicle:
     def service(self, now: float | None = None) -> None:
         """(Loop thread.) Take the newest pose, watch the link and the service calls."""
         now = time.monotonic() if now is None else now
-        message = self._pose.latest()
-        if message is not None:
-            try:
-                x, y, z = msgs.pose_of(message)
-            except AttributeError as exc:
-                self._errors.append(f"topic {self._pose.topic}: not a pose: {exc}")
-            else:
-                self._on_pose(now, (x, y, z), message)
+        self._take_pose(now)
         if self._battery_inlet is not None:
             state = self._battery_inlet.latest()
             if state is not None and math.isfinite(state.percentage):
@@ -203,6 +196,16 @@ class Ros2Vehicle:
                         self._errors.append(f"{label}: refused: {answer.message}")
                 except Ros2Error as exc:
                     self._errors.append(f"{label}: {exc}")
+
+    def _take_pose(self, now: float) -> None:
+        message = self._pose.latest()
+        if message is not None:
+            try:
+                x, y, z = msgs.pose_of(message)
+            except AttributeError as exc:
+                self._errors.append(f"topic {self._pose.topic}: not a pose: {exc}")
+            else:
+                self._on_pose(now, (x, y, z), message)
 
     def _on_pose(self, now: float, robot: tuple[float, float, float], message: Any) -> None:
         self._here = robot
@@ -264,6 +267,7 @@ class Ros2Vehicle:
         return self._here is not None
 
     def position(self) -> tuple[float, float, float]:
+        self._take_pose(time.monotonic())  # the newest pose, not the one of the last wake
         ox, oy, oz = self.settings.offset
         x, y, z = self._here or (0.0, 0.0, 0.0)
         return x + ox, y + oy, z + oz
