@@ -118,6 +118,10 @@ PROFILES: Final[dict[str, Ros2VehicleSettings]] = {
 _VELOCITY_DT: Final = 0.05
 
 
+def _no_wake() -> None:
+    """A subscription's wake that wakes nothing."""
+
+
 class Ros2Vehicle:
     """The vehicle of a daemon whose robot speaks ROS 2, on ``node`` (see the module
     docstring). Its commands set the setpoint and return; the node's timer streams it."""
@@ -126,11 +130,17 @@ class Ros2Vehicle:
         self.node = node
         self.settings = settings
         s = settings
-        self._pose = node.subscribe(s.pose_topic, s.pose_type, qos=s.pose_qos, keep=1)
+        # A pose is read when wanted (position(), each wake): a robot publishing at 50 Hz
+        # must not wake the daemon's loop 50 times a second.
+        self._pose = node.subscribe(
+            s.pose_topic, s.pose_type, qos=s.pose_qos, keep=1, wake=_no_wake
+        )
         self._battery_inlet = (
             None
             if s.battery_topic is None
-            else node.subscribe(s.battery_topic, "sensor_msgs/msg/BatteryState", keep=1)
+            else node.subscribe(
+                s.battery_topic, "sensor_msgs/msg/BatteryState", keep=1, wake=_no_wake
+            )
         )
         self._here: tuple[float, float, float] | None = None
         self._velocity = (0.0, 0.0, 0.0)
