@@ -84,8 +84,10 @@ def test_topic_event_emits_on_a_match_with_a_cooldown_and_reports_a_bad_field() 
     ctx = make_context(TopicEvent, params=params, ros2=ros)
     plugin.on_start(ctx)
     reader = ros.readers["det"]
+    assert plugin.next_deadline() is None  # nothing waits: the runtime's own schedule
     for data in ("cat", "person", "person"):
         reader._put(SimpleNamespace(data=data))
+    assert plugin.next_deadline() == 0.0  # messages wait: step at once
     plugin.step(ctx)
     assert [e.event for e in ctx.drain()] == ["seen"]  # one: the cooldown
     ctx.now = 1.5

@@ -50,6 +50,11 @@ class Reader:
             self.dropped += 1
         self._queue.append(message)
 
+    @property
+    def waiting(self) -> bool:
+        """True when messages wait to be taken."""
+        return bool(self._queue)
+
     def take(self) -> list[Any]:
         """The messages that came since the last call, oldest first."""
         out = list(self._queue)

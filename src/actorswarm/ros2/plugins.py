@@ -130,6 +130,11 @@ class TopicEvent(Plugin):
                 self._last = ctx.now
                 ctx.emit(p["event"], scope=p["scope"])
 
+    def next_deadline(self) -> float | None:
+        """Due at once while messages wait: the runtime steps the actor at the wake that
+        brought them instead of at its next 10 Hz step."""
+        return 0.0 if self._reader is not None and self._reader.waiting else None  # past
+
 
 class PublishState(Plugin):
     """``ros2.publish_state``: the platform's pose and actor, published onboard."""
