@@ -56,6 +56,11 @@ progress), a lost or restored link becomes the local event ``vehicle_link_lost``
 land or hold the vehicle and keep the plugins' commands from it until ``vehicle_resume``
 (logged as ``vehicle-override``).
 
+With ``--ros2`` (or ``--vehicle ros2``) the daemon owns one ROS 2 node
+(:mod:`actorswarm.ros2.platform`) that its plugins reach as ``ctx.ros2``; the node's errors
+are logged as ``ros2-error``, and a node that cannot be made as ``ros2-failed`` — the daemon
+then runs on without ROS 2, unless its vehicle is the ROS 2 one (exit status 1).
+
 A signal stops it cleanly: the loop ends, the transport closes (the swarm notices the
 platform leave within its failure-detection time) and the process exits 0.
 """
