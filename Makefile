@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup sysdeps demo test lint typecheck unit campaign bench clean
+.PHONY: setup sysdeps demo test lint typecheck unit ros2-setup ros2-test campaign bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,6 +15,25 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 setup: $(STAMP)
+
+## ROS 2 (actorswarm[ros2]) in a virtual environment of its own, .venv-ros2/: the ROS 2
+## wheels install a start-up hook that re-executes every Python interpreter of their
+## environment once with LD_LIBRARY_PATH set, which the daemons, the test workers and the
+## benchmarks of .venv/ are kept from (docs/ros2.md, "Install"). About 50 s and 700 MB.
+ROS2_VENV := .venv-ros2
+ROS2_STAMP := $(ROS2_VENV)/.installed
+
+$(ROS2_STAMP): pyproject.toml
+	$(PYTHON) -m venv $(ROS2_VENV)
+	$(ROS2_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(ROS2_VENV)/bin/python -m pip install --quiet -e '.[ros2]' 'pytest>=8' 'hypothesis>=6.100'
+	touch $(ROS2_STAMP)
+
+ros2-setup: $(ROS2_STAMP)
+
+## The ROS 2 tests against the real rclpy (in .venv-ros2; in .venv they skip).
+ros2-test: $(ROS2_STAMP)
+	$(ROS2_VENV)/bin/python -m pytest tests/ros2 -q
 
 ## The main job: the paper's 30-UAV formation mission in the simulator (arrow, two arrows,
 ## a branch into a line, six arrows, herringbone, return), with progress, the pictures of
@@ -38,7 +57,7 @@ unit: $(STAMP) sysdeps
 	$(BIN)/python -m pytest -n 2 --dist worksteal --durations=10
 
 ## Every check: linter, strict type checker, the whole test suite (with the seeded campaign).
-test: lint typecheck unit
+test: lint typecheck unit ros2-test
 
 ## A long seeded fault campaign, beyond the 200 seeds per mode of `make test`: COUNT seeds
 ## from START, each in both membership modes (star and broadcast), on every CPU. Prints each
@@ -53,4 +72,4 @@ bench: $(STAMP)
 	$(BIN)/actorswarm bench core
 
 clean:
-	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(ROS2_VENV) .mypy_cache .pytest_cache .ruff_cache

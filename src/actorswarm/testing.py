@@ -240,6 +240,7 @@ def make_context(
     slots: int = 0,
     camera: Camera | None = None,
     areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
+    ros2: Any = None,
 ) -> PluginContext:
     """A :class:`PluginContext` for a plugin unit test.
 
@@ -252,7 +253,7 @@ def make_context(
     ``size`` place the actor in the group that switched it in, ``slot`` and ``slots`` in its
     branch (give ``slot``/``slots`` 0 to copy ``index``/``size``, as a transition without
     branches does); ``camera`` (a :class:`FakeCamera`) and ``areas`` are what a
-    detection or search plugin sees.
+    detection or search plugin sees; ``ros2`` what a ROS 2 plugin's ``ctx.ros2`` is.
     """
     if slot == 0 and slots == 0:
         slot, slots = index, size
@@ -276,6 +277,7 @@ def make_context(
         slots=slots,
         camera=camera,
         areas=areas,
+        ros2=ros2,
     )
 
 

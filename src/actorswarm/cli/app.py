@@ -88,6 +88,9 @@ def _register_real_swarm() -> None:
     from actorswarm.cli.gs_record import register as register_record
 
     register_record(gs_app)
+    from actorswarm.ros2.gs_cmd import register as register_ros2
+
+    register_ros2(gs_app)
     app.add_typer(gs_app, name="gs")
     app.add_typer(keys_app, name="keys")
 

@@ -94,7 +94,8 @@ def daemon(
         str | None,
         typer.Option(
             help="none (default); sim: fly a simulated vehicle in this process; mavlink: fly "
-            "a PX4 or ArduPilot autopilot (--mavlink, --origin)."
+            "a PX4 or ArduPilot autopilot (--mavlink, --origin); ros2: a robot that speaks "
+            "ROS 2 (--ros2-profile, [ros2] in --config)."
         ),
     ] = None,
     world: Annotated[
@@ -130,6 +131,18 @@ def daemon(
         Path | None,
         typer.Option(help="A TOML file with any of these options (and a [core] table)."),
     ] = None,
+    ros2: Annotated[
+        bool,
+        typer.Option(
+            "--ros2",
+            help="A ROS 2 node for the plugins (ctx.ros2; needs actorswarm[ros2] or a sourced "
+            "ROS 2); the daemon runs on without it when it cannot be made.",
+        ),
+    ] = False,
+    ros2_profile: Annotated[
+        str | None,
+        typer.Option(help="--vehicle ros2: the robot's topics, generic, aerostack2 or mavros."),
+    ] = None,
 ) -> None:
     """Run one platform of a real swarm over Zenoh until SIGTERM/SIGINT."""
     raise typer.Exit(
@@ -154,5 +167,7 @@ def daemon(
             mavlink=mavlink,
             mavlink_sysid=mavlink_sysid,
             origin=origin,
+            ros2=ros2,
+            ros2_profile=ros2_profile,
         )
     )

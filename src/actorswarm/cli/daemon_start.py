@@ -46,6 +46,8 @@ OPTIONS: dict[str, tuple[str, str]] = {
     "--origin": ("origin", "value"),
     "--fleet": ("fleet", "value"),
     "--config": ("config", "path"),
+    "--ros2": ("ros2", "flag"),
+    "--ros2-profile": ("ros2_profile", "value"),
 }
 
 #: The Zenoh lease, seconds, the typer command accepts (``min=0.1, max=3600``).
@@ -79,6 +81,8 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
         "origin": None,
         "fleet": None,
         "config": None,
+        "ros2": False,
+        "ros2_profile": None,
     }
     given: set[str] = set()
     i = 0
@@ -151,6 +155,8 @@ def start_daemon(
     group: str | None = None,
     interface: str | None = None,
     lease: float | None = None,
+    ros2: bool = False,
+    ros2_profile: str | None = None,
 ) -> int:
     """Check the options (the command line, then the ``--config`` file, then the defaults)
     and run the daemon until a signal; returns its exit status. A problem with the options
@@ -189,8 +195,8 @@ def start_daemon(
     if chosen_transport != "zenoh":
         raise refuse(f"--transport {chosen_transport!r}: the transports are: zenoh")
     chosen_vehicle = vehicle or file.vehicle or "none"
-    if chosen_vehicle not in ("none", "sim", "mavlink"):
-        raise refuse(f"--vehicle {chosen_vehicle!r}: the vehicles are: none, sim, mavlink")
+    if chosen_vehicle not in ("none", "sim", "mavlink", "ros2"):
+        raise refuse(f"--vehicle {chosen_vehicle!r}: the vehicles are: none, sim, mavlink, ros2")
     world_file = world or file.path(file.world, base)
     if world_file is not None and chosen_vehicle != "sim":
         raise refuse("--world describes a simulated vehicle's world: give --vehicle sim too")
@@ -218,6 +224,7 @@ def start_daemon(
         autopilot = _mavlink_vehicle(platform, file, mavlink, mavlink_sysid, origin)
     elif mavlink is not None or mavlink_sysid is not None or origin is not None:
         raise refuse("--mavlink, --mavlink-sysid and --origin need --vehicle mavlink")
+    ros2_options = _ros2(platform, file, chosen_vehicle, ros2, ros2_profile)
     guard = packet_guard(keys or file.path(file.keys, base), insecure or file.insecure, "platform")
     settings = zenoh_settings(
         list(connect or file.connect) or None,
@@ -243,8 +250,36 @@ def start_daemon(
         config=daemon_core(core),
         world=world_config,
         autopilot=autopilot,
+        ros2=ros2_options,
     )
     return run_daemon(options)
+
+
+def _ros2(platform: int, file: Any, vehicle: str, flag: bool, profile: str | None) -> Any:
+    """The daemon's ROS 2 options (None: no ROS 2), checked before anything starts; with
+    --vehicle ros2, rclpy must be importable (the platform has no vehicle otherwise)."""
+    from actorswarm.cli.swarm_setup import refuse
+
+    if not (flag or vehicle == "ros2" or file.ros2 is not None):
+        if profile is not None:
+            raise refuse("--ros2-profile needs --vehicle ros2")
+        return None
+    from actorswarm.ros2.daemon import ros2_options
+
+    try:
+        options = ros2_options(
+            file.ros2, vehicle=vehicle == "ros2", profile=profile, platform=platform
+        )
+    except ValueError as exc:
+        raise refuse(str(exc)) from None
+    if vehicle == "ros2":
+        from actorswarm.ros2.load import Ros2Unavailable, load_rclpy
+
+        try:
+            load_rclpy()
+        except Ros2Unavailable as exc:
+            raise refuse(f"--vehicle ros2: {exc}") from None
+    return options
 
 
 def _mavlink_vehicle(

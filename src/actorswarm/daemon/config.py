@@ -35,6 +35,9 @@ and where the mission's origin is; the keys after these three exist only in the 
     [core]
     t_leave = 0.5
 
+A ``[ros2]`` table gives the daemon a ROS 2 node (as ``--ros2`` does) and, with ``vehicle =
+"ros2"``, says where the robot's topics are (:mod:`actorswarm.ros2.daemon`).
+
 A wrong key, a wrong type or a value out of range is a :class:`DaemonConfigError` naming
 the file and the key; nothing starts.
 """
@@ -69,7 +72,7 @@ BOOT_WAIT = 2.0
 #: the loop instead of two per interval (docs/deploying.md, "CPU").
 HEARTBEAT_SLACK = 0.03
 
-Vehicle = Literal["none", "sim", "mavlink"]
+Vehicle = Literal["none", "sim", "mavlink", "ros2"]
 
 
 class DaemonConfigError(ValueError):
@@ -103,6 +106,8 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     fleet: str | None = None
     transport: Literal["zenoh"] | None = None
     core: dict[str, Any] = {}
+    #: The ``[ros2]`` table (checked by :func:`actorswarm.ros2.daemon.ros2_options`).
+    ros2: dict[str, Any] | None = None
 
     def path(self, value: str | None, base: Path) -> Path | None:
         """``value`` as a path, relative to ``base`` (the file's directory)."""

@@ -56,6 +56,11 @@ progress), a lost or restored link becomes the local event ``vehicle_link_lost``
 land or hold the vehicle and keep the plugins' commands from it until ``vehicle_resume``
 (logged as ``vehicle-override``).
 
+With ``--ros2`` (or ``--vehicle ros2``) the daemon owns one ROS 2 node
+(:mod:`actorswarm.ros2.platform`) that its plugins reach as ``ctx.ros2``; the node's errors
+are logged as ``ros2-error``, and a node that cannot be made as ``ros2-failed`` — the daemon
+then runs on without ROS 2, unless its vehicle is the ROS 2 one (exit status 1).
+
 A signal stops it cleanly: the loop ends, the transport closes (the swarm notices the
 platform leave within its failure-detection time) and the process exits 0.
 """
@@ -88,6 +93,8 @@ if TYPE_CHECKING:
     from actorswarm.dsl.model import TaskScript
     from actorswarm.engine.engine import TaskEngine
     from actorswarm.engine.records import TransitionRecord
+    from actorswarm.ros2.daemon import Ros2Options
+    from actorswarm.ros2.vehicle import Ros2Vehicle
     from actorswarm.vehicles.mavlink.vehicle import MavlinkVehicle
     from actorswarm.world.config import WorldConfig
 
@@ -119,6 +126,9 @@ class DaemonOptions:
     #: ``--vehicle mavlink``: the autopilot this daemon flies, its connection open (None:
     #: none). The daemon starts its thread and closes it at the stop.
     autopilot: MavlinkVehicle | None = None
+    #: ``--ros2`` / ``--vehicle ros2``: the platform's ROS 2 node (and vehicle) to open once
+    #: the loop runs (None: no ROS 2).
+    ros2: Ros2Options | None = None
 
 
 @dataclass(slots=True)
@@ -145,7 +155,7 @@ def _status(
     endpoint: PlatformEndpoint,
     guard: PacketGuard,
     traffic: Traffic,
-    autopilot: MavlinkVehicle | None = None,
+    autopilot: MavlinkVehicle | Ros2Vehicle | None = None,
     receive: Callable[[], dict[str, int]] | None = None,
     transitions: Iterable[TransitionRecord] | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -205,7 +215,7 @@ class DaemonFiles:
         endpoint: PlatformEndpoint,
         guard: PacketGuard,
         traffic: Traffic,
-        autopilot: MavlinkVehicle | None = None,
+        autopilot: MavlinkVehicle | Ros2Vehicle | None = None,
         *,
         receive: Callable[[], dict[str, int]] | None = None,
         transitions: Iterable[TransitionRecord] | None = None,
@@ -266,7 +276,22 @@ async def _main(options: DaemonOptions) -> int:
         from actorswarm.world.world import World  # NumPy: only with a simulated vehicle
 
         world = World(options.world, [options.platform])
-    autopilot = options.autopilot
+    autopilot: MavlinkVehicle | Ros2Vehicle | None = options.autopilot
+    ros = None
+    if options.ros2 is not None:
+        from actorswarm.ros2 import Ros2Error
+        from actorswarm.ros2.daemon import open_ros
+
+        try:
+            ros, ros_vehicle = open_ros(
+                options.ros2, options.platform, options.swarm, asyncio.get_running_loop()
+            )
+        except Ros2Error as exc:
+            _log("ros2-failed", error=str(exc))
+            if options.ros2.vehicle is not None:
+                return 1  # no vehicle to fly
+        else:
+            autopilot = ros_vehicle or autopilot
     if autopilot is not None:
         autopilot.start()
     endpoint = PlatformEndpoint(
@@ -326,7 +351,14 @@ async def _main(options: DaemonOptions) -> int:
         swarm=options.swarm,
         incarnation=incarnation,
         secure=guard.secure,
-        vehicle="sim" if world is not None else "none" if autopilot is None else "mavlink",
+        vehicle="sim"
+        if world is not None
+        else "none"
+        if autopilot is None
+        else "mavlink"
+        if options.ros2 is None or options.ros2.vehicle is None
+        else "ros2",
+        ros2=None if ros is None else ros.node.name,
         position=endpoint.runtime.position(),
         # How broadcasts travel: "mesh", or the multicast group's Zenoh endpoint.
         broadcast=options.zenoh.broadcast
@@ -347,8 +379,17 @@ async def _main(options: DaemonOptions) -> int:
     )
     raised = 0
 
+    if ros is not None:
+        endpoint.runtime.ros2 = ros
+        ros.on_wake(inbox.poke)
+        ros.start()
+
     def on_wake(t: float) -> None:
         nonlocal raised
+        if ros is not None:
+            ros.pump()  # the messages that came, to the plugins' readers
+            for error in ros.drain_errors():
+                _log("ros2-error", error=error)
         if world is not None:
             # The simulated vehicle lives in this process's time: seconds since start.
             world.step_to(t - start)
@@ -415,6 +456,8 @@ async def _main(options: DaemonOptions) -> int:
         files.close(clock())
         if autopilot is not None:
             autopilot.close()
+        if ros is not None:
+            ros.close()
         _log("stopped", platform=options.platform, backup=generation)
     return 0
 
@@ -441,7 +484,7 @@ def _check_later(engine: TaskEngine, inbox: Inbox) -> Callable[[str, str], None]
     return start
 
 
-def _operator_override(autopilot: MavlinkVehicle, commands: list[Any]) -> None:
+def _operator_override(autopilot: MavlinkVehicle | Ros2Vehicle, commands: list[Any]) -> None:
     """The operator's ``vehicle_land`` / ``vehicle_hold`` / ``vehicle_resume`` events
     (``gs event``), carried out on the autopilot whatever the plugins ask."""
     from actorswarm.vehicles.mavlink.vehicle import OPERATOR_EVENTS

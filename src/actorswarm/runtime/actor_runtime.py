@@ -190,6 +190,9 @@ class ActorRuntime:
         self.vehicle = vehicle
         self.camera = camera
         self.areas: Mapping[str, Sequence[tuple[float, float]]] = dict(areas or {})
+        #: The platform's ROS 2 node for the plugins (``ctx.ros2``), set by a daemon run
+        #: with ``--ros2``; None otherwise.
+        self.ros2: Any = None
         self.collective: Collective = collective or NullCollective()
         self.period = 1.0 / rate
         #: The slack of the steps' schedule (the module docstring).
@@ -572,6 +575,7 @@ class ActorRuntime:
             slots=entry.acb.context.slots,
             camera=self.camera,
             areas=self.areas,
+            ros2=self.ros2,
         )
 
     def _call(

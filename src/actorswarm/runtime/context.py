@@ -23,6 +23,9 @@ simulator, on a real platform, and in a unit test:
   a plugin.
 * **Swarm coordination** (barriers, roles) goes through ``ctx.collective``, a
   :class:`Collective` the runtime wires to the platform's core node.
+* **ROS 2**, on a daemon started with ``--ros2``, is ``ctx.ros2``: the platform's one ROS 2
+  node (:class:`actorswarm.ros2.platform.PlatformRos`) to subscribe, publish and call
+  services through, without making nodes or spinning; None elsewhere.
 * **Sharing** between the plugins of one actor goes through ``ctx.blackboard``, one dict per
   actor instance: an observe plugin writes ``blackboard["target"]``, a decide plugin reads it.
 
@@ -246,6 +249,9 @@ class PluginContext:
         The swarm primitives (:class:`Collective`).
     ``rng``
         The seeded random generator to draw from (never the global ``random``).
+    ``ros2``
+        The platform's ROS 2 node (:class:`actorswarm.ros2.platform.PlatformRos`), or None
+        on a platform without one.
     """
 
     __slots__ = (
@@ -261,6 +267,7 @@ class PluginContext:
         "params",
         "platform",
         "rng",
+        "ros2",
         "size",
         "slot",
         "slots",
@@ -285,6 +292,7 @@ class PluginContext:
         slots: int = 0,
         camera: Camera | None = None,
         areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
+        ros2: Any = None,
     ) -> None:
         self.now = now
         self.platform = platform
@@ -302,6 +310,7 @@ class PluginContext:
         self.data = data
         self.camera = camera
         self.areas: Mapping[str, Sequence[tuple[float, float]]] = dict(areas or {})
+        self.ros2 = ros2
         self._emitted: list[Emitted] = []
 
     def __repr__(self) -> str:
