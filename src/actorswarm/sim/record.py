@@ -109,6 +109,9 @@ class Recording:
     masters: list[dict[str, Any]] = field(default_factory=list)
     #: The event lines (without ``type``), in file order.
     events: list[dict[str, Any]] = field(default_factory=list)
+    #: What the reader could not read of the file (an MCAP recording cut short, a channel
+    #: missing), one line each; empty for a whole recording.
+    notes: list[str] = field(default_factory=list)
 
     def areas(self) -> dict[str, list[tuple[float, float]]]:
         """The areas the meta line names (``{name: polygon}``; malformed entries are
@@ -581,10 +584,13 @@ def collective_transitions(
 # --- sampling a simulation -------------------------------------------------------------------
 
 
-def sample_world(sim: TaskSim, every: float) -> None:
+def sample_world(
+    sim: TaskSim, every: float, packets: list[tuple[float, int]] | None = None
+) -> None:
     """Make ``sim``'s world snapshot its vehicles at times 0, ``every``, ``2 * every``, ...
     of virtual time while the simulation runs (call before :meth:`TaskSim.run`); the
-    snapshots are then in ``sim.world.track()``.
+    snapshots are then in ``sim.world.track()``. ``packets``, when given, gets
+    ``(t, packets the swarm sent so far)`` at each snapshot (a recording's packets/s).
 
     ``ValueError`` when ``sim`` has no world or ``every`` is not a time > 0.
     """
@@ -600,6 +606,9 @@ def sample_world(sim: TaskSim, every: float) -> None:
         nonlocal count
         world.step_to(sim.swarm.now)  # catch up first: the physics timer may come later
         world.record()
+        if packets is not None:
+            traffic = sim.swarm.radio.traffic
+            packets.append((sim.swarm.now, sum(traffic.totals(p)[0] for p in traffic.platforms)))
         count += 1
         sim.swarm.at(start + count * every, snapshot)
 

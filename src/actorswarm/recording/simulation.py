@@ -1,0 +1,130 @@
+"""A finished simulation written as a recording.
+
+:func:`record_simulation` feeds a :class:`~actorswarm.recording.recorder.Recorder` a
+simulation's facts in time order: the world's snapshots (poses with battery, targets), the
+report's transitions, master changes, lost vehicles and plugin failures, and per snapshot
+the packets per second the swarm sent; each collective switch adds its latency (first
+platform to last, :func:`~actorswarm.sim.record.collective_transitions`).
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from actorswarm.recording.mcap_sink import McapSink
+from actorswarm.recording.recorder import Recorder, Sink
+from actorswarm.sim.record import collective_transitions
+
+if TYPE_CHECKING:
+    from actorswarm.vehicles.mavlink.frame import MissionFrame
+    from actorswarm.world.world import Track
+
+__all__ = ["record_simulation", "write_simulation"]
+
+# Order of facts at one time: transitions before the snapshot that shows their colours.
+_FACT, _SNAPSHOT = 0, 1
+
+
+def record_simulation(
+    recorder: Recorder,
+    report: Mapping[str, Any],
+    *,
+    track: Track | None = None,
+    packets: Sequence[tuple[float, int]] = (),
+) -> None:
+    """Write ``report`` (a :meth:`TaskSim.report`) and ``track`` (the world's snapshots,
+    None without a world) to ``recorder``, in time order; ``packets`` are ``(t, packets
+    sent so far)`` samples (:func:`~actorswarm.sim.record.sample_world`)."""
+    streams = [_facts(recorder, report, packets)]
+    if track is not None:
+        streams.append(_snapshots(recorder, track))
+    for _, _, _, write in heapq.merge(*streams, key=lambda item: item[:3]):
+        write()
+
+
+def _facts(
+    recorder: Recorder, report: Mapping[str, Any], packets: Sequence[tuple[float, int]]
+) -> Iterator[tuple[float, int, int, Callable[[], None]]]:
+    items: list[tuple[float, int, int, Callable[[], None]]] = []
+    n = 0
+
+    def add(t: float, write: Callable[[], None]) -> None:
+        nonlocal n
+        items.append((float(t), _FACT, n, write))
+        n += 1
+
+    for tr in report["transitions"]:
+        add(tr["t"], lambda tr=tr: recorder.transition(tr))
+    for m in report["masters"]:
+        add(m["t"], lambda m=m: recorder.master(m["t"], [m["platform"]], m["epoch"]))
+    for w in report.get("wrecks", []):
+        add(w["t"], lambda w=w: recorder.event(w["t"], "fault", w["platform"], "vehicle lost"))
+    for f in report.get("plugin_failures", []):
+        t, p = f.get("t", 0.0), f.get("platform", 0)
+        text = f"plugin {f.get('plugin', '?')} failed: {f.get('error', '')}"
+        add(t, lambda t=t, p=p, text=text: recorder.event(t, "fault", p, text))
+    fleet = len(report.get("final_actors", {})) or None
+    for c in collective_transitions(report["transitions"], fleet=fleet):
+        ms = (c.t_last - c.t) * 1000.0
+        add(c.t_last, lambda c=c, ms=ms: recorder.metrics(c.t_last, barrier_latency_ms=ms))
+    for (t0, n0), (t1, n1) in itertools.pairwise(packets):
+        if t1 > t0:
+            rate = (n1 - n0) / (t1 - t0)
+            add(t1, lambda t1=t1, rate=rate: recorder.metrics(t1, packets_per_s=rate))
+    items.sort(key=lambda item: item[:3])
+    yield from items
+
+
+def _snapshots(
+    recorder: Recorder, track: Track
+) -> Iterator[tuple[float, int, int, Callable[[], None]]]:
+    from actorswarm.world.vehicles import MODES
+
+    platforms = track.platforms.tolist()
+    for i, t in enumerate(track.times.tolist()):
+
+        def write(i: int = i, t: float = t) -> None:
+            pos = track.positions[i].tolist()
+            headings = track.headings[i].tolist()
+            modes = track.modes[i].tolist()
+            batteries = track.batteries[i].tolist()
+            for j, p in enumerate(platforms):
+                x, y, z = pos[j]
+                recorder.pose(t, p, x, y, z, headings[j], MODES[modes[j]], batteries[j])
+            for name, (x, y, z) in zip(
+                track.target_names, track.target_positions[i].tolist(), strict=True
+            ):
+                recorder.target(t, name, x, y, z)
+            recorder.snapshot(t)
+            recorder.metrics(t, platforms_up=len(platforms))
+
+        yield (t, _SNAPSHOT, i, write)
+
+
+def write_simulation(
+    path: Path | str,
+    report: Mapping[str, Any],
+    *,
+    meta: Mapping[str, Any],
+    track: Track | None = None,
+    areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
+    script: tuple[str, str] | None = None,
+    packets: Sequence[tuple[float, int]] = (),
+    origin: MissionFrame | None = None,
+    extra_sinks: Sequence[Sink] = (),
+) -> None:
+    """Write a finished simulation to the MCAP file ``path`` (whole or not at all:
+    :class:`~actorswarm.recording.mcap_sink.RecordingWriteError` naming the file when it
+    cannot be written). Times start at 0 (``t0_ns`` 0): the same run gives the same file."""
+    sink = McapSink(path, atomic=True)
+    recorder = Recorder([sink, *extra_sinks], meta=meta, script=script, areas=areas, origin=origin)
+    try:
+        record_simulation(recorder, report, track=track, packets=packets)
+    except BaseException:
+        sink.abandon()
+        raise
+    recorder.close()
