@@ -13,13 +13,14 @@ import json
 import sys
 from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 
 from actorswarm import __version__
 from actorswarm.cli.common import check_script, read_world
+from actorswarm.cli.record_cmd import LiveHostOpt, LiveOpt, LivePortOpt, OriginOpt, record_app
 from actorswarm.cli.web_cmd import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -79,6 +80,7 @@ def _register_real_swarm() -> None:
     register_record(gs_app)
     app.add_typer(gs_app, name="gs")
     app.add_typer(keys_app, name="keys")
+    app.add_typer(record_app, name="record")
 
 
 _register_real_swarm()
@@ -551,8 +553,14 @@ def sim(
     ] = None,
     record: Annotated[
         Path | None,
-        typer.Option(help="Write trajectories and the actor timeline here (JSON Lines)."),
+        typer.Option(
+            help="Write the run here as an MCAP recording (Foxglove, web --replay, plot)."
+        ),
     ] = None,
+    live: LiveOpt = False,
+    live_host: LiveHostOpt = "127.0.0.1",
+    live_port: LivePortOpt = 8765,
+    origin: OriginOpt = None,
     serve: ServeOpt = False,
     host: HostOpt = DEFAULT_HOST,
     port: PortOpt = DEFAULT_PORT,
@@ -574,12 +582,18 @@ def sim(
     platform the script does not start); 3 when a plugin failed during the run; 4 with
     --expect-complete when the task did not complete. The summary says which.
     """
+    from actorswarm.cli.record_cmd import (
+        open_live,
+        parse_origin_option,
+        sim_live,
+        write_sim_record,
+    )
     from actorswarm.core.config import CoreConfig
     from actorswarm.runtime.actor_runtime import UnsupportedPlugin
     from actorswarm.runtime.plugin import ParamError
     from actorswarm.runtime.registry import RegistryError
     from actorswarm.sim.radio import Airtime, LinkModel
-    from actorswarm.sim.record import sample_world, write_record
+    from actorswarm.sim.record import sample_world
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
     from actorswarm.sim.verdict import EXIT_USAGE, schedule_problems, verdict
     from actorswarm.world.config import WorldConfig, WorldError, load_world
@@ -619,6 +633,16 @@ def sim(
         typer.echo(f"--channel-bitrate: {exc}", err=True)
         raise typer.Exit(2) from None
     link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
+    frame = parse_origin_option(origin)
+    packets: list[tuple[float, int]] = []
+    if record is not None:
+        from actorswarm.recording.mcap_sink import RecordingWriteError, check_writable
+
+        try:
+            check_writable(record)  # before the run, not after it
+        except RecordingWriteError as exc:
+            typer.echo(str(exc), err=True)
+            raise typer.Exit(2) from None
     try:
         run = TaskSim(
             script,
@@ -644,33 +668,48 @@ def sim(
                 speed=speed,
             )
             return
-        if record is not None and run.world is not None:
-            sample_world(run, 0.5)
-        report = run.run(duration, events=events, faults=faults)
+        if (record is not None or live) and run.world is not None:
+            sample_world(run, 0.5, packets)
+        if live:
+            from actorswarm.recording import McapSink, Recorder
+
+            sinks: list[Any] = [open_live(live_host, live_port, f"sim {file.name}")]
+            if record is not None:
+                try:
+                    sinks.append(McapSink(record))
+                except RecordingWriteError as exc:
+                    sinks[0].close()
+                    typer.echo(str(exc), err=True)
+                    raise typer.Exit(2) from None
+            areas = run.world.area_polygons() if run.world is not None else None
+            recorder = Recorder(
+                sinks,
+                meta={"script": script.name, "seed": seed, "source": "actorswarm sim --live"},
+                script=(file.name, file.read_text(errors="replace")),
+                areas=areas,
+                origin=frame,
+            )
+            run.schedule(events, faults)
+            try:
+                report = sim_live(run, duration, recorder, speed)
+            finally:
+                recorder.close()
+            record = None  # written as it ran
+        else:
+            report = run.run(duration, events=events, faults=faults)
     except (UnsupportedPlugin, RegistryError, ParamError) as exc:
         # What the checker cannot know (a plugin of a module:Class path, a param laid over
         # by a transition): refused here as cleanly.
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
     if record is not None:
-        meta: dict[str, object] = {
+        meta: dict[str, Any] = {
             "script": script.name,
             "seed": seed,
             "sim_time_s": report["sim_time_s"],
+            "source": "actorswarm sim",
         }
-        if run.world is not None:
-            track = run.world.track()
-            polygons = run.world.area_polygons()
-            meta["areas"] = {k: [list(p) for p in v] for k, v in polygons.items()}
-            write_record(
-                record,
-                rows=track.rows(),
-                targets=track.target_rows(),
-                transitions=report["transitions"],
-                meta=meta,
-            )
-        else:
-            write_record(record, rows=[], transitions=report["transitions"], meta=meta)
+        write_sim_record(record, run, report, meta, file, frame, packets)
     text = json.dumps(report, indent=2)
     if json_out == "-":
         typer.echo(text)
@@ -767,16 +806,17 @@ def demo(
 @app.command("plot")
 def plot(
     recording: Annotated[
-        Path, typer.Argument(help="A recording written by sim --record or gs record.")
+        Path, typer.Argument(help="A recording (MCAP or JSON Lines) of sim, demo or gs record.")
     ],
     out: Annotated[Path, typer.Option(help="Directory for the pictures.")] = Path("."),
 ) -> None:
     """Draw a recorded run: trajectories (top view, coloured by actor) and the timeline."""
-    from actorswarm.sim.record import RecordError, read_record
+    from actorswarm.recording import read_recording
+    from actorswarm.sim.record import RecordError
     from actorswarm.viz import timeline_png, trajectory_png
 
     try:
-        data = read_record(recording)
+        data = read_recording(recording)
     except (RecordError, OSError) as exc:
         typer.echo(f"{recording}: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -23,7 +23,7 @@ from mcap.writer import CompressionType, Writer
 from actorswarm.recording.recorder import TOPICS
 from actorswarm.recording.schemas import schema_bytes
 
-__all__ = ["CHUNK_BYTES", "McapSink", "RecordingWriteError"]
+__all__ = ["CHUNK_BYTES", "McapSink", "RecordingWriteError", "check_writable"]
 
 #: A chunk is closed when it holds this many bytes (before compression).
 CHUNK_BYTES = 1 << 20
@@ -38,6 +38,21 @@ def _cannot(path: Path, exc: OSError) -> RecordingWriteError:
     return RecordingWriteError(
         f"{path}: cannot write the recording ({why}); give a path in a writable directory"
     )
+
+
+def check_writable(path: Path | str) -> None:
+    """Refuse, before a run, a recording path that cannot be written (a missing directory,
+    no permission): :class:`RecordingWriteError` naming it. Leaves nothing behind."""
+    target = Path(path)
+    probe = target.with_name(target.name + ".partial")
+    try:
+        with probe.open("xb"):
+            pass
+        probe.unlink()
+    except FileExistsError:
+        pass  # a stale partial file: it is overwritten when the run ends
+    except OSError as exc:
+        raise _cannot(target, exc) from None
 
 
 class McapSink:

@@ -20,10 +20,11 @@ from actorswarm.recording.recorder import Recorder, Sink
 from actorswarm.sim.record import collective_transitions
 
 if TYPE_CHECKING:
+    from actorswarm.sim.tasksim import TaskSim
     from actorswarm.vehicles.mavlink.frame import MissionFrame
     from actorswarm.world.world import Track
 
-__all__ = ["record_simulation", "write_simulation"]
+__all__ = ["record_live", "record_simulation", "write_simulation"]
 
 # Order of facts at one time: transitions before the snapshot that shows their colours.
 _FACT, _SNAPSHOT = 0, 1
@@ -128,3 +129,54 @@ def write_simulation(
         sink.abandon()
         raise
     recorder.close()
+
+
+def record_live(
+    sim: TaskSim,
+    duration: float,
+    recorder: Recorder,
+    *,
+    slice_s: float = 0.5,
+    on_slice: Callable[[float], None] | None = None,
+) -> dict[str, Any]:
+    """Run ``sim`` to ``duration`` in slices of ``slice_s`` virtual seconds, writing each
+    slice's facts to ``recorder`` as it ends (a live view; ``on_slice(t)`` after each, where
+    the caller paces the run); return the report. ``sim`` must already sample its world
+    (:func:`~actorswarm.sim.record.sample_world`) to have poses to show. A collective
+    switch cut by a slice's end counts as two in ``barrier_latency_ms``."""
+    import dataclasses
+
+    t = sim.swarm.now
+    snapshots = masters = 0
+    packets: list[tuple[float, int]] = []
+    while t < duration:
+        t = min(duration, t + slice_s)
+        new = sim.advance(t)
+        facts: dict[str, Any] = {
+            "transitions": new,
+            "masters": [
+                {"t": m.t, "platform": m.platform, "epoch": m.epoch}
+                for m in sim.swarm.masters[masters:]
+            ],
+            "final_actors": {str(p): () for p in sim.hosts},
+        }
+        masters = len(sim.swarm.masters)
+        track = None
+        if sim.world is not None:
+            whole = sim.world.track()
+            track = dataclasses.replace(
+                whole,
+                times=whole.times[snapshots:],
+                positions=whole.positions[snapshots:],
+                headings=whole.headings[snapshots:],
+                modes=whole.modes[snapshots:],
+                batteries=whole.batteries[snapshots:],
+                target_positions=whole.target_positions[snapshots:],
+            )
+            snapshots = len(whole)
+        traffic = sim.swarm.radio.traffic
+        packets = [*packets[-1:], (t, sum(traffic.totals(p)[0] for p in traffic.platforms))]
+        record_simulation(recorder, facts, track=track, packets=packets)
+        if on_slice is not None:
+            on_slice(t)
+    return sim.report()

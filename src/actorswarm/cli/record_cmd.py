@@ -1,0 +1,189 @@
+"""The command line's recording options: ``--record`` (MCAP), ``--live`` (a Foxglove view),
+``--origin`` (map positions), and ``actorswarm record convert`` (an older JSON Lines
+recording to MCAP).
+
+Every error here is one line naming the file or option and what to do; the commands exit 2.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+
+if TYPE_CHECKING:
+    from actorswarm.recording.live import LiveSink
+    from actorswarm.recording.recorder import Recorder
+    from actorswarm.sim.tasksim import TaskSim
+    from actorswarm.vehicles.mavlink.frame import MissionFrame
+
+__all__ = [
+    "LiveHostOpt",
+    "LiveOpt",
+    "LivePortOpt",
+    "OriginOpt",
+    "open_live",
+    "parse_origin_option",
+    "record_app",
+    "sim_live",
+    "write_sim_record",
+]
+
+LiveOpt = Annotated[
+    bool,
+    typer.Option(
+        "--live",
+        help="Serve the run's channels to Foxglove over its WebSocket protocol while it runs "
+        "(needs the foxglove extra).",
+    ),
+]
+LiveHostOpt = Annotated[
+    str, typer.Option(help="Address of the live Foxglove view (default: loopback only).")
+]
+LivePortOpt = Annotated[
+    int, typer.Option(min=0, max=65535, help="Port of the live Foxglove view (0: any free).")
+]
+OriginOpt = Annotated[
+    str | None,
+    typer.Option(
+        metavar="LAT,LON,ALT",
+        help="Geodetic origin of the mission frame: the recording then has map positions "
+        "(/fix) for Foxglove's Map panel.",
+    ),
+]
+
+record_app = typer.Typer(
+    help="Recordings: convert an older JSON Lines recording to MCAP.", no_args_is_help=True
+)
+
+
+def _fail(text: str) -> typer.Exit:
+    typer.echo(text, err=True)
+    return typer.Exit(2)
+
+
+def parse_origin_option(text: str | None) -> MissionFrame | None:
+    """``--origin`` as a frame (None when not given); exit 2 with the reason when malformed."""
+    if text is None:
+        return None
+    from actorswarm.vehicles.mavlink.frame import parse_origin
+
+    try:
+        return parse_origin(text, "--origin")
+    except ValueError as exc:
+        raise _fail(str(exc)) from None
+
+
+def open_live(host: str, port: int, name: str) -> LiveSink:
+    """Start the live Foxglove view and say where it is; exit 2 when it cannot start."""
+    from actorswarm.recording.live import LiveSink, LiveUnavailable
+
+    try:
+        live = LiveSink(host=host, port=port, name=name)
+    except LiveUnavailable as exc:
+        raise _fail(f"--live: {exc}") from None
+    typer.echo(f"live Foxglove view on {live.url} (Foxglove: Open connection → {live.url})")
+    return live
+
+
+def write_sim_record(
+    path: Path, run: TaskSim, report: dict[str, Any], meta: dict[str, Any], script: Path,
+    origin: MissionFrame | None, packets: list[tuple[float, int]],
+) -> None:  # fmt: skip
+    """Write a finished ``sim`` run to the MCAP file ``path``; exit 2 when it cannot."""
+    from actorswarm.recording import RecordingWriteError, write_simulation
+
+    world = run.world
+    areas = world.area_polygons() if world is not None else None
+    if areas:
+        meta["areas"] = {k: [list(p) for p in v] for k, v in areas.items()}
+    try:
+        write_simulation(
+            path,
+            report,
+            meta=meta,
+            track=None if world is None else world.track(),
+            areas=areas,
+            script=(script.name, script.read_text(errors="replace")),
+            packets=packets,
+            origin=origin,
+        )
+    except RecordingWriteError as exc:
+        raise _fail(str(exc)) from None
+
+
+def sim_live(run: TaskSim, duration: float, recorder: Recorder, speed: float) -> dict[str, Any]:
+    """Run ``run`` paced to ``speed`` × the wall clock, its facts going to ``recorder`` as
+    they happen; Ctrl-C ends it early. Returns the report."""
+    from actorswarm.recording.simulation import record_live
+
+    started = time.monotonic()
+
+    def pace(t: float) -> None:
+        # Pacing is the front end's business: the simulation never reads a clock.
+        ahead = t / speed - (time.monotonic() - started)
+        if ahead > 0:
+            time.sleep(ahead)
+
+    try:
+        return record_live(run, duration, recorder, on_slice=pace)
+    except KeyboardInterrupt:
+        return run.report()
+
+
+@record_app.command("convert")
+def record_convert(
+    source: Annotated[Path, typer.Argument(help="A JSON Lines recording (an older version's).")],
+    out: Annotated[Path, typer.Argument(help="The MCAP recording to write.")],
+) -> None:
+    """Write an older JSON Lines recording as MCAP (what Foxglove and web --replay open)."""
+    from actorswarm.recording import Recorder, RecordingWriteError
+    from actorswarm.recording.mcap_sink import McapSink
+    from actorswarm.recording.reader import read_recording
+    from actorswarm.sim.record import RecordError
+
+    try:
+        data = read_recording(source)
+    except (RecordError, OSError) as exc:
+        raise _fail(f"{source}: {exc}" if str(source) not in str(exc) else str(exc)) from None
+    try:
+        sink = McapSink(out, atomic=True)
+    except RecordingWriteError as exc:
+        raise _fail(str(exc)) from None
+    meta = {k: v for k, v in data.meta.items() if k != "script_text"}
+    recorder = Recorder([sink], meta=meta, areas=data.areas())
+    facts: list[tuple[float, int, Any]] = []
+    facts += [(float(tr["t"]), 0, ("transition", tr)) for tr in data.transitions]
+    facts += [(float(m["t"]), 0, ("master", m)) for m in data.masters]
+    facts += [(float(e["t"]), 0, ("event", e)) for e in data.events]
+    facts += [(row[0], 1, ("pose", row)) for row in data.rows()]
+    for name, (times, xyz) in data.targets.items():
+        for t, p in zip(times.tolist(), xyz.tolist(), strict=True):
+            facts.append((t, 1, ("target", (t, name, *p))))
+    facts.sort(key=lambda f: (f[0], f[1]))
+    pending: float | None = None
+    for t, _, (kind, item) in facts:
+        if pending is not None and t != pending:
+            recorder.snapshot(pending)
+            pending = None
+        if kind == "transition":
+            recorder.transition(item)
+        elif kind == "master":
+            recorder.master(item["t"], item["masters"], item["epoch"])
+        elif kind == "event":
+            recorder.event(item["t"], item["what"], item["platform"], item["text"])
+        elif kind == "pose":
+            recorder.pose(*item)
+            pending = t
+        else:
+            recorder.target(*item)
+            pending = t
+    if pending is not None:
+        recorder.snapshot(pending)
+    try:
+        recorder.close()
+    except RecordingWriteError as exc:
+        raise _fail(str(exc)) from None
+    typer.echo(f"wrote {out}")
