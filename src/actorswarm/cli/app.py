@@ -681,12 +681,12 @@ def sim(
                     sinks[0].close()
                     typer.echo(str(exc), err=True)
                     raise typer.Exit(2) from None
-            areas = run.world.area_polygons() if run.world is not None else None
+            polygons = run.world.area_polygons() if run.world is not None else None
             recorder = Recorder(
                 sinks,
                 meta={"script": script.name, "seed": seed, "source": "actorswarm sim --live"},
                 script=(file.name, file.read_text(errors="replace")),
-                areas=areas,
+                areas=polygons,
                 origin=frame,
             )
             run.schedule(events, faults)
@@ -818,8 +818,11 @@ def plot(
     try:
         data = read_recording(recording)
     except (RecordError, OSError) as exc:
-        typer.echo(f"{recording}: {exc}", err=True)
+        text = str(exc)
+        typer.echo(text if str(recording) in text else f"{recording}: {text}", err=True)
         raise typer.Exit(2) from None
+    for note in data.notes:
+        typer.echo(f"{recording}: {note}", err=True)
     stem = recording.stem
     for path in (
         trajectory_png(data, out / f"{stem}-trajectories.png"),

@@ -50,7 +50,7 @@ class LiveSink:
                 f"cannot serve the live view on {host}:{port} ({exc}); choose another --live-port"
             ) from None
         self.host = host
-        self.port: int = self._server.port()
+        self.port: int = self._server.port
         self._channels: dict[str, Any] = {}
         for topic, schema in TOPICS.items():
             self._channels[topic] = foxglove.Channel(

@@ -134,7 +134,7 @@ class McapSink:
                 now = self._clock()
                 if now - self._last_flush >= self._flush_every:
                     self._last_flush = now
-                    self._writer.flush()
+                    self._writer.flush()  # type: ignore[no-untyped-call]
 
         self._guard(add)
 
@@ -160,7 +160,7 @@ class McapSink:
             return
 
         def finish() -> None:
-            self._writer.finish()
+            self._writer.finish()  # type: ignore[no-untyped-call]
             self._stream.close()
             if self._atomic:
                 os.replace(self._target, self.path)

@@ -117,7 +117,7 @@ class _Collect:
             for p in body["platforms"]:
                 self.poses.append(
                     (
-                        t,
+                        float(p.get("t", t)),
                         int(p["id"]),
                         float(p["x"]),
                         float(p["y"]),
@@ -154,7 +154,7 @@ class _Collect:
         for topic, loss in _NEEDED.items():
             if topic not in self.seen:
                 notes.append(f"no {topic} messages: {loss}")
-        cols = list(zip(*self.poses, strict=True)) if self.poses else [[]] * 7
+        cols: list[tuple[Any, ...]] = list(zip(*self.poses, strict=True)) or [()] * 7
         return Recording(
             meta=meta,
             t=np.asarray(cols[0], dtype=np.float64),

@@ -290,9 +290,9 @@ class Recorder:
             self._emit("/targets", ns, {"deletions": [], "entities": self._target_entities(ns)})
         if t >= self._next_trail and self._platforms:
             self._next_trail = t + self.trail_every
-            for p in self._platforms.values():
-                if p.t is not None:
-                    p.trail.append((p.x, p.y, p.z))
+            for known in self._platforms.values():
+                if known.t is not None:
+                    known.trail.append((known.x, known.y, known.z))
             self._emit("/trails", ns, {"deletions": [], "entities": self._trails(ns)})
 
     def transition(self, record: Mapping[str, Any]) -> None:
@@ -390,6 +390,7 @@ class Recorder:
         p = self._platforms[platform]
         return {
             "id": platform,
+            "t": round(p.t or 0.0, 6),
             "x": round(p.x, 3),
             "y": round(p.y, 3),
             "z": round(p.z, 3),

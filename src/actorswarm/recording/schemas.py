@@ -90,6 +90,7 @@ _ENTITY = _obj(
 _PLATFORM = _obj(
     "platform",
     id=_INT,
+    t=_NUM,
     x=_NUM,
     y=_NUM,
     z=_NUM,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import heapq
 import itertools
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -53,29 +54,28 @@ def _facts(
     items: list[tuple[float, int, int, Callable[[], None]]] = []
     n = 0
 
-    def add(t: float, write: Callable[[], None]) -> None:
+    def add(t: float, write: Callable[..., None], *args: Any, **kwargs: Any) -> None:
         nonlocal n
-        items.append((float(t), _FACT, n, write))
+        items.append((float(t), _FACT, n, partial(write, *args, **kwargs)))
         n += 1
 
     for tr in report["transitions"]:
-        add(tr["t"], lambda tr=tr: recorder.transition(tr))
+        add(tr["t"], recorder.transition, tr)
     for m in report["masters"]:
-        add(m["t"], lambda m=m: recorder.master(m["t"], [m["platform"]], m["epoch"]))
+        add(m["t"], recorder.master, m["t"], [m["platform"]], m["epoch"])
     for w in report.get("wrecks", []):
-        add(w["t"], lambda w=w: recorder.event(w["t"], "fault", w["platform"], "vehicle lost"))
+        add(w["t"], recorder.event, w["t"], "fault", w["platform"], "vehicle lost")
     for f in report.get("plugin_failures", []):
         t, p = f.get("t", 0.0), f.get("platform", 0)
         text = f"plugin {f.get('plugin', '?')} failed: {f.get('error', '')}"
-        add(t, lambda t=t, p=p, text=text: recorder.event(t, "fault", p, text))
+        add(t, recorder.event, t, "fault", p, text)
     fleet = len(report.get("final_actors", {})) or None
     for c in collective_transitions(report["transitions"], fleet=fleet):
         ms = (c.t_last - c.t) * 1000.0
-        add(c.t_last, lambda c=c, ms=ms: recorder.metrics(c.t_last, barrier_latency_ms=ms))
+        add(c.t_last, recorder.metrics, c.t_last, barrier_latency_ms=ms)
     for (t0, n0), (t1, n1) in itertools.pairwise(packets):
         if t1 > t0:
-            rate = (n1 - n0) / (t1 - t0)
-            add(t1, lambda t1=t1, rate=rate: recorder.metrics(t1, packets_per_s=rate))
+            add(t1, recorder.metrics, t1, packets_per_s=(n1 - n0) / (t1 - t0))
     items.sort(key=lambda item: item[:3])
     yield from items
 

@@ -12,12 +12,19 @@ import { clock, colour, el } from "./util.js";
 
 const $ = (id) => document.getElementById(id);
 
-const state = { hello: null, names: [], t0: 0, selected: null, legend: "" };
+const state = { hello: null, names: [], t0: 0, selected: null, legend: "", up: false };
 
 const link = new Link(receive, (up) => {
-  $("link").className = `link ${up ? "up" : "down"}`;
-  $("link").textContent = up ? "live" : "reconnecting…";
+  state.up = up;
+  showLink();
 });
+
+// The badge: a replay is not live, however well connected the page is.
+function showLink() {
+  const up = state.up;
+  $("link").className = `link ${up ? "up" : "down"}`;
+  $("link").textContent = !up ? "reconnecting…" : state.hello?.kind === "replay" ? "replay" : "live";
+}
 const map = new SwarmMap($("map"), $("tooltip"), $("map-note"), { onSelect: select });
 const graph = new StateGraph($("graph"));
 const timeline = new Timeline($("timeline"), $("step-count"));
@@ -87,6 +94,7 @@ function hello(m) {
   showSpeed(m.speed);
   showReplay(m.replay, m.t0 || 0);
   document.body.dataset.kind = m.kind;
+  showLink();
   graph.show(m.script);
   map.setAreas(m.areas);
   map.setHistory(m.trails);
