@@ -52,15 +52,18 @@ def read_recording(path: Path | str) -> Recording:
     :class:`~actorswarm.sim.record.RecordError` naming the file when it is not a recording
     this version can read; ``OSError`` when it cannot be read at all.
     """
-    if is_mcap(path):
-        return _read_mcap(Path(path))
     with Path(path).open("rb") as stream:
-        start = stream.read(1)
-    if start != b"{":
+        start = stream.read(len(MAGIC))
+    if start == MAGIC:
+        return _read_mcap(Path(path))
+    if start[:1] == MAGIC[:1]:
+        raise RecordError(f"{path}: not a readable MCAP file (it ends within its magic bytes)")
+    try:
+        return read_record(path)  # the older JSON Lines format; it names the bad line
+    except UnicodeDecodeError:
         raise RecordError(
-            f"{path}: neither an MCAP recording nor a JSON Lines one (it starts with {start!r})"
-        )
-    return read_record(path)
+            f"{path}: neither an MCAP recording nor a JSON Lines one (not text)"
+        ) from None
 
 
 class _Collect:
