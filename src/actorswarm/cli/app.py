@@ -691,7 +691,7 @@ def sim(
             )
             run.schedule(events, faults)
             try:
-                report = sim_live(run, duration, recorder, speed)
+                report = sim_live(run, duration, recorder, speed, faults)
             finally:
                 recorder.close()
             record = None  # written as it ran
@@ -709,7 +709,7 @@ def sim(
             "sim_time_s": report["sim_time_s"],
             "source": "actorswarm sim",
         }
-        write_sim_record(record, run, report, meta, file, frame, packets)
+        write_sim_record(record, run, report, meta, file, frame, packets, faults)
     text = json.dumps(report, indent=2)
     if json_out == "-":
         typer.echo(text)

@@ -26,7 +26,7 @@ from rich.table import Table
 from actorswarm.missions import Mission
 from actorswarm.recording import read_recording, write_simulation
 from actorswarm.sim.mission import prepare, run_slices
-from actorswarm.sim.tasksim import failure_lines, steps
+from actorswarm.sim.tasksim import Fault, failure_lines, steps
 from actorswarm.sim.verdict import verdict
 from actorswarm.viz import timeline_png, trajectory_png
 
@@ -162,8 +162,8 @@ def run_demo(
         packets=packets,
         areas=sim.world.area_polygons(),
         script=(mission.script_path.name, mission.script_path.read_text()),
+        faults=[Fault("kill", t, frozenset({p})) for p, t in (*mission.kills, *kills)],
         meta={
-            "areas": {k: [list(p) for p in v] for k, v in sim.world.area_polygons().items()},
             "script": sim.script.name,
             "mission": mission.name,
             "seed": seed,

@@ -16,7 +16,7 @@ import typer
 if TYPE_CHECKING:
     from actorswarm.recording.live import LiveSink
     from actorswarm.recording.recorder import Recorder
-    from actorswarm.sim.tasksim import TaskSim
+    from actorswarm.sim.tasksim import Fault, TaskSim
     from actorswarm.vehicles.mavlink.frame import MissionFrame
 
 __all__ = [
@@ -35,7 +35,8 @@ LiveOpt = Annotated[
     bool,
     typer.Option(
         "--live",
-        help="Serve the run's channels to Foxglove over its WebSocket protocol while it runs "
+        help="Serve the run's channels to Foxglove over its WebSocket protocol as it runs (sim: "
+        "paced by --speed) "
         "(needs the foxglove extra).",
     ),
 ]
@@ -90,15 +91,13 @@ def open_live(host: str, port: int, name: str) -> LiveSink:
 
 def write_sim_record(
     path: Path, run: TaskSim, report: dict[str, Any], meta: dict[str, Any], script: Path,
-    origin: MissionFrame | None, packets: list[tuple[float, int]],
+    origin: MissionFrame | None, packets: list[tuple[float, int]], faults: list[Fault],
 ) -> None:  # fmt: skip
     """Write a finished ``sim`` run to the MCAP file ``path``; exit 2 when it cannot."""
     from actorswarm.recording import RecordingWriteError, write_simulation
 
     world = run.world
     areas = world.area_polygons() if world is not None else None
-    if areas:
-        meta["areas"] = {k: [list(p) for p in v] for k, v in areas.items()}
     try:
         write_simulation(
             path,
@@ -109,12 +108,15 @@ def write_sim_record(
             script=(script.name, script.read_text(errors="replace")),
             packets=packets,
             origin=origin,
+            faults=faults,
         )
     except RecordingWriteError as exc:
         raise _fail(str(exc)) from None
 
 
-def sim_live(run: TaskSim, duration: float, recorder: Recorder, speed: float) -> dict[str, Any]:
+def sim_live(
+    run: TaskSim, duration: float, recorder: Recorder, speed: float, faults: list[Fault]
+) -> dict[str, Any]:
     """Run ``run`` paced to ``speed`` × the wall clock, its facts going to ``recorder`` as
     they happen; Ctrl-C ends it early. Returns the report."""
     from actorswarm.recording.simulation import record_live
@@ -128,7 +130,7 @@ def sim_live(run: TaskSim, duration: float, recorder: Recorder, speed: float) ->
             time.sleep(ahead)
 
     try:
-        return record_live(run, duration, recorder, on_slice=pace)
+        return record_live(run, duration, recorder, on_slice=pace, faults=faults)
     except KeyboardInterrupt:
         return run.report()
 

@@ -40,6 +40,10 @@ _NEEDED = {
 }
 
 
+# The channels this reader takes (the rest are Foxglove's alone).
+_READ = frozenset({"/platforms", "/targets", "/areas", "/actorswarm/events", *_NEEDED})
+
+
 def is_mcap(path: Path | str) -> bool:
     """Whether ``path`` starts as an MCAP file does (``OSError`` when unreadable)."""
     with Path(path).open("rb") as stream:
@@ -80,6 +84,7 @@ class _Collect:
         self.masters: list[dict[str, Any]] = []
         self.events: list[dict[str, Any]] = []
         self.script: str | None = None
+        self.areas: dict[str, list[list[float]]] = {}
 
     @property
     def t0(self) -> int:
@@ -104,7 +109,7 @@ class _Collect:
         if topic is None or self.header is None:
             return
         self.seen.add(topic)
-        if topic not in ("/platforms", "/targets", *(t for t in _NEEDED), "/actorswarm/events"):
+        if topic not in _READ:
             return
         try:
             body = json.loads(record.data)
@@ -136,6 +141,11 @@ class _Collect:
                 self.targets.setdefault(name, []).append(
                     (t, float(pos["x"]), float(pos["y"]), float(pos["z"]))
                 )
+        elif topic == "/areas":
+            for entity in body["entities"]:
+                name = str(entity["id"]).removeprefix("area/")
+                points = [[float(q["x"]), float(q["y"])] for q in entity["lines"][0]["points"]]
+                self.areas[name] = points[:-1] if len(points) > 1 else points  # open the ring
         elif topic == "/actorswarm/transitions":
             self.transitions.append(_checked(body, ("t", "platform", "from", "to")))
         elif topic == "/actorswarm/masters":
@@ -154,6 +164,8 @@ class _Collect:
             meta = {}
         if self.script is not None:
             meta.setdefault("script_text", self.script)
+        if self.areas:
+            meta.setdefault("areas", self.areas)
         for topic, loss in _NEEDED.items():
             if topic not in self.seen:
                 notes.append(f"no {topic} messages: {loss}")

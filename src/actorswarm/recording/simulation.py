@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -21,7 +21,7 @@ from actorswarm.recording.recorder import Recorder, Sink
 from actorswarm.sim.record import collective_transitions
 
 if TYPE_CHECKING:
-    from actorswarm.sim.tasksim import TaskSim
+    from actorswarm.sim.tasksim import Fault, TaskSim
     from actorswarm.vehicles.mavlink.frame import MissionFrame
     from actorswarm.world.world import Track
 
@@ -29,6 +29,12 @@ __all__ = ["record_live", "record_simulation", "write_simulation"]
 
 # Order of facts at one time: transitions before the snapshot that shows their colours.
 _FACT, _SNAPSHOT = 0, 1
+_FAULT_TEXT = {
+    "kill": "crashed (simulated)",
+    "restart": "restarted (simulated)",
+    "partition": "cut off (simulated partition)",
+    "heal": "every partition healed (simulated)",
+}
 
 
 def record_simulation(
@@ -37,11 +43,13 @@ def record_simulation(
     *,
     track: Track | None = None,
     packets: Sequence[tuple[float, int]] = (),
+    faults: Iterable[Fault] = (),
 ) -> None:
     """Write ``report`` (a :meth:`TaskSim.report`) and ``track`` (the world's snapshots,
     None without a world) to ``recorder``, in time order; ``packets`` are ``(t, packets
-    sent so far)`` samples (:func:`~actorswarm.sim.record.sample_world`)."""
-    streams = [_facts(recorder, report, packets)]
+    sent so far)`` samples (:func:`~actorswarm.sim.record.sample_world`); ``faults`` the
+    crashes, restarts, partitions and heals the run was given (events ``fault``)."""
+    streams = [_facts(recorder, report, packets, faults)]
     if track is not None:
         streams.append(_snapshots(recorder, track))
     for _, _, _, write in heapq.merge(*streams, key=lambda item: item[:3]):
@@ -49,7 +57,10 @@ def record_simulation(
 
 
 def _facts(
-    recorder: Recorder, report: Mapping[str, Any], packets: Sequence[tuple[float, int]]
+    recorder: Recorder,
+    report: Mapping[str, Any],
+    packets: Sequence[tuple[float, int]],
+    faults: Iterable[Fault],
 ) -> Iterator[tuple[float, int, int, Callable[[], None]]]:
     items: list[tuple[float, int, int, Callable[[], None]]] = []
     n = 0
@@ -63,6 +74,9 @@ def _facts(
         add(tr["t"], recorder.transition, tr)
     for m in report["masters"]:
         add(m["t"], recorder.master, m["t"], [m["platform"]], m["epoch"])
+    for f in faults:
+        for p in sorted(f.ids) or [0]:
+            add(f.t, recorder.event, f.t, "fault", p, _FAULT_TEXT.get(f.kind, f.kind))
     for w in report.get("wrecks", []):
         add(w["t"], recorder.event, w["t"], "fault", w["platform"], "vehicle lost")
     for f in report.get("plugin_failures", []):
@@ -116,6 +130,7 @@ def write_simulation(
     script: tuple[str, str] | None = None,
     packets: Sequence[tuple[float, int]] = (),
     origin: MissionFrame | None = None,
+    faults: Iterable[Fault] = (),
     extra_sinks: Sequence[Sink] = (),
 ) -> None:
     """Write a finished simulation to the MCAP file ``path`` (whole or not at all:
@@ -124,7 +139,7 @@ def write_simulation(
     sink = McapSink(path, atomic=True)
     recorder = Recorder([sink, *extra_sinks], meta=meta, script=script, areas=areas, origin=origin)
     try:
-        record_simulation(recorder, report, track=track, packets=packets)
+        record_simulation(recorder, report, track=track, packets=packets, faults=faults)
     except BaseException:
         sink.abandon()
         raise
@@ -138,16 +153,19 @@ def record_live(
     *,
     slice_s: float = 0.5,
     on_slice: Callable[[float], None] | None = None,
+    faults: Iterable[Fault] = (),
 ) -> dict[str, Any]:
     """Run ``sim`` to ``duration`` in slices of ``slice_s`` virtual seconds, writing each
     slice's facts to ``recorder`` as it ends (a live view; ``on_slice(t)`` after each, where
     the caller paces the run); return the report. ``sim`` must already sample its world
-    (:func:`~actorswarm.sim.record.sample_world`) to have poses to show. A collective
+    (:func:`~actorswarm.sim.record.sample_world`) to have poses to show; ``faults`` are
+    the ones scheduled (recorded as they come, not applied here). A collective
     switch cut by a slice's end counts as two in ``barrier_latency_ms``."""
     import dataclasses
 
     t = sim.swarm.now
     snapshots = masters = 0
+    pending = sorted(faults, key=lambda f: f.t)
     packets: list[tuple[float, int]] = []
     while t < duration:
         t = min(duration, t + slice_s)
@@ -176,7 +194,9 @@ def record_live(
             snapshots = len(whole)
         traffic = sim.swarm.radio.traffic
         packets = [*packets[-1:], (t, sum(traffic.totals(p)[0] for p in traffic.platforms))]
-        record_simulation(recorder, facts, track=track, packets=packets)
+        due = [f for f in pending if f.t <= t]
+        pending = pending[len(due) :]
+        record_simulation(recorder, facts, track=track, packets=packets, faults=due)
         if on_slice is not None:
             on_slice(t)
     return sim.report()
