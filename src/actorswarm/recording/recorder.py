@@ -48,6 +48,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
+import msgspec
+
 if TYPE_CHECKING:
     from actorswarm.vehicles.mavlink.frame import MissionFrame
 
@@ -134,6 +136,10 @@ def actor_colour(actor: str) -> tuple[float, float, float]:
     return _PALETTE[zlib.crc32(actor.encode()) % len(_PALETTE)]
 
 
+# msgspec's encoder: several times faster than json.dumps on these nested dicts.
+_ENCODE = msgspec.json.Encoder().encode
+
+
 def _stamp(ns: int) -> dict[str, int]:
     return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
 
@@ -143,7 +149,7 @@ def _rgba(rgb: tuple[float, float, float], a: float = 1.0) -> dict[str, float]:
 
 
 def _vec(x: float, y: float, z: float) -> dict[str, float]:
-    return {"x": round(x, 3), "y": round(y, 3), "z": round(z, 3)}
+    return {"x": x, "y": y, "z": z}
 
 
 def _yaw(heading: float) -> dict[str, float]:
@@ -218,6 +224,8 @@ class Recorder:
         self.counts: dict[str, int] = {}
         self._last_ns = self.t0_ns
         self._platforms: dict[int, _Platform] = {}
+        # Each platform's scene entity, rebuilt only when what it shows changes.
+        self._entities: dict[int, tuple[tuple[Any, ...], dict[str, Any]]] = {}
         self._dirty: set[int] = set()
         self._targets: dict[str, tuple[float, float, float]] = {}
         self._targets_dirty = False
@@ -253,13 +261,21 @@ class Recorder:
         battery: float | None = None,
     ) -> None:
         """``platform`` is at ``(x, y, z)`` (metres, ENU) heading ``heading`` (radians from
-        east) at ``t``; written at the next :meth:`snapshot`."""
+        east) at ``t``; written at the next :meth:`snapshot`. ``ValueError`` when a number is
+        not finite (nothing is recorded then)."""
+        if not all(map(math.isfinite, (t, x, y, z, heading))):
+            raise ValueError(
+                f"platform {platform}: a pose of finite numbers, not {(t, x, y, z, heading)}"
+            )
         p = self._platforms.setdefault(int(platform), _Platform())
+        # Rounded once here (millimetres, a tenth of a milliradian): every message that
+        # carries them is shorter, and compresses better.
+        x, y, z = round(x, 3), round(y, 3), round(z, 3)
         if p.t is not None and t > p.t:
-            p.speed = math.dist((x, y, z), (p.x, p.y, p.z)) / (t - p.t)
-        p.x, p.y, p.z, p.heading, p.mode, p.t = x, y, z, heading, mode, t
+            p.speed = round(math.dist((x, y, z), (p.x, p.y, p.z)) / (t - p.t), 3)
+        p.x, p.y, p.z, p.heading, p.mode, p.t = x, y, z, round(heading, 4), mode, t
         if battery is not None:
-            p.battery = battery
+            p.battery = round(battery, 4)
         self._dirty.add(int(platform))
         self._count("pose")
 
@@ -368,7 +384,7 @@ class Recorder:
         return self._last_ns
 
     def _emit(self, topic: str, ns: int, message: Mapping[str, Any]) -> None:
-        data = json.dumps(message, allow_nan=False, separators=(",", ":")).encode()
+        data = _ENCODE(message)
         for sink in self.sinks:
             sink.message(topic, ns, data)
 
@@ -390,17 +406,17 @@ class Recorder:
         p = self._platforms[platform]
         return {
             "id": platform,
-            "t": round(p.t or 0.0, 6),
-            "x": round(p.x, 3),
-            "y": round(p.y, 3),
-            "z": round(p.z, 3),
-            "heading": round(p.heading, 4),
+            "t": p.t or 0.0,
+            "x": p.x,
+            "y": p.y,
+            "z": p.z,
+            "heading": p.heading,
             "mode": p.mode,
             "actor": p.actor,
             "master": platform in self._masters,
-            "altitude": round(p.z, 3),
-            "speed": round(p.speed, 3),
-            "battery": None if p.battery is None else round(p.battery, 4),
+            "altitude": p.z,
+            "speed": p.speed,
+            "battery": p.battery,
         }
 
     def _fix(self, ns: int, platform: int) -> dict[str, Any]:
@@ -418,6 +434,16 @@ class Recorder:
         }
 
     def _platform_entity(self, ns: int, platform: int) -> dict[str, Any]:
+        p = self._platforms[platform]
+        key = (tuple(p.actors), p.mode, platform in self._masters)
+        cached = self._entities.get(platform)
+        if cached is not None and cached[0] == key:
+            return {**cached[1], "timestamp": _stamp(ns)}
+        entity = self._new_entity(ns, platform)
+        self._entities[platform] = (key, entity)
+        return entity
+
+    def _new_entity(self, ns: int, platform: int) -> dict[str, Any]:
         p = self._platforms[platform]
         colour = _rgba(actor_colour(p.actor))
         roles = "master" if platform in self._masters else "member"
