@@ -16,7 +16,8 @@ Channels (topic: schema):
   frame ``platform/N`` (frame-locked, so it moves with ``/tf``): an arrow coloured by its
   actor, a label ``N Actor``, metadata ``actor``, ``roles``, ``mode``;
 * ``/trails``, ``/targets``, ``/areas`` (``foxglove.SceneUpdate``, frame ``world``): each
-  platform's last :data:`TRAIL_POINTS` positions as a line, the moving targets, the areas.
+  platform's last :data:`TRAIL_POINTS` positions as a line, the moving targets, the areas
+  (at the start, and again with each trail).
   Each message holds the whole of its kind, so Foxglove, which shows the latest message of
   a topic after a seek, shows the whole scene;
 * ``/tf`` (``foxglove.FrameTransforms``): ``world`` → ``platform/N`` per platform whose pose
@@ -24,8 +25,8 @@ Channels (topic: schema):
 * ``/fix`` (``foxglove.LocationFix``, frame ``platform/N``): the same poses as latitude,
   longitude, altitude, when the recorder has a geodetic origin;
 * ``/platforms`` (``actorswarm.Platforms``): per snapshot, each updated platform's numbers
-  (position, heading, altitude, speed, battery, mode, actor, master) — the plots' and the
-  web replay's source;
+  (the time of its pose, position, heading, altitude, speed, battery, mode, actor,
+  master) — the plots' and the web replay's source;
 * ``/log`` (``foxglove.Log``): one line per transition, master change, join or leave,
   operator command answered, vehicle fault (and whatever :meth:`~Recorder.log` is given);
 * ``/actorswarm/transitions``, ``/actorswarm/masters``, ``/actorswarm/events``: the same
@@ -232,6 +233,7 @@ class Recorder:
         self._masters: frozenset[int] = frozenset()
         self._next_trail = 0.0
         self._closed = False
+        self._area_entities: list[dict[str, Any]] = []
         header = {
             "format": FORMAT,
             "version": str(VERSION),
@@ -310,6 +312,8 @@ class Recorder:
                 if known.t is not None:
                     known.trail.append((known.x, known.y, known.z))
             self._emit("/trails", ns, {"deletions": [], "entities": self._trails(ns)})
+            if self._area_entities:  # again: a live client that connects late sees them too
+                self._emit("/areas", ns, {"deletions": [], "entities": self._area_entities})
 
     def transition(self, record: Mapping[str, Any]) -> None:
         """One actor transition (a run report's ``transitions`` entry: ``t``, ``platform``,
@@ -537,4 +541,5 @@ class Recorder:
             entities.append(
                 _entity(self.t0_ns, "world", f"area/{name}", lines=[line], texts=[label])
             )
+        self._area_entities = entities
         self._emit("/areas", self.t0_ns, {"deletions": [], "entities": entities})
