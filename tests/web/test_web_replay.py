@@ -146,6 +146,8 @@ def test_the_page_plays_the_real_recording_back_with_pause_pace_and_seek(
     with Server(source) as server:
         page.goto(server.url)
         page.wait_for_selector("#replay-box:not([hidden])")
+        # A replay is not live: the badge says so.
+        _wait_page(page, "document.querySelector('#link').textContent === 'replay'")
         assert page.get_attribute("#replay-play", "data-playing") == "0"
         assert page.text_content("#replay-play") == "Play"
         # Paused at 0, before the recorder heard anyone: nothing to show yet.
