@@ -95,3 +95,25 @@ def test_sim_live_serves_and_records_the_same_run(tmp_path: Path) -> None:
     assert set(data.platform.tolist()) == set(range(1, 11))
     assert data.masters and data.masters[0]["masters"] == [1]
     assert {tr["to"] for tr in data.transitions} >= {"Standby"}
+
+
+def test_a_live_view_that_cannot_start_says_why(monkeypatch: pytest.MonkeyPatch) -> None:
+    from actorswarm.recording.live import LiveUnavailable
+
+    first = LiveSink(port=0)
+    try:
+        with pytest.raises(LiveUnavailable, match=f"127.0.0.1:{first.port}.*--live-port"):
+            LiveSink(port=first.port)
+    finally:
+        first.close()
+    monkeypatch.setitem(sys.modules, "foxglove", None)  # as if the extra were not installed
+    with pytest.raises(LiveUnavailable, match=r"pip install 'actorswarm\[foxglove\]'"):
+        LiveSink(port=0)
+
+
+def test_the_command_line_and_the_live_view_agree_on_the_port() -> None:
+    from actorswarm.cli.record_cmd import LIVE_PORT
+    from actorswarm.cli.web_cmd import DEFAULT_PORT
+    from actorswarm.recording.live import DEFAULT_LIVE_PORT
+
+    assert LIVE_PORT == DEFAULT_LIVE_PORT != DEFAULT_PORT, "not the web ground station's port"

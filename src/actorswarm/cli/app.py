@@ -20,7 +20,14 @@ from rich.console import Console
 
 from actorswarm import __version__
 from actorswarm.cli.common import check_script, read_world
-from actorswarm.cli.record_cmd import LiveHostOpt, LiveOpt, LivePortOpt, OriginOpt, record_app
+from actorswarm.cli.record_cmd import (
+    LIVE_PORT,
+    LiveHostOpt,
+    LiveOpt,
+    LivePortOpt,
+    OriginOpt,
+    record_app,
+)
 from actorswarm.cli.web_cmd import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -559,7 +566,7 @@ def sim(
     ] = None,
     live: LiveOpt = False,
     live_host: LiveHostOpt = "127.0.0.1",
-    live_port: LivePortOpt = 8765,
+    live_port: LivePortOpt = LIVE_PORT,
     origin: OriginOpt = None,
     serve: ServeOpt = False,
     host: HostOpt = DEFAULT_HOST,

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from actorswarm.cli.record_cmd import LiveHostOpt, LiveOpt, LivePortOpt, OriginOpt
+from actorswarm.cli.record_cmd import LIVE_PORT, LiveHostOpt, LiveOpt, LivePortOpt, OriginOpt
 from actorswarm.cli.swarm_options import (
     BroadcastOpt,
     ConnectOpt,
@@ -82,7 +82,7 @@ def gs_record(
     origin: OriginOpt = None,
     live: LiveOpt = False,
     live_host: LiveHostOpt = "127.0.0.1",
-    live_port: LivePortOpt = 8765,
+    live_port: LivePortOpt = LIVE_PORT,
 ) -> None:
     """Record a real swarm (poses, actors' switches, masters, joins and leaves, vehicle
     faults, the platforms' answers to the operator's commands) until Ctrl-C, as an MCAP

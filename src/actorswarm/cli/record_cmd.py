@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from actorswarm.vehicles.mavlink.frame import MissionFrame
 
 __all__ = [
+    "LIVE_PORT",
     "LiveHostOpt",
     "LiveOpt",
     "LivePortOpt",
@@ -30,6 +31,10 @@ __all__ = [
     "sim_live",
     "write_sim_record",
 ]
+
+#: The live view's default port (:data:`actorswarm.recording.live.DEFAULT_LIVE_PORT`, kept
+#: here too so that the command line loads no recording module until one is used).
+LIVE_PORT = 8766
 
 LiveOpt = Annotated[
     bool,

@@ -17,8 +17,8 @@ from actorswarm.recording.schemas import schema_bytes
 
 __all__ = ["DEFAULT_LIVE_PORT", "LiveSink", "LiveUnavailable"]
 
-#: Foxglove's usual WebSocket port.
-DEFAULT_LIVE_PORT = 8765
+#: The live view's port: Foxglove's usual one (8765) is the web ground station's, so the next.
+DEFAULT_LIVE_PORT = 8766
 
 
 class LiveUnavailable(RuntimeError):

@@ -1,4 +1,10 @@
-"""A run's recording: poses and actor transitions in a JSON Lines file.
+"""A run's recording in the older JSON Lines format, and the analysis of any recording.
+
+Recordings are MCAP files now (:mod:`actorswarm.recording`, which reads both formats into
+the :class:`Recording` defined here). This module still reads and writes the JSON Lines
+format of earlier versions, so their files stay readable (``actorswarm record convert``
+turns one into MCAP), and holds what both share: :class:`Recording`, the actor timeline,
+the collective transitions, the sampling of a simulated world.
 
 File format
 -----------
@@ -20,9 +26,9 @@ One JSON object per line, UTF-8, each with a ``type``:
   swarm as a whole or to one platform (``platform`` 0 for the swarm), e.g. ``what``
   ``joined`` or ``left`` for membership, ``command`` for an operator's command seen.
 
-A recording of a real swarm (``actorswarm gs record``) is written line by line as it
-happens, so its lines of every type come interleaved in time order; a simulation's
-(``actorswarm sim --record``) is written at the end. Readers take either.
+A recording of a real swarm (``gs record`` of earlier versions) was written line by line
+as it happened, so its lines of every type come interleaved in time order; a simulation's
+was written at the end. Readers take either.
 
 :func:`write_record` writes the meta line, then the poses, then the transitions;
 :class:`RecordWriter` writes one line at a time, flushing each;
