@@ -28,7 +28,7 @@ def layout() -> fl.Layout:
             fixed_frame="world",
             topics={
                 topic: fl.BaseRendererSceneUpdateTopicSettings(visible=True)
-                for topic in ("/scene", "/trails", "/targets", "/areas")
+                for topic in ("/scene", "/trails", "/targets", "/areas", "/formation")
             },
         ),
     )

@@ -134,6 +134,10 @@ def test_every_platform_has_its_entity_transform_and_map_position(
     assert {e["id"] for e in trails} == {f"trail/{p}" for p in platforms}
     areas = got["/areas"][0][1]["entities"]
     assert areas and all(e["lines"][0]["points"] for e in areas)
+    # The formation's geometry: where each platform is told to be, as the world had it.
+    slots = {e["id"]: e for e in got["/formation"][-1][1]["entities"]}
+    assert set(slots) == {f"slot/{p}" for p in platforms}
+    assert len(got["/formation"]) > 3, "the slots move as the search pattern goes on"
 
 
 def test_numbers_to_plot(run: tuple[Path, dict[str, Any]]) -> None:

@@ -17,7 +17,10 @@ Channels (topic: schema):
   actor, a label ``N Actor``, metadata ``actor``, ``roles``, ``mode``;
 * ``/trails``, ``/targets``, ``/areas`` (``foxglove.SceneUpdate``, frame ``world``): each
   platform's last :data:`TRAIL_POINTS` positions as a line, the moving targets, the areas
-  (at the start, and again with each trail).
+  (at the start, and again with each trail);
+* ``/formation`` (``foxglove.SceneUpdate``, frame ``world``): where each platform is told to
+  be (:meth:`~Recorder.goal`: a formation's slots, a goto's point), a translucent sphere in
+  its actor's colour, with each trail when a goal changed — the formation's geometry;
   Each message holds the whole of its kind, so Foxglove, which shows the latest message of
   a topic after a seek, shows the whole scene;
 * ``/tf`` (``foxglove.FrameTransforms``): ``world`` → ``platform/N`` per platform whose pose
@@ -74,6 +77,7 @@ TOPICS: dict[str, str] = {
     "/trails": "foxglove.SceneUpdate",
     "/targets": "foxglove.SceneUpdate",
     "/areas": "foxglove.SceneUpdate",
+    "/formation": "foxglove.SceneUpdate",
     "/tf": "foxglove.FrameTransforms",
     "/fix": "foxglove.LocationFix",
     "/platforms": "actorswarm.Platforms",
@@ -234,6 +238,8 @@ class Recorder:
         self._next_trail = 0.0
         self._closed = False
         self._area_entities: list[dict[str, Any]] = []
+        self._goals: dict[int, tuple[float, float, float]] = {}
+        self._goals_dirty = False
         header = {
             "format": FORMAT,
             "version": str(VERSION),
@@ -287,6 +293,14 @@ class Recorder:
         self._targets[str(name)] = (x, y, z)
         self._targets_dirty = True
 
+    def goal(self, t: float, platform: int, x: float, y: float, z: float) -> None:
+        """``platform`` is told to be at ``(x, y, z)`` from ``t`` on (a formation slot);
+        written with the next trail when it changed."""
+        where = (round(x, 2), round(y, 2), round(z, 2))
+        if self._goals.get(int(platform)) != where:
+            self._goals[int(platform)] = where
+            self._goals_dirty = True
+
     def snapshot(self, t: float) -> None:
         """Write the scene at ``t``: transforms, fixes and numbers of the platforms whose
         pose changed since the last snapshot, every platform's entity, the targets when
@@ -312,6 +326,9 @@ class Recorder:
                 if known.t is not None:
                     known.trail.append((known.x, known.y, known.z))
             self._emit("/trails", ns, {"deletions": [], "entities": self._trails(ns)})
+            if self._goals_dirty:
+                self._goals_dirty = False
+                self._emit("/formation", ns, {"deletions": [], "entities": self._slots(ns)})
             if self._area_entities:  # again: a live client that connects late sees them too
                 self._emit("/areas", ns, {"deletions": [], "entities": self._area_entities})
 
@@ -500,6 +517,19 @@ class Recorder:
                 "indices": [],
             }
             out.append(_entity(ns, "world", f"trail/{platform}", lines=[line]))
+        return out
+
+    def _slots(self, ns: int) -> list[dict[str, Any]]:
+        out = []
+        for platform, (x, y, z) in sorted(self._goals.items()):
+            known = self._platforms.get(platform)
+            actor = known.actor if known is not None else ""
+            sphere = {
+                "pose": {"position": _vec(x, y, z), "orientation": _UPRIGHT},
+                "size": _vec(1.5, 1.5, 1.5),
+                "color": _rgba(actor_colour(actor), 0.35),
+            }
+            out.append(_entity(ns, "world", f"slot/{platform}", spheres=[sphere]))
         return out
 
     def _target_entities(self, ns: int) -> list[dict[str, Any]]:

@@ -107,9 +107,12 @@ def _snapshots(
             headings = track.headings[i].tolist()
             modes = track.modes[i].tolist()
             batteries = track.batteries[i].tolist()
+            goals = track.goals[i].tolist() if len(track.goals) == len(track.times) else None
             for j, p in enumerate(platforms):
                 x, y, z = pos[j]
                 recorder.pose(t, p, x, y, z, headings[j], MODES[modes[j]], batteries[j])
+                if goals is not None:
+                    recorder.goal(t, p, *goals[j])
             for name, (x, y, z) in zip(
                 track.target_names, track.target_positions[i].tolist(), strict=True
             ):
@@ -190,6 +193,7 @@ def record_live(
                 modes=whole.modes[snapshots:],
                 batteries=whole.batteries[snapshots:],
                 target_positions=whole.target_positions[snapshots:],
+                goals=whole.goals[snapshots:],
             )
             snapshots = len(whole)
         traffic = sim.swarm.radio.traffic
