@@ -322,15 +322,21 @@ class Recorder:
             self._emit("/targets", ns, {"deletions": [], "entities": self._target_entities(ns)})
         if t >= self._next_trail and self._platforms:
             self._next_trail = t + self.trail_every
-            for known in self._platforms.values():
-                if known.t is not None:
-                    known.trail.append((known.x, known.y, known.z))
-            self._emit("/trails", ns, {"deletions": [], "entities": self._trails(ns)})
-            if self._goals_dirty:
-                self._goals_dirty = False
-                self._emit("/formation", ns, {"deletions": [], "entities": self._slots(ns)})
-            if self._area_entities:  # again: a live client that connects late sees them too
-                self._emit("/areas", ns, {"deletions": [], "entities": self._area_entities})
+            self._slow_layers(ns)
+
+    def _slow_layers(self, ns: int) -> None:
+        """What changes slowly, every :attr:`trail_every`: the trails, the formation's
+        slots when they moved, the areas again (a live client that connects late sees
+        them too)."""
+        for known in self._platforms.values():
+            if known.t is not None:
+                known.trail.append((known.x, known.y, known.z))
+        self._emit("/trails", ns, {"deletions": [], "entities": self._trails(ns)})
+        if self._goals_dirty:
+            self._goals_dirty = False
+            self._emit("/formation", ns, {"deletions": [], "entities": self._slots(ns)})
+        if self._area_entities:
+            self._emit("/areas", ns, {"deletions": [], "entities": self._area_entities})
 
     def transition(self, record: Mapping[str, Any]) -> None:
         """One actor transition (a run report's ``transitions`` entry: ``t``, ``platform``,
