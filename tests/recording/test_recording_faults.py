@@ -52,7 +52,7 @@ def _small(path: Path, *, platforms: int = 3, seconds: int = 20) -> Recorder:
 
 def test_a_killed_gs_record_leaves_a_readable_file(tmp_path: Path) -> None:
     """A real ``gs record`` process (no swarm to hear: it records that none is up) killed
-    with SIGKILL: the file reads back up to at most ~1.5 s before the kill."""
+    with SIGKILL: the file reads back up to about a second before the kill."""
     out = tmp_path / "killed.mcap"
     cmd = [sys.executable, "-m", "actorswarm", "gs", "record", str(out), "--insecure",
            "--no-multicast", "--poll", "0.5"]  # fmt: skip
@@ -82,7 +82,9 @@ def test_a_killed_gs_record_leaves_a_readable_file(tmp_path: Path) -> None:
                 times.append(record.log_time)
     assert times and times[0] >= started - 10**9
     lost = (killed - max(times)) / 1e9
-    assert lost < 1.6, f"{lost:.2f} s lost (the open chunk is flushed every second)"
+    # At most a second is lost (the open chunk is flushed every second, a message comes
+    # every half second); the margin is for a busy machine's late loop.
+    assert lost < 2.0, f"{lost:.2f} s lost"
 
 
 def test_a_file_cut_short_reads_up_to_the_cut(tmp_path: Path) -> None:

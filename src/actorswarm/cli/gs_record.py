@@ -11,7 +11,7 @@ see :mod:`actorswarm.ground.recorder`) to the MCAP file OUT as they come
 A progress line on stderr says how much was recorded. Ctrl-C (or ``--duration``) ends the
 recording and completes the file. The open chunk is written out every
 :data:`FLUSH_EVERY` seconds, so a recorder killed outright (SIGKILL, a crash, the power of
-a laptop whose disk keeps its page cache) leaves a file readable up to at most that long
+a laptop whose disk keeps its page cache) leaves a file readable up to about that long
 before it died.
 
 The platforms answer one ground-station session at a time, the newest: while another
