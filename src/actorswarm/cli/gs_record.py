@@ -10,14 +10,14 @@ see :mod:`actorswarm.ground.recorder`) to the MCAP file OUT as they come
 (:class:`~actorswarm.recording.McapSink`), and with ``--live`` to a Foxglove WebSocket view.
 A progress line on stderr says how much was recorded. Ctrl-C (or ``--duration``) ends the
 recording and completes the file. The open chunk is written out every
-:data:`FLUSH_EVERY` seconds, so a recorder killed outright (SIGKILL, a crash, the power of
-a laptop whose disk keeps its page cache) leaves a file readable up to about that long
-before it died.
+:data:`FLUSH_EVERY` seconds, so a recorder killed outright (SIGKILL, a crash) leaves a file
+readable up to about that long before it died (a power failure may also lose what the
+operating system had not yet written to the disk).
 
 The platforms answer one ground-station session at a time, the newest: while another
 ``gs`` command runs (a deploy, an event), the recorder's requests go unanswered. Once that
 session has been quiet for a while, the recorder renews its own (a new incarnation) and an
-``event`` line ``gap`` says how long it had no status.
+event ``gap`` says how long it had no status.
 """
 
 from __future__ import annotations
