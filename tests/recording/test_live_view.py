@@ -117,3 +117,17 @@ def test_the_command_line_and_the_live_view_agree_on_the_port() -> None:
     from actorswarm.recording.live import DEFAULT_LIVE_PORT
 
     assert LIVE_PORT == DEFAULT_LIVE_PORT != DEFAULT_PORT, "not the web ground station's port"
+
+
+def test_gs_record_live_serves_while_it_records(tmp_path: Path) -> None:
+    out = tmp_path / "real.mcap"
+    done = subprocess.run(
+        [sys.executable, "-m", "actorswarm", "gs", "record", str(out), "--insecure",
+         "--no-multicast", "--duration", "1", "--live", "--live-port", "0"],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "live Foxglove view on ws://127.0.0.1:" in done.stdout
+    data = read_recording(out)  # no swarm to hear: complete, with nothing in it
+    assert data.meta["source"] == "gs record" and len(data) == 0
+    assert not any("cut short" in note for note in data.notes), data.notes
