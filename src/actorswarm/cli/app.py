@@ -13,7 +13,7 @@ import json
 import sys
 from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -590,7 +590,7 @@ def sim(
     --expect-complete when the task did not complete. The summary says which.
     """
     from actorswarm.cli.record_cmd import (
-        open_live,
+        check_record_path,
         parse_origin_option,
         sim_live,
         write_sim_record,
@@ -643,13 +643,7 @@ def sim(
     frame = parse_origin_option(origin)
     packets: list[tuple[float, int]] = []
     if record is not None:
-        from actorswarm.recording.mcap_sink import RecordingWriteError, check_writable
-
-        try:
-            check_writable(record)  # before the run, not after it
-        except RecordingWriteError as exc:
-            typer.echo(str(exc), err=True)
-            raise typer.Exit(2) from None
+        check_record_path(record)  # before the run, not after it
     try:
         run = TaskSim(
             script,
@@ -678,29 +672,11 @@ def sim(
         if (record is not None or live) and run.world is not None:
             sample_world(run, 0.5, packets)
         if live:
-            from actorswarm.recording import McapSink, Recorder
-
-            sinks: list[Any] = [open_live(live_host, live_port, f"sim {file.name}")]
-            if record is not None:
-                try:
-                    sinks.append(McapSink(record))
-                except RecordingWriteError as exc:
-                    sinks[0].close()
-                    typer.echo(str(exc), err=True)
-                    raise typer.Exit(2) from None
-            polygons = run.world.area_polygons() if run.world is not None else None
-            recorder = Recorder(
-                sinks,
-                meta={"script": script.name, "seed": seed, "source": "actorswarm sim --live"},
-                script=(file.name, file.read_text(errors="replace")),
-                areas=polygons,
-                origin=frame,
+            meta = {"script": script.name, "seed": seed, "source": "actorswarm sim --live"}
+            served = (live_host, live_port)
+            report = sim_live(
+                run, file, meta, duration, speed, events, faults, served, record, frame
             )
-            run.schedule(events, faults)
-            try:
-                report = sim_live(run, duration, recorder, speed, faults)
-            finally:
-                recorder.close()
             record = None  # written as it ran
         else:
             report = run.run(duration, events=events, faults=faults)
@@ -710,7 +686,7 @@ def sim(
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
     if record is not None:
-        meta: dict[str, Any] = {
+        meta = {
             "script": script.name,
             "seed": seed,
             "sim_time_s": report["sim_time_s"],

@@ -15,8 +15,7 @@ import typer
 
 if TYPE_CHECKING:
     from actorswarm.recording.live import LiveSink
-    from actorswarm.recording.recorder import Recorder
-    from actorswarm.sim.tasksim import Fault, TaskSim
+    from actorswarm.sim.tasksim import Fault, GroundEvent, TaskSim
     from actorswarm.vehicles.mavlink.frame import MissionFrame
 
 __all__ = [
@@ -25,6 +24,7 @@ __all__ = [
     "LiveOpt",
     "LivePortOpt",
     "OriginOpt",
+    "check_record_path",
     "open_live",
     "parse_origin_option",
     "record_app",
@@ -119,13 +119,38 @@ def write_sim_record(
         raise _fail(str(exc)) from None
 
 
+def check_record_path(path: Path) -> None:
+    """Exit 2, naming ``path``, when a recording cannot be written there."""
+    from actorswarm.recording.mcap_sink import RecordingWriteError, check_writable
+
+    try:
+        check_writable(path)
+    except RecordingWriteError as exc:
+        raise _fail(str(exc)) from None
+
+
 def sim_live(
-    run: TaskSim, duration: float, recorder: Recorder, speed: float, faults: list[Fault]
-) -> dict[str, Any]:
-    """Run ``run`` paced to ``speed`` × the wall clock, its facts going to ``recorder`` as
-    they happen; Ctrl-C ends it early. Returns the report."""
+    run: TaskSim, script: Path, meta: dict[str, Any], duration: float, speed: float,
+    events: list[GroundEvent], faults: list[Fault], live: tuple[str, int], record: Path | None,
+    origin: MissionFrame | None,
+) -> dict[str, Any]:  # fmt: skip
+    """``sim --live``: serve the run to Foxglove on ``live`` (host, port), and record it to
+    ``record`` as well when given, while it runs paced to ``speed`` × the wall clock with
+    its ``events`` and ``faults``; Ctrl-C ends it early. Returns the report."""
+    from actorswarm.recording import McapSink, Recorder, RecordingWriteError, Sink
     from actorswarm.recording.simulation import record_live
 
+    sinks: list[Sink] = [open_live(live[0], live[1], f"sim {script.name}")]
+    if record is not None:
+        try:
+            sinks.append(McapSink(record))
+        except RecordingWriteError as exc:
+            sinks[0].close()
+            raise _fail(str(exc)) from None
+    areas = run.world.area_polygons() if run.world is not None else None
+    text = script.read_text(errors="replace")
+    recorder = Recorder(sinks, meta=meta, script=(script.name, text), areas=areas, origin=origin)
+    run.schedule(events, faults)
     started = time.monotonic()
 
     def pace(t: float) -> None:
@@ -138,6 +163,8 @@ def sim_live(
         return record_live(run, duration, recorder, on_slice=pace, faults=faults)
     except KeyboardInterrupt:
         return run.report()
+    finally:
+        recorder.close()
 
 
 @record_app.command("convert")
