@@ -173,9 +173,8 @@ def record_convert(
     out: Annotated[Path, typer.Argument(help="The MCAP recording to write.")],
 ) -> None:
     """Write an older JSON Lines recording as MCAP (what Foxglove and web --replay open)."""
-    from actorswarm.recording import Recorder, RecordingWriteError
-    from actorswarm.recording.mcap_sink import McapSink
-    from actorswarm.recording.reader import read_recording
+    from actorswarm.recording import McapSink, Recorder, RecordingWriteError, read_recording
+    from actorswarm.recording.convert import replay_into
     from actorswarm.sim.record import RecordError
 
     try:
@@ -188,34 +187,7 @@ def record_convert(
         raise _fail(str(exc)) from None
     meta = {k: v for k, v in data.meta.items() if k != "script_text"}
     recorder = Recorder([sink], meta=meta, areas=data.areas())
-    facts: list[tuple[float, int, Any]] = []
-    facts += [(float(tr["t"]), 0, ("transition", tr)) for tr in data.transitions]
-    facts += [(float(m["t"]), 0, ("master", m)) for m in data.masters]
-    facts += [(float(e["t"]), 0, ("event", e)) for e in data.events]
-    facts += [(row[0], 1, ("pose", row)) for row in data.rows()]
-    for name, (times, xyz) in data.targets.items():
-        for t, p in zip(times.tolist(), xyz.tolist(), strict=True):
-            facts.append((t, 1, ("target", (t, name, *p))))
-    facts.sort(key=lambda f: (f[0], f[1]))
-    pending: float | None = None
-    for t, _, (kind, item) in facts:
-        if pending is not None and t != pending:
-            recorder.snapshot(pending)
-            pending = None
-        if kind == "transition":
-            recorder.transition(item)
-        elif kind == "master":
-            recorder.master(item["t"], item["masters"], item["epoch"])
-        elif kind == "event":
-            recorder.event(item["t"], item["what"], item["platform"], item["text"])
-        elif kind == "pose":
-            recorder.pose(*item)
-            pending = t
-        else:
-            recorder.target(*item)
-            pending = t
-    if pending is not None:
-        recorder.snapshot(pending)
+    replay_into(recorder, data)
     try:
         recorder.close()
     except RecordingWriteError as exc:

@@ -6,7 +6,8 @@
 * :class:`McapSink` (:mod:`.mcap_sink`) writes them to an MCAP file; :class:`LiveSink`
   (:mod:`.live`, the ``foxglove`` extra) serves them to Foxglove over its WebSocket protocol;
 * :func:`write_simulation` (:mod:`.simulation`) records a finished simulation;
-* :func:`read_recording` (:mod:`.reader`) reads one back (MCAP, or the older JSON Lines);
+* :func:`read_recording` (:mod:`.reader`) reads one back (MCAP, or the older JSON Lines),
+  and :mod:`.convert` writes an older one again;
 * :data:`LAYOUT` is the Foxglove layout shipped for recordings (docs/recording.md).
 """
 
