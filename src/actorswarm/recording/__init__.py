@@ -23,6 +23,7 @@ from actorswarm.recording.simulation import record_simulation, write_simulation
 __all__ = [
     "FORMAT",
     "LAYOUT",
+    "LAYOUT_SDK",
     "TOPICS",
     "VERSION",
     "McapSink",
@@ -35,5 +36,8 @@ __all__ = [
     "write_simulation",
 ]
 
-#: The Foxglove layout for a recording (import it in Foxglove: Layouts → Import from file).
+#: The Foxglove layout for a recording, as the Foxglove app exports and imports layouts
+#: (Layouts → Import from file).
 LAYOUT = Path(__file__).with_name("foxglove-layout.json")
+#: The same layout in the Foxglove SDK's layout format (its layout API, notebooks).
+LAYOUT_SDK = Path(__file__).with_name("foxglove-layout.sdk.json")
