@@ -164,7 +164,7 @@ def test_bench_switch_rows(tmp_path: Path) -> None:
 
 
 def test_sim_records_and_plot_draws(tmp_path: Path) -> None:
-    rec = tmp_path / "run.jsonl"
+    rec = tmp_path / "run.mcap"
     result = runner.invoke(
         app,
         [
@@ -177,9 +177,7 @@ def test_sim_records_and_plot_draws(tmp_path: Path) -> None:
         ],
     )
     assert result.exit_code == 0, result.output
-    assert rec.read_text().startswith('{"type":"meta"') or rec.read_text().startswith(
-        '{"type": "meta"'
-    )
+    assert rec.read_bytes().startswith(b"\x89MCAP0\r\n")
     result = runner.invoke(app, ["plot", str(rec), "--out", str(tmp_path / "pics")])
     assert result.exit_code == 0, result.output
     for name in ("run-trajectories.png", "run-timeline.png"):
@@ -205,7 +203,7 @@ def test_demo_command_runs_a_mission_and_writes_its_pictures(tmp_path: Path) -> 
     report = json.loads((out / "report.json").read_text())
     assert report["completed"] and report["violations"] == []
     assert len(report["final_actors"]) == 4
-    assert (out / "record.jsonl").read_text().startswith('{"type":"meta"')
+    assert (out / "record.mcap").read_bytes().startswith(b"\x89MCAP0\r\n")
 
 
 @pytest.mark.parametrize(

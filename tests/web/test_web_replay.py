@@ -18,6 +18,7 @@ from typing import Any
 import pytest
 
 from actorswarm.daemon.launch import LocalSwarm
+from actorswarm.recording import read_recording
 from actorswarm.sim.record import Recording, read_record
 
 FLY3 = """<TaskScript name="fly3" version="1">
@@ -42,12 +43,12 @@ FLY3 = """<TaskScript name="fly3" version="1">
 
 
 def _hovering(path: Path) -> bool:
-    data = read_record(path)  # every line is whole: readable at any time
+    data = read_recording(path)  # every chunk but the open one is written: readable at any time
     return {tr["platform"] for tr in data.transitions if tr["to"] == "Hover"} == {1, 2, 3}
 
 
 def _seen(path: Path) -> bool:
-    return path.exists() and set(read_record(path).platform.tolist()) == {1, 2, 3}
+    return path.exists() and set(read_recording(path).platform.tolist()) == {1, 2, 3}
 
 
 def _wait(what: str, ready: Any, recorder: subprocess.Popen[str]) -> None:
@@ -65,7 +66,7 @@ def real_recording(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[P
     tmp = tmp_path_factory.mktemp("real")
     script = tmp / "fly3.xml"
     script.write_text(FLY3)
-    out = tmp / "flight.jsonl"
+    out = tmp / "flight.mcap"
     with LocalSwarm(tmp, 3, extra=("--vehicle", "sim")) as swarm:
         swarm.start_all()
         swarm.wait("three daemons with a master", lambda: swarm.agreed_master() is not None)
@@ -98,7 +99,8 @@ def test_a_real_flight_is_recorded_and_plotted(
 ) -> None:
     out, stderr = real_recording
     assert "recording" in stderr and "3 platforms up" in stderr, stderr
-    data: Recording = read_record(out)
+    data: Recording = read_recording(out)
+    assert data.notes == [], "stopped with Ctrl-C: complete"
     assert data.meta["source"] == "gs record"
     assert set(data.platform.tolist()) == {1, 2, 3}
     for p in (1, 2, 3):
@@ -138,12 +140,14 @@ def test_the_page_plays_the_real_recording_back_with_pause_pace_and_seek(
     from actorswarm.web import ReplaySource, Server
 
     out, _ = real_recording
-    data = read_record(out)
+    data = read_recording(out)
     up = min(tr["t"] for tr in data.transitions if tr["to"] == "Up")
     source = ReplaySource(data, speed=20.0, playing=False)
     with Server(source) as server:
         page.goto(server.url)
         page.wait_for_selector("#replay-box:not([hidden])")
+        # A replay is not live: the badge says so.
+        _wait_page(page, "document.querySelector('#link').textContent === 'replay'")
         assert page.get_attribute("#replay-play", "data-playing") == "0"
         assert page.text_content("#replay-play") == "Play"
         # Paused at 0, before the recorder heard anyone: nothing to show yet.

@@ -28,6 +28,14 @@ from actorswarm.cli.common import (
 )
 from actorswarm.cli.errors import guard_commands
 from actorswarm.cli.help_format import plain_help
+from actorswarm.cli.record_cmd import (
+    LIVE_PORT,
+    LiveHostOpt,
+    LiveOpt,
+    LivePortOpt,
+    OriginOpt,
+    record_app,
+)
 from actorswarm.cli.web_cmd import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -93,6 +101,7 @@ def _register_real_swarm() -> None:
     register_ros2(gs_app)
     app.add_typer(gs_app, name="gs")
     app.add_typer(keys_app, name="keys")
+    app.add_typer(record_app, name="record")
 
 
 _register_real_swarm()
@@ -606,8 +615,14 @@ def sim(
     ] = None,
     record: Annotated[
         Path | None,
-        typer.Option(help="Write trajectories and the actor timeline here (JSON Lines)."),
+        typer.Option(
+            help="Write the run here as an MCAP recording (Foxglove, web --replay, plot)."
+        ),
     ] = None,
+    live: LiveOpt = False,
+    live_host: LiveHostOpt = "127.0.0.1",
+    live_port: LivePortOpt = LIVE_PORT,
+    origin: OriginOpt = None,
     serve: ServeOpt = False,
     host: HostOpt = DEFAULT_HOST,
     port: PortOpt = DEFAULT_PORT,
@@ -629,12 +644,18 @@ def sim(
     platform the script does not start); 3 when a plugin failed during the run; 4 with
     --expect-complete when the task did not complete. The summary says which.
     """
+    from actorswarm.cli.record_cmd import (
+        check_record_path,
+        parse_origin_option,
+        sim_live,
+        write_sim_record,
+    )
     from actorswarm.core.config import CoreConfig
     from actorswarm.runtime.actor_runtime import UnsupportedPlugin
     from actorswarm.runtime.plugin import ParamError
     from actorswarm.runtime.registry import RegistryError
     from actorswarm.sim.radio import Airtime, LinkModel
-    from actorswarm.sim.record import sample_world, write_record
+    from actorswarm.sim.record import sample_world
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
     from actorswarm.sim.verdict import EXIT_USAGE, schedule_problems, verdict
     from actorswarm.world.config import WorldConfig, WorldError, load_world
@@ -678,6 +699,10 @@ def sim(
         typer.echo(f"--channel-bitrate: {exc}", err=True)
         raise typer.Exit(2) from None
     link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
+    frame = parse_origin_option(origin)
+    packets: list[tuple[float, int]] = []
+    if record is not None:
+        check_record_path(record)  # before the run, not after it
     try:
         run = TaskSim(
             script,
@@ -703,33 +728,30 @@ def sim(
                 speed=speed,
             )
             return
-        if record is not None and run.world is not None:
-            sample_world(run, 0.5)
-        report = run.run(duration, events=events, faults=faults)
+        if (record is not None or live) and run.world is not None:
+            sample_world(run, 0.5, packets)
+        if live:
+            meta = {"script": script.name, "seed": seed, "source": "actorswarm sim --live"}
+            served = (live_host, live_port)
+            report = sim_live(
+                run, file, meta, duration, speed, events, faults, served, record, frame
+            )
+            record = None  # written as it ran
+        else:
+            report = run.run(duration, events=events, faults=faults)
     except (UnsupportedPlugin, RegistryError, ParamError) as exc:
         # What the checker cannot know (a plugin of a module:Class path, a param laid over
         # by a transition): refused here as cleanly.
         typer.echo(f"{file}: {exc}", err=True)
         raise typer.Exit(2) from None
     if record is not None:
-        meta: dict[str, object] = {
+        meta = {
             "script": script.name,
             "seed": seed,
             "sim_time_s": report["sim_time_s"],
+            "source": "actorswarm sim",
         }
-        if run.world is not None:
-            track = run.world.track()
-            polygons = run.world.area_polygons()
-            meta["areas"] = {k: [list(p) for p in v] for k, v in polygons.items()}
-            write_record(
-                record,
-                rows=track.rows(),
-                targets=track.target_rows(),
-                transitions=report["transitions"],
-                meta=meta,
-            )
-        else:
-            write_record(record, rows=[], transitions=report["transitions"], meta=meta)
+        write_sim_record(record, run, report, meta, file, frame, packets, faults)
     text = json.dumps(report, indent=2)
     if json_out == "-":
         typer.echo(text)
@@ -831,22 +853,26 @@ def demo(
 @app.command("plot")
 def plot(
     recording: Annotated[
-        Path, typer.Argument(help="A recording written by sim --record or gs record.")
+        Path, typer.Argument(help="A recording (MCAP or JSON Lines) of sim, demo or gs record.")
     ],
     out: Annotated[Path, typer.Option(help="Directory for the pictures.")] = Path("."),
 ) -> None:
     """Draw a recorded run: trajectories (top view, coloured by actor) and the timeline."""
-    from actorswarm.sim.record import RecordError, read_record
+    from actorswarm.recording import read_recording
+    from actorswarm.sim.record import RecordError
     from actorswarm.viz import timeline_png, trajectory_png
 
     try:
-        data = read_record(recording)
+        data = read_recording(recording)
     except OSError as exc:
         typer.echo(f"{recording}: cannot read the recording: {exc.strerror or exc}", err=True)
         raise typer.Exit(2) from None
     except RecordError as exc:
-        typer.echo(f"{recording}: {exc}", err=True)
+        text = str(exc)
+        typer.echo(text if str(recording) in text else f"{recording}: {text}", err=True)
         raise typer.Exit(2) from None
+    for note in data.notes:
+        typer.echo(f"{recording}: {note}", err=True)
     output_dir(out, "--out")
     stem = recording.stem
     for path in (

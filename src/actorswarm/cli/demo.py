@@ -24,9 +24,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from actorswarm.missions import Mission
+from actorswarm.recording import read_recording, write_simulation
 from actorswarm.sim.mission import prepare, run_slices
-from actorswarm.sim.record import read_record, write_record
-from actorswarm.sim.tasksim import failure_lines, steps
+from actorswarm.sim.tasksim import Fault, failure_lines, steps
 from actorswarm.sim.verdict import verdict
 from actorswarm.viz import timeline_png, trajectory_png
 
@@ -128,7 +128,8 @@ def run_demo(
         + (f", {loss:.0%} extra packet loss" if loss else "")
         + (", in real time" if realtime else "")
     )
-    sim = prepare(mission, platforms=platforms, seed=seed, loss=loss, kills=kills)
+    packets: list[tuple[float, int]] = []
+    sim = prepare(mission, platforms=platforms, seed=seed, loss=loss, kills=kills, packets=packets)
     started = time.monotonic()
     with Progress(
         TextColumn("[progress.description]{task.description}"),
@@ -152,24 +153,26 @@ def run_demo(
 
         report = run_slices(sim, mission.duration, on_slice=on_slice)
     wall = time.monotonic() - started
-    record = out / "record.jsonl"
+    record = out / "record.mcap"
     assert sim.world is not None
-    track = sim.world.track()
-    write_record(
+    write_simulation(
         record,
-        rows=track.rows(),
-        targets=track.target_rows(),
-        transitions=report["transitions"],
+        report,
+        track=sim.world.track(),
+        packets=packets,
+        areas=sim.world.area_polygons(),
+        script=(mission.script_path.name, mission.script_path.read_text()),
+        faults=[Fault("kill", t, frozenset({p})) for p, t in (*mission.kills, *kills)],
         meta={
-            "areas": {k: [list(p) for p in v] for k, v in sim.world.area_polygons().items()},
             "script": sim.script.name,
             "mission": mission.name,
             "seed": seed,
             "platforms": n,
             "sim_time_s": report["sim_time_s"],
+            "source": "actorswarm demo",
         },
     )
-    recording = read_record(record)
+    recording = read_recording(record)
     files = [
         record,
         trajectory_png(recording, out / "trajectories.png"),

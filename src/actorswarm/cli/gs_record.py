@@ -1,20 +1,23 @@
-"""``actorswarm gs record OUT.jsonl``: record a real swarm as ``sim --record`` records a
+"""``actorswarm gs record OUT.mcap``: record a real swarm as ``sim --record`` records a
 simulation.
 
 A ground-station session (the same one the other ``gs`` commands open, with their swarm,
 endpoint and key options) listens to the heartbeats and asks every platform heard for its
 status every ``--poll`` seconds; a :class:`~actorswarm.ground.recorder.SwarmRecorder`
-writes the poses, the actors' switches, the masters, the joins and leaves, and the
-platforms' answers to the operator's commands (what a recorder can see of those: see
-:mod:`actorswarm.ground.recorder`) to OUT as they come
-(:class:`~actorswarm.sim.record.RecordWriter`). A progress line on stderr says
-how much was recorded. Ctrl-C (or ``--duration``) ends the recording; every line written
-is whole and flushed, so the file is a well-formed recording however it stops.
+writes the poses, the actors' switches, the masters, the joins and leaves, vehicle faults
+and the platforms' answers to the operator's commands (what a recorder can see of those:
+see :mod:`actorswarm.ground.recorder`) to the MCAP file OUT as they come
+(:class:`~actorswarm.recording.McapSink`), and with ``--live`` to a Foxglove WebSocket view.
+A progress line on stderr says how much was recorded. Ctrl-C (or ``--duration``) ends the
+recording and completes the file. The open chunk is written out every
+:data:`FLUSH_EVERY` seconds, so a recorder killed outright (SIGKILL, a crash) leaves a file
+readable up to about that long before it died (a power failure may also lose what the
+operating system had not yet written to the disk).
 
 The platforms answer one ground-station session at a time, the newest: while another
 ``gs`` command runs (a deploy, an event), the recorder's requests go unanswered. Once that
 session has been quiet for a while, the recorder renews its own (a new incarnation) and an
-``event`` line ``gap`` says how long it had no status.
+event ``gap`` says how long it had no status.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from actorswarm.cli.record_cmd import LIVE_PORT, LiveHostOpt, LiveOpt, LivePortOpt, OriginOpt
 from actorswarm.cli.swarm_options import (
     BroadcastOpt,
     ConnectOpt,
@@ -45,15 +49,17 @@ if TYPE_CHECKING:
 
 __all__ = ["gs_record", "register"]
 
-#: Seconds between two progress lines (and two looks at the heartbeats).
+#: Seconds between two progress lines (and two looks at the heartbeats and scene snapshots).
 _PROGRESS = 0.5
+#: Seconds of recording at most lost when the recorder is killed (the open chunk's span).
+FLUSH_EVERY = 1.0
 #: Seconds without an answer, and without another session heard, before renewing (long
 #: enough for the operator's next command of a sequence, deploy then start, to begin).
 _DISPLACED = 3.0
 
 
 def gs_record(
-    out: Annotated[Path, typer.Argument(help="The recording to write (JSON Lines).")],
+    out: Annotated[Path, typer.Argument(help="The recording to write (MCAP).")],
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
     listen: ListenOpt = None,
@@ -73,14 +79,20 @@ def gs_record(
     name: Annotated[
         str, typer.Option(help="The recording's name (plot titles); default: the swarm's.")
     ] = "",
+    origin: OriginOpt = None,
+    live: LiveOpt = False,
+    live_host: LiveHostOpt = "127.0.0.1",
+    live_port: LivePortOpt = LIVE_PORT,
 ) -> None:
-    """Record a real swarm (poses, actors' switches, masters, joins and leaves, the
-    platforms' answers to the operator's commands) until Ctrl-C, in the format sim --record
-    writes: draw it with plot, replay it with web --replay."""
+    """Record a real swarm (poses, actors' switches, masters, joins and leaves, vehicle
+    faults, the platforms' answers to the operator's commands) until Ctrl-C, as an MCAP
+    recording like sim --record's: open it in Foxglove, draw it with plot, replay it with
+    web --replay. --live also serves it to Foxglove as it happens."""
+    from actorswarm.cli.record_cmd import open_live, parse_origin_option
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
     from actorswarm.ground.recorder import SwarmRecorder
-    from actorswarm.sim.record import RecordWriter
+    from actorswarm.recording import McapSink, Recorder, RecordingWriteError, Sink
     from actorswarm.web.membership import Membership
 
     ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
@@ -91,18 +103,26 @@ def gs_record(
         "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "poll_s": poll,
     }
+    frame = parse_origin_option(origin)
     try:
-        writer = RecordWriter(out, meta)
-    except OSError as exc:
-        typer.echo(f"{out}: cannot write the recording: {exc.strerror or exc}", err=True)
+        sinks: list[Sink] = [McapSink(out, flush_every=FLUSH_EVERY, clock=time.monotonic)]
+    except RecordingWriteError as exc:
+        typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    if live:
+        try:
+            sinks.append(open_live(live_host, live_port, f"gs record {swarm}"))
+        except typer.Exit:
+            sinks[0].close()
+            raise
+    writer = Recorder(sinks, meta=meta, t0_ns=time.time_ns(), origin=frame)
     session = ln.session()
     recorder = SwarmRecorder(writer, clock())
     membership = Membership(session.station.config.t_leave)
     show = sys.stderr.isatty()
 
     def progress(final: bool = False) -> str:
-        lines = writer.lines
+        lines = writer.counts
         text = (
             f"recording {out}: {clock() - recorder.t0:6.1f} s, "
             f"{len(membership.alive())} platforms up, {lines.get('pose', 0)} poses, "
@@ -160,12 +180,17 @@ def gs_record(
         asyncio.run(go())
     except KeyboardInterrupt:
         pass  # Ctrl-C: the normal end of a recording
+    except RecordingWriteError as exc:
+        typer.echo(f"\n{exc}", err=True)
+        raise typer.Exit(1) from None
     except OSError as exc:
-        writer.close()
         typer.echo(f"\nthe link to the swarm failed: {exc}", err=True)
         raise typer.Exit(1) from None
     finally:
-        writer.close()
+        try:
+            writer.close()
+        except RecordingWriteError as exc:
+            typer.echo(f"\n{exc}", err=True)
     if show:
         typer.echo("", err=True)
     progress(final=True)

@@ -196,6 +196,19 @@ def _known_script(script: Path | None, state: Path) -> tuple[TaskScript | None, 
     return result.script, hashlib.sha256(data).hexdigest()
 
 
+def _attached_script(text: object) -> tuple[TaskScript | None, str]:
+    """The task script a recording carries (an MCAP attachment), when it checks cleanly:
+    the state machine to draw without ``--script``."""
+    if not isinstance(text, str):
+        return None, ""
+    from actorswarm.dsl import check
+
+    result = check(text, path="<the recording's script>")
+    if result.script is None or not result.ok:
+        return None, ""
+    return result.script, hashlib.sha256(text.encode()).hexdigest()
+
+
 def gs_web(
     swarm: SwarmOpt = "swarm",
     connect: ConnectOpt = None,
@@ -241,7 +254,9 @@ def gs_web(
 def web(
     replay: Annotated[
         Path,
-        typer.Option(help="Play this recording back (sim --record or gs record wrote it)."),
+        typer.Option(
+            help="Play this recording back (MCAP or JSON Lines, of sim, demo or gs record)."
+        ),
     ],
     script: Annotated[
         Path | None, typer.Option(help="The task script the run ran, to draw its state machine.")
@@ -256,14 +271,20 @@ def web(
 ) -> None:
     """The web ground station on a recording: the run played back on the map, the timeline
     and the swarm table, with pause, pace and seek. Open the address it prints."""
-    from actorswarm.sim.record import RecordError, read_record
+    from actorswarm.recording import read_recording
+    from actorswarm.sim.record import RecordError
 
     try:
-        recording = read_record(replay)
+        recording = read_recording(replay)
     except (RecordError, OSError) as exc:
-        typer.echo(f"{replay}: {exc}", err=True)
+        text = str(exc)
+        typer.echo(text if str(replay) in text else f"{replay}: {text}", err=True)
         raise typer.Exit(2) from None
+    for note in recording.notes:
+        typer.echo(f"{replay}: {note}", err=True)
     drawn, sha = (None, "") if script is None else _known_script(script, Path())
+    if drawn is None:
+        drawn, sha = _attached_script(recording.meta.get("script_text"))
     from actorswarm.web.replay_source import ReplaySource
 
     source = ReplaySource(

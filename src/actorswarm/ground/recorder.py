@@ -1,21 +1,24 @@
 """A real swarm's recording, as its ground station sees it: what ``gs record`` writes.
 
-A :class:`SwarmRecorder` turns what a listening ground station learns into the lines of a
-recording (:mod:`actorswarm.sim.record`, the format ``actorswarm sim --record`` writes, so
-``actorswarm plot`` and ``actorswarm web --replay`` take either):
+A :class:`SwarmRecorder` turns what a listening ground station learns into the facts of a
+recording (a :class:`~actorswarm.recording.recorder.Recorder`: the MCAP channels
+``actorswarm sim --record`` writes, so Foxglove, ``actorswarm plot`` and ``actorswarm web
+--replay`` take either):
 
 * each platform's status reply (:class:`~actorswarm.engine.commands.StatusReply`) gives a
-  ``pose`` line when it carries a position, and ``transition`` lines when its running
-  actors changed since the previous reply (:func:`observed`, cause ``observed``: a real
-  swarm does not say when exactly it switched, so a switch is dated by the reply that
-  showed it, as coarse as the polling);
+  pose when it carries a position (with the vehicle's battery when it reports one), and
+  transitions when its running actors changed since the previous reply (:func:`observed`,
+  cause ``observed``: a real swarm does not say when exactly it switched, so a switch is
+  dated by the reply that showed it, as coarse as the polling); a change of the vehicle's
+  ``link``, ``armed`` or ``mode`` gives an event ``vehicle`` (``fault`` for a link lost);
 * the heartbeats (the station's ``heard`` and ``state``, through a
-  :class:`~actorswarm.web.membership.Membership`) give ``master`` lines when the platforms
-  claiming mastership or the epoch change, and ``event`` lines when a platform joins or
-  leaves;
+  :class:`~actorswarm.web.membership.Membership`) give master changes when the platforms
+  claiming mastership or the epoch change, and events when a platform joins or leaves;
+  each look at them (:meth:`SwarmRecorder.membership`) also writes the scene
+  (:meth:`~actorswarm.recording.recorder.Recorder.snapshot`) and how many platforms are up;
 * every other reply is a platform's answer to an operator's command — another ``gs``
   command, or the web ground station, since the recorder itself only asks for status —
-  and gives an ``event`` line ``command`` (:func:`command_text`: the command, whether it
+  and gives an event ``command`` (:func:`command_text`: the command, whether it
   was carried out, what the platform said).
 
 What the recorder can know of the operator's commands is what the platforms answer, not
@@ -37,12 +40,13 @@ is sans-IO: the caller polls and feeds it (:mod:`actorswarm.cli.gs_record`).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from actorswarm.engine import commands as cmds
 
 if TYPE_CHECKING:
-    from actorswarm.sim.record import RecordWriter
+    from actorswarm.recording.recorder import Recorder
     from actorswarm.web.membership import Membership
 
 __all__ = ["SwarmRecorder", "command_text", "observed"]
@@ -88,18 +92,21 @@ def command_text(reply: cmds.Reply) -> str | None:
 
 #: A platform that moved less than this (m) between two replies keeps its heading.
 _MOVED = 0.3
+#: What a vehicle adapter says of itself that a recording logs when it changes.
+_VEHICLE_KEYS = ("link", "armed", "mode")
 
 
 class SwarmRecorder:
     """Writes what the ground station learns to ``out``, times counted from ``t0``."""
 
-    def __init__(self, out: RecordWriter, t0: float) -> None:
+    def __init__(self, out: Recorder, t0: float) -> None:
         self.out = out
         self.t0 = t0
         self._running: dict[int, tuple[str, ...]] = {}
         self._where: dict[int, tuple[float, float, float, float]] = {}
         self._masters: tuple[tuple[int, ...], int | None] | None = None
         self._states: dict[int, str] = {}
+        self._vehicle: dict[int, dict[str, object]] = {}
         #: Answers to operator commands recorded.
         self.commands = 0
 
@@ -131,6 +138,7 @@ class SwarmRecorder:
         for record in records:
             self.out.transition(record)
         self._running[platform] = running
+        self._vehicle_changes(t, platform, reply.vehicle)
         position = reply.position
         if position is None or len(position) < 2 or not all(map(math.isfinite, position)):
             return
@@ -141,12 +149,24 @@ class SwarmRecorder:
         if last is not None and math.hypot(x - last[0], y - last[1]) > _MOVED:
             heading = math.atan2(y - last[1], x - last[0])
         self._where[platform] = (x, y, z, heading)
-        self.out.pose(t, platform, x, y, z, heading)
+        battery = reply.vehicle.get("battery")
+        charge = float(battery) if isinstance(battery, int | float) else None
+        mode = str(reply.vehicle.get("mode", ""))
+        self.out.pose(t, platform, x, y, z, heading, mode, charge)
+
+    def _vehicle_changes(self, t: float, platform: int, vehicle: Mapping[str, object]) -> None:
+        said = {k: vehicle[k] for k in _VEHICLE_KEYS if k in vehicle}
+        before = self._vehicle.get(platform, {})
+        for key, value in said.items():
+            if before.get(key) != value:
+                lost = key == "link" and value == "lost"
+                self.out.event(t, "fault" if lost else "vehicle", platform, f"{key} {value}")
+        self._vehicle[platform] = said
 
     def membership(self, now: float, membership: Membership) -> None:
-        """Look at the heartbeats' view at ``now`` (after ``membership.update``): an
-        ``event`` line for each platform that joined or left since the last look, a
-        ``master`` line when the masters or the epoch changed."""
+        """Look at the heartbeats' view at ``now`` (after ``membership.update``): an event
+        for each platform that joined or left since the last look, a master change when the
+        masters or the epoch changed; then the scene at ``now`` and the platforms up."""
         t = self.t(now)
         for p, member in membership.members.items():
             was = self._states.get(p, "unheard")
@@ -158,3 +178,5 @@ class SwarmRecorder:
         if masters != self._masters and (masters[0] or self._masters is not None):
             self._masters = masters
             self.out.master(t, masters[0], epoch)
+        self.out.snapshot(t)
+        self.out.metrics(t, platforms_up=len(membership.alive()))

@@ -62,10 +62,12 @@ def prepare(
     seed: int = 0,
     loss: float = 0.0,
     kills: tuple[tuple[int, float], ...] = (),
+    packets: list[tuple[float, int]] | None = None,
 ) -> TaskSim:
     """The mission's simulation, events and crashes scheduled, recording every
     :data:`RECORD_PERIOD` seconds. ``loss`` is an extra independent loss on every packet,
-    on top of the world's distance-driven radio model."""
+    on top of the world's distance-driven radio model. ``packets``: as
+    :func:`~actorswarm.sim.record.sample_world` takes it."""
     script = load(mission.script_path)
     script = resize(script, platforms or mission.platforms, mission.platforms)
     sim = TaskSim(
@@ -75,7 +77,7 @@ def prepare(
         config=CoreConfig(),
         world_config=load_world(mission.world_path),
     )
-    sample_world(sim, RECORD_PERIOD)
+    sample_world(sim, RECORD_PERIOD, packets)
     sim.schedule(
         [GroundEvent(name, t) for name, t in mission.events],
         [Fault("kill", t, frozenset({p})) for p, t in (*mission.kills, *kills)],

@@ -1,4 +1,10 @@
-"""A run's recording: poses and actor transitions in a JSON Lines file.
+"""A run's recording in the older JSON Lines format, and the analysis of any recording.
+
+Recordings are MCAP files now (:mod:`actorswarm.recording`, which reads both formats into
+the :class:`Recording` defined here). This module still reads and writes the JSON Lines
+format of earlier versions, so their files stay readable (``actorswarm record convert``
+turns one into MCAP), and holds what both share: :class:`Recording`, the actor timeline,
+the collective transitions, the sampling of a simulated world.
 
 File format
 -----------
@@ -20,9 +26,9 @@ One JSON object per line, UTF-8, each with a ``type``:
   swarm as a whole or to one platform (``platform`` 0 for the swarm), e.g. ``what``
   ``joined`` or ``left`` for membership, ``command`` for an operator's command seen.
 
-A recording of a real swarm (``actorswarm gs record``) is written line by line as it
-happens, so its lines of every type come interleaved in time order; a simulation's
-(``actorswarm sim --record``) is written at the end. Readers take either.
+A recording of a real swarm (``gs record`` of earlier versions) was written line by line
+as it happened, so its lines of every type come interleaved in time order; a simulation's
+was written at the end. Readers take either.
 
 :func:`write_record` writes the meta line, then the poses, then the transitions;
 :class:`RecordWriter` writes one line at a time, flushing each;
@@ -109,6 +115,9 @@ class Recording:
     masters: list[dict[str, Any]] = field(default_factory=list)
     #: The event lines (without ``type``), in file order.
     events: list[dict[str, Any]] = field(default_factory=list)
+    #: What the reader could not read of the file (an MCAP recording cut short, a channel
+    #: missing), one line each; empty for a whole recording.
+    notes: list[str] = field(default_factory=list)
 
     def areas(self) -> dict[str, list[tuple[float, float]]]:
         """The areas the meta line names (``{name: polygon}``; malformed entries are
@@ -581,10 +590,13 @@ def collective_transitions(
 # --- sampling a simulation -------------------------------------------------------------------
 
 
-def sample_world(sim: TaskSim, every: float) -> None:
+def sample_world(
+    sim: TaskSim, every: float, packets: list[tuple[float, int]] | None = None
+) -> None:
     """Make ``sim``'s world snapshot its vehicles at times 0, ``every``, ``2 * every``, ...
     of virtual time while the simulation runs (call before :meth:`TaskSim.run`); the
-    snapshots are then in ``sim.world.track()``.
+    snapshots are then in ``sim.world.track()``. ``packets``, when given, gets
+    ``(t, packets the swarm sent so far)`` at each snapshot (a recording's packets/s).
 
     ``ValueError`` when ``sim`` has no world or ``every`` is not a time > 0.
     """
@@ -600,6 +612,9 @@ def sample_world(sim: TaskSim, every: float) -> None:
         nonlocal count
         world.step_to(sim.swarm.now)  # catch up first: the physics timer may come later
         world.record()
+        if packets is not None:
+            traffic = sim.swarm.radio.traffic
+            packets.append((sim.swarm.now, sum(traffic.totals(p)[0] for p in traffic.platforms)))
         count += 1
         sim.swarm.at(start + count * every, snapshot)
 

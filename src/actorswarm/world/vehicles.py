@@ -220,6 +220,12 @@ class Fleet:
         return _readonly(self._pos)
 
     @property
+    def goals(self) -> FloatArray:
+        """``(n, 3)`` where each vehicle is told to be: a goto's point (a formation slot, the
+        search pattern's next leg), the point it holds; its position until told anything."""
+        return _readonly(self._goal)
+
+    @property
     def velocities(self) -> FloatArray:
         """``(n, 3)`` velocities, m/s."""
         return _readonly(self._vel)

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,7 +50,8 @@ class Track:
     ``times`` ``(m,)``; ``platforms`` ``(n,)``; ``positions`` ``(m, n, 3)``; ``headings``
     ``(m, n)`` radians; ``modes`` ``(m, n)`` codes into :data:`~actorswarm.world.vehicles.
     MODES`; ``batteries`` ``(m, n)``; ``target_names`` ``(k,)`` and ``target_positions``
-    ``(m, k, 3)``.
+    ``(m, k, 3)``; ``goals`` ``(m, n, 3)``, where each vehicle was told to be
+    (:attr:`~actorswarm.world.vehicles.Fleet.goals`: a formation's slots).
     """
 
     times: FloatArray
@@ -61,6 +62,7 @@ class Track:
     batteries: FloatArray
     target_names: tuple[str, ...]
     target_positions: FloatArray
+    goals: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
 
     def __len__(self) -> int:
         return len(self.times)
@@ -116,7 +118,9 @@ class World:
         self._steps = 0
         self._asked = 0.0
         self._snapshots: list[
-            tuple[float, FloatArray, FloatArray, NDArray[np.int8], FloatArray, FloatArray]
+            tuple[
+                float, FloatArray, FloatArray, NDArray[np.int8], FloatArray, FloatArray, FloatArray
+            ]
         ] = []
         self._record_stride = 0
         # The radio model over the current positions, as (step count, loss, latency) lists:
@@ -244,6 +248,7 @@ class World:
                 fleet.modes.copy(),
                 fleet.batteries.copy(),
                 self.targets.positions(t),
+                fleet.goals.copy(),
             )
         )
 
@@ -261,6 +266,7 @@ class World:
                 batteries=np.zeros((0, n)),
                 target_names=self.targets.names,
                 target_positions=np.zeros((0, k, 3)),
+                goals=np.zeros((0, n, 3)),
             )
         return Track(
             times=np.array([s[0] for s in snaps]),
@@ -271,4 +277,5 @@ class World:
             batteries=np.stack([s[4] for s in snaps]),
             target_names=self.targets.names,
             target_positions=np.stack([s[5] for s in snaps]),
+            goals=np.stack([s[6] for s in snaps]),
         )

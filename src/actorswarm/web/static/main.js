@@ -12,16 +12,18 @@ import { clock, colour, el } from "./util.js";
 
 const $ = (id) => document.getElementById(id);
 
-const state = { hello: null, names: [], t0: 0, selected: null, legend: "" };
+const state = { hello: null, names: [], t0: 0, selected: null, legend: "", up: false };
 
 const link = new Link(receive, (up) => {
-  $("link").className = `link ${up ? "up" : "down"}`;
-  $("link").textContent = up ? badge() : "reconnecting…";
+  state.up = up;
+  showLink();
 });
 
-// What the connected page shows: a recording played back is not live.
-function badge() {
-  return state.hello && state.hello.kind === "replay" ? "replay" : "live";
+// The badge: a replay is not live, however well connected the page is.
+function showLink() {
+  const up = state.up;
+  $("link").className = `link ${up ? "up" : "down"}`;
+  $("link").textContent = !up ? "reconnecting…" : state.hello?.kind === "replay" ? "replay" : "live";
 }
 const map = new SwarmMap($("map"), $("tooltip"), $("map-note"), { onSelect: select });
 const graph = new StateGraph($("graph"));
@@ -92,7 +94,7 @@ function hello(m) {
   showSpeed(m.speed);
   showReplay(m.replay, m.t0 || 0);
   document.body.dataset.kind = m.kind;
-  if ($("link").classList.contains("up")) $("link").textContent = badge();
+  showLink();
   graph.show(m.script);
   map.setAreas(m.areas);
   map.setHistory(m.trails);
