@@ -242,3 +242,53 @@ def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> N
             thread.join(timeout=2)
         for sim in sims.values():
             sim.close()
+
+
+def test_sigterm_stops_a_daemon_whose_tcp_autopilot_vanished_within_a_second(
+    tmp_path: Path,
+) -> None:
+    """The autopilot's TCP link goes away (a reboot); the daemon logs it as structured
+    lines only, keeps retrying, and a SIGTERM stops it within 1 s, exit 0, no traceback."""
+    import json
+    import signal
+    import socket
+    import time
+
+    from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    peer = mavutil.mavlink_connection(
+        f"tcpin:127.0.0.1:{port}", source_system=1, source_component=1
+    )
+    with LocalSwarm(tmp_path, 1) as swarm:
+        proc = swarm.start(
+            1, "--vehicle", "mavlink", "--mavlink", f"tcp:127.0.0.1:{port}",
+            "--origin", ORIGIN,
+        )  # fmt: skip
+
+        def beat() -> bool:
+            peer.recv_match(blocking=False)  # accepts the daemon
+            peer.mav.heartbeat_send(
+                mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 3
+            )
+            return swarm.status(1).get("vehicle", {}).get("link") == "up"
+
+        swarm.wait("the autopilot heard over TCP", beat, timeout=20)
+        peer.close()  # the autopilot reboots
+        swarm.wait("the break logged", lambda: bool(swarm.events(1, "vehicle-link")), timeout=10)
+        time.sleep(1.5)  # a reconnection attempt or two
+        began = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=10)
+        took = time.monotonic() - began
+        swarm.procs.pop(1)
+        assert code == 0
+        print(f"SIGTERM took {took:.3f} s")
+        assert took < 1.0, f"SIGTERM took {took:.2f} s"
+        text = swarm.log(1).read_text()
+        assert "Traceback" not in text
+        for line in text.splitlines():
+            json.loads(line)  # every line is a structured record
+        assert swarm.events(1, "stopped")

@@ -347,6 +347,8 @@ async def _main(options: DaemonOptions) -> int:
             # The simulated vehicle lives in this process's time: seconds since start.
             world.step_to(t - start)
         if autopilot is not None:
+            for record, fields in autopilot.drain_log():
+                _log(record, **fields)
             for error in autopilot.drain_errors():
                 _log("vehicle-error", error=error)
             events = autopilot.drain_events()

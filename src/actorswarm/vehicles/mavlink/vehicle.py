@@ -34,7 +34,6 @@ heard: positions at 10 Hz, battery and home each second.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import struct
 import threading
@@ -47,7 +46,7 @@ from actorswarm.vehicles.mavlink.commands import Command, CommandSender, Step
 from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour, mode_name
 from actorswarm.vehicles.mavlink.frame import MissionFrame
-from actorswarm.vehicles.mavlink.link import MessageFilter, open_connection, read_available
+from actorswarm.vehicles.mavlink.link import Link, MessageFilter, drain_library_lines
 
 __all__ = [
     "FAILSAFE_PARAMS",
@@ -94,6 +93,8 @@ _INT_TYPES: Final = frozenset(
 )
 #: Our own heartbeat, and re-requests of unknown parameters, every this many seconds.
 _BEAT: Final = 1.0
+#: Seconds :meth:`MavlinkVehicle.close` waits for its thread.
+_CLOSE_WAIT: Final = 0.5
 #: Seconds between two looks of the background thread.
 _PERIOD: Final = 0.02
 #: Metres above home from which the vehicle counts as airborne.
@@ -101,7 +102,7 @@ _AIRBORNE: Final = 0.5
 # SET_POSITION_TARGET_GLOBAL_INT: use the position only (ignore velocity, acceleration, yaw).
 _POSITION_ONLY: Final = 0b0000_1101_1111_1000
 
-Link = Literal["never heard", "up", "lost"]
+LinkState = Literal["never heard", "up", "lost"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,7 +163,7 @@ class _State:
     """The latest known state of the autopilot."""
 
     heard: float | None = None  # the last HEARTBEAT
-    link: Link = "never heard"
+    link: LinkState = "never heard"
     kind: Kind | None = None
     mode: str = ""
     armed: bool = False
@@ -188,7 +189,7 @@ class MavlinkVehicle:
         self.settings = settings
         self.name = settings.name
         self._clock = clock
-        self._conn = open_connection(
+        self._link = Link(
             settings.url,
             who=f"vehicle {self.name}",
             source_system=settings.own_system,
@@ -208,6 +209,7 @@ class MavlinkVehicle:
         self._params_asked: float | None = None
         self._events: list[str] = []
         self._errors: list[str] = []
+        self._log: list[tuple[str, dict[str, Any]]] = []
         self._override: Literal["land", "hold"] | None = None
         self._ignored = False
         self._stop = threading.Event()
@@ -224,12 +226,14 @@ class MavlinkVehicle:
             self._thread.start()
 
     def close(self) -> None:
-        """Stop the thread and close the connection."""
+        """Stop the thread and close the connection, whatever state the link is in (gone,
+        reconnecting, never opened); never raises, and returns within about half a second
+        (the thread is a daemon thread: one still inside a connection attempt is left to
+        end on its own)."""
         self._stop.set()
         if self._thread is not None:
-            self._thread.join(timeout=2.0)
-        with contextlib.suppress(OSError):
-            self._conn.close()
+            self._thread.join(timeout=_CLOSE_WAIT)
+        self._link.close()
 
     def _run(self) -> None:
         while not self._stop.is_set():
@@ -237,11 +241,14 @@ class MavlinkVehicle:
             self._stop.wait(_PERIOD)
 
     def service(self, now: float) -> None:
-        """Read, update, command, stream, watch: one look at the link at ``now``."""
+        """Read, update, command, stream, watch: one look at the link at ``now``. A broken
+        link is reopened first, outside the lock (an attempt may take half a second)."""
+        self._link.maintain(now)
         with self._lock:
-            for message in read_available(self._conn):
+            for message in self._link.read():
                 if self._filter.accept(message):
                     self._on_message(message, now)
+            self._link_changes()
             if self._beat is None or now - self._beat >= _BEAT:
                 self._beat = now
                 self._send(
@@ -271,6 +278,17 @@ class MavlinkVehicle:
         with self._lock:
             out, self._events = self._events, []
             return out
+
+    def drain_log(self) -> list[tuple[str, dict[str, Any]]]:
+        """Structured log records since the last call, oldest first: ``(event, fields)``
+        — ``vehicle-link`` (the connection broke or reopened, and why),
+        ``vehicle-library`` (a line pymavlink printed, kept off the output),
+        ``vehicle-ready`` / ``vehicle-waiting`` (readiness changed, and the autopilot's
+        reason), ``vehicle-refused`` (a command refused, with the autopilot's words)."""
+        with self._lock:
+            out, self._log = self._log, []
+        out += [("vehicle-library", {"text": line}) for line in drain_library_lines()]
+        return out
 
     def drain_errors(self) -> list[str]:
         """What failed since the last call, oldest first; each names the vehicle."""
@@ -456,8 +474,7 @@ class MavlinkVehicle:
 
     def _send(self, message: Any) -> None:
         # A link that is down drops what is sent; the heartbeat watch reports it.
-        with contextlib.suppress(OSError):
-            self._conn.mav.send(message)
+        self._link.send(message)
 
     def _on_message(self, message: Any, now: float) -> None:
         kind = message.get_type()
@@ -539,6 +556,12 @@ class MavlinkVehicle:
         if self._state.kind == "px4" and message.param_type in _INT_TYPES:
             return float(struct.unpack("<i", struct.pack("<f", value))[0])
         return value
+
+    def _link_changes(self) -> None:
+        link = self._link
+        for what, why in link.changes:
+            self._log.append(("vehicle-link", {"vehicle": self.name, "what": what, "why": why}))
+        link.changes.clear()
 
     def _watch_link(self, now: float) -> None:
         s = self._state
