@@ -92,7 +92,7 @@ def autopilot() -> Iterator[tuple[SimAutopilot, threading.Event, int]]:
 
     port = free_ports(1)[0]
     home = MissionFrame(*MissionFrame(47.397742, 8.545594, 488.0).to_geodetic(15.0, 5.0, 0.0))
-    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", home, system=3))
+    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", home, system=3, ready_after=0.0))
     stop = threading.Event()
     thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
     thread.start()
@@ -186,6 +186,7 @@ def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> N
             AutopilotOptions(
                 f"udpin:127.0.0.1:{port}", MissionFrame(*origin.to_geodetic(*home)),
                 system=10 + platform, kind=kind,  # type: ignore[arg-type]
+                ready_after=0.0,
             )
         )  # fmt: skip
         threads.append(threading.Thread(target=sims[platform].run, args=(stop,), daemon=True))

@@ -47,7 +47,7 @@ def fly(kind: Literal["ardupilot", "px4"], **autopilot: object) -> Iterator[Flig
         MissionFrame(*ORIGIN.to_geodetic(*HOME)),
         system=7,
         kind=kind,
-        **autopilot,  # type: ignore[arg-type]
+        **{"ready_after": 0.0, **autopilot},  # type: ignore[arg-type]
     )
     sim = SimAutopilot(options)
     stop = threading.Event()
