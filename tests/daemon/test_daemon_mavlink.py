@@ -65,7 +65,7 @@ def test_the_mavlink_keys_of_the_configuration_file(tmp_path: Path) -> None:
     config.write_text(
         'vehicle = "mavlink"\nmavlink = "/dev/ttyAMA0,921600"\nmavlink_sysid = 3\n'
         f'origin = "{ORIGIN}"\nmavlink_kind = "px4"\nmavlink_link_timeout = 2.5\n'
-        "mavlink_force = false\nfence = [-300, -300, 300, 300, 60]\n"
+        "mavlink_force = false\nfence = [-300, -300, 300, 300, 60]\nmavlink_arm_timeout = 60\n"
     )
     parsed, _ = load_daemon_config(config)
     assert (parsed.vehicle, parsed.mavlink, parsed.mavlink_sysid) == (
@@ -74,12 +74,13 @@ def test_the_mavlink_keys_of_the_configuration_file(tmp_path: Path) -> None:
         3,
     )
     assert parsed.mavlink_kind == "px4" and parsed.mavlink_link_timeout == 2.5
-    assert parsed.fence == [-300, -300, 300, 300, 60]
+    assert parsed.fence == [-300, -300, 300, 300, 60] and parsed.mavlink_arm_timeout == 60
     for text, key in [
         ("mavlink_sysid = 300\n", "$.mavlink_sysid"),
         ('mavlink_kind = "inav"\n', "$.mavlink_kind"),
         ("fence = [1, 2]\n", "$.fence"),
         ("mavlink_link_timeout = 0\n", "$.mavlink_link_timeout"),
+        ("mavlink_arm_timeout = -1\n", "$.mavlink_arm_timeout"),
     ]:
         config.write_text(text)
         with pytest.raises(DaemonConfigError, match=re.escape(key)):
@@ -92,7 +93,7 @@ def autopilot() -> Iterator[tuple[SimAutopilot, threading.Event, int]]:
 
     port = free_ports(1)[0]
     home = MissionFrame(*MissionFrame(47.397742, 8.545594, 488.0).to_geodetic(15.0, 5.0, 0.0))
-    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", home, system=3, ready_after=0.0))
+    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", home, system=3, ready_after=1.0))
     stop = threading.Event()
     thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
     thread.start()
@@ -186,7 +187,7 @@ def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> N
             AutopilotOptions(
                 f"udpin:127.0.0.1:{port}", MissionFrame(*origin.to_geodetic(*home)),
                 system=10 + platform, kind=kind,  # type: ignore[arg-type]
-                ready_after=0.0,
+                ready_after=1.5,
             )
         )  # fmt: skip
         threads.append(threading.Thread(target=sims[platform].run, args=(stop,), daemon=True))
@@ -293,3 +294,56 @@ def test_sigterm_stops_a_daemon_whose_tcp_autopilot_vanished_within_a_second(
         for line in text.splitlines():
             json.loads(line)  # every line is a structured record
         assert swarm.events(1, "stopped")
+
+
+def test_a_script_started_at_once_waits_for_a_booting_autopilot_and_says_why(
+    tmp_path: Path,
+) -> None:
+    """End to end through a realistic boot, shortened to 15 s: ``actorswarm autopilot`` on
+    TCP (its clock starts when the daemon connects), the script deployed and started at
+    once. The take-off waits, ``gs status`` says for how long and the autopilot's words,
+    then it flies."""
+    import socket
+    import subprocess
+    import sys
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    pilot = subprocess.Popen(
+        [sys.executable, "-m", "actorswarm", "autopilot", "--home", ORIGIN, "--sysid", "4",
+         "--listen", f"tcpin:127.0.0.1:{port}", "--ready-after", "15"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    try:
+        with LocalSwarm(tmp_path, 1) as swarm:
+            swarm.start(
+                1, "--vehicle", "mavlink", "--mavlink", f"tcp:127.0.0.1:{port}",
+                "--mavlink-sysid", "4", "--origin", ORIGIN,
+            )  # fmt: skip
+            swarm.wait(
+                "the autopilot heard",
+                lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
+                timeout=30,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).with_name("lost.xml"))
+            assert swarm.gs("deploy", script, "--expect", "1", *state).returncode == 0
+            assert swarm.gs("start", *state).returncode == 0
+            shown = ""
+
+            def waiting() -> bool:
+                nonlocal shown
+                shown = swarm.gs("status").stdout
+                return "not ready" in shown and "PreArm: " in shown
+
+            swarm.wait("gs status: the take-off waiting, and why", waiting, timeout=20)
+            pattern = r"vehicle: link up, ardupilot \w+, disarmed, not ready \d+ s — PreArm: "
+            assert re.search(pattern, shown), shown
+            swarm.wait("up at 5 m", lambda: swarm.status(1).get("actors") == ["Hover"], timeout=40)
+            assert swarm.status(1)["vehicle"]["ready"] is True
+            assert swarm.events(1, "vehicle-error") == []
+            assert swarm.events(1, "vehicle-waiting") and swarm.events(1, "vehicle-ready")
+    finally:
+        pilot.terminate()
+        pilot.wait(timeout=10)

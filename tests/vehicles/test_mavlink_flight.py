@@ -40,21 +40,29 @@ Flight = tuple[MavlinkVehicle, SimAutopilot]
 
 
 @contextlib.contextmanager
-def fly(kind: Literal["ardupilot", "px4"], **autopilot: object) -> Iterator[Flight]:
+def fly(
+    kind: Literal["ardupilot", "px4"], *, arm_timeout: float = 120.0, **autopilot: object
+) -> Iterator[Flight]:
     port = free_port()
     options = AutopilotOptions(
         f"udpin:127.0.0.1:{port}",
         MissionFrame(*ORIGIN.to_geodetic(*HOME)),
         system=7,
         kind=kind,
-        **{"ready_after": 0.0, **autopilot},  # type: ignore[arg-type]
+        **{"ready_after": 1.0, **autopilot},  # type: ignore[arg-type]
     )
     sim = SimAutopilot(options)
     stop = threading.Event()
     thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
     thread.start()
     vehicle = MavlinkVehicle(
-        MavlinkSettings(f"udpout:127.0.0.1:{port}", ORIGIN, system=7, name="platform 1")
+        MavlinkSettings(
+            f"udpout:127.0.0.1:{port}",
+            ORIGIN,
+            system=7,
+            name="platform 1",
+            arm_timeout=arm_timeout,
+        )
     )
     vehicle.start()
     try:
@@ -173,3 +181,44 @@ def test_the_operator_s_hold_overrides_the_plugins_until_resumed() -> None:
         vehicle.override(None)
         vehicle.goto(HOME[0] + 3.0, HOME[1] + 3.0, 3.0)
         wait_for("the plugins' goal again", lambda: sim.position()[1] > 2.5, 6.0)
+
+
+@pytest.mark.parametrize("kind", ["ardupilot", "px4"])
+def test_a_takeoff_waits_until_the_autopilot_is_ready_and_says_why(
+    kind: Literal["ardupilot", "px4"],
+) -> None:
+    with fly(kind, ready_after=3.0) as (vehicle, sim):
+        wait_for("the autopilot heard", lambda: vehicle.status()["autopilot"] == kind, 3.0)
+        vehicle.takeoff(2.0)  # at once, as an operator starting a script would
+        wait_for("a reason", lambda: (vehicle.status()["waiting"] or 0) > 1.0, 3.0)
+        status = vehicle.status()
+        assert status["ready"] is False and not sim.armed
+        # The autopilot's own words (PX4's too: the vehicle speaks as a ground station).
+        words = ("PreArm: ", "Arm: ") if kind == "ardupilot" else ("Preflight Fail", "Arming")
+        assert str(status["reason"]).startswith(words), status
+        wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 10.0)
+        assert sim.boot_time(time.monotonic()) >= 3.0
+        status = vehicle.status()
+        assert (status["ready"], status["waiting"], status["reason"]) == (True, None, None)
+        assert vehicle.drain_errors() == []
+        log = [event for event, _ in vehicle.drain_log()]
+        assert "vehicle-waiting" in log and "vehicle-ready" in log
+
+
+def test_an_autopilot_that_never_becomes_ready_fails_the_takeoff_with_its_reason() -> None:
+    with fly("ardupilot", ready_after=60.0, arm_timeout=2.0) as (vehicle, sim):
+        wait_for("the autopilot heard", lambda: vehicle.status()["autopilot"] is not None, 3.0)
+        vehicle.takeoff(2.0)
+        errors: list[str] = []
+
+        def failed() -> bool:
+            errors.extend(vehicle.drain_errors())
+            return bool(errors)
+
+        wait_for("the failure", failed, 5.0)
+        assert errors == [
+            "vehicle platform 1: takeoff: waiting for the autopilot ready to arm: not done "
+            "within 2 s — waiting for an EKF position estimate, a position, a home position, "
+            "a 3D GPS fix, the pre-arm checks passed"
+        ]
+        assert not sim.armed and vehicle.status()["waiting"] is None

@@ -105,6 +105,16 @@ class Controls(Protocol):
         """Metres above home."""
         ...
 
+    def ready(self) -> bool | None:
+        """Whether the autopilot says it can fly (its readiness signals together): True, or
+        None (not yet)."""
+        ...
+
+    @property
+    def arm_timeout(self) -> float:
+        """Seconds a take-off may wait for the autopilot to be ready and to accept arming."""
+        ...
+
 
 class Flavour(Protocol):
     kind: Kind
@@ -142,8 +152,19 @@ def _before_arming(v: Controls) -> list[Step]:
     return [Do("stop streaming", lambda: v.set_target(None)), _check_failsafes(v)]
 
 
-def _arm() -> Command:
-    return Command(mav.MAV_CMD_COMPONENT_ARM_DISARM, (1, 0, 0, 0, 0, 0, 0))
+def _ready_and_arm(v: Controls) -> list[Step]:
+    """Wait until the autopilot says it can fly, then arm, asking again after each refusal;
+    both within ``arm_timeout`` of the plan's start."""
+    return [
+        Check("the autopilot ready to arm", v.ready, deadline=v.arm_timeout, from_plan=True),
+        Command(
+            mav.MAV_CMD_COMPONENT_ARM_DISARM,
+            (1, 0, 0, 0, 0, 0, 0),
+            persist=True,
+            deadline=v.arm_timeout,
+            from_plan=True,
+        ),
+    ]
 
 
 class ArduPilot:
@@ -160,7 +181,7 @@ class ArduPilot:
         return [
             *_before_arming(v),
             self._guided(),
-            _arm(),
+            *_ready_and_arm(v),
             # ArduPilot: param 7 is the altitude above home.
             Command(mav.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 0, 0, altitude)),
         ]
@@ -206,7 +227,7 @@ class Px4:
             return self.goto(v, _above_here(v, altitude), None)
         return [
             *_before_arming(v),
-            _arm(),
+            *_ready_and_arm(v),
             # PX4: param 7 is the altitude above mean sea level (home's plus the climb).
             Command(
                 mav.MAV_CMD_NAV_TAKEOFF,

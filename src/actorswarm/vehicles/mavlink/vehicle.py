@@ -42,11 +42,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
-from actorswarm.vehicles.mavlink.commands import Command, CommandSender, Step
-from actorswarm.vehicles.mavlink.dialect import mav
+from actorswarm.vehicles.mavlink.commands import Check, Command, CommandSender, Step
+from actorswarm.vehicles.mavlink.dialect import mav, result_name
 from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour, mode_name
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import Link, MessageFilter, drain_library_lines
+from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
 
 __all__ = [
     "FAILSAFE_PARAMS",
@@ -93,6 +94,8 @@ _INT_TYPES: Final = frozenset(
 )
 #: Our own heartbeat, and re-requests of unknown parameters, every this many seconds.
 _BEAT: Final = 1.0
+#: Our HEARTBEAT's type (a GCS-type one on PX4 links, see :meth:`MavlinkVehicle.service`).
+_OUR_TYPE: Final = mav.MAV_TYPE_ONBOARD_CONTROLLER
 #: Seconds :meth:`MavlinkVehicle.close` waits for its thread.
 _CLOSE_WAIT: Final = 0.5
 #: Seconds between two looks of the background thread.
@@ -139,8 +142,9 @@ class MavlinkSettings:
     ``kind``: ``"auto"`` (from its HEARTBEAT), ``"ardupilot"`` or ``"px4"``;
     ``link_timeout``: seconds of heartbeat silence that count as a lost link;
     ``retry``/``deadline``: seconds between two sendings of a command, and before one
-    fails; ``force``: take off even when the failsafe check refuses; ``name``: how
-    messages name the vehicle.
+    fails; ``arm_timeout``: seconds a take-off waits for the autopilot to be ready and to
+    accept arming (refusals asked again with back-off) before it fails; ``force``: take
+    off even when the failsafe check refuses; ``name``: how messages name the vehicle.
     """
 
     url: str
@@ -153,6 +157,7 @@ class MavlinkSettings:
     link_timeout: float = 3.0
     retry: float = 0.5
     deadline: float = 5.0
+    arm_timeout: float = 120.0
     force: bool = False
     fence: Fence = field(default_factory=Fence)
     name: str = "mavlink"
@@ -210,6 +215,10 @@ class MavlinkVehicle:
         self._events: list[str] = []
         self._errors: list[str] = []
         self._log: list[tuple[str, dict[str, Any]]] = []
+        self._readiness = Readiness()
+        self._texts = Texts()
+        self._refused: str | None = None  # the last command refused, and how
+        self._said: tuple[bool | None, str | None] = (None, None)  # readiness last logged
         self._override: Literal["land", "hold"] | None = None
         self._ignored = False
         self._stop = threading.Event()
@@ -251,9 +260,12 @@ class MavlinkVehicle:
             self._link_changes()
             if self._beat is None or now - self._beat >= _BEAT:
                 self._beat = now
+                # PX4 sends its STATUSTEXT (the reasons it refuses) only on a link that
+                # heard a ground station's heartbeat.
+                ours = mav.MAV_TYPE_GCS if self._state.kind == "px4" else _OUR_TYPE
                 self._send(
                     mav.MAVLink_heartbeat_message(
-                        mav.MAV_TYPE_ONBOARD_CONTROLLER,
+                        ours,
                         mav.MAV_AUTOPILOT_INVALID,
                         0,
                         0,
@@ -269,6 +281,7 @@ class MavlinkVehicle:
                     sender.tick(now)
                     self._errors += sender.drain_errors()
             self._stream(now)
+            self._watch_readiness(now)
 
     # --- what the daemon reads -------------------------------------------------------------------
 
@@ -298,8 +311,10 @@ class MavlinkVehicle:
 
     def status(self) -> dict[str, Any]:
         """The link, the autopilot's kind, mode and arming, the battery (None: not
-        reported), the plan in progress, the failsafe parameters read, and the messages
-        dropped by reason."""
+        reported), the plan in progress, whether the autopilot is ready to fly (None: not
+        heard yet), the seconds a take-off has been waiting for it (None: none waits), the
+        reason it is not ready (its own words when it said any), the last command it refused,
+        the failsafe parameters read, and the messages dropped by reason."""
         with self._lock:
             s = self._state
             return {
@@ -311,6 +326,10 @@ class MavlinkVehicle:
                 "battery": s.battery,
                 "override": self._override,
                 "plan": None if self._plan is None else self._plan.busy,
+                "ready": self._is_ready(),
+                "waiting": self._waiting(self._clock()),
+                "reason": None if self._is_ready() else self._why(),
+                "refused": self._refused,
                 "failsafes": dict(s.params),
                 "dropped": dict(self._filter.dropped),
             }
@@ -444,6 +463,14 @@ class MavlinkVehicle:
         if target is not None:
             self._stream(self._target_since)  # the first setpoint goes out now
 
+    def ready(self) -> bool | None:
+        """True when the autopilot's readiness signals together say it can fly."""
+        return True if self._is_ready() else None
+
+    @property
+    def arm_timeout(self) -> float:
+        return self.settings.arm_timeout
+
     def failsafes(self) -> bool | str | None:
         kind = self._state.kind
         if kind is None:
@@ -482,6 +509,9 @@ class MavlinkVehicle:
         if kind == "HEARTBEAT":
             self._on_heartbeat(message, now)
         elif kind == "GLOBAL_POSITION_INT":
+            if message.lat == 0 and message.lon == 0:
+                return  # ArduPilot before its EKF has an origin: all zeros, not a place
+            self._readiness.position = True
             lat, lon, alt = message.lat / 1e7, message.lon / 1e7, message.alt / 1000.0
             s.position = self.settings.origin.to_local(lat, lon, alt)
             # NED centimetres per second -> ENU metres per second.
@@ -489,10 +519,23 @@ class MavlinkVehicle:
             s.height = message.relative_alt / 1000.0
             if s.home_amsl is None:
                 s.home_amsl = alt - s.height
+        elif kind in ("EKF_STATUS_REPORT", "GPS_RAW_INT"):
+            self._readiness.on_message(kind, message)
+        elif kind == "STATUSTEXT":
+            text = self._texts.add(message)
+            if text is not None:
+                self._log.append(
+                    (
+                        "vehicle-text",
+                        {"vehicle": self.name, "severity": message.severity, "text": text},
+                    )
+                )
         elif kind == "SYS_STATUS":
+            self._readiness.on_message(kind, message)
             if message.battery_remaining >= 0:
                 s.battery = min(message.battery_remaining, 100) / 100.0
         elif kind == "HOME_POSITION":
+            self._readiness.on_message(kind, message)
             lat, lon, alt = message.latitude / 1e7, message.longitude / 1e7, message.altitude / 1e3
             s.home = self.settings.origin.to_local(lat, lon, alt)
             s.home_amsl = alt
@@ -534,6 +577,8 @@ class MavlinkVehicle:
                 target,
                 retry=self.settings.retry,
                 deadline=self.settings.deadline,
+                explain=self._why,
+                on_refused=self._on_refused,
             )
             self._setup = CommandSender(
                 self.name,
@@ -556,6 +601,69 @@ class MavlinkVehicle:
         if self._state.kind == "px4" and message.param_type in _INT_TYPES:
             return float(struct.unpack("<i", struct.pack("<f", value))[0])
         return value
+
+    def _is_ready(self) -> bool | None:
+        kind = self._state.kind
+        if kind is None:
+            return None
+        return self._state.armed or not self._readiness.missing(kind)
+
+    def _why(self) -> str | None:
+        """Why the autopilot is not ready or refused: its own latest warning, else what it
+        has not said yet (None: nothing to say)."""
+        kind = self._state.kind
+        if kind is None:
+            return f"no HEARTBEAT from the autopilot on {self.settings.url}"
+        text = self._texts.latest_warning()
+        if text is not None:
+            return text
+        missing = self._readiness.missing(kind)
+        return "waiting for " + ", ".join(missing) if missing else None
+
+    def _waiting(self, now: float) -> float | None:
+        """Seconds the plan in progress has been waiting for the autopilot to be ready or
+        to accept arming (None: it is not waiting for that)."""
+        plan = self._plan
+        step = None if plan is None else plan.step
+        began = None if plan is None else plan.began
+        waits = (isinstance(step, Check) and step.from_plan) or (
+            isinstance(step, Command) and step.persist
+        )
+        return round(now - began, 1) if waits and began is not None else None
+
+    def _on_refused(self, name: str, result: int) -> None:
+        self._refused = f"{name}: {result_name(result)}"
+        self._log.append(
+            (
+                "vehicle-refused",
+                {
+                    "vehicle": self.name,
+                    "command": name,
+                    "result": result_name(result),
+                    "reason": self._why(),
+                },
+            )
+        )
+
+    def _watch_readiness(self, now: float) -> None:
+        """Log when the autopilot becomes ready, or its reason for not being so changes."""
+        if self._state.kind is None:
+            return
+        ready = bool(self._is_ready())
+        if ready and self._state.armed:
+            self._texts.clear()  # old refusals are no reason any more
+        said = (ready, None if ready else self._why())
+        if said == self._said:
+            return
+        self._said = said
+        if ready:
+            self._refused = None
+            self._log.append(("vehicle-ready", {"vehicle": self.name}))
+        else:
+            waiting = self._waiting(now)
+            self._log.append(
+                ("vehicle-waiting", {"vehicle": self.name, "reason": said[1], "waiting": waiting})
+            )
 
     def _link_changes(self) -> None:
         link = self._link
