@@ -347,3 +347,51 @@ def test_a_script_started_at_once_waits_for_a_booting_autopilot_and_says_why(
     finally:
         pilot.terminate()
         pilot.wait(timeout=10)
+
+
+def test_px4_flies_on_across_a_switch_between_two_moving_actors(tmp_path: Path) -> None:
+    """Go (a goto that holds as it arrives) switches to Home (return home): PX4 must leave
+    the outgoing actor's AUTO.LOITER for the incoming actor's OFFBOARD goal, and land at
+    home, not hover where Go ended."""
+    from actorswarm.daemon.launch import free_ports
+
+    port = free_ports(1)[0]
+    sim = SimAutopilot(
+        AutopilotOptions(
+            f"udpin:127.0.0.1:{port}", MissionFrame(47.397742, 8.545594, 488.0),
+            system=5, kind="px4", ready_after=1.0,
+        )
+    )  # fmt: skip
+    stop = threading.Event()
+    thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
+    thread.start()
+    try:
+        with LocalSwarm(tmp_path, 1) as swarm:
+            swarm.start(
+                1, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+                "--mavlink-sysid", "5", "--origin", ORIGIN,
+            )  # fmt: skip
+            swarm.wait(
+                "the autopilot heard",
+                lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
+                timeout=20,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).with_name("handover.xml"))
+            assert swarm.gs("deploy", script, "--expect", "1", *state).returncode == 0
+            assert swarm.gs("start", *state).returncode == 0
+            swarm.wait("Home", lambda: swarm.status(1).get("actors") == ["Home"], timeout=40)
+            assert sim.position()[0] > 8.0  # Go got there
+            swarm.wait(
+                "landed at home, disarmed",
+                lambda: not sim.armed and sim.physics_mode == "landed",
+                timeout=30,
+                detail=lambda: f"{sim.position()} {sim.mode_name}",
+            )
+            x, y, _ = sim.position()
+            assert math.hypot(x, y) < 1.5
+            assert swarm.events(1, "vehicle-error") == []
+    finally:
+        stop.set()
+        thread.join(timeout=2)
+        sim.close()

@@ -222,3 +222,30 @@ def test_an_autopilot_that_never_becomes_ready_fails_the_takeoff_with_its_reason
             "a 3D GPS fix, the pre-arm checks passed"
         ]
         assert not sim.armed and vehicle.status()["waiting"] is None
+
+
+@pytest.mark.parametrize("kind", ["ardupilot", "px4"])
+def test_a_hold_then_a_new_goal_at_once_flies_to_the_new_goal(
+    kind: Literal["ardupilot", "px4"],
+) -> None:
+    """An actor switch between two moving actors: the outgoing one holds (its goto
+    arrived), the incoming one sends its goal in the same instant. The hold must never
+    cancel the new goal (PX4: its AUTO.LOITER must not land after the new OFFBOARD)."""
+    with fly(kind) as (vehicle, sim):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        vehicle.takeoff(3.0)
+        wait_for("the climb", lambda: vehicle.position()[2] > 2.8, 8.0)
+        first = (HOME[0] + 6.0, HOME[1], 3.0)
+        vehicle.goto(*first)
+        wait_for("the first goal", lambda: near(vehicle.position(), first, 0.5), 10.0)
+        wait_for("its mode reported", lambda: vehicle.mode in ("GUIDED", "OFFBOARD"), 3.0)
+        vehicle.hold()  # the outgoing actor
+        second = (HOME[0], HOME[1] + 6.0, 3.0)
+        vehicle.goto(*second)  # the incoming actor, in the same step
+        wait_for(
+            "the second goal",
+            lambda: near(vehicle.position(), second, 0.5),
+            10.0,
+        )
+        assert sim.mode_name == ("GUIDED" if kind == "ardupilot" else "OFFBOARD")
+        assert vehicle.drain_errors() == []

@@ -44,7 +44,14 @@ from typing import Any, Final, Literal
 
 from actorswarm.vehicles.mavlink.commands import Check, Command, CommandSender, Step
 from actorswarm.vehicles.mavlink.dialect import mav, result_name
-from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour, mode_name
+from actorswarm.vehicles.mavlink.flavours import (
+    Flavour,
+    Kind,
+    Target,
+    flavour,
+    mode_name,
+    px4_custom_mode,
+)
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import Link, MessageFilter, drain_library_lines
 from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
@@ -96,6 +103,8 @@ _INT_TYPES: Final = frozenset(
 _BEAT: Final = 1.0
 #: Our HEARTBEAT's type (a GCS-type one on PX4 links, see :meth:`MavlinkVehicle.service`).
 _OUR_TYPE: Final = mav.MAV_TYPE_ONBOARD_CONTROLLER
+#: Seconds a mode we asked for counts as the vehicle's mode until a HEARTBEAT reports it.
+_MODE_SETTLE: Final = 3.0
 #: Seconds :meth:`MavlinkVehicle.close` waits for its thread.
 _CLOSE_WAIT: Final = 0.5
 #: Seconds between two looks of the background thread.
@@ -215,6 +224,7 @@ class MavlinkVehicle:
         self._events: list[str] = []
         self._errors: list[str] = []
         self._log: list[tuple[str, dict[str, Any]]] = []
+        self._mode_asked: tuple[str, float] | None = None  # a mode asked for, and when
         self._readiness = Readiness()
         self._texts = Texts()
         self._refused: str | None = None  # the last command refused, and how
@@ -444,6 +454,15 @@ class MavlinkVehicle:
 
     @property
     def mode(self) -> str:
+        """The mode the plans build on: the one we last asked for while the autopilot has
+        not reported it yet (for :data:`_MODE_SETTLE` seconds), else the reported one.
+
+        This is how the latest command wins: a hold asks for AUTO.LOITER, and a goto in the
+        same instant must ask for OFFBOARD again although the last HEARTBEAT still says
+        OFFBOARD — or the hold, carried out after it, would cancel the new goal."""
+        asked = self._mode_asked
+        if asked is not None and self._clock() - asked[1] <= _MODE_SETTLE:
+            return asked[0]
         return self._state.mode
 
     def here(self) -> tuple[float, float, float]:
@@ -500,6 +519,17 @@ class MavlinkVehicle:
         self._errors += self._plan.drain_errors()
 
     def _send(self, message: Any) -> None:
+        if (
+            self._state.kind is not None
+            and message.get_type() == "COMMAND_LONG"
+            and message.command == mav.MAV_CMD_DO_SET_MODE
+        ):
+            if self._state.kind == "px4":
+                custom = px4_custom_mode(int(message.param2), int(message.param3))
+            else:
+                custom = int(message.param2)
+            asked = mode_name(self._state.kind, int(message.param1), custom)
+            self._mode_asked = (asked, self._clock())
         # A link that is down drops what is sent; the heartbeat watch reports it.
         self._link.send(message)
 
@@ -593,6 +623,8 @@ class MavlinkVehicle:
             ]
             self._setup.start("stream rates", intervals, now)
         s.mode = mode_name(s.kind, message.base_mode, message.custom_mode)
+        if self._mode_asked is not None and self._mode_asked[0] == s.mode:
+            self._mode_asked = None  # carried out
 
     def _param_value(self, message: Any) -> float:
         """A PARAM_VALUE's value. PX4 (and MAVSDK) carry an integer parameter's bytes in the
