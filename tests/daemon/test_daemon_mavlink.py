@@ -395,3 +395,71 @@ def test_px4_flies_on_across_a_switch_between_two_moving_actors(tmp_path: Path) 
         stop.set()
         thread.join(timeout=2)
         sim.close()
+
+
+def test_one_of_two_that_cannot_take_off_is_grounded_and_the_other_flies_on(
+    tmp_path: Path,
+) -> None:
+    """examples/mavlink_two.xml: platform 2's autopilot has its failsafes off, so its
+    take-off fails for good; it raises vehicle_fault_event and switches to Grounded, which
+    takes it out of the Standby group, and platform 1 flies the formation alone."""
+    from actorswarm.daemon.launch import free_ports
+
+    origin = MissionFrame(47.397742, 8.545594, 488.0)
+    homes = {1: (-4.0, -6.0, 0.0), 2: (4.0, -6.0, 0.0)}
+    ports = free_ports(2)
+    sims: dict[int, SimAutopilot] = {}
+    stop = threading.Event()
+    threads = []
+    for (platform, home), port in zip(homes.items(), ports, strict=True):
+        sims[platform] = SimAutopilot(
+            AutopilotOptions(
+                f"udpin:127.0.0.1:{port}", MissionFrame(*origin.to_geodetic(*home)),
+                system=20 + platform, ready_after=1.0, failsafes=platform == 1,
+            )
+        )  # fmt: skip
+        threads.append(threading.Thread(target=sims[platform].run, args=(stop,), daemon=True))
+    for thread in threads:
+        thread.start()
+    try:
+        with LocalSwarm(tmp_path, 2) as swarm:
+            for platform, port in zip(homes, ports, strict=True):
+                swarm.start(
+                    platform, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+                    "--mavlink-sysid", str(20 + platform), "--origin", ORIGIN,
+                )  # fmt: skip
+            swarm.wait(
+                "both links up and a master agreed",
+                lambda: (
+                    swarm.agreed_master() is not None
+                    and all(swarm.status(p).get("vehicle", {}).get("link") == "up" for p in homes)
+                ),
+                timeout=30,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")
+            assert swarm.gs("deploy", script, "--expect", "2", *state).returncode == 0
+            assert swarm.gs("start", *state).returncode == 0
+            swarm.wait(
+                "2 grounded, 1 in formation",
+                lambda: (
+                    swarm.status(2).get("actors") == ["Grounded"]
+                    and swarm.status(1).get("actors") == ["Formation"]
+                ),
+                timeout=40,
+            )
+            fault = swarm.events(2, "vehicle-fault")
+            assert len(fault) == 1 and "FS_GCS_ENABLE is 0" in fault[0]["reason"]
+            last = swarm.status(2)["transitions"][-1]
+            assert (last["from"], last["to"], last["event"]) == (
+                "Standby",
+                "Grounded",
+                "vehicle_fault_event",
+            )
+            assert not sims[2].armed and sims[1].armed
+    finally:
+        stop.set()
+        for thread in threads:
+            thread.join(timeout=2)
+        for sim in sims.values():
+            sim.close()

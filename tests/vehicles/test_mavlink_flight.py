@@ -135,6 +135,9 @@ def test_refused_takeoff_is_reported() -> None:
         errors = vehicle.drain_errors()
         assert any("FS_GCS_ENABLE is 0" in e and "refusing to arm" in e for e in errors), errors
         assert not sim.armed
+        # A final failure: the daemon raises vehicle_fault_event with it.
+        faults = vehicle.drain_faults()
+        assert len(faults) == 1 and "FS_GCS_ENABLE is 0" in faults[0]
 
 
 def test_a_goto_right_after_the_takeoff_does_not_take_off_again() -> None:

@@ -58,6 +58,7 @@ from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
 
 __all__ = [
     "FAILSAFE_PARAMS",
+    "FAULT",
     "LINK_LOST",
     "LINK_RESTORED",
     "OPERATOR_EVENTS",
@@ -68,6 +69,9 @@ __all__ = [
 
 LINK_LOST: Final = "vehicle_link_lost"
 LINK_RESTORED: Final = "vehicle_link_restored"
+#: The local event of a command that failed for good (its deadline passed, the autopilot
+#: refused it, the autopilot was never heard); its data is ``{"reason": ...}``.
+FAULT: Final = "vehicle_fault_event"
 #: The operator's events (``gs event NAME``) that take the vehicle from the plugins
 #: (``land``, ``hold``) and give it back (None).
 OPERATOR_EVENTS: Final[dict[str, Literal["land", "hold"] | None]] = {
@@ -223,6 +227,7 @@ class MavlinkVehicle:
         self._params_asked: float | None = None
         self._events: list[str] = []
         self._errors: list[str] = []
+        self._faults: list[str] = []
         self._log: list[tuple[str, dict[str, Any]]] = []
         self._mode_asked: tuple[str, float] | None = None  # a mode asked for, and when
         self._readiness = Readiness()
@@ -289,7 +294,10 @@ class MavlinkVehicle:
             for sender in (self._setup, self._plan):
                 if sender is not None:
                     sender.tick(now)
-                    self._errors += sender.drain_errors()
+                    failed = sender.drain_errors()
+                    self._errors += failed
+                    if sender is self._plan:
+                        self._faults += failed
             self._stream(now)
             self._watch_readiness(now)
 
@@ -312,6 +320,14 @@ class MavlinkVehicle:
             out, self._log = self._log, []
         out += [("vehicle-library", {"text": line}) for line in drain_library_lines()]
         return out
+
+    def drain_faults(self) -> list[str]:
+        """The vehicle commands that failed for good since the last call, oldest first (each
+        also in :meth:`drain_errors`): the daemon raises :data:`FAULT` for each, with the
+        reason as its data, so that a task script can branch (to a Grounded actor, home)."""
+        with self._lock:
+            out, self._faults = self._faults, []
+            return out
 
     def drain_errors(self) -> list[str]:
         """What failed since the last call, oldest first; each names the vehicle."""
@@ -509,14 +525,18 @@ class MavlinkVehicle:
 
     def _command(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
         if self._flavour is None or self._plan is None:
-            self._errors.append(
+            why = (
                 f"vehicle {self.name}: {label}: the autopilot has not been heard yet "
                 f"(no HEARTBEAT on {self.settings.url})"
             )
+            self._errors.append(why)
+            self._faults.append(why)
             return
         steps = plan(self._flavour)
         self._plan.start(label, steps, self._clock())
-        self._errors += self._plan.drain_errors()
+        failed = self._plan.drain_errors()
+        self._errors += failed
+        self._faults += failed
 
     def _send(self, message: Any) -> None:
         if (
