@@ -252,11 +252,15 @@ def test_sigterm_stops_a_daemon_whose_tcp_autopilot_vanished_within_a_second(
     """The autopilot's TCP link goes away (a reboot); the daemon logs it as structured
     lines only, keeps retrying, and a SIGTERM stops it within 1 s, exit 0, no traceback."""
     import json
+    import os
     import signal
     import socket
     import time
 
-    from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+    os.environ.setdefault("MAVLINK20", "1")  # the test's own peer speaks MAVLink 2
+    from pymavlink import mavutil
+
+    from actorswarm.vehicles.mavlink.dialect import mav
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

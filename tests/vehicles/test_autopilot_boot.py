@@ -12,10 +12,11 @@ from collections.abc import Iterator
 from typing import Any, Literal
 
 import pytest
+from pymavlink import mavutil
 
 from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
 from actorswarm.vehicles.mavlink.boot import DEFAULT_READY_AFTER, Boot, chunks
-from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 
 HOME = MissionFrame(47.397742, 8.545594, 488.0)

@@ -12,10 +12,10 @@ import time
 from pathlib import Path
 
 import pytest
+from pymavlink import mavutil
 from typer.testing import CliRunner
 
 from actorswarm.cli.app import app
-from actorswarm.vehicles.mavlink.dialect import mavutil
 
 runner = CliRunner()
 SRC = str(Path(__file__).resolve().parents[2] / "src")

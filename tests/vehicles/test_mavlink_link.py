@@ -9,8 +9,9 @@ import time
 from collections.abc import Callable
 
 import pytest
+from pymavlink import mavutil
 
-from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import Link, drain_library_lines
 from actorswarm.vehicles.mavlink.vehicle import (
@@ -131,3 +132,39 @@ def test_pymavlink_prints_are_kept_as_lines(capfd: pytest.CaptureFixture[str]) -
     mavutil.print("Attempting reconnect")  # type: ignore[attr-defined]
     assert drain_library_lines() == ["Attempting reconnect"]
     assert capfd.readouterr().out == ""
+
+
+def test_a_serial_link_is_read_and_its_loss_reported() -> None:
+    """A serial device (a pseudo-terminal here): the autopilot's heartbeats come in; the
+    device going away (the other end closed) breaks the link, which is then retried."""
+    import os
+
+    controller, device = os.openpty()
+    path = os.ttyname(device)
+    autopilot = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+    beat = autopilot.heartbeat_encode(
+        mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_PX4, 0, 0, mav.MAV_STATE_STANDBY
+    )
+    vehicle = MavlinkVehicle(MavlinkSettings(f"{path},57600", ORIGIN, name="p4"))
+    try:
+        end = time.monotonic() + 5.0
+        while vehicle.status()["link"] != "up":
+            assert time.monotonic() < end, "no heartbeat over the serial device"
+            os.write(controller, beat.pack(autopilot))
+            vehicle.service(time.monotonic())
+            time.sleep(0.05)
+        assert vehicle.status()["autopilot"] == "px4"
+        written = os.read(controller, 4096)  # our own heartbeat and stream requests
+        assert written and written[0] == 0xFD  # MAVLink 2
+        os.close(controller)
+        controller = -1
+        end = time.monotonic() + 5.0
+        while not any(e == "vehicle-link" for e, _ in vehicle.drain_log()):
+            assert time.monotonic() < end, "the lost device not seen"
+            vehicle.service(time.monotonic())
+            time.sleep(0.05)
+    finally:
+        vehicle.close()
+        os.close(device)
+        if controller >= 0:
+            os.close(controller)

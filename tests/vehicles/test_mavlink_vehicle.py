@@ -10,10 +10,11 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+from pymavlink import mavutil
 
 from actorswarm.runtime.context import Vehicle
 from actorswarm.vehicles.mavlink import MavlinkError
-from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import MessageFilter, open_connection
 from actorswarm.vehicles.mavlink.vehicle import (

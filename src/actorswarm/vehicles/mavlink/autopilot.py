@@ -186,7 +186,7 @@ class SimAutopilot:
             if message.get_type() not in ("BAD_DATA", "UNKNOWN"):
                 self._on_message(message, now)
         if self._booted is None:
-            if getattr(self._conn, "port", None) is None:
+            if not self._conn.connected:
                 self._physics_at = now
                 return  # no client yet: SITL's clock has not started
             self._booted = self._physics_at = now

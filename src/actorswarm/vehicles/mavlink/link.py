@@ -8,37 +8,39 @@ bytes that do not parse — without ever raising. With no system ID configured i
 first autopilot whose ``HEARTBEAT`` it hears.
 
 :func:`open_connection` accepts the strings pymavlink takes for a link (``udpin:``,
-``udpout:``, ``udp:``, ``udpbcast:``, ``tcp:``, ``tcpin:``, a serial device with an
-optional ``,BAUD``) and nothing else — pymavlink would read any other string as a log file
-to replay — and turns every failure into a :class:`MavlinkError` naming the vehicle and
-the string.
+``udpout:``, ``udp:`` (as ``udpin:``), ``udpbcast:``, ``tcp:``, ``tcpin:``, a serial device
+with an optional ``,BAUD``) and nothing else, and turns every failure into a
+:class:`MavlinkError` naming the vehicle and the string. The connections are this module's
+own (:class:`Connection` over a socket or a serial port, pymavlink's generated dialect
+parsing and packing the messages), not :mod:`pymavlink.mavutil`'s: that module loads NumPy
+and every dialect, and its TCP client sleeps for seconds inside a read to reconnect.
 
-:class:`Link` owns one such connection and repairs it on its own schedule: a TCP peer that
+:class:`Link` owns one connection and repairs it on its own schedule: a TCP peer that
 closed or reset the connection, or a serial device that went away, is reopened by one
-bounded attempt every :data:`REOPEN_EVERY` seconds (pymavlink's own reconnection is off: it
-sleeps for seconds inside a read, which held a stopping daemon for 6.5 s). A UDP socket
-never breaks; the heartbeat watch of the vehicle reports a silent peer.
+bounded attempt every :data:`REOPEN_EVERY` seconds. A UDP socket never breaks; the
+heartbeat watch of the vehicle reports a silent peer. A ``tcpin:`` endpoint (the simulated
+autopilot's) takes the next client when one leaves.
 
-pymavlink prints to stdout (``Attempting reconnect``, ``EOF on TCP socket``...). Its
-module's ``print`` is replaced by :func:`_library_line`: those lines are kept, never
-printed, and :func:`drain_library_lines` hands them to whoever logs (the daemon writes them
-as structured ``vehicle-library`` lines).
+Whatever pymavlink itself prints is kept, never printed (:func:`drain_library_lines`; the
+daemon logs the lines as structured ``vehicle-library`` records).
 """
 
 from __future__ import annotations
 
 import contextlib
 import socket
+import sys
 import threading
 from collections import Counter, deque
 from collections.abc import Callable
-from typing import Any, Final
+from typing import Any, Final, Protocol
 
-from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.errors import MavlinkError
 
 __all__ = [
     "REOPEN_EVERY",
+    "Connection",
     "Link",
     "LinkDown",
     "MessageFilter",
@@ -51,6 +53,8 @@ _NETWORK = ("udpin:", "udpout:", "udp:", "udpbcast:", "tcp:", "tcpin:")
 _SERIAL = ("/dev/", "COM")
 #: Messages read per call at most: a flood cannot hold the caller.
 _READ_BATCH = 500
+#: Bytes read from a stream at once.
+_CHUNK: Final = 4096
 #: Seconds between two attempts to reopen a broken link.
 REOPEN_EVERY: Final = 1.0
 #: Seconds one TCP connection attempt may take (an unreachable host would take minutes).
@@ -82,30 +86,222 @@ def drain_library_lines() -> list[str]:
         return out
 
 
-# Module globals come before builtins: pymavlink's own print() calls land here.
-mavutil.print = _library_line
+def _silence(module_name: str) -> None:
+    """Route a loaded pymavlink module's ``print`` calls to :func:`_library_line` (module
+    globals come before builtins)."""
+    module = sys.modules.get(module_name)
+    if module is not None:
+        module.print = _library_line  # type: ignore[attr-defined]
 
 
-class _Tcp(mavutil.mavtcp):  # type: ignore[misc]
-    """pymavlink's TCP client, with one bounded connection attempt and no reconnection of
-    its own: a closed or reset connection raises :class:`LinkDown` for :class:`Link`."""
+_silence(mav.__name__)
+_silence("pymavlink.mavutil")  # when something else in the process loaded it
 
-    def do_connect(self) -> None:
-        port = socket.create_connection(self.destination_addr, timeout=_CONNECT_TIMEOUT)
-        port.setblocking(False)
-        port.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.port = port
+
+class _Port(Protocol):
+    @property
+    def connected(self) -> bool: ...
+
+    def recv(self) -> bytes: ...
+
+    def send(self, data: bytes) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def _host_port(where: str) -> tuple[str, int]:
+    host, _, port = where.rpartition(":")
+    return host, int(port)
+
+
+class _Udp:
+    """A UDP socket: bound (``udpin``: answers whoever spoke last) or sending to a peer
+    (``udpout``; ``udpbcast`` broadcasts until a peer answers, then speaks to it)."""
+
+    def __init__(self, where: str, *, listen: bool, broadcast: bool = False) -> None:
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._sock.setblocking(False)
+        address = _host_port(where)
+        self._peer: tuple[str, int] | None = None
+        self._broadcast = broadcast
+        if listen:
+            self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            self._sock.bind(address)
+        else:
+            self._peer = address
+            if broadcast:
+                self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+        self.connected = True
+
+    def recv(self) -> bytes:
+        try:
+            data, peer = self._sock.recvfrom(65535)
+        except OSError:  # nothing waiting, or an ICMP refusal of an earlier datagram
+            return b""
+        if self._peer is None or self._broadcast:
+            self._peer, self._broadcast = peer, False
+        return data
+
+    def send(self, data: bytes) -> None:
+        if self._peer is not None:
+            with contextlib.suppress(OSError):  # a full buffer, a refused peer: dropped
+                self._sock.sendto(data, self._peer)
 
     def close(self) -> None:
-        if self.port is not None:
-            with contextlib.suppress(OSError):
-                self.port.close()
+        self._sock.close()
 
-    def handle_eof(self) -> None:
+
+def _stream_recv(sock: socket.socket) -> bytes:
+    try:
+        data = sock.recv(_CHUNK)
+    except (BlockingIOError, InterruptedError):
+        return b""
+    except OSError as exc:
+        raise LinkDown(f"the TCP connection was reset ({exc})") from None
+    if not data:
         raise LinkDown("the autopilot closed the TCP connection")
+    return data
 
-    def handle_disconnect(self) -> None:
-        raise LinkDown("the TCP connection was reset")
+
+def _stream_send(sock: socket.socket, data: bytes) -> None:
+    try:
+        sock.sendall(data)
+    except (BlockingIOError, InterruptedError):
+        pass  # the peer reads too slowly: dropped, as a datagram would be
+    except OSError as exc:
+        raise LinkDown(f"the TCP connection was reset ({exc})") from None
+
+
+class _TcpClient:
+    """A TCP connection to the autopilot, opened by one bounded attempt."""
+
+    def __init__(self, where: str) -> None:
+        self._sock = socket.create_connection(_host_port(where), timeout=_CONNECT_TIMEOUT)
+        self._sock.setblocking(False)
+        self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.connected = True
+
+    def recv(self) -> bytes:
+        return _stream_recv(self._sock)
+
+    def send(self, data: bytes) -> None:
+        _stream_send(self._sock, data)
+
+    def close(self) -> None:
+        self._sock.close()
+
+
+class _TcpServer:
+    """A listening TCP endpoint serving one client at a time; a client that leaves makes
+    room for the next."""
+
+    def __init__(self, where: str) -> None:
+        self._listen = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._listen.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self._listen.bind(_host_port(where))
+        self._listen.listen(1)
+        self._listen.setblocking(False)
+        self._client: socket.socket | None = None
+
+    @property
+    def connected(self) -> bool:
+        return self._client is not None
+
+    def recv(self) -> bytes:
+        if self._client is None:
+            try:
+                self._client, _ = self._listen.accept()
+            except OSError:
+                return b""
+            self._client.setblocking(False)
+            self._client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        try:
+            return _stream_recv(self._client)
+        except LinkDown:
+            self._drop()
+            return b""
+
+    def send(self, data: bytes) -> None:
+        if self._client is not None:
+            try:
+                _stream_send(self._client, data)
+            except LinkDown:
+                self._drop()
+
+    def _drop(self) -> None:
+        if self._client is not None:
+            with contextlib.suppress(OSError):
+                self._client.close()
+            self._client = None
+
+    def close(self) -> None:
+        self._drop()
+        self._listen.close()
+
+
+class _Serial:
+    """A serial device, ``DEVICE[,BAUD]`` (pyserial, loaded only for one)."""
+
+    def __init__(self, where: str) -> None:
+        import serial  # pyserial, loaded only for a serial link
+
+        device, _, baud = where.partition(",")
+        self._error: type[Exception] = serial.SerialException
+        self._port = serial.Serial(device, int(baud or 115200), timeout=0, write_timeout=0)
+        self.connected = True
+
+    def recv(self) -> bytes:
+        try:
+            waiting = self._port.in_waiting
+            data: bytes = self._port.read(min(max(waiting, 1), _CHUNK))
+        except (OSError, self._error) as exc:
+            raise LinkDown(f"the serial device failed ({exc})") from None
+        return data
+
+    def send(self, data: bytes) -> None:
+        try:
+            self._port.write(data)
+        except (OSError, self._error) as exc:
+            if "timeout" not in str(exc).lower():
+                raise LinkDown(f"the serial device failed ({exc})") from None
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self._port.close()
+
+
+class Connection:
+    """MAVLink 2 over one port: :attr:`mav` packs and sends (pymavlink's generated
+    ``MAVLink``, which writes through :meth:`write`), :meth:`recv_match` hands out the
+    messages parsed from what arrived, one at a time, never blocking (None: nothing)."""
+
+    def __init__(self, port: _Port, source_system: int, source_component: int) -> None:
+        self._port = port
+        self.mav = mav.MAVLink(self, srcSystem=source_system, srcComponent=source_component)
+        self.mav.robust_parsing = True  # bytes that do not parse come out as BAD_DATA
+        self._queue: deque[Any] = deque()
+
+    @property
+    def connected(self) -> bool:
+        """Whether a peer is there to speak to (a ``tcpin:`` endpoint: a client connected)."""
+        return self._port.connected
+
+    def write(self, data: bytes | bytearray) -> None:
+        self._port.send(bytes(data))
+
+    def recv_match(self, blocking: bool = False) -> Any:
+        del blocking  # never blocks
+        while not self._queue:
+            data = self._port.recv()
+            if not data:
+                return None
+            parsed = self.mav.parse_buffer(data)
+            if parsed:
+                self._queue.extend(parsed)
+        return self._queue.popleft()
+
+    def close(self) -> None:
+        self._port.close()
 
 
 def _check_url(url: str, who: str, source_system: int, source_component: int) -> None:
@@ -130,12 +326,22 @@ def _check_url(url: str, who: str, source_system: int, source_component: int) ->
             ) from None
 
 
-def _connect(url: str, source_system: int, source_component: int) -> Any:
-    if url.startswith("tcp:"):
-        return _Tcp(url[4:], source_system=source_system, source_component=source_component)
-    return mavutil.mavlink_connection(
-        url, source_system=source_system, source_component=source_component, retries=0
-    )
+def _connect(url: str, source_system: int, source_component: int) -> Connection:
+    scheme, _, where = url.partition(":")
+    port: _Port
+    if scheme in ("udpin", "udp"):
+        port = _Udp(where, listen=True)
+    elif scheme == "udpout":
+        port = _Udp(where, listen=False)
+    elif scheme == "udpbcast":
+        port = _Udp(where, listen=False, broadcast=True)
+    elif scheme == "tcp":
+        port = _TcpClient(where)
+    elif scheme == "tcpin":
+        port = _TcpServer(where)
+    else:
+        port = _Serial(url)
+    return Connection(port, source_system, source_component)
 
 
 def open_connection(url: str, *, who: str, source_system: int, source_component: int) -> Any:

@@ -620,6 +620,7 @@ class MavlinkVehicle:
                 chosen = "ardupilot" if ardupilot else "px4"
             s.kind = chosen
             self._flavour = flavour(chosen)
+            self._beat = None  # our next heartbeat now, of the kind's type (PX4: a GCS's)
             target = (message.get_srcSystem(), message.get_srcComponent())
             self._plan = CommandSender(
                 self.name,
