@@ -20,20 +20,14 @@ __all__ = ["alarm", "describe"]
 
 def describe(vehicle: Mapping[str, object]) -> str:
     """``link up, ardupilot GUIDED, armed, battery 87 %, operator hold``, or while a
-    take-off waits ``link up, ardupilot GUIDED, disarmed, not ready 23 s — PreArm: Need
-    Position Estimate`` ("" when the vehicle said nothing the operator reads)."""
+    take-off waits ``link up, ardupilot GUIDED, disarmed, battery 100 %, not ready 23 s —
+    PreArm: Need Position Estimate`` ("" when the vehicle said nothing the operator reads)."""
     parts = [f"link {vehicle['link']}"] if "link" in vehicle else []
     kind = " ".join(str(vehicle[k]) for k in ("autopilot", "mode") if vehicle.get(k))
     if kind:
         parts.append(kind)
     if "armed" in vehicle:
         parts.append("armed" if vehicle["armed"] else "disarmed")
-    waiting = vehicle.get("waiting")
-    reason = vehicle.get("reason")
-    if isinstance(waiting, int | float) and not isinstance(waiting, bool):
-        parts.append(f"not ready {waiting:.0f} s" + (f" — {reason}" if reason else ""))
-    elif vehicle.get("ready") is False:
-        parts.append("not ready" + (f" — {reason}" if reason else ""))
     battery = vehicle.get("battery")
     if isinstance(battery, int | float) and not isinstance(battery, bool):
         parts.append(f"battery {100 * battery:.0f} %")
@@ -41,6 +35,13 @@ def describe(vehicle: Mapping[str, object]) -> str:
         parts.append(f"operator {vehicle['override']}")
     if "error" in vehicle:
         parts.append(f"status failed: {vehicle['error']}")
+    # Last: the autopilot's reason is free text (it may hold commas).
+    waiting = vehicle.get("waiting")
+    reason = vehicle.get("reason")
+    if isinstance(waiting, int | float) and not isinstance(waiting, bool):
+        parts.append(f"not ready {waiting:.0f} s" + (f" — {reason}" if reason else ""))
+    elif vehicle.get("ready") is False:
+        parts.append("not ready" + (f" — {reason}" if reason else ""))
     return ", ".join(parts)
 
 
