@@ -170,7 +170,11 @@ def test_wrong_system_id_is_never_heard(port: int, pilot: Autopilot) -> None:
         ]
         vehicle.service(1.5)
         assert vehicle.drain_events() == [LINK_LOST]
-        assert "no HEARTBEAT from system 9" in vehicle.drain_errors()[0]
+        error = vehicle.drain_errors()[0]
+        assert "no HEARTBEAT from system 9" in error
+        assert error.endswith("(heard system 1 instead: a wrong --mavlink-sysid?)"), error
+        # The command refused for want of an autopilot is a fault, for the script.
+        assert len(vehicle.drain_faults()) == 1
     finally:
         vehicle.close()
 

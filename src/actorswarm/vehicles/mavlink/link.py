@@ -487,6 +487,8 @@ class MessageFilter:
         self.system = system
         self.component = component
         self.dropped: Counter[str] = Counter()
+        #: The autopilots of other systems heard (their HEARTBEATs), for the operator.
+        self.others: set[int] = set()
 
     def accept(self, message: Any) -> bool:
         """Whether ``message`` comes from this vehicle's autopilot."""
@@ -507,6 +509,8 @@ class MessageFilter:
                 return False
         if source != self.system:
             self.dropped["other system"] += 1
+            if kind == "HEARTBEAT" and message.autopilot != mav.MAV_AUTOPILOT_INVALID:
+                self.others.add(source)
             return False
         if component != self.component:
             self.dropped["other component"] += 1

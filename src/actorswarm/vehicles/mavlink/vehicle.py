@@ -730,11 +730,19 @@ class MavlinkVehicle:
         if s.link != "lost" and now - since > self.settings.link_timeout:
             self._events.append(LINK_LOST)
             who = "system " + str(self._filter.system) if self._filter.system else "an autopilot"
+            others = sorted(self._filter.others - {self._filter.system})
+            heard = (
+                f" (heard system {', '.join(map(str, others))} instead: a wrong --mavlink-sysid?)"
+                if others
+                else ""
+            )
             self._errors.append(
                 f"vehicle {self.name}: no HEARTBEAT from {who} on {self.settings.url} "
-                f"for {self.settings.link_timeout:g} s: link lost"
+                f"for {self.settings.link_timeout:g} s: link lost{heard}"
             )
             s.link = "lost"
+            # An autopilot that comes back may have rebooted: its readiness starts over.
+            self._readiness = Readiness()
 
     def _ask_params(self, now: float) -> None:
         kind = self._state.kind
