@@ -47,6 +47,8 @@ class Server:
     arms: list[bool] = field(default_factory=list)
     takeoffs: list[bool] = field(default_factory=list)
     modes: list[FlightMode] = field(default_factory=list)
+    #: The height the telemetry reports (metres above home): MAVSDK's server does not fly.
+    height: float = 0.0
 
 
 @pytest.fixture
@@ -67,13 +69,15 @@ def link() -> Iterator[tuple[Server, Callable[..., MavlinkVehicle]]]:
     server.action.subscribe_flight_mode_change(lambda _r, mode, *_: server.modes.append(mode))
     # A position and a home, as a ready PX4 sends them: the vehicle arms only after both.
     telemetry = TelemetryServer(component)
-    here = Position(ORIGIN.lat, ORIGIN.lon, ORIGIN.alt, 0.0)
+    home = Position(ORIGIN.lat, ORIGIN.lon, ORIGIN.alt, 0.0)
     stop = threading.Event()
 
     def publish() -> None:
         while not stop.is_set():
+            h = server.height
+            here = Position(ORIGIN.lat, ORIGIN.lon, ORIGIN.alt + h, h)
             telemetry.publish_position(here, VelocityNed(0.0, 0.0, 0.0), Heading(0.0))
-            telemetry.publish_home(here)
+            telemetry.publish_home(home)
             stop.wait(0.1)
 
     publisher = threading.Thread(target=publish, daemon=True)
@@ -125,10 +129,23 @@ def test_takeoff_offboard_hold_land(link: tuple[Server, Callable[..., MavlinkVeh
     assert server.arms == [True]
     wait_for("the take-off plan done", lambda: vehicle.status()["plan"] is None)
     assert errors(vehicle) == []
+    server.height = 5.0  # as if it climbed
+    wait_for("the height seen", lambda: vehicle.height() > 4.0)
 
     vehicle.goto(10.0, 5.0, 5.0)  # setpoints stream, then OFFBOARD is asked for
     wait_for("OFFBOARD", lambda: FlightMode.OFFBOARD in server.modes)
     wait_for("the mode seen", lambda: vehicle.status()["mode"] == "OFFBOARD")
+    assert errors(vehicle) == []
+
+    # An actor switch: the outgoing actor holds, the incoming one's goal follows at once.
+    # The hold's mode change must not be the last: OFFBOARD is asked for again.
+    modes = len(server.modes)
+    vehicle.hold()
+    vehicle.goto(0.0, 10.0, 5.0)
+    wait_for(
+        "hold, then OFFBOARD again", lambda: server.modes[modes:][-1:] == [FlightMode.OFFBOARD]
+    )
+    assert FlightMode.HOLD in server.modes[modes:]
     assert errors(vehicle) == []
 
     vehicle.land()
