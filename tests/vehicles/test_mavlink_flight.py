@@ -239,14 +239,14 @@ def test_a_hold_then_a_new_goal_at_once_flies_to_the_new_goal(
     cancel the new goal (PX4: its AUTO.LOITER must not land after the new OFFBOARD)."""
     with fly(kind) as (vehicle, sim):
         wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
-        vehicle.takeoff(3.0)
-        wait_for("the climb", lambda: vehicle.position()[2] > 2.8, 8.0)
-        first = (HOME[0] + 6.0, HOME[1], 3.0)
+        vehicle.takeoff(2.0)
+        wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 8.0)
+        first = (HOME[0] + 4.0, HOME[1], 2.0)
         vehicle.goto(*first)
         wait_for("the first goal", lambda: near(vehicle.position(), first, 0.5), 10.0)
         wait_for("its mode reported", lambda: vehicle.mode in ("GUIDED", "OFFBOARD"), 3.0)
         vehicle.hold()  # the outgoing actor
-        second = (HOME[0], HOME[1] + 6.0, 3.0)
+        second = (HOME[0], HOME[1] + 4.0, 2.0)
         vehicle.goto(*second)  # the incoming actor, in the same step
         wait_for(
             "the second goal",
