@@ -5,6 +5,7 @@ memory and imports"). Run with the project's interpreter, from the repository:
     .venv/bin/python scripts/daemon_memory.py imports [--runs 9]
     .venv/bin/python scripts/daemon_memory.py daemons [--size 5]
     .venv/bin/python scripts/daemon_memory.py zenoh [--peers 30] [--large] [--zenoh-defaults]
+    .venv/bin/python scripts/daemon_memory.py mavlink
 
 ``imports``: a fresh interpreter imports ``actorswarm.daemon.run``: the cumulative time of
 that import as ``python -X importtime`` reports it (median of ``--runs``), the number of
@@ -16,6 +17,10 @@ from ``/proc/PID/status``, the median of four samples a second apart once the sw
 ``zenoh``: Zenoh alone, ``--peers`` + 1 processes in one full mesh on loopback, each
 putting 200 bytes 10 times a second (and with ``--large`` a 16 KB message every 5 s): the
 memory of one of them, with the daemon's Zenoh configuration or Zenoh's defaults.
+
+``mavlink``: one daemon alone with ``--vehicle mavlink``, flying a simulated autopilot
+(``actorswarm autopilot --ready-after 0``, another process, on UDP loopback): the same
+samples once the link is up.
 
 ``--src DIR`` measures the package under ``DIR/src`` instead (another checkout, e.g. the
 commit before a change: ``git archive HEAD src | tar -x -C /tmp/before``). Prints one JSON
@@ -157,6 +162,36 @@ def daemons(src: Path | None, size: int) -> dict[str, Any]:
     return out
 
 
+def mavlink(src: Path | None) -> dict[str, Any]:
+    from actorswarm.daemon.launch import LocalSwarm, free_ports
+
+    port = free_ports(1)[0]
+    origin = "47.397742,8.545594,488"
+    pilot = subprocess.Popen(
+        [sys.executable, "-m", "actorswarm", "autopilot", "--home", origin,
+         "--listen", f"udpin:127.0.0.1:{port}", "--ready-after", "0"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    if src is not None:
+        os.environ["PYTHONPATH"] = str(src / "src")  # the daemon is started from it
+    try:
+        with tempfile.TemporaryDirectory() as d, LocalSwarm(Path(d), 1) as alone:
+            proc = alone.start(
+                1, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+                "--mavlink-sysid", "1", "--origin", origin,
+            )  # fmt: skip
+            alone.wait(
+                "the link up",
+                lambda: alone.status(1).get("vehicle", {}).get("link") == "up",
+                timeout=30,
+            )
+            time.sleep(6)
+            return {"mavlink_idle": _sample(proc.pid)}
+    finally:
+        pilot.terminate()
+        pilot.wait(timeout=10)
+
+
 def _zenoh_peer(me: int, ports: list[int], extra: dict[str, Any], seconds: float) -> None:
     import zenoh
 
@@ -230,7 +265,7 @@ def main() -> None:
         _zenoh_peer(int(me), json.loads(ports), json.loads(extra), float(seconds))
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=["imports", "daemons", "zenoh"])
+    parser.add_argument("what", choices=["imports", "daemons", "zenoh", "mavlink"])
     parser.add_argument("--src", type=Path, help="measure the package under SRC/src")
     parser.add_argument("--runs", type=int, default=9)
     parser.add_argument("--size", type=int, default=5)
@@ -242,6 +277,8 @@ def main() -> None:
         result = imports(args.src, args.runs)
     elif args.what == "daemons":
         result = daemons(args.src, args.size)
+    elif args.what == "mavlink":
+        result = mavlink(args.src)
     else:
         result = zenoh_mesh(args.peers, args.large, args.zenoh_defaults)
     print(json.dumps(result))

@@ -18,6 +18,19 @@ def test_a_mavlink_vehicle_is_one_readable_clause() -> None:
     assert _vehicle_line({}) == ""
 
 
+def test_a_vehicle_that_is_not_ready_says_why_and_for_how_long() -> None:
+    waiting = {"link": "up", "autopilot": "ardupilot", "mode": "GUIDED", "armed": False,
+               "ready": False, "waiting": 23.4, "battery": 1.0,
+               "reason": "PreArm: Need Position Estimate"}  # fmt: skip
+    assert _vehicle_line(waiting) == (
+        "; vehicle: link up, ardupilot GUIDED, disarmed, battery 100 %, not ready 23 s — "
+        "PreArm: Need Position Estimate"
+    )
+    idle = {"link": "up", "armed": False, "ready": False, "waiting": None, "reason": "x"}
+    assert _vehicle_line(idle) == "; vehicle: link up, disarmed, not ready — x"
+    assert _vehicle_line({"link": "up", "ready": True, "waiting": None}) == "; vehicle: link up"
+
+
 def test_the_status_reply_carries_the_vehicle_both_ways() -> None:
     reply = cmds.StatusReply(
         actors={}, master=False, epoch=1, incarnation=0, vehicle={"link": "up", "armed": False}

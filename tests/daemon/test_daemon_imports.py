@@ -66,6 +66,23 @@ def test_importing_the_daemon_loads_no_heavy_module() -> None:
     assert loaded == []
 
 
+def test_the_mavlink_vehicle_loads_one_dialect_and_no_numerics() -> None:
+    """``--vehicle mavlink`` loads pymavlink's generated ArduPilot dialect and nothing else
+    of it: not ``mavutil`` (which loads NumPy and every dialect), not pymap3d (NumPy)."""
+    loaded = _fresh(
+        "import json, sys\n"
+        "import actorswarm.daemon.run, actorswarm.vehicles.mavlink.vehicle\n"
+        "print(json.dumps(sorted(m for m in sys.modules if m.startswith(('pymavlink', "
+        "'numpy', 'pymap3d', 'serial')))))\n"
+    )
+    assert loaded == [
+        "pymavlink",
+        "pymavlink.dialects",
+        "pymavlink.dialects.v20",
+        "pymavlink.dialects.v20.ardupilotmega",
+    ], loaded
+
+
 def test_the_daemon_command_starts_the_daemon_without_the_command_line_framework(
     tmp_path: Path,
 ) -> None:

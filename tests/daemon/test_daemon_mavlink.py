@@ -65,7 +65,7 @@ def test_the_mavlink_keys_of_the_configuration_file(tmp_path: Path) -> None:
     config.write_text(
         'vehicle = "mavlink"\nmavlink = "/dev/ttyAMA0,921600"\nmavlink_sysid = 3\n'
         f'origin = "{ORIGIN}"\nmavlink_kind = "px4"\nmavlink_link_timeout = 2.5\n'
-        "mavlink_force = false\nfence = [-300, -300, 300, 300, 60]\n"
+        "mavlink_force = false\nfence = [-300, -300, 300, 300, 60]\nmavlink_arm_timeout = 60\n"
     )
     parsed, _ = load_daemon_config(config)
     assert (parsed.vehicle, parsed.mavlink, parsed.mavlink_sysid) == (
@@ -74,12 +74,13 @@ def test_the_mavlink_keys_of_the_configuration_file(tmp_path: Path) -> None:
         3,
     )
     assert parsed.mavlink_kind == "px4" and parsed.mavlink_link_timeout == 2.5
-    assert parsed.fence == [-300, -300, 300, 300, 60]
+    assert parsed.fence == [-300, -300, 300, 300, 60] and parsed.mavlink_arm_timeout == 60
     for text, key in [
         ("mavlink_sysid = 300\n", "$.mavlink_sysid"),
         ('mavlink_kind = "inav"\n', "$.mavlink_kind"),
         ("fence = [1, 2]\n", "$.fence"),
         ("mavlink_link_timeout = 0\n", "$.mavlink_link_timeout"),
+        ("mavlink_arm_timeout = -1\n", "$.mavlink_arm_timeout"),
     ]:
         config.write_text(text)
         with pytest.raises(DaemonConfigError, match=re.escape(key)):
@@ -92,7 +93,7 @@ def autopilot() -> Iterator[tuple[SimAutopilot, threading.Event, int]]:
 
     port = free_ports(1)[0]
     home = MissionFrame(*MissionFrame(47.397742, 8.545594, 488.0).to_geodetic(15.0, 5.0, 0.0))
-    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", home, system=3))
+    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", home, system=3, ready_after=1.0))
     stop = threading.Event()
     thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
     thread.start()
@@ -186,6 +187,7 @@ def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> N
             AutopilotOptions(
                 f"udpin:127.0.0.1:{port}", MissionFrame(*origin.to_geodetic(*home)),
                 system=10 + platform, kind=kind,  # type: ignore[arg-type]
+                ready_after=1.5,
             )
         )  # fmt: skip
         threads.append(threading.Thread(target=sims[platform].run, args=(stop,), daemon=True))
@@ -236,6 +238,229 @@ def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> N
                 assert math.hypot(x, y) < 3.0 and z == pytest.approx(0.0, abs=0.05), platform
                 errors = swarm.events(platform, "vehicle-error")
                 assert errors == [], errors
+    finally:
+        stop.set()
+        for thread in threads:
+            thread.join(timeout=2)
+        for sim in sims.values():
+            sim.close()
+
+
+def test_sigterm_stops_a_daemon_whose_tcp_autopilot_vanished_within_a_second(
+    tmp_path: Path,
+) -> None:
+    """The autopilot's TCP link goes away (a reboot); the daemon logs it as structured
+    lines only, keeps retrying, and a SIGTERM stops it within 1 s, exit 0, no traceback."""
+    import json
+    import os
+    import signal
+    import socket
+    import time
+
+    os.environ.setdefault("MAVLINK20", "1")  # the test's own peer speaks MAVLink 2
+    from pymavlink import mavutil
+
+    from actorswarm.vehicles.mavlink.dialect import mav
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    peer = mavutil.mavlink_connection(
+        f"tcpin:127.0.0.1:{port}", source_system=1, source_component=1
+    )
+    with LocalSwarm(tmp_path, 1) as swarm:
+        proc = swarm.start(
+            1, "--vehicle", "mavlink", "--mavlink", f"tcp:127.0.0.1:{port}",
+            "--origin", ORIGIN,
+        )  # fmt: skip
+
+        def beat() -> bool:
+            peer.recv_match(blocking=False)  # accepts the daemon
+            peer.mav.heartbeat_send(
+                mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 3
+            )
+            return swarm.status(1).get("vehicle", {}).get("link") == "up"
+
+        swarm.wait("the autopilot heard over TCP", beat, timeout=20)
+        peer.close()  # the autopilot reboots
+        swarm.wait("the break logged", lambda: bool(swarm.events(1, "vehicle-link")), timeout=10)
+        time.sleep(1.5)  # a reconnection attempt or two
+        began = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=10)
+        took = time.monotonic() - began
+        swarm.procs.pop(1)
+        assert code == 0
+        print(f"SIGTERM took {took:.3f} s")
+        assert took < 1.0, f"SIGTERM took {took:.2f} s"
+        text = swarm.log(1).read_text()
+        assert "Traceback" not in text
+        for line in text.splitlines():
+            json.loads(line)  # every line is a structured record
+        assert swarm.events(1, "stopped")
+
+
+def test_a_script_started_at_once_waits_for_a_booting_autopilot_and_says_why(
+    tmp_path: Path,
+) -> None:
+    """End to end through a realistic boot, shortened to 15 s: ``actorswarm autopilot`` on
+    TCP (its clock starts when the daemon connects), the script deployed and started at
+    once. The take-off waits, ``gs status`` says for how long and the autopilot's words,
+    then it flies."""
+    import socket
+    import subprocess
+    import sys
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    pilot = subprocess.Popen(
+        [sys.executable, "-m", "actorswarm", "autopilot", "--home", ORIGIN, "--sysid", "4",
+         "--listen", f"tcpin:127.0.0.1:{port}", "--ready-after", "15"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    try:
+        with LocalSwarm(tmp_path, 1) as swarm:
+            swarm.start(
+                1, "--vehicle", "mavlink", "--mavlink", f"tcp:127.0.0.1:{port}",
+                "--mavlink-sysid", "4", "--origin", ORIGIN,
+            )  # fmt: skip
+            swarm.wait(
+                "the autopilot heard",
+                lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
+                timeout=30,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).with_name("lost.xml"))
+            assert swarm.gs("deploy", script, "--expect", "1", *state).returncode == 0
+            assert swarm.gs("start", *state).returncode == 0
+            shown = ""
+
+            def waiting() -> bool:
+                nonlocal shown
+                shown = swarm.gs("status").stdout
+                return "not ready" in shown and "PreArm: " in shown
+
+            swarm.wait("gs status: the take-off waiting, and why", waiting, timeout=20)
+            pattern = r"vehicle: link up, ardupilot \w+, disarmed, .*not ready \d+ s — PreArm: "
+            assert re.search(pattern, shown), shown
+            swarm.wait("up at 5 m", lambda: swarm.status(1).get("actors") == ["Hover"], timeout=40)
+            assert swarm.status(1)["vehicle"]["ready"] is True
+            assert swarm.events(1, "vehicle-error") == []
+            assert swarm.events(1, "vehicle-waiting") and swarm.events(1, "vehicle-ready")
+    finally:
+        pilot.terminate()
+        pilot.wait(timeout=10)
+
+
+def test_px4_flies_on_across_a_switch_between_two_moving_actors(tmp_path: Path) -> None:
+    """Go (a goto that holds as it arrives) switches to Home (return home): PX4 must leave
+    the outgoing actor's AUTO.LOITER for the incoming actor's OFFBOARD goal, and land at
+    home, not hover where Go ended."""
+    from actorswarm.daemon.launch import free_ports
+
+    port = free_ports(1)[0]
+    sim = SimAutopilot(
+        AutopilotOptions(
+            f"udpin:127.0.0.1:{port}", MissionFrame(47.397742, 8.545594, 488.0),
+            system=5, kind="px4", ready_after=1.0,
+        )
+    )  # fmt: skip
+    stop = threading.Event()
+    thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
+    thread.start()
+    try:
+        with LocalSwarm(tmp_path, 1) as swarm:
+            swarm.start(
+                1, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+                "--mavlink-sysid", "5", "--origin", ORIGIN,
+            )  # fmt: skip
+            swarm.wait(
+                "the autopilot heard",
+                lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
+                timeout=20,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).with_name("handover.xml"))
+            assert swarm.gs("deploy", script, "--expect", "1", *state).returncode == 0
+            assert swarm.gs("start", *state).returncode == 0
+            swarm.wait("Home", lambda: swarm.status(1).get("actors") == ["Home"], timeout=40)
+            assert sim.position()[0] > 4.5  # Go got there
+            swarm.wait(
+                "landed at home, disarmed",
+                lambda: not sim.armed and sim.physics_mode == "landed",
+                timeout=30,
+                detail=lambda: f"{sim.position()} {sim.mode_name}",
+            )
+            x, y, _ = sim.position()
+            assert math.hypot(x, y) < 1.5
+            assert swarm.events(1, "vehicle-error") == []
+    finally:
+        stop.set()
+        thread.join(timeout=2)
+        sim.close()
+
+
+def test_one_of_two_that_cannot_take_off_is_grounded_and_the_other_flies_on(
+    tmp_path: Path,
+) -> None:
+    """examples/mavlink_two.xml: platform 2's autopilot has its failsafes off, so its
+    take-off fails for good; it raises vehicle_fault_event and switches to Grounded, which
+    takes it out of the Standby group, and platform 1 flies the formation alone."""
+    from actorswarm.daemon.launch import free_ports
+
+    origin = MissionFrame(47.397742, 8.545594, 488.0)
+    homes = {1: (-4.0, -6.0, 0.0), 2: (4.0, -6.0, 0.0)}
+    ports = free_ports(2)
+    sims: dict[int, SimAutopilot] = {}
+    stop = threading.Event()
+    threads = []
+    for (platform, home), port in zip(homes.items(), ports, strict=True):
+        sims[platform] = SimAutopilot(
+            AutopilotOptions(
+                f"udpin:127.0.0.1:{port}", MissionFrame(*origin.to_geodetic(*home)),
+                system=20 + platform, ready_after=1.0, failsafes=platform == 1,
+            )
+        )  # fmt: skip
+        threads.append(threading.Thread(target=sims[platform].run, args=(stop,), daemon=True))
+    for thread in threads:
+        thread.start()
+    try:
+        with LocalSwarm(tmp_path, 2) as swarm:
+            for platform, port in zip(homes, ports, strict=True):
+                swarm.start(
+                    platform, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+                    "--mavlink-sysid", str(20 + platform), "--origin", ORIGIN,
+                )  # fmt: skip
+            swarm.wait(
+                "both links up and a master agreed",
+                lambda: (
+                    swarm.agreed_master() is not None
+                    and all(swarm.status(p).get("vehicle", {}).get("link") == "up" for p in homes)
+                ),
+                timeout=30,
+            )
+            state = ["--state", str(tmp_path / "gs.json")]
+            script = str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")
+            assert swarm.gs("deploy", script, "--expect", "2", *state).returncode == 0
+            assert swarm.gs("start", *state).returncode == 0
+            swarm.wait(
+                "2 grounded, 1 in formation",
+                lambda: (
+                    swarm.status(2).get("actors") == ["Grounded"]
+                    and swarm.status(1).get("actors") == ["Formation"]
+                ),
+                timeout=40,
+            )
+            fault = swarm.events(2, "vehicle-fault")
+            assert len(fault) == 1 and "FS_GCS_ENABLE is 0" in fault[0]["reason"]
+            last = swarm.status(2)["transitions"][-1]
+            assert (last["from"], last["to"], last["event"]) == (
+                "Standby",
+                "Grounded",
+                "vehicle_fault_event",
+            )
+            assert not sims[2].armed and sims[1].armed
     finally:
         stop.set()
         for thread in threads:

@@ -109,6 +109,8 @@ def test_odometry_in_and_a_missing_service_named(ros_domain: int) -> None:
         pose_type="nav_msgs/msg/Odometry", takeoff_service="no_such_takeoff", service_timeout=1.0
     )
 
+    faults: list[str] = []
+
     async def go() -> tuple[tuple[float, float, float], list[str]]:
         node = RosNode("platform", "/sw/p2")
         vehicle = Ros2Vehicle(node, settings)
@@ -123,6 +125,7 @@ def test_odometry_in_and_a_missing_service_named(ros_domain: int) -> None:
                 def done() -> bool:
                     vehicle.drain_events()
                     errors.extend(vehicle.drain_errors())
+                    faults.extend(vehicle.drain_faults())
                     return bool(errors) and abs(vehicle.position()[2] - 2.0) < 0.2
 
                 assert await until(done, 10.0), (vehicle.position(), errors)
@@ -137,6 +140,7 @@ def test_odometry_in_and_a_missing_service_named(ros_domain: int) -> None:
         "take-off (service /sw/p2/no_such_takeoff): service "
         "/sw/p2/no_such_takeoff: not found within 1 s"
     ]
+    assert faults == errors  # a take-off that failed for good: vehicle_fault_event
 
 
 def test_a_pose_topic_of_another_type_is_named(ros_domain: int) -> None:

@@ -255,6 +255,23 @@ def test_switch_back_reactivates_instead_of_reloading() -> None:
     assert rt.acbs()["A"].stats.switch_count >= 2
 
 
+def test_a_switch_pauses_the_outgoing_actor_before_the_incoming_one_starts() -> None:
+    """The order the Vehicle contract's "the latest command wins" relies on: whatever the
+    outgoing actor commands as it pauses comes before the incoming actor's first command."""
+    rt = runtime(
+        script(
+            actor("A", 0, plugin("Pilot", "act_bus", "a")),
+            actor("B", 0, plugin("Pilot", "act_bus", "b")),
+        )
+    )
+    rt.start("A", 0.0, ActorContext())
+    rt.step(0.0)
+    LOG.clear()
+    rt.switch("A", "B", 1.0, ActorContext())
+    rt.step(1.0)
+    assert LOG == ["A:a:pause", "B:b:start", "B:b:step"]
+
+
 def test_illegal_operations_change_nothing() -> None:
     rt = runtime(script(actor("A", 0, plugin("Recorder", "act_bus", "a"))))
     with pytest.raises(ValueError, match="not loaded"):

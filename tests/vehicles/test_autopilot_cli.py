@@ -12,10 +12,10 @@ import time
 from pathlib import Path
 
 import pytest
+from pymavlink import mavutil
 from typer.testing import CliRunner
 
 from actorswarm.cli.app import app
-from actorswarm.vehicles.mavlink.dialect import mavutil
 
 runner = CliRunner()
 SRC = str(Path(__file__).resolve().parents[2] / "src")
@@ -30,6 +30,7 @@ SRC = str(Path(__file__).resolve().parents[2] / "src")
             ["--home", "47.4,8.5,3", "--listen", "flight.tlog"],
             "autopilot 1: cannot open MAVLink connection 'flight.tlog'",
         ),
+        (["--home", "47.4,8.5,3", "--ready-after", "-1"], "--ready-after"),
     ],
 )
 def test_bad_options(args: list[str], message: str) -> None:
@@ -79,4 +80,5 @@ def test_serves_mavlink_until_sigterm() -> None:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    assert proc.stderr is not None and "autopilot 5 (px4)" in proc.stderr.read()
+    said = proc.stderr.read() if proc.stderr is not None else ""
+    assert "autopilot 5 (px4)" in said and "ready to arm 35 s after boot" in said

@@ -128,3 +128,58 @@ def test_temporarily_rejected_is_tried_again_until_the_deadline(
         "vehicle platform 3: hold: MAV_CMD_COMPONENT_ARM_DISARM: not done within 2 s "
         "(4 tries), temporarily rejected"
     ]
+
+
+def test_a_persisting_command_is_asked_again_with_back_off_until_its_plan_deadline(
+    sent: list[Any],
+) -> None:
+    refusals: list[tuple[str, int]] = []
+    sender = CommandSender(
+        "platform 3",
+        sent.append,
+        (7, 1),
+        retry=0.5,
+        deadline=2.0,
+        explain=lambda: "Arm: Need Position Estimate",
+        on_refused=lambda name, result: refusals.append((name, result)),
+    )
+    ready = [False]
+    arm = Command(ARM.command, ARM.params, persist=True, deadline=10.0, from_plan=True)
+    wait = Check("ready", lambda: True if ready[0] else None, deadline=10.0, from_plan=True)
+    sender.start("takeoff", [wait, arm, TAKEOFF], 0.0)
+    sender.tick(3.0)
+    assert sent == [] and sender.step is wait  # waits past the sender's own 2 s deadline
+    ready[0] = True
+    sender.tick(3.5)
+    assert [m.command for m in sent] == [ARM.command]
+    sender.on_ack(ack(ARM.command, mav.MAV_RESULT_FAILED), 3.6)
+    sender.on_ack(ack(ARM.command, mav.MAV_RESULT_FAILED), 3.61)  # the same try's again
+    sender.tick(4.5)
+    assert len(sent) == 1  # the back-off: 1 s
+    sender.tick(4.65)
+    assert len(sent) == 2
+    sender.on_ack(ack(ARM.command, mav.MAV_RESULT_FAILED), 4.7)
+    sender.tick(6.6)
+    assert len(sent) == 2  # then 2 s
+    sender.tick(6.75)
+    assert len(sent) == 3
+    sender.on_ack(ack(ARM.command, mav.MAV_RESULT_FAILED), 6.8)
+    sender.tick(10.0)
+    assert len(sent) == 3  # then 4 s (at 10.8), past the plan's deadline (10 s)
+    sender.tick(10.05)
+    assert refusals == [(ARM.name, mav.MAV_RESULT_FAILED)] * 3
+    assert sender.drain_errors() == [
+        "vehicle platform 3: takeoff: MAV_CMD_COMPONENT_ARM_DISARM: not done within 10 s "
+        "(3 tries), last refused: MAV_RESULT_FAILED — Arm: Need Position Estimate"
+    ]
+    assert sender.busy is None
+
+
+def test_a_persisting_command_accepted_goes_on(sender: CommandSender, sent: list[Any]) -> None:
+    arm = Command(ARM.command, ARM.params, persist=True, deadline=10.0, from_plan=True)
+    sender.start("takeoff", [arm, TAKEOFF], 0.0)
+    sender.on_ack(ack(ARM.command, mav.MAV_RESULT_TEMPORARILY_REJECTED), 0.1)
+    sender.tick(1.1)
+    assert len(sent) == 2
+    sender.on_ack(ack(ARM.command, mav.MAV_RESULT_ACCEPTED), 1.2)
+    assert sent[-1].command == mav.MAV_CMD_NAV_TAKEOFF and sender.drain_errors() == []

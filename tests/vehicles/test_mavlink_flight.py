@@ -40,21 +40,29 @@ Flight = tuple[MavlinkVehicle, SimAutopilot]
 
 
 @contextlib.contextmanager
-def fly(kind: Literal["ardupilot", "px4"], **autopilot: object) -> Iterator[Flight]:
+def fly(
+    kind: Literal["ardupilot", "px4"], *, arm_timeout: float = 120.0, **autopilot: object
+) -> Iterator[Flight]:
     port = free_port()
     options = AutopilotOptions(
         f"udpin:127.0.0.1:{port}",
         MissionFrame(*ORIGIN.to_geodetic(*HOME)),
         system=7,
         kind=kind,
-        **autopilot,  # type: ignore[arg-type]
+        **{"ready_after": 1.0, **autopilot},  # type: ignore[arg-type]
     )
     sim = SimAutopilot(options)
     stop = threading.Event()
     thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
     thread.start()
     vehicle = MavlinkVehicle(
-        MavlinkSettings(f"udpout:127.0.0.1:{port}", ORIGIN, system=7, name="platform 1")
+        MavlinkSettings(
+            f"udpout:127.0.0.1:{port}",
+            ORIGIN,
+            system=7,
+            name="platform 1",
+            arm_timeout=arm_timeout,
+        )
     )
     vehicle.start()
     try:
@@ -127,6 +135,9 @@ def test_refused_takeoff_is_reported() -> None:
         errors = vehicle.drain_errors()
         assert any("FS_GCS_ENABLE is 0" in e and "refusing to arm" in e for e in errors), errors
         assert not sim.armed
+        # A final failure: the daemon raises vehicle_fault_event with it.
+        faults = vehicle.drain_faults()
+        assert len(faults) == 1 and "FS_GCS_ENABLE is 0" in faults[0]
 
 
 def test_a_goto_right_after_the_takeoff_does_not_take_off_again() -> None:
@@ -173,3 +184,74 @@ def test_the_operator_s_hold_overrides_the_plugins_until_resumed() -> None:
         vehicle.override(None)
         vehicle.goto(HOME[0] + 3.0, HOME[1] + 3.0, 3.0)
         wait_for("the plugins' goal again", lambda: sim.position()[1] > 2.5, 6.0)
+
+
+@pytest.mark.parametrize("kind", ["ardupilot", "px4"])
+def test_a_takeoff_waits_until_the_autopilot_is_ready_and_says_why(
+    kind: Literal["ardupilot", "px4"],
+) -> None:
+    with fly(kind, ready_after=4.0) as (vehicle, sim):
+        wait_for("the autopilot heard", lambda: vehicle.status()["autopilot"] == kind, 3.0)
+        vehicle.takeoff(2.0)  # at once, as an operator starting a script would
+        # The autopilot's own words (PX4's too: the vehicle speaks as a ground station).
+        words = ("PreArm: ", "Arm: ") if kind == "ardupilot" else ("Preflight Fail", "Arming")
+        wait_for(
+            "the autopilot's reason",
+            lambda: str(vehicle.status()["reason"]).startswith(words),
+            3.0,
+        )
+        wait_for("the take-off waiting", lambda: (vehicle.status()["waiting"] or 0) > 0.2, 3.0)
+        assert vehicle.status()["ready"] is False and not sim.armed
+        wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 10.0)
+        assert sim.boot_time(time.monotonic()) >= 4.0
+        status = vehicle.status()
+        assert (status["ready"], status["waiting"], status["reason"]) == (True, None, None)
+        assert vehicle.drain_errors() == []
+        log = [event for event, _ in vehicle.drain_log()]
+        assert "vehicle-waiting" in log and "vehicle-ready" in log
+
+
+def test_an_autopilot_that_never_becomes_ready_fails_the_takeoff_with_its_reason() -> None:
+    with fly("ardupilot", ready_after=60.0, arm_timeout=2.0) as (vehicle, sim):
+        wait_for("the autopilot heard", lambda: vehicle.status()["autopilot"] is not None, 3.0)
+        vehicle.takeoff(2.0)
+        errors: list[str] = []
+
+        def failed() -> bool:
+            errors.extend(vehicle.drain_errors())
+            return bool(errors)
+
+        wait_for("the failure", failed, 5.0)
+        assert errors == [
+            "vehicle platform 1: takeoff: waiting for the autopilot ready to arm: not done "
+            "within 2 s — waiting for an EKF position estimate, a position, a home position, "
+            "a 3D GPS fix, the pre-arm checks passed"
+        ]
+        assert not sim.armed and vehicle.status()["waiting"] is None
+
+
+@pytest.mark.parametrize("kind", ["ardupilot", "px4"])
+def test_a_hold_then_a_new_goal_at_once_flies_to_the_new_goal(
+    kind: Literal["ardupilot", "px4"],
+) -> None:
+    """An actor switch between two moving actors: the outgoing one holds (its goto
+    arrived), the incoming one sends its goal in the same instant. The hold must never
+    cancel the new goal (PX4: its AUTO.LOITER must not land after the new OFFBOARD)."""
+    with fly(kind) as (vehicle, sim):
+        wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        vehicle.takeoff(2.0)
+        wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 8.0)
+        first = (HOME[0] + 4.0, HOME[1], 2.0)
+        vehicle.goto(*first)
+        wait_for("the first goal", lambda: near(vehicle.position(), first, 0.5), 10.0)
+        wait_for("its mode reported", lambda: vehicle.mode in ("GUIDED", "OFFBOARD"), 3.0)
+        vehicle.hold()  # the outgoing actor
+        second = (HOME[0], HOME[1] + 4.0, 2.0)
+        vehicle.goto(*second)  # the incoming actor, in the same step
+        wait_for(
+            "the second goal",
+            lambda: near(vehicle.position(), second, 0.5),
+            10.0,
+        )
+        assert sim.mode_name == ("GUIDED" if kind == "ardupilot" else "OFFBOARD")
+        assert vehicle.drain_errors() == []

@@ -42,3 +42,21 @@ def test_parse_origin() -> None:
     ]:
         with pytest.raises(ValueError, match=word):
             parse_origin(text)
+
+
+@pytest.mark.parametrize(
+    "origin",
+    [ORIGIN, MissionFrame(-33.9, 151.2, 40.0), MissionFrame(78.2, 15.6, 5.0),
+     MissionFrame(0.0, -179.9, 0.0), MissionFrame(89.9, 0.0, 2000.0)],
+)  # fmt: skip
+def test_the_conversion_agrees_with_pymap3d(origin: MissionFrame) -> None:
+    pymap3d = pytest.importorskip("pymap3d")
+    for point in [(0.0, 0.0, 0.0), (120.0, -45.0, 30.0), (-5000.0, 4000.0, 300.0)]:
+        want = pymap3d.enu2geodetic(*point, origin.lat, origin.lon, origin.alt)
+        lat, lon, alt = origin.to_geodetic(*point)
+        assert (lat, lon) == pytest.approx((float(want[0]), float(want[1])), abs=1e-9)
+        assert alt == pytest.approx(float(want[2]), abs=1e-4)
+        local = pymap3d.geodetic2enu(lat, lon, alt, origin.lat, origin.lon, origin.alt)
+        assert origin.to_local(lat, lon, alt) == pytest.approx(
+            tuple(float(v) for v in local), abs=1e-4
+        )

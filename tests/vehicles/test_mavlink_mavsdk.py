@@ -6,6 +6,7 @@ encoding and the parameter encoding against our own simulated autopilot."""
 from __future__ import annotations
 
 import socket
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -15,6 +16,7 @@ import pytest
 from mavsdk import ComponentType, Configuration, Mavsdk
 from mavsdk.plugins.action_server import ActionServer, AllowableFlightModes, FlightMode
 from mavsdk.plugins.param_server import ParamServer
+from mavsdk.plugins.telemetry_server import Heading, Position, TelemetryServer, VelocityNed
 
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.vehicle import MavlinkSettings, MavlinkVehicle
@@ -45,6 +47,8 @@ class Server:
     arms: list[bool] = field(default_factory=list)
     takeoffs: list[bool] = field(default_factory=list)
     modes: list[FlightMode] = field(default_factory=list)
+    #: The height the telemetry reports (metres above home): MAVSDK's server does not fly.
+    height: float = 0.0
 
 
 @pytest.fixture
@@ -63,6 +67,21 @@ def link() -> Iterator[tuple[Server, Callable[..., MavlinkVehicle]]]:
     server.action.subscribe_arm_disarm(lambda _r, arm, *_: server.arms.append(arm.arm))
     server.action.subscribe_takeoff(lambda _r, ok, *_: server.takeoffs.append(ok))
     server.action.subscribe_flight_mode_change(lambda _r, mode, *_: server.modes.append(mode))
+    # A position and a home, as a ready PX4 sends them: the vehicle arms only after both.
+    telemetry = TelemetryServer(component)
+    home = Position(ORIGIN.lat, ORIGIN.lon, ORIGIN.alt, 0.0)
+    stop = threading.Event()
+
+    def publish() -> None:
+        while not stop.is_set():
+            h = server.height
+            here = Position(ORIGIN.lat, ORIGIN.lon, ORIGIN.alt + h, h)
+            telemetry.publish_position(here, VelocityNed(0.0, 0.0, 0.0), Heading(0.0))
+            telemetry.publish_home(home)
+            stop.wait(0.1)
+
+    publisher = threading.Thread(target=publish, daemon=True)
+    publisher.start()
     vehicles: list[MavlinkVehicle] = []
 
     def make(**kw: Any) -> MavlinkVehicle:
@@ -78,6 +97,8 @@ def link() -> Iterator[tuple[Server, Callable[..., MavlinkVehicle]]]:
     yield server, make
     for vehicle in vehicles:
         vehicle.close()
+    stop.set()
+    publisher.join(timeout=2)
     mavsdk.destroy()
 
 
@@ -108,10 +129,23 @@ def test_takeoff_offboard_hold_land(link: tuple[Server, Callable[..., MavlinkVeh
     assert server.arms == [True]
     wait_for("the take-off plan done", lambda: vehicle.status()["plan"] is None)
     assert errors(vehicle) == []
+    server.height = 5.0  # as if it climbed
+    wait_for("the height seen", lambda: vehicle.height() > 4.0)
 
     vehicle.goto(10.0, 5.0, 5.0)  # setpoints stream, then OFFBOARD is asked for
     wait_for("OFFBOARD", lambda: FlightMode.OFFBOARD in server.modes)
     wait_for("the mode seen", lambda: vehicle.status()["mode"] == "OFFBOARD")
+    assert errors(vehicle) == []
+
+    # An actor switch: the outgoing actor holds, the incoming one's goal follows at once.
+    # The hold's mode change must not be the last: OFFBOARD is asked for again.
+    modes = len(server.modes)
+    vehicle.hold()
+    vehicle.goto(0.0, 10.0, 5.0)
+    wait_for(
+        "hold, then OFFBOARD again", lambda: server.modes[modes:][-1:] == [FlightMode.OFFBOARD]
+    )
+    assert FlightMode.HOLD in server.modes[modes:]
     assert errors(vehicle) == []
 
     vehicle.land()
@@ -125,7 +159,7 @@ def test_an_autopilot_that_will_not_arm(
 ) -> None:
     server, make = link
     server.action.set_armable(False, False)
-    vehicle = make(deadline=2.0)
+    vehicle = make(deadline=2.0, arm_timeout=3.0)
     wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True)
     vehicle.takeoff(5.0)
     seen: list[str] = []
@@ -135,12 +169,16 @@ def test_an_autopilot_that_will_not_arm(
         return bool(seen)
 
     wait_for("the refusal", refused)
-    # MAVSDK answers TEMPORARILY_REJECTED: asked again each 0.5 s, given up at the deadline.
+    # MAVSDK answers TEMPORARILY_REJECTED: asked again after 1 s, then 2 s, given up at the
+    # take-off's arm_timeout.
     assert seen == [
-        "vehicle platform 4: takeoff: MAV_CMD_COMPONENT_ARM_DISARM: not done within 2 s "
-        f"({len(server.arms)} tries), temporarily rejected"
+        "vehicle platform 4: takeoff: MAV_CMD_COMPONENT_ARM_DISARM: not done within 3 s "
+        f"({len(server.arms)} tries), last refused: MAV_RESULT_TEMPORARILY_REJECTED"
     ]
-    assert 3 <= len(server.arms) <= 5
+    assert 2 <= len(server.arms) <= 4
+    assert vehicle.status()["refused"] == (
+        "MAV_CMD_COMPONENT_ARM_DISARM: MAV_RESULT_TEMPORARILY_REJECTED"
+    )
     time.sleep(0.6)
     assert len(server.arms) == int(seen[0].split("(")[1].split()[0])  # nothing after it
     assert server.takeoffs == []

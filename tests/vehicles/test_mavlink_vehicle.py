@@ -10,10 +10,11 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+from pymavlink import mavutil
 
 from actorswarm.runtime.context import Vehicle
 from actorswarm.vehicles.mavlink import MavlinkError
-from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import MessageFilter, open_connection
 from actorswarm.vehicles.mavlink.vehicle import (
@@ -169,7 +170,11 @@ def test_wrong_system_id_is_never_heard(port: int, pilot: Autopilot) -> None:
         ]
         vehicle.service(1.5)
         assert vehicle.drain_events() == [LINK_LOST]
-        assert "no HEARTBEAT from system 9" in vehicle.drain_errors()[0]
+        error = vehicle.drain_errors()[0]
+        assert "no HEARTBEAT from system 9" in error
+        assert error.endswith("(heard system 1 instead: a wrong --mavlink-sysid?)"), error
+        # The command refused for want of an autopilot is a fault, for the script.
+        assert len(vehicle.drain_faults()) == 1
     finally:
         vehicle.close()
 

@@ -311,6 +311,7 @@ def _mavlink_vehicle(
         kind=file.mavlink_kind,
         link_timeout=file.mavlink_link_timeout,
         force=file.mavlink_force,
+        arm_timeout=file.mavlink_arm_timeout,
         fence=fence,
         name=f"platform {platform}",
     )

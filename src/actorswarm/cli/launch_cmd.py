@@ -71,6 +71,12 @@ def launch(
     if check:
         for p in plan.plans:
             typer.echo(" ".join(launcher.swarm.command(p.platform, *plan.daemon_args(p))))
+        if plan.autopilots is not None:
+            for index, platform in enumerate(plan.mavlink_platforms()):
+                argv = plan.autopilots.argv(index, platform)
+                typer.echo(
+                    f"autopilot {platform}: " + ("attach" if argv is None else " ".join(argv))
+                )
         return
     _check_ports(launcher, file)
     _gs_settings(launcher, keys)

@@ -30,6 +30,7 @@ and where the mission's origin is; the keys after these three exist only in the 
     mavlink_kind = "px4"               # "auto" (its HEARTBEAT says), "ardupilot" or "px4"
     mavlink_link_timeout = 3.0         # seconds of heartbeat silence: vehicle_link_lost
     mavlink_force = false              # take off even with the failsafes off
+    mavlink_arm_timeout = 120.0        # seconds a take-off waits for the autopilot to be ready
     fence = [-300, -300, 300, 300, 60] # x_min, y_min, x_max, y_max, z_max: bounds every goal
 
     [core]
@@ -102,6 +103,7 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     mavlink_kind: Literal["auto", "ardupilot", "px4"] = "auto"
     mavlink_link_timeout: Annotated[float, msgspec.Meta(gt=0)] = 3.0
     mavlink_force: bool = False
+    mavlink_arm_timeout: Annotated[float, msgspec.Meta(gt=0)] = 120.0
     fence: Annotated[list[float], msgspec.Meta(min_length=5, max_length=5)] | None = None
     fleet: str | None = None
     transport: Literal["zenoh"] | None = None

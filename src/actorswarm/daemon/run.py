@@ -52,7 +52,9 @@ With ``--vehicle mavlink`` the daemon flies a PX4 or ArduPilot autopilot
 progress), a lost or restored link becomes the local event ``vehicle_link_lost`` /
 ``vehicle_link_restored`` of the task script (logged as ``vehicle-event`` with its
 ``name``), and whatever the autopilot refused or never answered is logged as
-``vehicle-error``. The operator's events ``vehicle_land`` and ``vehicle_hold`` (``gs event``)
+``vehicle-error``; a command that failed for good also raises the local event
+``vehicle_fault_event`` (data ``{"reason": ...}``, logged as ``vehicle-fault``). The
+operator's events ``vehicle_land`` and ``vehicle_hold`` (``gs event``)
 land or hold the vehicle and keep the plugins' commands from it until ``vehicle_resume``
 (logged as ``vehicle-override``).
 
@@ -394,6 +396,8 @@ async def _main(options: DaemonOptions) -> int:
             # The simulated vehicle lives in this process's time: seconds since start.
             world.step_to(t - start)
         if autopilot is not None:
+            for record, fields in autopilot.drain_log():
+                _log(record, **fields)
             for error in autopilot.drain_errors():
                 _log("vehicle-error", error=error)
             events = autopilot.drain_events()
@@ -404,7 +408,18 @@ async def _main(options: DaemonOptions) -> int:
                 engine.inject(
                     event, t, occasion=f"vehicle.{options.platform}.{incarnation}:{raised}"
                 )
-            if events:
+            faults = autopilot.drain_faults()
+            for fault in faults:
+                raised += 1
+                _log("vehicle-fault", reason=fault)
+                # A command that failed for good: the script may branch on it.
+                engine.inject(
+                    "vehicle_fault_event",
+                    t,
+                    data={"reason": fault},
+                    occasion=f"vehicle.{options.platform}.{incarnation}:{raised}",
+                )
+            if events or faults:
                 endpoint.tick(t)
                 inbox.poke()  # what the events made goes out at the next wake, now
         if endpoint.node.master != seen.master:

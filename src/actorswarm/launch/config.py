@@ -11,7 +11,7 @@ One TOML file says which platforms to start and how; every key is optional but
     host = "127.0.0.1"          #   connects to the ones before it; true: multicast scouting
     ports = 7501                # the first of consecutive ports, or one per platform [7501, ...];
                                 #   default: free ports chosen at launch
-    vehicle = "sim"             # "none" (default) or "sim"
+    vehicle = "sim"             # "none" (default), "sim" or "mavlink" (see below)
     world = "world.toml"        # the simulated vehicles' world (default: the default world)
     config = "daemon.toml"      # a daemon configuration file every daemon reads (--config)
     web = 8765                  # also serve the web ground station on 127.0.0.1:8765
@@ -21,6 +21,10 @@ One TOML file says which platforms to start and how; every key is optional but
     vehicle = "none"
     state_dir = "/tmp/three"
     config = "three.toml"
+
+With ``vehicle = "mavlink"`` each daemon flies an autopilot, started by the launcher from
+a command template or already running: the ``origin`` key and the ``[autopilot]`` table
+(:mod:`actorswarm.launch.autopilots`).
 
 With ``vehicle = "sim"`` every daemon gets ``--fleet`` with all the launched platforms, so
 each vehicle starts at its home of the world's fleet layout, as in the simulator.
@@ -37,16 +41,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
 
+from actorswarm.launch.autopilots import AutopilotSpec, read_autopilots
 from actorswarm.suggest import did_you_mean
 
 __all__ = ["LaunchError", "LaunchFile", "PlatformPlan", "load_launch"]
 
 _TOP: Final = frozenset(
     {"swarm", "platforms", "directory", "keys", "insecure", "multicast", "host", "ports",
-     "vehicle", "world", "config", "platform", "web"}
+     "vehicle", "world", "config", "platform", "web", "origin", "autopilot"}
 )  # fmt: skip
 _PER_PLATFORM: Final = frozenset({"vehicle", "world", "config", "state_dir"})
-_VEHICLES: Final = ("none", "sim")
+_VEHICLES: Final = ("none", "sim", "mavlink")
 _MAX_PLATFORM: Final = 65535
 #: ``web = true``: the web ground station's usual port (``actorswarm gs web``).
 WEB_PORT: Final = 8765
@@ -84,6 +89,12 @@ class LaunchFile:
     plans: tuple[PlatformPlan, ...] = field(default=())
     #: The port of the web ground station on 127.0.0.1 to serve with the swarm; None: none.
     web: int | None = None
+    #: ``vehicle = "mavlink"``: the autopilots (None: no platform flies one).
+    autopilots: AutopilotSpec | None = None
+
+    def mavlink_platforms(self) -> list[int]:
+        """The platforms that fly an autopilot, in order (their instance index)."""
+        return [plan.platform for plan in self.plans if plan.vehicle == "mavlink"]
 
     @property
     def platforms(self) -> list[int]:
@@ -104,6 +115,12 @@ class LaunchFile:
             args += ["--vehicle", "sim", "--fleet", ",".join(map(str, self.platforms))]
             if plan.world is not None:
                 args += ["--world", str(plan.world)]
+        if plan.vehicle == "mavlink" and self.autopilots is not None:
+            spec = self.autopilots
+            index = self.mavlink_platforms().index(plan.platform)
+            args += ["--vehicle", "mavlink", "--mavlink", spec.link(index, plan.platform),
+                     "--mavlink-sysid", str(plan.platform),
+                     "--origin", ",".join(str(v) for v in spec.origin)]  # fmt: skip
         if plan.config is not None:
             args += ["--config", str(plan.config)]
         return args
@@ -259,6 +276,22 @@ def load_launch(path: Path) -> LaunchFile:
                 state_dir=values.get("state_dir") or directory / f"state-{pid}",
             )
         )
+    autopilots: AutopilotSpec | None = None
+    flying = [plan.platform for plan in plans if plan.vehicle == "mavlink"]
+    table = data.get("autopilot")
+    if table is not None and not isinstance(table, dict):
+        raise r.fail("autopilot", "expected a table [autopilot]")
+    if flying:
+        spec = read_autopilots(table or {}, r.get(data, "origin", str), flying)
+        if isinstance(spec, str):
+            key = spec.split(":", 1)[0]
+            raise LaunchError(f"{path}{_line_of(text, key.rsplit('.', 1)[-1])}: {spec}")
+        autopilots = spec
+    elif table is not None or "origin" in data:
+        raise r.fail(
+            "autopilot" if table is not None else "origin",
+            'for autopilots: say vehicle = "mavlink" too',
+        )
     return LaunchFile(
         source=path,
         swarm=swarm,
@@ -270,6 +303,7 @@ def load_launch(path: Path) -> LaunchFile:
         ports=ports,
         plans=tuple(plans),
         web=web,
+        autopilots=autopilots,
     )
 
 
@@ -310,7 +344,8 @@ def _plan_values(r: _Reader, data: dict[str, Any], where: str) -> dict[str, Any]
         if vehicle not in _VEHICLES:
             raise r.fail(
                 f"{where}vehicle",
-                f"{vehicle!r}{did_you_mean(vehicle, _VEHICLES)}; the vehicles are: none, sim",
+                f"{vehicle!r}{did_you_mean(vehicle, _VEHICLES)}; the vehicles are: "
+                + ", ".join(_VEHICLES),
                 where[:-1] or None,
             )
         values["vehicle"] = vehicle

@@ -9,6 +9,12 @@ Requests, one per line, from the launcher's standard input or from the control f
 ``DIRECTORY/launch.control`` (which ``actorswarm launch FILE --restart ID`` writes from
 another terminal): ``r ID`` / ``restart ID`` stops that daemon and starts it again from its
 state directory; ``q`` / ``quit`` stops them all, as Ctrl-C does.
+
+With autopilots (``vehicle = "mavlink"``, :mod:`actorswarm.launch.autopilots`), each
+platform's autopilot is started before its daemon (when the file gives a command), the
+launcher says when each daemon's link to it comes up, or that it has not within the
+table's ``link_timeout``, and when an autopilot exits; ``r ID`` starts an autopilot that
+exited again, with the daemon; the autopilots are stopped after the daemons.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from rich.live import Live
 from rich.table import Table
 
 from actorswarm.daemon.launch import LocalSwarm, free_ports
+from actorswarm.launch.autopilots import Autopilots
 from actorswarm.launch.config import LaunchFile
 from actorswarm.launch.monitor import Row, read_status, sample
 
@@ -85,6 +92,14 @@ class Launcher:
         self._stop = threading.Event()
         self._keys = keys
         self.web: subprocess.Popen[bytes] | None = None
+        self.autopilots = (
+            None
+            if plan.autopilots is None
+            else Autopilots(plan.autopilots, plan.mavlink_platforms(), plan.directory)
+        )
+        #: Platforms flying an autopilot: when their daemon started, and whether the link
+        #: was reported (up, or late).
+        self._links: dict[int, tuple[float, str]] = {}
 
     # --- the web ground station ---------------------------------------------------------
 
@@ -125,6 +140,11 @@ class Launcher:
     # --- processes ----------------------------------------------------------------------
 
     def start(self, platform: int) -> None:
+        if self.autopilots is not None and platform in self.autopilots.index:
+            said = self.autopilots.start(platform)
+            if said is not None:
+                self.say(said)
+            self._links[platform] = (time.monotonic(), "waiting")
         proc = self.swarm.start(platform, *self.plan.daemon_args(self._plans[platform]))
         row = self.rows[platform]
         row.pid, row.up, row.exit_code, row.last = proc.pid, True, None, None
@@ -153,6 +173,9 @@ class Launcher:
         for platform in procs:
             code = self.stop_one(platform, signalled=True)
             codes[platform] = -9 if code is None else code
+        if self.autopilots is not None:
+            for platform, code in sorted(self.autopilots.stop_all().items()):
+                self.say(f"platform {platform}: autopilot stopped, exit {code}")
         return codes
 
     def restart(self, platform: int) -> None:
@@ -217,7 +240,38 @@ class Launcher:
                     f"`r {platform}` starts it again; its log: {self.swarm.log(platform)}"
                 )
             figures = sample(row.pid, now) if row.up and row.pid is not None else None
-            row.update(read_status(self.swarm.state_dir(platform)), figures)
+            status = read_status(self.swarm.state_dir(platform))
+            row.update(status, figures)
+            if platform in self._links:
+                self._watch_link(platform, status, now)
+        if self.autopilots is not None:
+            for platform, code in self.autopilots.exited():
+                self.say(
+                    f"platform {platform}: its autopilot exited with status {code}: "
+                    f"`r {platform}` starts it again; its log: {self.autopilots.log(platform)}"
+                )
+
+    def _watch_link(self, platform: int, status: dict[str, object], now: float) -> None:
+        """Say when the daemon's link to its autopilot comes up, or that it has not within
+        the launch file's ``link_timeout``."""
+        assert self.autopilots is not None
+        since, said = self._links[platform]
+        vehicle = status.get("vehicle")
+        link = vehicle.get("link") if isinstance(vehicle, dict) else None
+        written = status.get("t")
+        if not isinstance(written, int | float) or written < since:
+            link = None  # the status of the daemon before a restart (its ``t``: the host's
+            # monotonic clock, as ours)
+        if link == "up" and said != "up":
+            self._links[platform] = (since, "up")
+            self.say(f"platform {platform}: autopilot link up after {now - since:.1f} s")
+        elif said == "waiting" and now - since > self.autopilots.spec.link_timeout:
+            self._links[platform] = (since, "late")
+            where = f"{self.autopilots.log(platform)} and " if self.autopilots.spec.command else ""
+            self.say(
+                f"platform {platform}: no link to its autopilot after "
+                f"{self.autopilots.spec.link_timeout:g} s; see {where}{self.swarm.log(platform)}"
+            )
 
     def table(self) -> Table:
         table = Table(title=f"swarm {self.plan.swarm}: r ID + Enter restarts one, Ctrl-C stops all")

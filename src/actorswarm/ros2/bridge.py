@@ -371,10 +371,9 @@ class GroundBridge:
 def _geodetic(
     position: tuple[float, float, float], origin: tuple[float, float, float]
 ) -> tuple[float, float, float]:
-    import pymap3d
+    from actorswarm.vehicles.mavlink.frame import MissionFrame
 
-    lat, lon, alt = pymap3d.enu2geodetic(*position, *origin)
-    return float(lat), float(lon), float(alt)
+    return MissionFrame(*origin).to_geodetic(*position)
 
 
 def parse_origin(text: str) -> tuple[float, float, float]:

@@ -154,6 +154,7 @@ class Ros2Vehicle:
         self._link: Literal["waiting", "up", "lost"] = "waiting"
         self._events: list[str] = []
         self._errors: list[str] = []
+        self._faults: list[str] = []
         self._calls: list[tuple[str, Call]] = []
         self._override: Literal["land", "hold"] | None = None
         self._timer: Any = None
@@ -203,9 +204,9 @@ class Ros2Vehicle:
                 try:
                     answer = call.result()
                     if not getattr(answer, "success", True):
-                        self._errors.append(f"{label}: refused: {answer.message}")
+                        self._fail(f"{label}: refused: {answer.message}")
                 except Ros2Error as exc:
-                    self._errors.append(f"{label}: {exc}")
+                    self._fail(f"{label}: {exc}")
 
     def _take_pose(self, now: float) -> None:
         message = self._pose.latest()
@@ -244,11 +245,30 @@ class Ros2Vehicle:
         out, self._events = self._events, []
         return out
 
+    def _fail(self, error: str) -> None:
+        """A take-off or landing that failed for good (the service refused, never answered
+        or is missing): an error, and a fault the daemon raises as ``vehicle_fault_event``
+        (the service is not called again on its own)."""
+        self._errors.append(error)
+        self._faults.append(error)
+
     def drain_errors(self) -> list[str]:
         """What failed since the last call (a service that refused or never answered); the
         node's own errors are its owner's to drain."""
         out, self._errors = self._errors, []
         return out
+
+    def drain_faults(self) -> list[str]:
+        """The commands that failed for good since the last call, oldest first (each also
+        in :meth:`drain_errors`), as the MAVLink vehicle's: the daemon raises
+        ``vehicle_fault_event`` for each, with the reason as its data."""
+        out, self._faults = self._faults, []
+        return out
+
+    def drain_log(self) -> list[tuple[str, dict[str, Any]]]:
+        """Structured lines for the daemon's log: none (rclpy's own output is the node's,
+        and the node's errors are its owner's to log)."""
+        return []
 
     def status(self) -> dict[str, Any]:
         """What ``status.json`` and the ground station show of the vehicle."""
@@ -330,6 +350,6 @@ class Ros2Vehicle:
                 service, "std_srvs/srv/Trigger", request, timeout=self.settings.service_timeout
             )
         except Ros2Error as exc:
-            self._errors.append(f"{what}: {exc}")
+            self._fail(f"{what}: {exc}")
             return
         self._calls.append((f"{what} (service {call.service})", call))

@@ -72,6 +72,14 @@ class Vehicle(Protocol):
     Commands set a goal and return at once — they never wait for the vehicle to get there;
     a plugin watches :meth:`position` over the following steps. A new command replaces the
     previous goal. Reads return the latest known state and never block either.
+
+    **The latest command wins.** A command replaces everything the previous one asked for,
+    including what the vehicle has not carried out yet (a mode change still on its way to
+    an autopilot): an adapter must never let an earlier command land after a later one. The
+    runtime orders an actor switch so that this is enough: the outgoing actor's plugins are
+    paused (or stopped) before the incoming actor's start, so whatever the outgoing actor
+    commanded last (a hold on arrival) comes before the incoming actor's first goal, and
+    the incoming actor's goal is what the vehicle flies.
     """
 
     def position(self) -> tuple[float, float, float]:

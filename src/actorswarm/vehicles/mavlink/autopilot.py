@@ -22,6 +22,10 @@ What it models
   takes its altitude above mean sea level, enters AUTO.TAKEOFF and then AUTO.LOITER.
   OFFBOARD is accepted only while setpoints stream, and left for AUTO.LOITER (hold) when
   none came for ``offboard_timeout`` seconds (PX4's ``COM_OF_LOSS_T``).
+* The boot (:mod:`~actorswarm.vehicles.mavlink.boot`): arming refused with the real
+  autopilot's words until ``ready_after``, positions zero (ArduPilot) or absent (PX4) until
+  the estimator has one, ``GPS_RAW_INT``, ``EKF_STATUS_REPORT`` (ArduPilot), the pre-arm bit
+  of ``SYS_STATUS``; STATUSTEXT (PX4: only after a GCS-type HEARTBEAT, chunked).
 * Both: landing ends disarmed; an empty battery drops the vehicle (the physics' ``dead``)
   and disarms it. The failsafe parameters the pre-flight check reads answer
   ``PARAM_REQUEST_READ`` (1, or 0 with ``failsafes=False``) and take ``PARAM_SET``.
@@ -30,7 +34,8 @@ What it does not model
 ----------------------
 Sensors, EKF and GPS (the position is exact), wind, attitude and yaw, RC input, geofences,
 missions (``MISSION_*``), RTL, the failsafes themselves (the parameters are read, never
-acted on), pre-arm checks beyond the mode and the battery, parameters other than the
+acted on), pre-arm checks beyond the mode, the battery and the replayed boot
+(:mod:`~actorswarm.vehicles.mavlink.boot`), parameters other than the
 failsafes', MAVLink signing, fixed-wing and VTOL vehicles, and any other message.
 """
 
@@ -43,6 +48,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, Literal
 
+from actorswarm.vehicles.mavlink.boot import DEFAULT_READY_AFTER, Boot, chunks
 from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.flavours import ARDUPILOT_MODES, PX4_MAIN, PX4_SUB, px4_custom_mode
 from actorswarm.vehicles.mavlink.frame import MissionFrame
@@ -59,7 +65,11 @@ _DEFAULT_STREAMS: Final = {
     mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 0.25,
     mav.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
     mav.MAVLINK_MSG_ID_HOME_POSITION: 5.0,
+    mav.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+    mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
 }
+#: The sensor bits SYS_STATUS reports: the GPS and the pre-arm check.
+_SENSORS: Final = mav.MAV_SYS_STATUS_SENSOR_GPS | mav.MAV_SYS_STATUS_PREARM_CHECK
 #: The physics step, seconds.
 _DT: Final = 0.02
 #: PX4's MIS_TAKEOFF_ALT: the take-off altitude when NAV_TAKEOFF gives none.
@@ -76,7 +86,11 @@ class AutopilotOptions:
     ``system``: its MAVLink system ID; ``kind``: which autopilot it plays; ``failsafes``:
     the value of its failsafe parameters (on, or all 0); ``battery``: the charge at start;
     ``endurance``: seconds of flight at cruise speed on a full battery;
-    ``offboard_timeout``: PX4's setpoint timeout, seconds."""
+    ``offboard_timeout``: PX4's setpoint timeout, seconds; ``ready_after``: seconds from
+    the start of its clock until it accepts arming (None: as measured on the real one, 40 s
+    for ArduPilot, 35 s for PX4; see :mod:`~actorswarm.vehicles.mavlink.boot`). The clock
+    starts at once, or on a ``tcpin:`` endpoint when the first client connects, as SITL's
+    does."""
 
     url: str
     home: MissionFrame
@@ -86,8 +100,11 @@ class AutopilotOptions:
     battery: float = 1.0
     endurance: float = 1200.0
     offboard_timeout: float = 1.0
+    ready_after: float | None = None
 
     def __post_init__(self) -> None:
+        if self.ready_after is not None and not self.ready_after >= 0:
+            raise ValueError(f"autopilot: --ready-after must be >= 0 s, not {self.ready_after}")
         if not 1 <= self.system <= 255:
             raise ValueError(f"autopilot: the system ID must be 1..255, not {self.system}")
         if not 0.0 < self.battery <= 1.0:
@@ -137,6 +154,18 @@ class SimAutopilot:
         self._sent: dict[int, float] = {}
         self._physics_at = self._started = clock()
         self._closed = False
+        ready_after = options.ready_after
+        if ready_after is None:
+            ready_after = DEFAULT_READY_AFTER[options.kind]
+        self.boot = Boot(options.kind, ready_after)
+        # SITL's clock (and so its boot) starts when the first client connects over TCP.
+        self._booted: float | None = None if options.url.startswith("tcpin:") else self._started
+        self._said = -1.0  # the boot texts said up to this boot time
+        self._nagged: float | None = None
+        self._gcs = False  # a GCS-type HEARTBEAT heard (PX4 sends STATUSTEXT only then)
+        self._text_id = 0
+        if self._px4:
+            self._intervals[mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT] = math.inf
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -156,6 +185,12 @@ class SimAutopilot:
         for message in read_available(self._conn):
             if message.get_type() not in ("BAD_DATA", "UNKNOWN"):
                 self._on_message(message, now)
+        if self._booted is None:
+            if not self._conn.connected:
+                self._physics_at = now
+                return  # no client yet: SITL's clock has not started
+            self._booted = self._physics_at = now
+        self._boot_texts(now)
         while self._physics_at + _DT <= now:
             self._physics_at += _DT
             self._fleet.step(_DT)
@@ -182,6 +217,31 @@ class SimAutopilot:
     def physics_mode(self) -> str:
         return self._vehicle.mode
 
+    def boot_time(self, now: float) -> float:
+        """Seconds since its clock started (0 before)."""
+        return 0.0 if self._booted is None else now - self._booted
+
+    def say(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
+        """A STATUSTEXT. PX4: only once a GCS-type HEARTBEAT was heard on the link, and a
+        text over 50 characters in chunks (one id, rising ``chunk_seq``)."""
+        if self._px4 and not self._gcs:
+            return
+        self._text_id = self._text_id % 65535 + 1
+        for piece, ident, seq in chunks(text, self._text_id):
+            self._conn.mav.statustext_send(severity, piece.encode(), ident, seq)
+
+    def _boot_texts(self, now: float) -> None:
+        t = self.boot_time(now)
+        for text in self.boot.texts(self._said, t):
+            self.say(text, mav.MAV_SEVERITY_INFO)
+        self._said = t
+        state = self.boot.at(t)
+        every = min(max(self.boot.ready_after / 4, 1.0), 10.0)
+        due = self._nagged is None or now - self._nagged >= every
+        if state.nag is not None and t >= 0.1 * self.boot.ready_after and due:
+            self._nagged = now
+            self.say(state.nag, mav.MAV_SEVERITY_CRITICAL)
+
     # --- inside ----------------------------------------------------------------------------------
 
     def _on_message(self, message: Any, now: float) -> None:
@@ -189,6 +249,8 @@ class SimAutopilot:
         # Messages addressed to another system (0: to all) are not ours to answer.
         if getattr(message, "target_system", 0) not in (0, self.options.system):
             return
+        if kind == "HEARTBEAT" and message.type == mav.MAV_TYPE_GCS:
+            self._gcs = True
         if kind == "COMMAND_LONG":
             result = self._command(message, now)
             self._conn.mav.command_ack_send(
@@ -217,7 +279,9 @@ class SimAutopilot:
         c = m.command
         if c == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
             message_id, interval = int(m.param1), m.param2
-            if message_id not in _DEFAULT_STREAMS:
+            if message_id not in _DEFAULT_STREAMS or (
+                self._px4 and message_id == mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT
+            ):
                 return _UNSUPPORTED
             if interval == 0:
                 self._intervals[message_id] = _DEFAULT_STREAMS[message_id]
@@ -229,7 +293,7 @@ class SimAutopilot:
         if c == mav.MAV_CMD_DO_SET_MODE:
             return self._set_mode(m, now)
         if c == mav.MAV_CMD_COMPONENT_ARM_DISARM:
-            return self._arm(m.param1 == 1)
+            return self._arm(m.param1 == 1, now)
         if c == mav.MAV_CMD_NAV_TAKEOFF:
             return self._takeoff(m.param7)
         if c == mav.MAV_CMD_NAV_LAND:
@@ -290,7 +354,13 @@ class SimAutopilot:
             self._hold()
         return _ACCEPTED
 
-    def _arm(self, arm: bool) -> int:
+    def _arm(self, arm: bool, now: float) -> int:
+        if arm and not self.armed:
+            state = self.boot.at(self.boot_time(now))
+            if not state.armable:
+                for text in state.refusal:
+                    self.say(text, mav.MAV_SEVERITY_CRITICAL)
+                return state.refused_with
         if not arm:
             if self._airborne():
                 return _DENIED
@@ -368,24 +438,24 @@ class SimAutopilot:
                 # PX4's offboard-loss failsafe: hold where it is.
                 self._mode = (PX4_MAIN["AUTO"], PX4_SUB["LOITER"])
                 self._hold()
-                self._conn.mav.statustext_send(
-                    mav.MAV_SEVERITY_WARNING, b"Offboard setpoints lost: holding"
-                )
+                self.say("Offboard setpoints lost: holding")
 
     def _streams(self, now: float) -> None:
         for message_id, interval in self._intervals.items():
             last = self._sent.get(message_id)
-            if last is not None and now - last < interval:
+            if interval == math.inf or (last is not None and now - last < interval):
                 continue
-            self._sent[message_id] = now
-            self._send_stream(message_id, now)
+            if self._send_stream(message_id, now):
+                self._sent[message_id] = now
 
     def _custom_mode(self) -> int:
         if isinstance(self._mode, tuple):
             return px4_custom_mode(*self._mode)
         return self._mode
 
-    def _send_stream(self, message_id: int, now: float) -> None:
+    def _send_stream(self, message_id: int, now: float) -> bool:
+        """Send the message ``message_id`` is due; False when there is nothing to send yet
+        (no home, no position), so that it goes out as soon as there is."""
         mav_ = self._conn.mav
         boot_ms = int((now - self._started) * 1000) & 0xFFFFFFFF
         home = self.options.home
@@ -397,6 +467,13 @@ class SimAutopilot:
             state = mav.MAV_STATE_ACTIVE if self._airborne() else mav.MAV_STATE_STANDBY
             mav_.heartbeat_send(mav.MAV_TYPE_QUADROTOR, autopilot, base, self._custom_mode(), state)
         elif message_id == mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
+            shown = self.boot.at(self.boot_time(now)).position
+            if shown == "none":
+                return False  # PX4: nothing before its estimator has a position
+            if shown == "zeros":
+                # ArduPilot: all zeros before the EKF has an origin.
+                mav_.global_position_int_send(boot_ms, 0, 0, 0, 0, 0, 0, 0, 65535)
+                return True
             x, y, z = self._vehicle.position()
             vx, vy, vz = self._vehicle.velocity()
             lat, lon, alt = home.to_geodetic(x, y, z)
@@ -416,8 +493,37 @@ class SimAutopilot:
         elif message_id == mav.MAVLINK_MSG_ID_SYS_STATUS:
             remaining = round(self._vehicle.battery() * 100)
             voltage = round(13_200 + 3_600 * self._vehicle.battery())  # a 4S pack, millivolts
-            mav_.sys_status_send(0, 0, 0, 500, voltage, -1, remaining, 0, 0, 0, 0, 0, 0)
+            state = self.boot.at(self.boot_time(now))
+            health = 0
+            if state.gps_fix >= 3:
+                health |= mav.MAV_SYS_STATUS_SENSOR_GPS
+            if state.prearm_ok:
+                health |= mav.MAV_SYS_STATUS_PREARM_CHECK
+            mav_.sys_status_send(
+                _SENSORS, _SENSORS, health, 500, voltage, -1, remaining, 0, 0, 0, 0, 0, 0
+            )
+        elif message_id == mav.MAVLINK_MSG_ID_GPS_RAW_INT:
+            fix = self.boot.at(self.boot_time(now)).gps_fix
+            lat, lon, alt = home.to_geodetic(*self._vehicle.position()) if fix >= 3 else (0, 0, 0)
+            mav_.gps_raw_int_send(
+                boot_ms * 1000,
+                fix,
+                round(lat * 1e7),
+                round(lon * 1e7),
+                round(alt * 1000),
+                70 if fix >= 3 else 9999,
+                120 if fix >= 3 else 9999,
+                0,
+                0,
+                10 if fix >= 3 else 3,
+            )
+        elif message_id == mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
+            flags = self.boot.at(self.boot_time(now)).ekf_flags
+            good = 0.1 if flags & mav.EKF_POS_HORIZ_ABS else 1.0
+            mav_.ekf_status_report_send(flags, good, good, good, 0.1, 0.0)
         elif message_id == mav.MAVLINK_MSG_ID_HOME_POSITION:
+            if not self.boot.at(self.boot_time(now)).home:
+                return False
             mav_.home_position_send(
                 round(home.lat * 1e7),
                 round(home.lon * 1e7),
@@ -430,3 +536,4 @@ class SimAutopilot:
                 0,
                 0,
             )
+        return True

@@ -7,6 +7,13 @@ counting the repeats) until the autopilot answers with a ``COMMAND_ACK`` for it.
 Nothing is retried for ever: a step not accepted within its
 deadline fails.
 
+A :class:`Command` marked ``persist`` (arming) is one the autopilot refuses while it is not
+ready yet: any refusal (``FAILED``, ``DENIED``, ``TEMPORARILY_REJECTED``...) is asked again
+after a back-off (1 s, doubling up to 4 s) until the step's deadline, and each refusal is
+reported to ``on_refused``. A step's ``deadline`` may count from the start of the whole plan
+(``from_plan``): the readiness wait and the arming retries then share one deadline (the
+vehicle's ``arm_timeout``). ``explain`` adds the autopilot's own words to a failure.
+
 One plan of the vehicle (take off: set the mode, check the failsafes, arm, take off) is a
 :class:`Sequence` of steps run in order — a :class:`Command`, a :class:`Check` that waits for
 a fact about the autopilot (its failsafe parameters known and set), or a :class:`Do` that
@@ -40,6 +47,11 @@ class Command:
 
     command: int
     params: tuple[float, float, float, float, float, float, float] = (0, 0, 0, 0, 0, 0, 0)
+    #: Ask again after any refusal, with back-off, until the deadline.
+    persist: bool = False
+    #: Seconds (None: the sender's), counted from the plan's start with ``from_plan``.
+    deadline: float | None = None
+    from_plan: bool = False
 
     @property
     def name(self) -> str:
@@ -55,6 +67,7 @@ class Check:
     name: str
     test: Callable[[], CheckResult]
     deadline: float | None = None
+    from_plan: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,11 +85,15 @@ Step = Command | Check | Do
 class _Running:
     label: str
     steps: list[Step]
+    began: float = 0.0  # when the plan began
     started: float = 0.0  # when the current step began
     sent: float | None = None  # when the current command was last sent
     tries: int = 0
     working: bool = False  # the autopilot said IN_PROGRESS
     rejected: bool = False  # the autopilot said TEMPORARILY_REJECTED
+    backoff: float = 0.0  # a persisting command: seconds to wait before asking again
+    refused: str | None = None  # a persisting command: the last refusal
+    answered: bool = False  # a persisting command: the last try was answered
     done: list[str] = field(default_factory=list)
 
 
@@ -96,6 +113,8 @@ class CommandSender:
         *,
         retry: float = 0.5,
         deadline: float = 5.0,
+        explain: Callable[[], str | None] = lambda: None,
+        on_refused: Callable[[str, int], None] = lambda name, result: None,
     ) -> None:
         if not (retry > 0 and deadline > 0):
             raise ValueError(f"retry and deadline must be > 0 s, not {retry!r}, {deadline!r}")
@@ -104,6 +123,8 @@ class CommandSender:
         self.retry = retry
         self.deadline = deadline
         self._send = send
+        self._explain = explain
+        self._on_refused = on_refused
         self._running: _Running | None = None
         self._errors: list[str] = []
         #: Plans that ran to their end, in order (for status and tests).
@@ -114,10 +135,21 @@ class CommandSender:
         """The label of the sequence in progress (None: idle)."""
         return None if self._running is None else self._running.label
 
+    @property
+    def step(self) -> Step | None:
+        """The step in progress (None: idle)."""
+        run = self._running
+        return run.steps[0] if run is not None and run.steps else None
+
+    @property
+    def began(self) -> float | None:
+        """When the plan in progress began (None: idle)."""
+        return None if self._running is None else self._running.began
+
     def start(self, label: str, steps: Sequence[Step], now: float) -> None:
         """Run ``steps`` as the plan ``label`` from ``now``, abandoning any plan in progress;
         the first command goes out at once."""
-        self._running = _Running(label, list(steps), started=now)
+        self._running = _Running(label, list(steps), began=now, started=now)
         self.tick(now)
 
     def cancel(self) -> None:
@@ -140,13 +172,29 @@ class CommandSender:
         if ack.result == mav.MAV_RESULT_ACCEPTED:
             self._advance(run, now)
             self.tick(now)
+        elif step.persist and ack.result != mav.MAV_RESULT_IN_PROGRESS:
+            # Not ready yet: ask again later, until the deadline.
+            if run.answered:
+                return  # a second answer to the same try (a repeat crossed its answer)
+            run.answered = True
+            run.refused = result_name(ack.result)
+            run.working = False
+            run.sent = now
+            run.backoff = min(max(run.backoff * 2, 1.0), 4.0)
+            self._on_refused(step.name, ack.result)
         elif ack.result == mav.MAV_RESULT_IN_PROGRESS:
             run.working = True
         elif ack.result == mav.MAV_RESULT_TEMPORARILY_REJECTED:
             run.working = False  # "try again later": the repeats go on until the deadline
             run.rejected = True
         else:
-            self._fail(run, f"{step.name} refused by the autopilot: {result_name(ack.result)}")
+            self._on_refused(step.name, ack.result)
+            reason = self._explain()
+            self._fail(
+                run,
+                f"{step.name} refused by the autopilot: {result_name(ack.result)}"
+                + (f" — {reason}" if reason else ""),
+            )
 
     def tick(self, now: float) -> None:
         """Move the plan on at ``now``: run the steps that need no answer, send or resend
@@ -154,13 +202,21 @@ class CommandSender:
         run = self._running
         while run is not None and run is self._running and run.steps:
             step = run.steps[0]
-            limit = step.deadline if isinstance(step, Check) and step.deadline else self.deadline
-            if now - run.started > limit:
+            limit = step.deadline if not isinstance(step, Do) and step.deadline else self.deadline
+            since = run.began if not isinstance(step, Do) and step.from_plan else run.started
+            if now - since > limit:
                 what = step.name if isinstance(step, Command) else f"waiting for {step.name}"
                 tries = f" ({run.tries} tries)" if isinstance(step, Command) else ""
-                if run.rejected:
+                if run.refused is not None:
+                    tries += f", last refused: {run.refused}"
+                elif run.rejected:
                     tries += ", temporarily rejected"
-                self._fail(run, f"{what}: not done within {limit:g} s{tries}")
+                reason = self._explain()
+                self._fail(
+                    run,
+                    f"{what}: not done within {limit:g} s{tries}"
+                    + (f" — {reason}" if reason else ""),
+                )
                 return
             if isinstance(step, Do):
                 step.action()
@@ -175,7 +231,8 @@ class CommandSender:
                 else:
                     return
             else:
-                if not run.working and (run.sent is None or now - run.sent >= self.retry):
+                wait = run.backoff if run.backoff else self.retry
+                if not run.working and (run.sent is None or now - run.sent >= wait):
                     self._send_command(run, step, now)
                 return
         if run is not None and run is self._running and not run.steps:
@@ -189,6 +246,7 @@ class CommandSender:
         )
         run.tries += 1
         run.sent = now
+        run.answered = False
         self._send(message)
 
     def _advance(self, run: _Running, now: float) -> None:
@@ -196,6 +254,7 @@ class CommandSender:
         run.done.append(step.name)
         run.started, run.sent, run.tries = now, None, 0
         run.working = run.rejected = False
+        run.backoff, run.refused = 0.0, None
         if not run.steps:
             self._finish(run)
 

@@ -1,21 +1,17 @@
 """The MAVLink 2 dialect every module of this layer uses, loaded once.
 
-pymavlink picks MAVLink 1 or 2 from the ``MAVLINK20`` environment variable when
-:mod:`pymavlink.mavutil` is first imported; set here, before that import, so that this
-layer always speaks MAVLink 2 (signing-capable framing, extension fields). The
-``ardupilotmega`` dialect includes ``common``: it decodes PX4's messages too.
+Only the generated dialect module is loaded (``pymavlink.dialects.v20.ardupilotmega``:
+``common`` and ArduPilot's messages, such as ``EKF_STATUS_REPORT``; it decodes PX4's
+messages too), never :mod:`pymavlink.mavutil`: that module loads NumPy and every dialect,
+33 MiB of a daemon's memory, for connection classes this layer has of its own
+(:mod:`~actorswarm.vehicles.mavlink.link`).
 """
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("MAVLINK20", "1")
-
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-__all__ = ["command_name", "mav", "mavutil", "result_name"]
+__all__ = ["command_name", "mav", "result_name"]
 
 
 def command_name(command: int) -> str:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Final, Literal, Protocol
 
 from actorswarm.vehicles.mavlink.commands import Check, Command, Do, Step
-from actorswarm.vehicles.mavlink.dialect import mav, mavutil
+from actorswarm.vehicles.mavlink.dialect import mav
 
 __all__ = [
     "ARDUPILOT_MODES",
@@ -49,6 +49,22 @@ ARDUPILOT_MODES: Final = {"STABILIZE": 0, "GUIDED": 4, "LOITER": 5, "RTL": 6, "L
 PX4_MAIN: Final = {"POSCTL": 3, "AUTO": 4, "OFFBOARD": 6}
 PX4_SUB: Final = {"READY": 1, "TAKEOFF": 2, "LOITER": 3, "MISSION": 4, "RTL": 5, "LAND": 6}
 
+#: ArduCopter's mode names by number (as pymavlink's ``mode_mapping_acm`` names them).
+_ARDUCOPTER_NAMES: Final = {
+    0: "STABILIZE", 1: "ACRO", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL",
+    7: "CIRCLE", 8: "POSITION", 9: "LAND", 10: "OF_LOITER", 11: "DRIFT", 13: "SPORT",
+    14: "FLIP", 15: "AUTOTUNE", 16: "POSHOLD", 17: "BRAKE", 18: "THROW", 19: "AVOID_ADSB",
+    20: "GUIDED_NOGPS", 21: "SMART_RTL", 22: "FLOWHOLD", 23: "FOLLOW", 24: "ZIGZAG",
+    25: "SYSTEMID", 26: "AUTOROTATE", 27: "AUTO_RTL", 28: "TURTLE", 29: "RATE_ACRO",
+}  # fmt: skip
+#: PX4's main modes and AUTO's sub-modes by number, named as pymavlink names them.
+_PX4_MAIN_NAMES: Final = {
+    1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED",
+    8: "RATTITUDE",
+}  # fmt: skip
+_PX4_AUTO_NAMES: Final = {
+    2: "TAKEOFF", 3: "LOITER", 4: "MISSION", 5: "RTL", 6: "LAND", 7: "RTGS", 8: "FOLLOWME",
+}  # fmt: skip
 _CUSTOM: Final = float(mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
 _NAN: Final = math.nan
 #: Seconds a climb before a goto may take.
@@ -105,6 +121,16 @@ class Controls(Protocol):
         """Metres above home."""
         ...
 
+    def ready(self) -> bool | None:
+        """Whether the autopilot says it can fly (its readiness signals together): True, or
+        None (not yet)."""
+        ...
+
+    @property
+    def arm_timeout(self) -> float:
+        """Seconds a take-off may wait for the autopilot to be ready and to accept arming."""
+        ...
+
 
 class Flavour(Protocol):
     kind: Kind
@@ -142,8 +168,19 @@ def _before_arming(v: Controls) -> list[Step]:
     return [Do("stop streaming", lambda: v.set_target(None)), _check_failsafes(v)]
 
 
-def _arm() -> Command:
-    return Command(mav.MAV_CMD_COMPONENT_ARM_DISARM, (1, 0, 0, 0, 0, 0, 0))
+def _ready_and_arm(v: Controls) -> list[Step]:
+    """Wait until the autopilot says it can fly, then arm, asking again after each refusal;
+    both within ``arm_timeout`` of the plan's start."""
+    return [
+        Check("the autopilot ready to arm", v.ready, deadline=v.arm_timeout, from_plan=True),
+        Command(
+            mav.MAV_CMD_COMPONENT_ARM_DISARM,
+            (1, 0, 0, 0, 0, 0, 0),
+            persist=True,
+            deadline=v.arm_timeout,
+            from_plan=True,
+        ),
+    ]
 
 
 class ArduPilot:
@@ -160,7 +197,7 @@ class ArduPilot:
         return [
             *_before_arming(v),
             self._guided(),
-            _arm(),
+            *_ready_and_arm(v),
             # ArduPilot: param 7 is the altitude above home.
             Command(mav.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 0, 0, altitude)),
         ]
@@ -206,7 +243,7 @@ class Px4:
             return self.goto(v, _above_here(v, altitude), None)
         return [
             *_before_arming(v),
-            _arm(),
+            *_ready_and_arm(v),
             # PX4: param 7 is the altitude above mean sea level (home's plus the climb).
             Command(
                 mav.MAV_CMD_NAV_TAKEOFF,
@@ -256,11 +293,15 @@ class Px4:
 
 
 def mode_name(kind: Kind, base_mode: int, custom_mode: int) -> str:
-    """The name of the mode a HEARTBEAT reports, read as ``kind`` encodes it."""
+    """The name of the mode a HEARTBEAT reports, read as ``kind`` encodes it (the names
+    pymavlink gives: ``GUIDED``; PX4's ``OFFBOARD``, and ``LOITER`` for AUTO.LOITER)."""
+    del base_mode  # PX4 1.12+ and ArduPilot: the custom mode alone says which
     if kind == "px4":
-        return str(mavutil.interpret_px4_mode(base_mode, custom_mode))
-    names: dict[int, str] = mavutil.mode_mapping_acm  # ArduCopter: number -> name
-    return names.get(custom_mode, f"Mode({custom_mode})")
+        main, sub = (custom_mode >> 16) & 0xFF, (custom_mode >> 24) & 0xFF
+        if main == PX4_MAIN["AUTO"]:
+            return _PX4_AUTO_NAMES.get(sub, "UNKNOWN")
+        return _PX4_MAIN_NAMES.get(main, "UNKNOWN")
+    return _ARDUCOPTER_NAMES.get(custom_mode, f"Mode({custom_mode})")
 
 
 def flavour(kind: Kind) -> Flavour:

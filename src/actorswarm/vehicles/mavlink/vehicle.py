@@ -34,7 +34,6 @@ heard: positions at 10 Hz, battery and home each second.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import struct
 import threading
@@ -43,14 +42,23 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
-from actorswarm.vehicles.mavlink.commands import Command, CommandSender, Step
-from actorswarm.vehicles.mavlink.dialect import mav
-from actorswarm.vehicles.mavlink.flavours import Flavour, Kind, Target, flavour, mode_name
+from actorswarm.vehicles.mavlink.commands import Check, Command, CommandSender, Step
+from actorswarm.vehicles.mavlink.dialect import mav, result_name
+from actorswarm.vehicles.mavlink.flavours import (
+    Flavour,
+    Kind,
+    Target,
+    flavour,
+    mode_name,
+    px4_custom_mode,
+)
 from actorswarm.vehicles.mavlink.frame import MissionFrame
-from actorswarm.vehicles.mavlink.link import MessageFilter, open_connection, read_available
+from actorswarm.vehicles.mavlink.link import Link, MessageFilter, drain_library_lines
+from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
 
 __all__ = [
     "FAILSAFE_PARAMS",
+    "FAULT",
     "LINK_LOST",
     "LINK_RESTORED",
     "OPERATOR_EVENTS",
@@ -61,6 +69,9 @@ __all__ = [
 
 LINK_LOST: Final = "vehicle_link_lost"
 LINK_RESTORED: Final = "vehicle_link_restored"
+#: The local event of a command that failed for good (its deadline passed, the autopilot
+#: refused it, the autopilot was never heard); its data is ``{"reason": ...}``.
+FAULT: Final = "vehicle_fault_event"
 #: The operator's events (``gs event NAME``) that take the vehicle from the plugins
 #: (``land``, ``hold``) and give it back (None).
 OPERATOR_EVENTS: Final[dict[str, Literal["land", "hold"] | None]] = {
@@ -94,6 +105,12 @@ _INT_TYPES: Final = frozenset(
 )
 #: Our own heartbeat, and re-requests of unknown parameters, every this many seconds.
 _BEAT: Final = 1.0
+#: Our HEARTBEAT's type (a GCS-type one on PX4 links, see :meth:`MavlinkVehicle.service`).
+_OUR_TYPE: Final = mav.MAV_TYPE_ONBOARD_CONTROLLER
+#: Seconds a mode we asked for counts as the vehicle's mode until a HEARTBEAT reports it.
+_MODE_SETTLE: Final = 3.0
+#: Seconds :meth:`MavlinkVehicle.close` waits for its thread.
+_CLOSE_WAIT: Final = 0.5
 #: Seconds between two looks of the background thread.
 _PERIOD: Final = 0.02
 #: Metres above home from which the vehicle counts as airborne.
@@ -101,7 +118,7 @@ _AIRBORNE: Final = 0.5
 # SET_POSITION_TARGET_GLOBAL_INT: use the position only (ignore velocity, acceleration, yaw).
 _POSITION_ONLY: Final = 0b0000_1101_1111_1000
 
-Link = Literal["never heard", "up", "lost"]
+LinkState = Literal["never heard", "up", "lost"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -138,8 +155,9 @@ class MavlinkSettings:
     ``kind``: ``"auto"`` (from its HEARTBEAT), ``"ardupilot"`` or ``"px4"``;
     ``link_timeout``: seconds of heartbeat silence that count as a lost link;
     ``retry``/``deadline``: seconds between two sendings of a command, and before one
-    fails; ``force``: take off even when the failsafe check refuses; ``name``: how
-    messages name the vehicle.
+    fails; ``arm_timeout``: seconds a take-off waits for the autopilot to be ready and to
+    accept arming (refusals asked again with back-off) before it fails; ``force``: take
+    off even when the failsafe check refuses; ``name``: how messages name the vehicle.
     """
 
     url: str
@@ -152,6 +170,7 @@ class MavlinkSettings:
     link_timeout: float = 3.0
     retry: float = 0.5
     deadline: float = 5.0
+    arm_timeout: float = 120.0
     force: bool = False
     fence: Fence = field(default_factory=Fence)
     name: str = "mavlink"
@@ -162,7 +181,7 @@ class _State:
     """The latest known state of the autopilot."""
 
     heard: float | None = None  # the last HEARTBEAT
-    link: Link = "never heard"
+    link: LinkState = "never heard"
     kind: Kind | None = None
     mode: str = ""
     armed: bool = False
@@ -188,7 +207,7 @@ class MavlinkVehicle:
         self.settings = settings
         self.name = settings.name
         self._clock = clock
-        self._conn = open_connection(
+        self._link = Link(
             settings.url,
             who=f"vehicle {self.name}",
             source_system=settings.own_system,
@@ -208,6 +227,13 @@ class MavlinkVehicle:
         self._params_asked: float | None = None
         self._events: list[str] = []
         self._errors: list[str] = []
+        self._faults: list[str] = []
+        self._log: list[tuple[str, dict[str, Any]]] = []
+        self._mode_asked: tuple[str, float] | None = None  # a mode asked for, and when
+        self._readiness = Readiness()
+        self._texts = Texts()
+        self._refused: str | None = None  # the last command refused, and how
+        self._said: tuple[bool | None, str | None] = (None, None)  # readiness last logged
         self._override: Literal["land", "hold"] | None = None
         self._ignored = False
         self._stop = threading.Event()
@@ -224,12 +250,14 @@ class MavlinkVehicle:
             self._thread.start()
 
     def close(self) -> None:
-        """Stop the thread and close the connection."""
+        """Stop the thread and close the connection, whatever state the link is in (gone,
+        reconnecting, never opened); never raises, and returns within about half a second
+        (the thread is a daemon thread: one still inside a connection attempt is left to
+        end on its own)."""
         self._stop.set()
         if self._thread is not None:
-            self._thread.join(timeout=2.0)
-        with contextlib.suppress(OSError):
-            self._conn.close()
+            self._thread.join(timeout=_CLOSE_WAIT)
+        self._link.close()
 
     def _run(self) -> None:
         while not self._stop.is_set():
@@ -237,16 +265,22 @@ class MavlinkVehicle:
             self._stop.wait(_PERIOD)
 
     def service(self, now: float) -> None:
-        """Read, update, command, stream, watch: one look at the link at ``now``."""
+        """Read, update, command, stream, watch: one look at the link at ``now``. A broken
+        link is reopened first, outside the lock (an attempt may take half a second)."""
+        self._link.maintain(now)
         with self._lock:
-            for message in read_available(self._conn):
+            for message in self._link.read():
                 if self._filter.accept(message):
                     self._on_message(message, now)
+            self._link_changes()
             if self._beat is None or now - self._beat >= _BEAT:
                 self._beat = now
+                # PX4 sends its STATUSTEXT (the reasons it refuses) only on a link that
+                # heard a ground station's heartbeat.
+                ours = mav.MAV_TYPE_GCS if self._state.kind == "px4" else _OUR_TYPE
                 self._send(
                     mav.MAVLink_heartbeat_message(
-                        mav.MAV_TYPE_ONBOARD_CONTROLLER,
+                        ours,
                         mav.MAV_AUTOPILOT_INVALID,
                         0,
                         0,
@@ -260,8 +294,12 @@ class MavlinkVehicle:
             for sender in (self._setup, self._plan):
                 if sender is not None:
                     sender.tick(now)
-                    self._errors += sender.drain_errors()
+                    failed = sender.drain_errors()
+                    self._errors += failed
+                    if sender is self._plan:
+                        self._faults += failed
             self._stream(now)
+            self._watch_readiness(now)
 
     # --- what the daemon reads -------------------------------------------------------------------
 
@@ -272,6 +310,25 @@ class MavlinkVehicle:
             out, self._events = self._events, []
             return out
 
+    def drain_log(self) -> list[tuple[str, dict[str, Any]]]:
+        """Structured log records since the last call, oldest first: ``(event, fields)``
+        — ``vehicle-link`` (the connection broke or reopened, and why),
+        ``vehicle-library`` (a line pymavlink printed, kept off the output),
+        ``vehicle-ready`` / ``vehicle-waiting`` (readiness changed, and the autopilot's
+        reason), ``vehicle-refused`` (a command refused, with the autopilot's words)."""
+        with self._lock:
+            out, self._log = self._log, []
+        out += [("vehicle-library", {"text": line}) for line in drain_library_lines()]
+        return out
+
+    def drain_faults(self) -> list[str]:
+        """The vehicle commands that failed for good since the last call, oldest first (each
+        also in :meth:`drain_errors`): the daemon raises :data:`FAULT` for each, with the
+        reason as its data, so that a task script can branch (to a Grounded actor, home)."""
+        with self._lock:
+            out, self._faults = self._faults, []
+            return out
+
     def drain_errors(self) -> list[str]:
         """What failed since the last call, oldest first; each names the vehicle."""
         with self._lock:
@@ -280,8 +337,10 @@ class MavlinkVehicle:
 
     def status(self) -> dict[str, Any]:
         """The link, the autopilot's kind, mode and arming, the battery (None: not
-        reported), the plan in progress, the failsafe parameters read, and the messages
-        dropped by reason."""
+        reported), the plan in progress, whether the autopilot is ready to fly (None: not
+        heard yet), the seconds a take-off has been waiting for it (None: none waits), the
+        reason it is not ready (its own words when it said any), the last command it refused,
+        the failsafe parameters read, and the messages dropped by reason."""
         with self._lock:
             s = self._state
             return {
@@ -293,6 +352,10 @@ class MavlinkVehicle:
                 "battery": s.battery,
                 "override": self._override,
                 "plan": None if self._plan is None else self._plan.busy,
+                "ready": self._is_ready(),
+                "waiting": self._waiting(self._clock()),
+                "reason": None if self._is_ready() else self._why(),
+                "refused": self._refused,
                 "failsafes": dict(s.params),
                 "dropped": dict(self._filter.dropped),
             }
@@ -407,6 +470,15 @@ class MavlinkVehicle:
 
     @property
     def mode(self) -> str:
+        """The mode the plans build on: the one we last asked for while the autopilot has
+        not reported it yet (for :data:`_MODE_SETTLE` seconds), else the reported one.
+
+        This is how the latest command wins: a hold asks for AUTO.LOITER, and a goto in the
+        same instant must ask for OFFBOARD again although the last HEARTBEAT still says
+        OFFBOARD — or the hold, carried out after it, would cancel the new goal."""
+        asked = self._mode_asked
+        if asked is not None and self._clock() - asked[1] <= _MODE_SETTLE:
+            return asked[0]
         return self._state.mode
 
     def here(self) -> tuple[float, float, float]:
@@ -425,6 +497,14 @@ class MavlinkVehicle:
         self._target_sent = None
         if target is not None:
             self._stream(self._target_since)  # the first setpoint goes out now
+
+    def ready(self) -> bool | None:
+        """True when the autopilot's readiness signals together say it can fly."""
+        return True if self._is_ready() else None
+
+    @property
+    def arm_timeout(self) -> float:
+        return self.settings.arm_timeout
 
     def failsafes(self) -> bool | str | None:
         kind = self._state.kind
@@ -445,19 +525,33 @@ class MavlinkVehicle:
 
     def _command(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
         if self._flavour is None or self._plan is None:
-            self._errors.append(
+            why = (
                 f"vehicle {self.name}: {label}: the autopilot has not been heard yet "
                 f"(no HEARTBEAT on {self.settings.url})"
             )
+            self._errors.append(why)
+            self._faults.append(why)
             return
         steps = plan(self._flavour)
         self._plan.start(label, steps, self._clock())
-        self._errors += self._plan.drain_errors()
+        failed = self._plan.drain_errors()
+        self._errors += failed
+        self._faults += failed
 
     def _send(self, message: Any) -> None:
+        if (
+            self._state.kind is not None
+            and message.get_type() == "COMMAND_LONG"
+            and message.command == mav.MAV_CMD_DO_SET_MODE
+        ):
+            if self._state.kind == "px4":
+                custom = px4_custom_mode(int(message.param2), int(message.param3))
+            else:
+                custom = int(message.param2)
+            asked = mode_name(self._state.kind, int(message.param1), custom)
+            self._mode_asked = (asked, self._clock())
         # A link that is down drops what is sent; the heartbeat watch reports it.
-        with contextlib.suppress(OSError):
-            self._conn.mav.send(message)
+        self._link.send(message)
 
     def _on_message(self, message: Any, now: float) -> None:
         kind = message.get_type()
@@ -465,6 +559,9 @@ class MavlinkVehicle:
         if kind == "HEARTBEAT":
             self._on_heartbeat(message, now)
         elif kind == "GLOBAL_POSITION_INT":
+            if message.lat == 0 and message.lon == 0:
+                return  # ArduPilot before its EKF has an origin: all zeros, not a place
+            self._readiness.position = True
             lat, lon, alt = message.lat / 1e7, message.lon / 1e7, message.alt / 1000.0
             s.position = self.settings.origin.to_local(lat, lon, alt)
             # NED centimetres per second -> ENU metres per second.
@@ -472,10 +569,23 @@ class MavlinkVehicle:
             s.height = message.relative_alt / 1000.0
             if s.home_amsl is None:
                 s.home_amsl = alt - s.height
+        elif kind in ("EKF_STATUS_REPORT", "GPS_RAW_INT"):
+            self._readiness.on_message(kind, message)
+        elif kind == "STATUSTEXT":
+            text = self._texts.add(message)
+            if text is not None:
+                self._log.append(
+                    (
+                        "vehicle-text",
+                        {"vehicle": self.name, "severity": message.severity, "text": text},
+                    )
+                )
         elif kind == "SYS_STATUS":
+            self._readiness.on_message(kind, message)
             if message.battery_remaining >= 0:
                 s.battery = min(message.battery_remaining, 100) / 100.0
         elif kind == "HOME_POSITION":
+            self._readiness.on_message(kind, message)
             lat, lon, alt = message.latitude / 1e7, message.longitude / 1e7, message.altitude / 1e3
             s.home = self.settings.origin.to_local(lat, lon, alt)
             s.home_amsl = alt
@@ -510,6 +620,7 @@ class MavlinkVehicle:
                 chosen = "ardupilot" if ardupilot else "px4"
             s.kind = chosen
             self._flavour = flavour(chosen)
+            self._beat = None  # our next heartbeat now, of the kind's type (PX4: a GCS's)
             target = (message.get_srcSystem(), message.get_srcComponent())
             self._plan = CommandSender(
                 self.name,
@@ -517,6 +628,8 @@ class MavlinkVehicle:
                 target,
                 retry=self.settings.retry,
                 deadline=self.settings.deadline,
+                explain=self._why,
+                on_refused=self._on_refused,
             )
             self._setup = CommandSender(
                 self.name,
@@ -531,6 +644,8 @@ class MavlinkVehicle:
             ]
             self._setup.start("stream rates", intervals, now)
         s.mode = mode_name(s.kind, message.base_mode, message.custom_mode)
+        if self._mode_asked is not None and self._mode_asked[0] == s.mode:
+            self._mode_asked = None  # carried out
 
     def _param_value(self, message: Any) -> float:
         """A PARAM_VALUE's value. PX4 (and MAVSDK) carry an integer parameter's bytes in the
@@ -540,17 +655,94 @@ class MavlinkVehicle:
             return float(struct.unpack("<i", struct.pack("<f", value))[0])
         return value
 
+    def _is_ready(self) -> bool | None:
+        kind = self._state.kind
+        if kind is None:
+            return None
+        return self._state.armed or not self._readiness.missing(kind)
+
+    def _why(self) -> str | None:
+        """Why the autopilot is not ready or refused: its own latest warning, else what it
+        has not said yet (None: nothing to say)."""
+        kind = self._state.kind
+        if kind is None:
+            return f"no HEARTBEAT from the autopilot on {self.settings.url}"
+        text = self._texts.latest_warning()
+        if text is not None:
+            return text
+        missing = self._readiness.missing(kind)
+        return "waiting for " + ", ".join(missing) if missing else None
+
+    def _waiting(self, now: float) -> float | None:
+        """Seconds the plan in progress has been waiting for the autopilot to be ready or
+        to accept arming (None: it is not waiting for that)."""
+        plan = self._plan
+        step = None if plan is None else plan.step
+        began = None if plan is None else plan.began
+        waits = (isinstance(step, Check) and step.from_plan) or (
+            isinstance(step, Command) and step.persist
+        )
+        return round(now - began, 1) if waits and began is not None else None
+
+    def _on_refused(self, name: str, result: int) -> None:
+        self._refused = f"{name}: {result_name(result)}"
+        self._log.append(
+            (
+                "vehicle-refused",
+                {
+                    "vehicle": self.name,
+                    "command": name,
+                    "result": result_name(result),
+                    "reason": self._why(),
+                },
+            )
+        )
+
+    def _watch_readiness(self, now: float) -> None:
+        """Log when the autopilot becomes ready, or its reason for not being so changes."""
+        if self._state.kind is None:
+            return
+        ready = bool(self._is_ready())
+        if ready and self._state.armed:
+            self._texts.clear()  # old refusals are no reason any more
+        said = (ready, None if ready else self._why())
+        if said == self._said:
+            return
+        self._said = said
+        if ready:
+            self._refused = None
+            self._log.append(("vehicle-ready", {"vehicle": self.name}))
+        else:
+            waiting = self._waiting(now)
+            self._log.append(
+                ("vehicle-waiting", {"vehicle": self.name, "reason": said[1], "waiting": waiting})
+            )
+
+    def _link_changes(self) -> None:
+        link = self._link
+        for what, why in link.changes:
+            self._log.append(("vehicle-link", {"vehicle": self.name, "what": what, "why": why}))
+        link.changes.clear()
+
     def _watch_link(self, now: float) -> None:
         s = self._state
         since = s.heard if s.heard is not None else self._started
         if s.link != "lost" and now - since > self.settings.link_timeout:
             self._events.append(LINK_LOST)
             who = "system " + str(self._filter.system) if self._filter.system else "an autopilot"
+            others = sorted(self._filter.others - {self._filter.system})
+            heard = (
+                f" (heard system {', '.join(map(str, others))} instead: a wrong --mavlink-sysid?)"
+                if others
+                else ""
+            )
             self._errors.append(
                 f"vehicle {self.name}: no HEARTBEAT from {who} on {self.settings.url} "
-                f"for {self.settings.link_timeout:g} s: link lost"
+                f"for {self.settings.link_timeout:g} s: link lost{heard}"
             )
             s.link = "lost"
+            # An autopilot that comes back may have rebooted: its readiness starts over.
+            self._readiness = Readiness()
 
     def _ask_params(self, now: float) -> None:
         kind = self._state.kind

@@ -1,0 +1,149 @@
+"""How a real autopilot boots, as the simulated one replays it: what it says and when it
+will fly, by the seconds since its clock started.
+
+Measured on ArduCopter 4.5.7 SITL and PX4 v1.15.4 SITL (SIH quadrotor), both from source
+(docs/vehicles.md, "In the field"). Times scale with ``ready_after``, the second from which
+arming is accepted (ArduPilot about 40 s, PX4 about 35 s by default):
+
+ArduPilot
+    ``ArduPilot Ready`` at once; the EKF's attitude at 9 % of ``ready_after``; a GPS, then
+    its 3D fix at 19 % and 30 %; the EKF origin (and home) at 44 %: ``GLOBAL_POSITION_INT``
+    is all zeros before it; the pre-arm bit of ``SYS_STATUS`` healthy from 58 % although
+    arming is still refused; ``EKF3 IMU0 is using GPS`` (absolute horizontal position,
+    constant-position mode off) at 98 %; arming accepted from 100 %. A refused arm is
+    answered ``MAV_RESULT_FAILED`` with ``Arm:`` texts; ``PreArm:`` texts repeat while not
+    ready.
+PX4
+    ``HOME_POSITION`` from 5 %; every arm ``MAV_RESULT_TEMPORARILY_REJECTED`` with
+    ``Arming denied: Resolve system health failures first`` (51 characters: two chunks) and
+    ``Preflight Fail: ...`` texts; no ``GLOBAL_POSITION_INT`` at all, and the pre-arm bit
+    unhealthy, until 100 %.
+
+Pure: :meth:`Boot.at` answers for any time given; nothing here reads a clock.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Final, Literal
+
+from actorswarm.vehicles.mavlink.dialect import mav
+
+__all__ = ["DEFAULT_READY_AFTER", "Boot", "BootState", "chunks"]
+
+#: Seconds from the start of its clock until each autopilot accepts arming, as measured.
+DEFAULT_READY_AFTER: Final[dict[str, float]] = {"ardupilot": 40.0, "px4": 35.0}
+#: STATUSTEXT's text field, characters.
+_TEXT: Final = 50
+
+#: ArduPilot's boot: (fraction of ready_after, what it says then).
+_ARDUPILOT_TEXTS: Final = (
+    (0.0, "ArduPilot Ready"),
+    (0.05, "EKF3 IMU0 initialised"),
+    (0.09, "EKF3 IMU0 tilt alignment complete"),
+    (0.19, "GPS 1: detected as u-blox at 230400 baud"),
+    (0.44, "EKF3 IMU0 origin set"),
+    (0.98, "EKF3 IMU0 is using GPS"),
+)
+_PX4_TEXTS: Final = ((0.0, "PX4 SITL boot"),)
+_PX4_DENIED: Final = "Arming denied: Resolve system health failures first\t"
+
+
+def chunks(text: str, ident: int) -> list[tuple[str, int, int]]:
+    """PX4's split of a text over 50 characters: ``(piece, id, chunk_seq)`` each (id 0 and
+    one piece when it fits). A trailing tab marks a text also sent as an event, as PX4
+    does."""
+    if len(text) <= _TEXT:
+        return [(text, 0, 0)]
+    return [(text[i : i + _TEXT], ident, n) for n, i in enumerate(range(0, len(text), _TEXT))]
+
+
+@dataclass(frozen=True, slots=True)
+class BootState:
+    """What the autopilot can do and reports ``t`` seconds after its clock started."""
+
+    armable: bool
+    #: Refusal texts for an arm asked now (empty when ``armable``).
+    refusal: tuple[str, ...]
+    #: The MAV_RESULT of a refused arm.
+    refused_with: int
+    #: ``SYS_STATUS``: the pre-arm check reported healthy.
+    prearm_ok: bool
+    #: ``GLOBAL_POSITION_INT``: "zeros" (ArduPilot before its origin), "none" (PX4 before
+    #: its estimator has a position) or "real".
+    position: Literal["zeros", "none", "real"]
+    home: bool
+    gps_fix: int
+    #: ``EKF_STATUS_REPORT`` flags (ArduPilot; 0 for PX4, which does not send it).
+    ekf_flags: int
+    #: The texts repeated while not ready (ArduPilot's ``PreArm:``, PX4's ``Preflight Fail``).
+    nag: str | None
+
+
+class Boot:
+    """The boot of a ``kind`` autopilot that accepts arming from ``ready_after`` s."""
+
+    def __init__(self, kind: Literal["ardupilot", "px4"], ready_after: float) -> None:
+        if not ready_after >= 0:
+            raise ValueError(f"ready_after must be >= 0 s, not {ready_after!r}")
+        self.kind = kind
+        self.ready_after = ready_after
+
+    def texts(self, t0: float, t1: float) -> list[str]:
+        """The boot messages said in ``(t0, t1]`` (the first one at ``t0 == t1 == 0``)."""
+        table = _ARDUPILOT_TEXTS if self.kind == "ardupilot" else _PX4_TEXTS
+        r = self.ready_after
+        return [text for f, text in table if (t0 < f * r <= t1) or (f * r == t1 == t0 == 0)]
+
+    def at(self, t: float) -> BootState:
+        r = self.ready_after
+        armable = t >= r
+        if self.kind == "px4":
+            return BootState(
+                armable=armable,
+                refusal=() if armable else (_PX4_DENIED,),
+                refused_with=mav.MAV_RESULT_TEMPORARILY_REJECTED,
+                prearm_ok=armable,
+                position="real" if armable else "none",
+                home=t >= 0.05 * r,
+                gps_fix=3 if t >= 0.3 * r else 1,
+                ekf_flags=0,
+                nag=None if armable else "Preflight Fail: horizontal velocity unstable\t",
+            )
+        origin = t >= 0.44 * r
+        using_gps = t >= 0.98 * r
+        flags = 0
+        if t >= 0.09 * r:
+            flags |= mav.EKF_ATTITUDE
+        if origin:
+            flags |= (
+                mav.EKF_VELOCITY_HORIZ
+                | mav.EKF_VELOCITY_VERT
+                | mav.EKF_POS_VERT_ABS
+                | mav.EKF_POS_VERT_AGL
+            )
+        if using_gps:
+            flags |= mav.EKF_POS_HORIZ_REL | mav.EKF_POS_HORIZ_ABS | mav.EKF_PRED_POS_HORIZ_ABS
+        elif flags:
+            flags |= mav.EKF_CONST_POS_MODE
+        if armable:
+            refusal: tuple[str, ...] = ()
+        elif t < 0.09 * r:
+            refusal = ("Arm: Accels inconsistent", "Arm: AHRS: waiting for home")
+        elif not origin:
+            refusal = ("Arm: AHRS: waiting for home",)
+        else:
+            refusal = ("Arm: Need Position Estimate",)
+        return BootState(
+            armable=armable,
+            refusal=refusal,
+            refused_with=mav.MAV_RESULT_FAILED,
+            prearm_ok=t >= 0.58 * r,
+            position="real" if origin else "zeros",
+            home=origin,
+            gps_fix=3 if t >= 0.3 * r else (1 if t >= 0.19 * r else 0),
+            ekf_flags=flags,
+            nag=None
+            if armable
+            else ("PreArm: Need Position Estimate" if origin else "PreArm: AHRS: waiting for home"),
+        )

@@ -1,0 +1,159 @@
+"""``actorswarm launch`` with autopilots: one per platform started from the file's command
+template (here ``actorswarm autopilot``, as ArduPilot's or PX4's SITL would be), each
+daemon's link to its own, the links reported, an autopilot that died started again with
+``r ID``, and every autopilot stopped with the swarm."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from actorswarm.daemon.launch import free_ports
+from actorswarm.launch import LaunchError, load_launch
+
+
+class _Output:
+    """The launcher's output, read as it comes."""
+
+    def __init__(self, proc: subprocess.Popen[str]) -> None:
+        self.lines: list[str] = []
+        assert proc.stdout is not None
+        stream = proc.stdout
+        threading.Thread(target=lambda: self.lines.extend(stream), daemon=True).start()
+
+    def wait_for(self, pattern: str, timeout: float = 30.0, count: int = 1) -> re.Match[str]:
+        """The last line matching ``pattern``, once ``count`` lines match."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            found = [m for line in list(self.lines) if (m := re.search(pattern, line))]
+            if len(found) >= count:
+                return found[-1]
+            time.sleep(0.1)
+        raise AssertionError(f"no {pattern!r} in the launcher's output:\n{''.join(self.lines)}")
+
+
+ORIGIN = "47.397742,8.545594,488"
+COMMAND = (
+    "actorswarm autopilot --listen tcpin:127.0.0.1:{port} --sysid {sysid} --home {home} "
+    "--ready-after 1"
+)
+
+
+def _file(tmp_path: Path, body: str) -> Path:
+    path = tmp_path / "sitl.toml"
+    path.write_text(body)
+    return path
+
+
+def test_the_autopilot_table_makes_each_daemon_s_link_and_command(tmp_path: Path) -> None:
+    path = _file(
+        tmp_path,
+        f'platforms = "3-5"\ninsecure = true\nvehicle = "mavlink"\norigin = "{ORIGIN}"\n'
+        "[autopilot]\n"
+        'command = "arducopter -S -I{i} --model + --sysid {sysid} --home {home},0"\n'
+        'mavlink = "tcp:127.0.0.1:{port}"\nport = 5760\nport_step = 10\nspacing = 5\n',
+    )
+    plan = load_launch(path)
+    assert plan.autopilots is not None and plan.mavlink_platforms() == [3, 4, 5]
+    args = plan.daemon_args(plan.plans[2])
+    assert args == ["--vehicle", "mavlink", "--mavlink", "tcp:127.0.0.1:5780",
+                    "--mavlink-sysid", "5", "--origin", "47.397742,8.545594,488.0"]  # fmt: skip
+    argv = plan.autopilots.argv(2, 5)
+    assert argv is not None and argv[:4] == ["arducopter", "-S", "-I2", "--model"]
+    lat, lon, alt, heading = argv[-1].split(",")
+    assert argv[-4:-2] == ["--sysid", "5"] and (float(alt), heading) == (488.0, "0")
+    east = (float(lon) - 8.545594) * 111_320 * 0.6769  # metres east at 47.4 degrees
+    assert float(lat) == pytest.approx(47.397742) and east == pytest.approx(10.0, abs=0.05)
+    # Without a command: attach to autopilots already running.
+    attach = _file(
+        tmp_path,
+        f'platforms = "1-2"\nvehicle = "mavlink"\norigin = "{ORIGIN}"\n'
+        '[autopilot]\nmavlink = "udpin:0.0.0.0:{port}"\nport = 14540\nport_step = 1\n',
+    )
+    plan = load_launch(attach)
+    assert plan.autopilots is not None and plan.autopilots.argv(0, 1) is None
+    assert plan.daemon_args(plan.plans[1])[3] == "udpin:0.0.0.0:14541"
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ('vehicle = "mavlink"\n[autopilot]\nmavlink = "tcp:h:{port}"\n', "origin: missing"),
+        (f'vehicle = "mavlink"\norigin = "{ORIGIN}"\n', "autopilot.mavlink: missing"),
+        (
+            f'vehicle = "mavlink"\norigin = "{ORIGIN}"\n[autopilot]\nmavlink = "tcp:h:{{prot}}"\n',
+            "autopilot.mavlink: 'tcp:h:{prot}': bad placeholder 'prot'; the placeholders are",
+        ),
+        (
+            f'vehicle = "mavlink"\norigin = "{ORIGIN}"\n[autopilot]\nmavlink = "x"\nspeed = 2\n',
+            "autopilot.speed: unknown key",
+        ),
+        ('origin = "47,8,1"\n', 'origin: for autopilots: say vehicle = "mavlink" too'),
+        (f'vehicle = "boat"\norigin = "{ORIGIN}"\n', "the vehicles are: none, sim, mavlink"),
+    ],
+)
+def test_a_bad_autopilot_table_is_refused_by_name(tmp_path: Path, body: str, message: str) -> None:
+    path = _file(tmp_path, 'platforms = "1-2"\ninsecure = true\n' + body)
+    with pytest.raises(LaunchError) as caught:
+        load_launch(path)
+    assert message in str(caught.value) and str(path) in str(caught.value)
+
+
+def test_launch_starts_an_autopilot_per_platform_restarts_a_dead_one_and_stops_them(
+    tmp_path: Path,
+) -> None:
+    ports = free_ports(4)
+    low, high = sorted(ports[2:])  # the two autopilots' ports: low + i × (high - low)
+    path = _file(
+        tmp_path,
+        f'swarm = "ap{os.getpid()}"\nplatforms = "1-2"\ninsecure = true\ndirectory = "run"\n'
+        f'ports = {ports[:2]}\nvehicle = "mavlink"\norigin = "{ORIGIN}"\n'
+        f'[autopilot]\ncommand = "{COMMAND}"\nmavlink = "tcp:127.0.0.1:{{port}}"\n'
+        f"port = {low}\nport_step = {high - low}\n",
+    )
+    launcher = subprocess.Popen(
+        [sys.executable, "-m", "actorswarm", "launch", str(path), "--interval", "0.3"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    out = _Output(launcher)
+    pilots: set[int] = set()
+    try:
+        for p in (1, 2):
+            pilots.add(int(out.wait_for(rf"platform {p}: autopilot pid (\d+)").group(1)))
+            out.wait_for(rf"platform {p}: autopilot link up after [\d.]+ s")
+        first = int(out.wait_for(r"platform 2: autopilot pid (\d+)").group(1))
+        os.kill(first, signal.SIGKILL)  # the autopilot of platform 2 dies
+        out.wait_for(r"platform 2: its autopilot exited with status -9: `r 2` starts it")
+        assert launcher.stdin is not None
+        launcher.stdin.write("r 2\n")
+        launcher.stdin.flush()
+        again = int(out.wait_for(r"platform 2: autopilot pid (\d+)", count=2).group(1))
+        again = max(
+            int(m) for m in re.findall(r"platform 2: autopilot pid (\d+)", "".join(out.lines))
+        )
+        assert again != first
+        pilots.add(again)
+        out.wait_for(r"platform 2: autopilot link up after", count=2)
+        launcher.send_signal(signal.SIGINT)
+        assert launcher.wait(timeout=40) == 0, "".join(out.lines)
+    finally:
+        if launcher.poll() is None:
+            launcher.kill()
+            launcher.wait()
+    for p in (1, 2):
+        out.wait_for(rf"platform {p}: autopilot stopped, exit 0")
+    for pid in pilots - {first}:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            continue
+        raise AssertionError(f"autopilot {pid} is still running")
+    assert "autopilot 2 (ardupilot) on tcpin" in (tmp_path / "run" / "autopilot-2.log").read_text()
