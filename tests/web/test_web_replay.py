@@ -22,6 +22,7 @@ from actorswarm.recording import read_recording
 from actorswarm.sim.record import RecordError, Recording, read_record
 from actorswarm.web import SimSource
 
+BRANCH_MERGE = Path(__file__).resolve().parents[2] / "examples" / "branch_merge.xml"
 FLY3 = """<TaskScript name="fly3" version="1">
   <_ActorsConfig>
     <Actor><_P_Name>Up</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
@@ -357,7 +358,9 @@ def test_a_simulations_replay_shows_its_table_as_the_live_view_did(
         seen[t] = live.swarm_view()
     report = live.sim.report()
     path = tmp_path / "run.mcap"
-    write_simulation(path, report, meta={"script": "branch-merge", "sim_time_s": 12.0})
+    text = BRANCH_MERGE.read_text()
+    meta = {"script": "branch-merge", "sim_time_s": 12.0, "source": "actorswarm sim"}
+    write_simulation(path, report, meta=meta, script=(BRANCH_MERGE.name, text))
     replay = ReplaySource(read_recording(path), playing=False)
     assert replay.end == 12.0, "the simulated time, past the last transition at 10 s"
 
@@ -375,3 +378,6 @@ def test_a_simulations_replay_shows_its_table_as_the_live_view_did(
         assert (shown["master"], shown["epoch"]) == (view["master"], view["epoch"])
         assert {(m["heard"], m["inc"]) for m in shown["members"]} == {(None, None)}
         assert {m["state"] for m in shown["members"]} == {"joined"}
+        # Every platform of a simulation ran the script its recording carries.
+        sha = hashlib.sha256(text.encode()).hexdigest()[:12]
+        assert {m["script"] for m in shown["members"]} == {sha}

@@ -12,6 +12,8 @@ the recording holds at the replay's time:
   paused, with their switches and time running, as a platform's control blocks count them
   — but no steps, errors or plugins, which a recording does not hold;
 * no heartbeats: the swarm table's *heard* and *incarnation* are unknown ("—"), not 0;
+* the script each platform ran: in a simulation's recording, the one it carries, which
+  every platform ran; unknown ("") in a real swarm's;
 * masters from the ``master`` lines, membership from the ``event`` lines (``joined``,
   ``left``): without them (a simulation's recording), a platform counts as joined from its
   first line on;
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import asyncio
 import bisect
+import hashlib
 import time
 from collections.abc import Callable
 from typing import Any, Literal, TypeVar
@@ -51,6 +54,9 @@ _T = TypeVar("_T")
 #: The fastest pace (recording seconds per wall second).
 MAX_SPEED = 100.0
 _NO_PATH = (np.zeros(0), np.zeros((0, 3)))
+#: The ``source`` of a simulation's recording begins with one of these: every platform
+#: ran the script it carries.
+_SIMULATIONS = ("actorswarm sim", "actorswarm demo")
 #: How long a platform stays "joined" after its last line, without membership lines (s).
 _T_LEAVE = 3.0
 
@@ -102,6 +108,12 @@ class ReplaySource(SwarmSource):
             for w in [np.flatnonzero(recording.platform == p)]
         }
         self._first = self._first_seen()
+        meta = recording.meta
+        text = meta.get("script_text")
+        simulated = str(meta.get("source", "")).startswith(_SIMULATIONS)
+        self._ran = (
+            hashlib.sha256(text.encode()).hexdigest() if simulated and isinstance(text, str) else ""
+        )
         self._station = GroundStation(swarm=str(recording.meta.get("swarm", "recording")))
         name = recording.meta.get("script") or recording.meta.get("name") or "a run"
         super().__init__(
@@ -122,6 +134,9 @@ class ReplaySource(SwarmSource):
 
     def act(self, action: Callable[[GroundStation, float], _T]) -> _T:
         raise ValueError("a recording is played back: it cannot be commanded")
+
+    def script_of(self, platform: int) -> str:
+        return self._ran if platform in self._first else ""
 
     def expected(self) -> list[int]:
         return sorted(self._first)
