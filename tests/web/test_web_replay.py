@@ -381,3 +381,6 @@ def test_a_simulations_replay_shows_its_table_as_the_live_view_did(
         # Every platform of a simulation ran the script its recording carries.
         sha = hashlib.sha256(text.encode()).hexdigest()[:12]
         assert {m["script"] for m in shown["members"]} == {sha}
+    # Sought back, the joins are still when they were.
+    replay.seek(0.6)
+    assert [(e["t"], e["what"]) for e in replay.swarm_view()["log"]] == [(0.0, "joined")] * 10

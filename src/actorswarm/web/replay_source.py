@@ -200,6 +200,11 @@ class ReplaySource(SwarmSource):
             rows.append(row)
         return rows
 
+    def swarm_view(self) -> dict[str, Any]:
+        # The joins and leaves as recorded, not as looked at: a replay sought back to 5 s
+        # shows the platforms that joined at 0 s as joined at 0 s.
+        return {**super().swarm_view(), "log": self._log_at(self._t)[-50:]}
+
     def acbs(self, platform: int) -> dict[str, Any] | None:
         if platform not in self._first:
             return None
@@ -242,6 +247,22 @@ class ReplaySource(SwarmSource):
             if p and e["what"] == "joined":
                 first[p] = min(first.get(p, float(e["t"])), float(e["t"]))
         return first
+
+    def _log_at(self, t: float) -> list[dict[str, Any]]:
+        """The membership log up to ``t``: the ``joined`` and ``left`` lines, and a join at
+        its first line for a platform the recording has no ``joined`` line of."""
+        told = {int(e["platform"]) for e in self._events if e["what"] == "joined"}
+        log = [
+            {"t": round(first, 3), "platform": p, "what": "joined"}
+            for p, first in self._first.items()
+            if p not in told and first <= t
+        ]
+        log += [
+            {"t": round(float(e["t"]), 3), "platform": int(e["platform"]), "what": e["what"]}
+            for e in self._events
+            if e["what"] in ("joined", "left") and float(e["t"]) <= t and int(e["platform"])
+        ]
+        return sorted(log, key=lambda e: (e["t"], e["platform"]))
 
     def _actors(self, platform: int, t: float) -> dict[str, dict[str, Any]]:
         """``platform``'s actors at ``t``, from its transitions up to then."""
