@@ -3,14 +3,16 @@ state-machine layout, membership."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from actorswarm.core.config import CoreConfig
 from actorswarm.dsl import load
 from actorswarm.ground.station import GroundStation
-from actorswarm.web import protocol
+from actorswarm.web import SimSource, protocol
 from actorswarm.web.access import Access, is_loopback, policy
 from actorswarm.web.graph_layout import layout
 from actorswarm.web.membership import Membership
@@ -205,6 +207,56 @@ def test_membership_logs_joins_and_leaves() -> None:
         (2, "joined"),
         (1, "left"),
         (2, "left"),
+    ]
+
+
+def test_a_quiet_star_platform_at_boot_has_not_left() -> None:
+    """Before the first master, a star platform that hears a lower ID keeps quiet: heard
+    once at boot, it waits for the election, and leaves only if still silent after it."""
+    station = GroundStation(swarm="s")
+    members = Membership(t_leave=0.5)
+    station.heard = dict.fromkeys((1, 2, 3), 0.0)
+    station.state = dict.fromkeys((1, 2, 3), (0, False, 0))
+    members.update(station, 0.1)
+    for now in (0.2, 0.3, 0.4):  # platform 1 heartbeats; 2 and 3 keep quiet
+        station.heard[1] = now
+        members.update(station, now + 0.3)
+    assert members.alive() == [1, 2, 3]
+    station.heard[1], station.state[1] = 1.0, (0, True, 1)  # 1 claims; 2 joins its roster
+    station.heard[2] = 1.0
+    for now in (1.0, 1.2):
+        station.heard[1] = station.heard[2] = now
+        members.update(station, now)
+    assert members.alive() == [1, 2, 3], "quiet until 0.7 s, the last look without a master"
+    station.heard[1] = station.heard[2] = 1.4
+    members.update(station, 1.4)
+    assert members.alive() == [1, 2], "3 was still silent a leave timeout after the claim"
+    assert [(e["t"], e["platform"], e["what"]) for e in members.log] == [
+        (0.1, 1, "joined"),
+        (0.1, 2, "joined"),
+        (0.1, 3, "joined"),
+        (1.4, 3, "left"),
+    ]
+    # Everyone broadcasts in the paper's scheme: a silence is a silence.
+    broadcast = GroundStation(swarm="s", config=CoreConfig(membership="broadcast"))
+    broadcast.heard, broadcast.state = dict(station.heard), dict(station.state)
+    broadcast.heard.update({1: 0.7, 2: 0.0, 3: 0.0})
+    broadcast.state[1] = (0, False, 0)
+    plain = Membership(t_leave=0.5)
+    plain.update(broadcast, 0.1)
+    plain.update(broadcast, 0.7)
+    assert plain.alive() == [1]
+
+
+def test_a_lossless_simulation_logs_no_leave_at_boot(
+    branch_merge: Callable[..., SimSource],
+) -> None:
+    source = branch_merge()
+    for _ in range(100):  # 2 s: the boot's quiet, the election, the roster
+        source.step(0.02)
+        source.look()
+    assert [(e["platform"], e["what"]) for e in source.membership.log] == [
+        (p, "joined") for p in range(1, 11)
     ]
 
 

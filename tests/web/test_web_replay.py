@@ -10,7 +10,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -19,8 +19,10 @@ import pytest
 
 from actorswarm.daemon.launch import LocalSwarm
 from actorswarm.recording import read_recording
-from actorswarm.sim.record import Recording, read_record
+from actorswarm.sim.record import RecordError, Recording, read_record
+from actorswarm.web import SimSource
 
+BRANCH_MERGE = Path(__file__).resolve().parents[2] / "examples" / "branch_merge.xml"
 FLY3 = """<TaskScript name="fly3" version="1">
   <_ActorsConfig>
     <Actor><_P_Name>Up</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
@@ -48,7 +50,10 @@ def _hovering(path: Path) -> bool:
 
 
 def _seen(path: Path) -> bool:
-    return path.exists() and set(read_recording(path).platform.tolist()) == {1, 2, 3}
+    try:
+        return path.exists() and set(read_recording(path).platform.tolist()) == {1, 2, 3}
+    except RecordError:
+        return False  # created, its header not yet written: not readable yet
 
 
 def _wait(what: str, ready: Any, recorder: subprocess.Popen[str]) -> None:
@@ -173,6 +178,21 @@ def test_the_page_plays_the_real_recording_back_with_pause_pace_and_seek(
         assert start.get_attribute("data-count") == "3"
         assert "answered by 3 platforms: 1-3" in start.inner_text()
         _wait_page(page, "document.querySelector('#legend').textContent.includes('Hover3')")
+        # The table as a live swarm's: Hover running, Up kept paused by the switch, one
+        # switch out of Up and one into Hover, time running; the heartbeats, which a
+        # recording does not hold, unknown rather than 0.
+        _wait_page(
+            page,
+            "document.querySelector(\"#swarm-table tr[data-platform='1']\")"
+            ".textContent.includes('+1 paused')",
+        )
+        row = page.query_selector("#swarm-table tr[data-platform='1']")
+        cells = [c.inner_text() for c in row.query_selector_all("td")]
+        assert [a.inner_text() for a in row.query_selector_all(".apill")] == ["Hover"], cells
+        paused = row.query_selector("td span.muted")
+        assert (paused.inner_text(), paused.get_attribute("title")) == ("+1 paused", "Up: paused")
+        assert cells[3] == "2" and cells[4].endswith(" s") and cells[4] != "0.0 s", cells
+        assert (cells[5], cells[7]) == ("—", "—"), "heard and incarnation are not recorded"
         # Paused at the end, the slider there (its step is 0.1 s).
         _wait_page(
             page,
@@ -186,6 +206,7 @@ def test_the_page_plays_the_real_recording_back_with_pause_pace_and_seek(
             "#replay-seek", "(e) => { e.value = '0'; e.dispatchEvent(new Event('change')); }"
         )
         _wait_page(page, "document.querySelectorAll('#timeline li').length === 0")
+        assert page.text_content("#step-count") == "(0)"
         assert page.is_hidden("#tab-event"), "a replay takes no command"
 
 
@@ -314,3 +335,52 @@ def test_gs_record_names_a_file_it_cannot_write(tmp_path: Path) -> None:
     )  # fmt: skip
     assert done.returncode == 2, done.stderr
     assert f"{out}: cannot write the recording" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_simulations_replay_shows_its_table_as_the_live_view_did(
+    branch_merge: Callable[..., SimSource], tmp_path: Path
+) -> None:
+    """``sim --record`` then ``web --replay``: each platform's actors (the one running, the
+    one a switch left paused), switches and time running are the live view's at the same
+    time; when each was last heard and its incarnation, which a recording does not hold,
+    are unknown rather than 0; the replay lasts as long as the simulation, not only to its
+    last transition."""
+    from actorswarm.recording import write_simulation
+    from actorswarm.sim.tasksim import GroundEvent
+    from actorswarm.web import ReplaySource
+
+    live = branch_merge()
+    live.sim.schedule([GroundEvent("AtoBC_branch_event", 5.0), GroundEvent("finish_event", 10.0)])
+    seen: dict[float, dict[str, Any]] = {}
+    for t in (7.0, 12.0):
+        while live.now() < t - 1e-9:
+            live.step(0.1)
+        seen[t] = live.swarm_view()
+    report = live.sim.report()
+    path = tmp_path / "run.mcap"
+    text = BRANCH_MERGE.read_text()
+    meta = {"script": "branch-merge", "sim_time_s": 12.0, "source": "actorswarm sim"}
+    write_simulation(path, report, meta=meta, script=(BRANCH_MERGE.name, text))
+    replay = ReplaySource(read_recording(path), playing=False)
+    assert replay.end == 12.0, "the simulated time, past the last transition at 10 s"
+
+    def table(view: dict[str, Any]) -> dict[int, list[tuple[str, str, int, float]]]:
+        return {
+            m["id"]: [(a["name"], a["status"], a["switches"], a["running_s"]) for a in m["actors"]]
+            for m in view["members"]
+        }
+
+    for t, view in seen.items():
+        replay.seek(t)
+        shown = replay.swarm_view()
+        assert table(shown) == table(view), t
+        assert table(shown)[1][-1][:2] == ("B", "sleeping" if t == 12.0 else "running")
+        assert (shown["master"], shown["epoch"]) == (view["master"], view["epoch"])
+        assert {(m["heard"], m["inc"]) for m in shown["members"]} == {(None, None)}
+        assert {m["state"] for m in shown["members"]} == {"joined"}
+        # Every platform of a simulation ran the script its recording carries.
+        sha = hashlib.sha256(text.encode()).hexdigest()[:12]
+        assert {m["script"] for m in shown["members"]} == {sha}
+    # Sought back, the joins are still when they were.
+    replay.seek(0.6)
+    assert [(e["t"], e["what"]) for e in replay.swarm_view()["log"]] == [(0.0, "joined")] * 10

@@ -169,16 +169,18 @@ class Recording:
 
     def end_time(self) -> float:
         """The last time the recording knows of: the latest pose or transition, or the
-        ``duration`` in the metadata if that is later (0 when there is nothing)."""
+        ``duration`` in the metadata if that is later, or a simulation's ``sim_time_s``
+        (the time simulated, which outlasts its last transition) (0 when there is nothing)."""
         ends = [0.0]
         if len(self.t):
             ends.append(float(self.t.max()))
         ends.extend(float(tr["t"]) for tr in self.transitions)
         ends.extend(float(m["t"]) for m in self.masters)
         ends.extend(float(e["t"]) for e in self.events)
-        duration = self.meta.get("duration")
-        if isinstance(duration, int | float) and not isinstance(duration, bool):
-            ends.append(float(duration))
+        for key in ("duration", "sim_time_s"):
+            duration = self.meta.get(key)
+            if isinstance(duration, int | float) and not isinstance(duration, bool):
+                ends.append(float(duration))
         return max(ends)
 
 

@@ -5,6 +5,14 @@ heartbeats (:attr:`GroundStation.heard` and :attr:`GroundStation.state`: incarna
 master flag, epoch). A platform counts as *joined* while it was heard within ``t_leave``
 seconds (the core's own leave timeout, so the page agrees with the swarm about who is
 gone), *left* after that, and *unheard* when the script names it but it was never heard.
+
+A star swarm (the core's default membership) is quiet while it has no master: a platform
+that hears a lower ID keeps its heartbeats to itself, since it could not become master
+(:meth:`~actorswarm.core.node_membership.NodeMembership._send_heartbeat`), and the ground
+station hears it once at boot, then through the master's roster once one is elected. So in
+a star swarm a silence is counted only from the last moment it was not such a quiet: while
+no live master is heard and a lower ID is (heard within ``t_leave``), a platform that does
+not claim the role is waiting for the election, not gone.
 :meth:`Membership.update` compares with the previous look and logs every change, so the
 page can list when each platform joined and left.
 """
@@ -42,19 +50,25 @@ class Membership:
         self.members: dict[int, Member] = {}
         #: ``{"t", "platform", "what": "joined" | "left"}``, oldest first.
         self.log: list[dict[str, Any]] = []
+        #: When each platform was last seen keeping the quiet of a masterless star swarm.
+        self._quiet: dict[int, float] = {}
 
     def update(self, station: GroundStation, now: float, expected: Iterable[int] = ()) -> None:
         """Look at ``station`` at time ``now`` (its clock); ``expected``: platforms to list
         even when never heard."""
         members: dict[int, Member] = {}
+        quiet_above = self._quiet_above(station, now)
         for p in sorted(set(station.heard) | set(expected)):
             heard = station.heard.get(p)
             if heard is None:
                 members[p] = Member(p, "unheard", None, None, False, None)
                 continue
             incarnation, master, epoch = station.state[p]
+            if p > quiet_above and not master:
+                self._quiet[p] = now
             ago = max(0.0, now - heard)
-            state: State = "joined" if ago <= self.t_leave else "left"
+            silent = max(0.0, now - max(heard, self._quiet.get(p, heard)))
+            state: State = "joined" if silent <= self.t_leave else "left"
             members[p] = Member(p, state, ago, incarnation, master and state == "joined", epoch)
             before = self.members.get(p)
             was = "unheard" if before is None else before.state
@@ -63,6 +77,16 @@ class Membership:
         self.members = members
         if len(self.log) > KEEP:
             del self.log[: len(self.log) - KEEP]
+
+    def _quiet_above(self, station: GroundStation, now: float) -> float:
+        """The platforms above this ID keep quiet now: the lowest ID heard lately when the
+        swarm is a star without a live master, infinity otherwise (nobody keeps quiet)."""
+        if station.config.membership != "star":
+            return float("inf")
+        lately = [p for p, t in station.heard.items() if now - t <= self.t_leave]
+        if not lately or any(station.state[p][1] for p in lately):
+            return float("inf")
+        return min(lately)
 
     def alive(self) -> list[int]:
         """The platforms joined now, ascending."""

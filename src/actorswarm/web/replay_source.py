@@ -8,7 +8,12 @@ the recording holds at the replay's time:
 
 * positions interpolated between a platform's recorded poses (none before its first), the
   heading of the latest pose; moving targets likewise;
-* actors from the transitions (:func:`~actorswarm.sim.record.actor_timeline`);
+* actors from the transitions (:func:`recorded_actors`): which ran and which a switch left
+  paused, with their switches and time running, as a platform's control blocks count them
+  — but no steps, errors or plugins, which a recording does not hold;
+* no heartbeats: the swarm table's *heard* and *incarnation* are unknown ("—"), not 0;
+* the script each platform ran: in a simulation's recording, the one it carries, which
+  every platform ran; unknown ("") in a real swarm's;
 * masters from the ``master`` lines, membership from the ``event`` lines (``joined``,
   ``left``): without them (a simulation's recording), a platform counts as joined from its
   first line on;
@@ -26,6 +31,7 @@ from __future__ import annotations
 
 import asyncio
 import bisect
+import hashlib
 import time
 from collections.abc import Callable
 from typing import Any, Literal, TypeVar
@@ -34,20 +40,23 @@ import numpy as np
 
 from actorswarm.dsl.model import TaskScript
 from actorswarm.ground.station import GroundStation
-from actorswarm.sim.record import Recording, actor_timeline
+from actorswarm.sim.record import Recording
 from actorswarm.web import protocol as proto
 from actorswarm.web.membership import Membership
 from actorswarm.web.operator import Outcome
 from actorswarm.web.source import PlatformRow, SwarmSource
 from actorswarm.web.timeline import Timeline
 
-__all__ = ["MAX_SPEED", "ReplaySource"]
+__all__ = ["MAX_SPEED", "ReplaySource", "recorded_actors"]
 
 _T = TypeVar("_T")
 
 #: The fastest pace (recording seconds per wall second).
 MAX_SPEED = 100.0
 _NO_PATH = (np.zeros(0), np.zeros((0, 3)))
+#: The ``source`` of a simulation's recording begins with one of these: every platform
+#: ran the script it carries.
+_SIMULATIONS = ("actorswarm sim", "actorswarm demo")
 #: How long a platform stays "joined" after its last line, without membership lines (s).
 _T_LEAVE = 3.0
 
@@ -57,6 +66,7 @@ class ReplaySource(SwarmSource):
     (optional) is the task script it ran, for the state machine."""
 
     kind: Literal["sim", "real", "replay"] = "replay"
+    hears_heartbeats = False
 
     def __init__(
         self,
@@ -85,7 +95,12 @@ class ReplaySource(SwarmSource):
         self._on_timeline = sorted([*self._transitions, *commands], key=lambda r: float(r["t"]))
         self._times = [float(r["t"]) for r in self._on_timeline]
         self._shown = 0  # records handed to the timeline
-        self._spans = actor_timeline(self._transitions)
+        self._by_platform: dict[int, list[dict[str, Any]]] = {}
+        for tr in self._transitions:
+            self._by_platform.setdefault(int(tr["platform"]), []).append(tr)
+        self._by_platform_t = {
+            p: [float(tr["t"]) for tr in trs] for p, trs in self._by_platform.items()
+        }
         self._paths = {p: recording.path(p) for p in recording.platforms()}
         self._headings = {
             p: (recording.t[w], recording.heading[w])
@@ -93,6 +108,12 @@ class ReplaySource(SwarmSource):
             for w in [np.flatnonzero(recording.platform == p)]
         }
         self._first = self._first_seen()
+        meta = recording.meta
+        text = meta.get("script_text")
+        simulated = str(meta.get("source", "")).startswith(_SIMULATIONS)
+        self._ran = (
+            hashlib.sha256(text.encode()).hexdigest() if simulated and isinstance(text, str) else ""
+        )
         self._station = GroundStation(swarm=str(recording.meta.get("swarm", "recording")))
         name = recording.meta.get("script") or recording.meta.get("name") or "a run"
         super().__init__(
@@ -113,6 +134,9 @@ class ReplaySource(SwarmSource):
 
     def act(self, action: Callable[[GroundStation, float], _T]) -> _T:
         raise ValueError("a recording is played back: it cannot be commanded")
+
+    def script_of(self, platform: int) -> str:
+        return self._ran if platform in self._first else ""
 
     def expected(self) -> list[int]:
         return sorted(self._first)
@@ -165,11 +189,7 @@ class ReplaySource(SwarmSource):
             row = PlatformRow(
                 platform=p,
                 alive=member is not None and member.state == "joined",
-                actors={
-                    actor: "running"
-                    for q, actor, start, stop in self._spans
-                    if q == p and start <= t and (stop is None or t < stop)
-                },
+                actors={name: acb["status"] for name, acb in self._actors(p, t).items()},
             )
             if len(times) and times[0] <= t and p in self._headings:
                 row.x = float(np.interp(t, times, xyz[:, 0]))
@@ -180,15 +200,15 @@ class ReplaySource(SwarmSource):
             rows.append(row)
         return rows
 
+    def swarm_view(self) -> dict[str, Any]:
+        # The joins and leaves as recorded, not as looked at: a replay sought back to 5 s
+        # shows the platforms that joined at 0 s as joined at 0 s.
+        return {**super().swarm_view(), "log": self._log_at(self._t)[-50:]}
+
     def acbs(self, platform: int) -> dict[str, Any] | None:
         if platform not in self._first:
             return None
-        return {
-            actor: {"name": actor, "status": "running"}
-            for row in self.rows()
-            if row.platform == platform
-            for actor in row.actors
-        }
+        return self._actors(platform, self._t)
 
     def targets(self) -> list[dict[str, Any]]:
         out = []
@@ -227,6 +247,27 @@ class ReplaySource(SwarmSource):
             if p and e["what"] == "joined":
                 first[p] = min(first.get(p, float(e["t"])), float(e["t"]))
         return first
+
+    def _log_at(self, t: float) -> list[dict[str, Any]]:
+        """The membership log up to ``t``: the ``joined`` and ``left`` lines, and a join at
+        its first line for a platform the recording has no ``joined`` line of."""
+        told = {int(e["platform"]) for e in self._events if e["what"] == "joined"}
+        log = [
+            {"t": round(first, 3), "platform": p, "what": "joined"}
+            for p, first in self._first.items()
+            if p not in told and first <= t
+        ]
+        log += [
+            {"t": round(float(e["t"]), 3), "platform": int(e["platform"]), "what": e["what"]}
+            for e in self._events
+            if e["what"] in ("joined", "left") and float(e["t"]) <= t and int(e["platform"])
+        ]
+        return sorted(log, key=lambda e: (e["t"], e["platform"]))
+
+    def _actors(self, platform: int, t: float) -> dict[str, dict[str, Any]]:
+        """``platform``'s actors at ``t``, from its transitions up to then."""
+        upto = bisect.bisect_right(self._by_platform_t.get(platform, []), t)
+        return recorded_actors(self._by_platform.get(platform, [])[:upto], t)
 
     def _hear(self, t: float) -> None:
         """Fill the station's heartbeat view as it was at ``t``."""
@@ -283,6 +324,51 @@ class ReplaySource(SwarmSource):
             self._advance()
             self.look()
             await asyncio.sleep(self.period)
+
+
+def recorded_actors(transitions: list[dict[str, Any]], now: float) -> dict[str, dict[str, Any]]:
+    """One platform's actors at ``now`` after its ``transitions`` (time order, none after
+    ``now``), as control blocks in the order they were loaded, with what a recording knows
+    of them: ``status`` (``running``, or ``sleeping`` for one a switch left paused), and
+    ``stats`` ``switch_count`` (the switches into or out of it, as the runtime counts them)
+    and ``time_running`` (seconds, up to ``now``); ``recorded`` marks them as such.
+
+    A transition with both ``from`` and ``to`` is a switch; an empty ``from`` starts an
+    actor, an empty ``to`` stops one (it is unloaded, as the runtime does)."""
+    actors: dict[str, dict[str, Any]] = {}
+    since: dict[str, float] = {}
+
+    def run(name: str, t: float) -> None:
+        acb = actors.setdefault(
+            name,
+            {"name": name, "status": "", "recorded": True,
+             "stats": {"switch_count": 0, "time_running": 0.0}},
+        )  # fmt: skip
+        if acb["status"] != "running":
+            acb["status"], since[name] = "running", t
+
+    def rest(name: str, t: float) -> None:
+        acb = actors.get(name)
+        if acb is not None and acb["status"] == "running":
+            acb["status"] = "sleeping"
+            acb["stats"]["time_running"] += t - since.pop(name)
+
+    for tr in transitions:
+        t, old, new = float(tr["t"]), str(tr["from"]), str(tr["to"])
+        if old and new:  # a recall (old == new) too: paused, then activated again
+            rest(old, t)
+            if old in actors:
+                actors[old]["stats"]["switch_count"] += 1
+            run(new, t)
+            actors[new]["stats"]["switch_count"] += 1
+        elif new:
+            run(new, t)
+        elif old:
+            rest(old, t)
+            actors.pop(old, None)
+    for name, t in since.items():
+        actors[name]["stats"]["time_running"] += now - t
+    return actors
 
 
 def _command_record(event: dict[str, Any]) -> dict[str, Any]:

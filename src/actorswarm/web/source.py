@@ -142,6 +142,9 @@ class SwarmSource(abc.ABC):
 
     #: ``"sim"``, ``"real"`` or ``"replay"``.
     kind: Literal["sim", "real", "replay"]
+    #: Whether the ground station hears the platforms' heartbeats (when each was last
+    #: heard, its incarnation); a recording holds none, so a replay tells neither.
+    hears_heartbeats = True
 
     def __init__(
         self,
@@ -418,8 +421,10 @@ class SwarmSource(abc.ABC):
                 {
                     "id": p,
                     "state": m.state,
-                    "heard": None if m.heard_ago is None else round(m.heard_ago, 2),
-                    "inc": m.incarnation,
+                    "heard": None
+                    if m.heard_ago is None or not self.hears_heartbeats
+                    else round(m.heard_ago, 2),
+                    "inc": m.incarnation if self.hears_heartbeats else None,
                     "master": m.master,
                     "epoch": m.epoch,
                     "script": self.script_of(p)[:12],
@@ -482,15 +487,16 @@ class SwarmSource(abc.ABC):
 
 
 def _summary(acb: dict[str, Any]) -> dict[str, Any]:
-    """What the swarm table shows of one control block."""
+    """What the swarm table shows of one control block (``steps`` and ``errors`` None
+    when it does not say, as a recorded one does not)."""
     stats = acb.get("stats", {})
     return {
         "name": acb.get("name", "?"),
         "status": acb.get("status", "?"),
         "switches": stats.get("switch_count", 0),
         "running_s": round(float(stats.get("time_running") or 0.0), 1),
-        "steps": stats.get("steps", 0),
-        "errors": stats.get("error_count", 0),
+        "steps": stats.get("steps"),
+        "errors": stats.get("error_count"),
     }
 
 

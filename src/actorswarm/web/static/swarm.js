@@ -7,6 +7,11 @@
 
 import { actorColour, chip, clock, el } from "./util.js";
 
+// A kept actor's control block says "sleeping"; the page and the docs call it paused.
+function said(status) {
+  return status === "sleeping" ? "paused" : status;
+}
+
 function seconds(s) {
   return s == null ? "—" : s < 10 ? `${s.toFixed(1)} s` : `${Math.round(s)} s`;
 }
@@ -67,15 +72,18 @@ export class SwarmPanel {
     const pill = (a) =>
       el(
         "span",
-        { class: `apill ${a.status}${a.errors ? " error" : ""}`, title: `${a.name}: ${a.status}, ${a.steps} steps` },
+        {
+          class: `apill ${a.status}${a.errors ? " error" : ""}`,
+          title: `${a.name}: ${said(a.status)}` + (a.steps == null ? "" : `, ${a.steps} steps`),
+        },
         el("i", { style: `background:${actorColour(this.names, a.name)}` }),
-        a.status === "running" ? a.name : `${a.name} (${a.status})`,
+        a.status === "running" ? a.name : `${a.name} (${said(a.status)})`,
       );
     const resting = m.actors.filter((a) => a.status !== "running");
     const actors = running.length ? running.map(pill) : resting.slice(0, 1).map(pill);
     const more = running.length ? resting : resting.slice(1);
     if (more.length) {
-      actors.push(el("span", { class: "muted", title: more.map((a) => `${a.name}: ${a.status}`).join("\n") }, `+${more.length} ${more.every((a) => a.status === "sleeping") ? "paused" : "loaded"}`));
+      actors.push(el("span", { class: "muted", title: more.map((a) => `${a.name}: ${said(a.status)}`).join("\n") }, `+${more.length} ${more.every((a) => a.status === "sleeping") ? "paused" : "loaded"}`));
     }
     if (!actors.length) actors.push("—");
     return el(
@@ -130,10 +138,15 @@ export class SwarmPanel {
     }
     const order = (a) => (a.status === "running" ? 0 : 1);
     const blocks = Object.values(acbs).sort((a, b) => order(a) - order(b));
-    this.body.replaceChildren(...blocks.map((acb) => this.acb(acb)));
+    // A replay's blocks are rebuilt from the transitions: say so once, above them.
+    const note = blocks.some((a) => a.recorded)
+      ? [el("p", { class: "muted" }, "from the recorded transitions (a recording holds no control blocks):")]
+      : [];
+    this.body.replaceChildren(...note, ...blocks.map((acb) => this.acb(acb)));
   }
 
   acb(a) {
+    if (a.recorded) return this.recordedAcb(a);
     const s = a.stats || {};
     const ctx = a.context || {};
     const rel = a.relations || {};
@@ -143,7 +156,7 @@ export class SwarmPanel {
       .map(([name, p]) => `${name} ${(p.mean * 1000).toFixed(3)} ms mean, ${(p.max * 1000).toFixed(3)} max`)
       .join("; ");
     const rows = [
-      ["status", `${a.status} (ID ${a.actor_id}, priority ${a.priority}, ${a.permission})`],
+      ["status", `${said(a.status)} (ID ${a.actor_id}, priority ${a.priority}, ${a.permission})`],
       ["plugins", plugins || "—"],
       ["hardware", (a.hardware || []).join(", ") || "—"],
       ["params", params || "—"],
@@ -157,7 +170,23 @@ export class SwarmPanel {
     return el(
       "div",
       { class: "acb" },
-      el("h4", {}, chip(this.names, a.name), a.status),
+      el("h4", {}, chip(this.names, a.name), said(a.status)),
+      el("dl", {}, ...rows.flatMap(([k, v]) => [el("dt", {}, k), el("dd", {}, v)])),
+    );
+  }
+
+  /** An actor of a replay: what its transitions tell, no more (a recording holds no
+   *  control blocks). */
+  recordedAcb(a) {
+    const s = a.stats || {};
+    const rows = [
+      ["switches", `${s.switch_count || 0}`],
+      ["running", `${(s.time_running || 0).toFixed(1)} s`],
+    ];
+    return el(
+      "div",
+      { class: "acb" },
+      el("h4", {}, chip(this.names, a.name), said(a.status)),
       el("dl", {}, ...rows.flatMap(([k, v]) => [el("dt", {}, k), el("dd", {}, v)])),
     );
   }

@@ -30,6 +30,7 @@ export class Timeline {
     this.names = names;
     this.t0 = t0;
     this.list.replaceChildren();
+    this.count.textContent = "(0)"; // a replay sought back to before its first step has none
     for (const s of steps) this.put(s, false);
   }
 
