@@ -565,6 +565,15 @@ def sim(
             help="Exit 4 when the task has not completed by the end of the run.",
         ),
     ] = False,
+    min_separation: Annotated[
+        float | None,
+        typer.Option(
+            metavar="M",
+            min=0.01,
+            help="Every pair of airborne vehicles must keep at least M metres (over each "
+            "kind's separation in the world), and a breach stops the run (exit 1).",
+        ),
+    ] = None,
 ) -> None:
     """Run a task script on a simulated swarm, in virtual time (docs/design.md §7).
 
@@ -629,6 +638,7 @@ def sim(
             config=CoreConfig(channel_bitrate=channel_bitrate),
             world_config=world_config,
             airtime=airtime,
+            min_separation=min_separation,
         )
         if serve:
             from actorswarm.cli.web_cmd import serve_sim

@@ -187,6 +187,13 @@ class GoTo(Plugin):
         the plugin then tells the vehicle to hold.
     ``scope`` (``local``, the default, or ``swarm``)
         The event's scope.
+    ``spacing`` (float ≥ 0, default 0)
+        When a group is sent (``ctx.slots`` > 1), each member flies to its own place on a
+        grid around the point, ``spacing`` metres apart (slot ``k``: the ``k``-th place of
+        :func:`~actorswarm.plugins.formation.slots` ``("grid", slots, spacing)``, the grid
+        centred on the point), which the master hands out by
+        :mod:`actorswarm.engine.assign`. 0: every member flies to the point itself — they
+        meet there, which ``actorswarm task check --world`` warns about.
 
     A vehicle on the ground takes off on its way (what the vehicle does with a ``goto``).
     The snapshot is ``{"target": [x, y, z], "fired": bool}``: the point resolved at start,
@@ -219,11 +226,48 @@ class GoTo(Plugin):
         ),
         "event": _event_param("arriving_event", "when the vehicle is within tolerance"),
         "scope": _scope_param(),
+        "spacing": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="metres between the places of a group's members on a grid around the "
+            "point; 0: every member to the point itself",
+        ),
     }
 
     def __init__(self) -> None:
         self._target: Point | None = None
         self._fired = False
+
+    @staticmethod
+    def places(count: int, spacing: float) -> list[tuple[float, float]]:
+        """The offsets of ``count`` members' places from the point: a grid ``spacing``
+        apart, centred on it (all ``(0, 0)`` when ``spacing`` is 0)."""
+        if count < 1:
+            return []
+        if spacing <= 0:
+            return [(0.0, 0.0)] * count
+        from actorswarm.plugins.formation import slots
+
+        grid = slots("grid", count, spacing)
+        centre = (grid.max(axis=0) + grid.min(axis=0)) / 2.0
+        return [(float(x), float(y)) for x, y in (grid - centre).tolist()]
+
+    @classmethod
+    def group_points(
+        cls,
+        params: Mapping[str, Any],
+        count: int,
+        now: float,
+        areas: Mapping[str, Sequence[tuple[float, float]]],
+    ) -> list[tuple[float, float]] | None:
+        """The members' places around the point (``spacing``), or None without spacing
+        (every member goes to the same point, so there is nothing to hand out)."""
+        spacing = float(params.get("spacing") or 0.0)
+        if spacing <= 0:
+            return None
+        x, y, _ = cls.resolve_target(params)
+        return [(x + dx, y + dy) for dx, dy in cls.places(count, spacing)]
 
     @staticmethod
     def resolve_target(params: Mapping[str, Any]) -> Point:
@@ -240,7 +284,12 @@ class GoTo(Plugin):
         return read_point("flight.goto", "target", point)
 
     def on_start(self, ctx: PluginContext) -> None:
-        self._target = self.resolve_target(ctx.params)
+        x, y, z = self.resolve_target(ctx.params)
+        spacing = float(ctx.params.get("spacing") or 0.0)
+        if spacing > 0 and ctx.slots > 1 and 1 <= ctx.slot <= ctx.slots:
+            dx, dy = self.places(ctx.slots, spacing)[ctx.slot - 1]
+            x, y = x + dx, y + dy
+        self._target = (x, y, z)
         self._fired = False
         self._command(ctx)
 
