@@ -605,7 +605,7 @@ def sim(
             raise typer.Exit(2) from None
     # The world is known here, so the script's area names are checked against it.
     areas = None if world_config is None else [a.name for a in world_config.areas]
-    code, script = check_script(file, DEFAULT_MAX_BYTES, areas)
+    code, script = check_script(file, DEFAULT_MAX_BYTES, areas, world_config)
     if script is None:
         raise typer.Exit(code or 1)
     try:
@@ -822,20 +822,25 @@ def task_check(
     ] = DEFAULT_MAX_BYTES,
     world: Annotated[
         Path | None,
-        typer.Option(help="The world (TOML) the scripts will run in: check their area names."),
+        typer.Option(
+            help="The world (TOML) the scripts will run in: check their area names, and warn "
+            "about separation, the ceiling and crowded areas."
+        ),
     ] = None,
 ) -> None:
     """Check task scripts before deploying them.
 
     Prints "FILE: ok" on stdout for each valid script; every problem goes to stderr as
     FILE:LINE:COL: message (warnings too, without failing). With --world, every area a
-    plugin names must be one of that world's [[areas]]. Exit status: 0 when every script
+    plugin names must be one of that world's [[areas]], and what can be known of separation
+    before flight is warned about (docs/safety.md). Exit status: 0 when every script
     is valid, 1 when any has an error, 2 when a file (or the world) cannot be read.
     """
-    areas = None if world is None else [area.name for area in read_world(world).areas]
+    world_config = None if world is None else read_world(world)
+    areas = None if world_config is None else [area.name for area in world_config.areas]
     status = 0
     for path in files:
-        code, _ = check_script(path, max_bytes, areas)
+        code, _ = check_script(path, max_bytes, areas, world_config)
         if code == 0:
             typer.echo(f"{path}: ok")
         status = max(status, code)

@@ -38,12 +38,16 @@ Three layers, each usable on its own:
   1-based place the master scattered when the group switched the actor in; 0, no slot,
   flies slot 1), and on every step steers the vehicle by its slot's point: the leader's
   position now plus the rotated offset, at ``altitude``. While the leader moves, the
-  member aims at a *carrot* ``lookahead`` seconds of leader travel ahead of its slot and
-  asks for the leader's ``speed`` plus what closes the along-track gap to the slot in
-  :data:`CATCH_UP_TIME` seconds (the vehicle clamps that to what it can fly). Aiming ahead
-  is what lets a fixed-wing keep a moving slot: a vehicle sent to the slot itself would
-  reach it and start circling it, while one chasing a point ahead flies parallel to the
-  leader and settles on the slot's line. Once the leader stops, the member goes to the
+  member flies the leader's velocity plus its gap to the slot divided by ``lookahead``
+  seconds (:data:`CATCH_UP_TIME` when that is 0), never backwards along the track: it is
+  sent to a *carrot* ``lookahead`` seconds down that velocity, at its magnitude (the
+  vehicle clamps that to what it can fly). Closing along and across the track at one
+  rate makes every member fly straight at its slot in the leader's frame, each the same
+  fraction of the way as the others, which is what keeps the members of the master's
+  least-squares assignment apart while the swarm changes shape
+  (:mod:`actorswarm.engine.assign`; as far as speed and turn limits let the vehicles keep
+  in step). Aiming ahead is what lets a fixed-wing keep a moving slot: a vehicle sent to
+  the slot itself would reach it and start circling it. Once the leader stops, the member goes to the
   slot itself. A command is re-sent only when the aimed point moved at least
   :data:`RECOMMAND_DISTANCE` from the one last sent, so a formation at rest costs a
   comparison per step. A vehicle on the ground takes off on the way (what a ``goto``
@@ -57,8 +61,8 @@ Three layers, each usable on its own:
 
 Which member takes which slot is the master's choice when it releases the group: by
 :meth:`Formation.group_points` it knows where the slots are, by the requests where the
-members are, and it hands out the slots by least total distance, so no two members' paths
-to their slots cross (:mod:`actorswarm.engine.assign`). The plugins do not steer around
+members are, and it hands out the slots by least total squared distance, so that members
+closing on their slots in step keep apart (:mod:`actorswarm.engine.assign`). The plugins do not steer around
 each other beyond that; ``altitude_step`` separates the members vertically as well (one
 layer per slot), for the paths that still meet while the shape turns with the leader.
 """
@@ -104,8 +108,8 @@ FloatArray = NDArray[np.float64]
 
 #: A slot's point that moved less than this (metres) since the last command is not re-sent.
 RECOMMAND_DISTANCE: Final = 1.0
-#: The commanded speed closes the distance to the slot in about this many seconds, on top
-#: of the leader's speed.
+#: Once the leader has stopped, the commanded speed closes the distance to the slot in about
+#: this many seconds (while it moves: in ``lookahead`` seconds, or this with none).
 CATCH_UP_TIME: Final = 5.0
 
 #: The half-angle of an arrow's V (between an arm and the backward axis).
@@ -598,10 +602,24 @@ class Formation(Plugin):
         if self._leader.moving(ctx.now):
             heading = self._leader.heading(ctx.now)
             ux, uy = math.cos(heading), math.sin(heading)
-            ahead = self._speed * float(ctx.params["lookahead"])
-            target = (slot[0] + ux * ahead, slot[1] + uy * ahead, slot[2])
-            behind = (slot[0] - position[0]) * ux + (slot[1] - position[1]) * uy
-            speed = max(self._speed + behind / CATCH_UP_TIME, 0.1 * self._speed)
+            lookahead = float(ctx.params["lookahead"])
+            catch_up = lookahead if lookahead > 0 else CATCH_UP_TIME
+            # The velocity that closes the gap to the slot in proportion, along and across
+            # the track at the same rate: every member then flies straight at its slot in
+            # the leader's frame, reaching it at the same fraction of the way as the others,
+            # which keeps the least-squares assignment's members apart
+            # (:mod:`actorswarm.engine.assign`). The vehicle is sent ``lookahead`` seconds
+            # down that velocity (a carrot beyond its turning circle) at its magnitude.
+            vx = self._speed * ux + (slot[0] - position[0]) / catch_up
+            vy = self._speed * uy + (slot[1] - position[1]) / catch_up
+            along = vx * ux + vy * uy
+            if along < 0.1 * self._speed:
+                # Never turn back against the leader's way: far ahead of the slot, slow.
+                vx += (0.1 * self._speed - along) * ux
+                vy += (0.1 * self._speed - along) * uy
+            speed = math.hypot(vx, vy)
+            reach = max(lookahead, 1.0)
+            target = (position[0] + vx * reach, position[1] + vy * reach, slot[2])
         else:
             target = slot
             speed = self._speed + math.dist(position, slot) / CATCH_UP_TIME
