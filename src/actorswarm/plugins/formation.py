@@ -47,8 +47,8 @@ Three layers, each usable on its own:
   least-squares assignment apart while the swarm changes shape
   (:mod:`actorswarm.engine.assign`; as far as speed and turn limits let the vehicles keep
   in step). Aiming ahead is what lets a fixed-wing keep a moving slot: a vehicle sent to
-  the slot itself would reach it and start circling it. Once the leader stops, the member goes to the
-  slot itself. A command is re-sent only when the aimed point moved at least
+  the slot itself would reach it and start circling it. Once the leader stops, the member
+  goes to the slot itself. A command is re-sent only when the aimed point moved at least
   :data:`RECOMMAND_DISTANCE` from the one last sent, so a formation at rest costs a
   comparison per step. A vehicle on the ground takes off on the way (what a ``goto``
   does).
@@ -62,9 +62,11 @@ Three layers, each usable on its own:
 Which member takes which slot is the master's choice when it releases the group: by
 :meth:`Formation.group_points` it knows where the slots are, by the requests where the
 members are, and it hands out the slots by least total squared distance, so that members
-closing on their slots in step keep apart (:mod:`actorswarm.engine.assign`). The plugins do not steer around
-each other beyond that; ``altitude_step`` separates the members vertically as well (one
-layer per slot), for the paths that still meet while the shape turns with the leader.
+closing on their slots in step keep apart (:mod:`actorswarm.engine.assign`). The plugins
+do not steer around each other beyond that; ``altitude_step`` separates the members
+vertically as well (one layer per slot), for the paths that still meet while the shape
+turns with the leader. How close they still come is measured in every run
+(:mod:`actorswarm.world.separation`).
 """
 
 from __future__ import annotations
