@@ -35,6 +35,17 @@ def test_extra_slots_stay_empty_and_too_few_are_refused() -> None:
         assign_slots([(0.0, 0.0), (1.0, 1.0)], [(0.0, 0.0)])
 
 
+def _crosses(
+    a: tuple[float, float], b: tuple[float, float], c: tuple[float, float], d: tuple[float, float]
+) -> bool:
+    """Whether segments ab and cd properly cross."""
+
+    def side(p: XY, q: XY, r: XY) -> float:
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    return side(a, b, c) * side(a, b, d) < -1e-9 and side(c, d, a) * side(c, d, b) < -1e-9
+
+
 def _apart(points: list[XY]) -> bool:
     """No two points closer than 1 mm: two slots at (almost) one place make two assignments
     equally short, and the one chosen may "cross" at that shared end."""
@@ -44,6 +55,31 @@ def _apart(points: list[XY]) -> bool:
 points_st = st.lists(
     st.tuples(st.floats(-500, 500), st.floats(-500, 500)), min_size=2, max_size=7, unique=True
 ).filter(_apart)
+
+
+@given(positions=points_st, data=st.data())
+def test_the_assignment_is_optimal_and_no_two_paths_cross(
+    positions: list[tuple[float, float]], data: st.DataObject
+) -> None:
+    points = data.draw(
+        st.lists(
+            st.tuples(st.floats(-500, 500), st.floats(-500, 500)),
+            min_size=len(positions),
+            max_size=len(positions),
+            unique=True,
+        ).filter(_apart)
+    )
+    slots = assign_slots(positions, points)
+    assert sorted(slots) == list(range(1, len(points) + 1))
+    best = min(
+        _total(positions, points, [s + 1 for s in perm])
+        for perm in itertools.permutations(range(len(points)))
+    )
+    assert _total(positions, points, slots) == pytest.approx(best, abs=1e-6)
+    for i, j in itertools.combinations(range(len(positions)), 2):
+        a, b = positions[i], points[slots[i] - 1]
+        c, d = positions[j], points[slots[j] - 1]
+        assert not _crosses(a, b, c, d), (i, j)
 
 
 def _squares(
@@ -76,7 +112,7 @@ def test_the_assignment_is_optimal_and_keeps_members_apart_on_the_way(
             unique=True,
         ).filter(_apart)
     )
-    slots = assign_slots(positions, points)
+    slots = assign_slots(positions, points, squared=True)
     assert sorted(slots) == list(range(1, len(points) + 1))
     best = min(
         _squares(positions, points, [s + 1 for s in perm])
@@ -92,14 +128,14 @@ def test_the_assignment_is_optimal_and_keeps_members_apart_on_the_way(
 
 def test_a_crafted_near_miss_of_the_least_total_distance_is_avoided() -> None:
     """Two members 20 m apart on a line, slots 20 m apart just beyond: the least plain sum
-    (60 m either way) may send the back one through the front one; the least squares sends
-    each straight ahead, 20 m apart all the way."""
+    (60 m either way) may send the back one through the front one; the least squares (for
+    members in step, a formation) sends each straight ahead, 20 m apart all the way."""
     positions = [(0.0, 0.0), (20.0, 0.0)]
     points = [(40.0, 0.0), (60.0, 0.0)]
     crossing = [2, 1]  # the back member to the far slot, past the front one
     assert _total(positions, points, crossing) == pytest.approx(_total(positions, points, [1, 2]))
     assert _closest_on_the_way(positions[0], points[1], positions[1], points[0]) == 0.0
-    slots = assign_slots(positions, points)
+    slots = assign_slots(positions, points, squared=True)
     assert slots == [1, 2]
     assert _closest_on_the_way(positions[0], points[0], positions[1], points[1]) == 20.0
 

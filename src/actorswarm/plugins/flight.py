@@ -57,6 +57,11 @@ LANDED_ALTITUDE: Final = 0.2
 LANDED_SPEED: Final = 0.1
 
 
+#: How many altitude layers a group in transit is spread over (``flight.return_home``'s
+#: ``layer_step``, the formations' ``transit_step``).
+TRANSIT_LAYERS: Final = 6
+
+
 def _scope_param() -> Param:
     return Param(
         kind="str",
@@ -203,6 +208,9 @@ class GoTo(Plugin):
     bus = "act_bus"
     resources = frozenset({"autopilot"})
     needs_vehicle = True
+    # A group sent to a grid around one point flies there at one speed from about as far
+    # away (a translated grid): about in step, so the places go by least squared distance.
+    group_in_step = True
     params: ClassVar[Mapping[str, Param]] = {
         "target": Param(
             kind="point",
@@ -350,6 +358,11 @@ class ReturnHome(Plugin):
         than 0.1 m/s), or, with ``land`` false, when it is over home.
     ``scope`` (``local``, the default, or ``swarm``)
         The event's scope.
+    ``layer_step`` (float ≥ 0, default 0)
+        Members of a group sent home together travel on :data:`TRANSIT_LAYERS` layers,
+        slot ``k`` at ``altitude + ((k - 1) mod TRANSIT_LAYERS) · layer_step``, so that the
+        paths of neighbours that cross on the way home pass above each other; 0: all at
+        ``altitude``.
 
     The phases are ``transit`` (a ``goto`` to the point ``altitude`` metres over home),
     ``landing`` (a ``land`` once within ``tolerance`` of it) and ``done``. A vehicle already
@@ -384,6 +397,13 @@ class ReturnHome(Plugin):
         ),
         "event": _event_param("landed_event", "when the vehicle is down at home"),
         "scope": _scope_param(),
+        "layer_step": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="metres between the layers a group travels home on (slot k on layer "
+            "(k - 1) mod 6); 0: one layer",
+        ),
     }
 
     _PHASES: ClassVar[tuple[str, ...]] = ("transit", "landing", "done")
@@ -391,6 +411,7 @@ class ReturnHome(Plugin):
     def __init__(self) -> None:
         self._home: Point | None = None
         self._phase = "transit"
+        self._layer = 0
 
     @property
     def home(self) -> Point | None:
@@ -407,6 +428,7 @@ class ReturnHome(Plugin):
         if altitude <= 0:
             raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
+        self._layer = (ctx.slot - 1) % TRANSIT_LAYERS if ctx.slot > 0 else 0
         given = ctx.params["home"]
         if given is not None:
             self._home = read_point("flight.return_home", "home", given)
@@ -455,7 +477,8 @@ class ReturnHome(Plugin):
 
     def _over_home(self, ctx: PluginContext) -> Point:
         assert self._home is not None
-        return (self._home[0], self._home[1], float(ctx.params["altitude"]))
+        step = float(ctx.params["layer_step"])
+        return (self._home[0], self._home[1], float(ctx.params["altitude"]) + self._layer * step)
 
     def _finish(self, ctx: PluginContext) -> None:
         self._phase = "done"

@@ -212,6 +212,18 @@ class SeparationMonitor:
         # Pairs within twice the largest minimum are followed for the closest-pairs table.
         self._watch = 2.0 * float(self._min.max()) if len(self._min) else 0.0
 
+    def add(self, platform: int, minimum: float) -> int:
+        """A platform that joined (a real swarm's, seen by its ground station): a new last
+        row, returned. ValueError for a platform already there or a bad minimum."""
+        if platform in self._ids.tolist():
+            raise ValueError(f"platform {platform} is already watched")
+        if not (math.isfinite(minimum) and minimum > 0):
+            raise ValueError("a minimum separation must be a number of metres > 0")
+        self._ids = np.append(self._ids, np.int64(platform))
+        self._min = np.append(self._min, float(minimum))
+        self._watch = 2.0 * float(self._min.max())
+        return len(self._ids) - 1
+
     def observe(self, t: float, positions: FloatArray, airborne: NDArray[np.bool_]) -> list[Breach]:
         """Take the snapshot at ``t`` seconds: ``positions`` ``(n, 3)`` in row order and
         which rows are ``airborne`` (a row lower than :data:`MIN_HEIGHT` never is). Return
