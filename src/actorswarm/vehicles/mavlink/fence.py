@@ -85,8 +85,12 @@ def fence_items(
 ) -> list[Any]:
     """The four ``MISSION_ITEM_INT`` of ``box``'s inclusion polygon, counter-clockwise from
     its south-west corner, in WGS-84 from ``frame``."""
-    corners = ((box.x_min, box.y_min), (box.x_max, box.y_min), (box.x_max, box.y_max))
-    corners += ((box.x_min, box.y_max),)
+    corners = [
+        (box.x_min, box.y_min),
+        (box.x_max, box.y_min),
+        (box.x_max, box.y_max),
+        (box.x_min, box.y_max),
+    ]
     items = []
     for seq, (x, y) in enumerate(corners):
         lat, lon, _ = frame.to_geodetic(x, y, 0.0)
