@@ -30,10 +30,10 @@ from actorswarm.world.separation import BREACH_PREFIX
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 #: The least 3-D distance between two airborne fixed-wings the formation mission keeps,
-#: metres. Below the 10 m separation of the world: the formation mission still breaches it
-#: while it forms its first arrow from take-off (docs/safety.md gives the figures); the
-#: search-and-track and battery missions keep their separation (no breach at all).
-SAFETY_DISTANCE = 3.0
+#: metres, in every run below. Below the 10 m separation of its world: the formation mission
+#: still breaches it once or twice a run, by up to 2.4 m (docs/safety.md gives the figures);
+#: the search-and-track and battery missions keep their separation (no breach at all).
+SAFETY_DISTANCE = 7.0
 #: Seeds of the "under other seeds" runs: 1-4 in every run of the suite (each formation
 #: run is ~45 s of CPU and the suite must stay under 15 minutes on two cores); set
 #: ACTORSWARM_MISSION_SEEDS=10 (or more) for the long sweep before a release.
@@ -199,14 +199,12 @@ def test_formation_members_converge_to_their_shapes(formation: Run) -> None:
 
 
 def test_formation_keeps_airborne_vehicles_apart(formation: Run) -> None:
-    """At least SAFETY_DISTANCE everywhere; every breach of the 10 m separation is in the
-    report's violations, and they all happen while the swarm forms its first arrow from
-    take-off, or re-forms (before 110 s)."""
+    """At least SAFETY_DISTANCE everywhere, and every breach of the 10 m separation is in
+    the report's violations, at most two."""
     assert formation.least_separation() >= SAFETY_DISTANCE
     breaches = formation.report["separation"]["breaches"]
     lines = [v for v in formation.report["violations"] if v.startswith(BREACH_PREFIX)]
-    assert len(lines) == len(breaches)
-    assert all(b["start"] < 110.0 for b in breaches), breaches
+    assert len(lines) == len(breaches) <= 2, breaches
 
 
 def test_formation_slots_are_the_master_s_least_distance_assignment(formation: Run) -> None:
@@ -234,12 +232,14 @@ def test_formation_scales_to_another_swarm_size() -> None:
     assert moves[("A", "B", "AtoB_event")] == 15
     assert moves[("B", "C", "BtoBC_branching_event")] == 8
     assert moves[("A", "Return", "go_home_event")] == 15
+    assert run.least_separation() >= SAFETY_DISTANCE
 
 
 def test_formation_completes_with_ten_percent_loss() -> None:
     run = Run("formation", seed=4, loss=0.1)
     run.clean(separation=False)
     assert run.moves()[("A", "Return", "go_home_event")] == 30
+    assert run.least_separation() >= SAFETY_DISTANCE
 
 
 def test_formation_completes_with_a_platform_killed_mid_mission() -> None:
@@ -247,6 +247,7 @@ def test_formation_completes_with_a_platform_killed_mid_mission() -> None:
     run.clean(separation=False)
     assert "7" not in run.report["final_actors"]
     assert run.moves()[("A", "Return", "go_home_event")] == 29
+    assert run.least_separation() >= SAFETY_DISTANCE
 
 
 # --- search and track --------------------------------------------------------------------

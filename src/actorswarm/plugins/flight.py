@@ -57,9 +57,12 @@ LANDED_ALTITUDE: Final = 0.2
 LANDED_SPEED: Final = 0.1
 
 
-#: How many altitude layers a group in transit is spread over (``flight.return_home``'s
-#: ``layer_step``, the formations' ``transit_step``).
-TRANSIT_LAYERS: Final = 6
+#: How many transit layers a formation changing shape is spread over (the formations'
+#: ``transit_step``), half below its altitude and half above.
+TRANSIT_LAYERS: Final = 4
+#: How many layers a group flying home is spread over (``flight.return_home``'s
+#: ``layer_step``), from its altitude up.
+HOME_LAYERS: Final = 6
 
 
 def _scope_param() -> Param:
@@ -359,8 +362,8 @@ class ReturnHome(Plugin):
     ``scope`` (``local``, the default, or ``swarm``)
         The event's scope.
     ``layer_step`` (float ≥ 0, default 0)
-        Members of a group sent home together travel on :data:`TRANSIT_LAYERS` layers,
-        slot ``k`` at ``altitude + ((k - 1) mod TRANSIT_LAYERS) · layer_step``, so that the
+        Members of a group sent home together travel on :data:`HOME_LAYERS` layers,
+        slot ``k`` at ``altitude + ((k - 1) mod HOME_LAYERS) · layer_step``, so that the
         paths of neighbours that cross on the way home pass above each other; 0: all at
         ``altitude``.
 
@@ -428,7 +431,7 @@ class ReturnHome(Plugin):
         if altitude <= 0:
             raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
-        self._layer = (ctx.slot - 1) % TRANSIT_LAYERS if ctx.slot > 0 else 0
+        self._layer = (ctx.slot - 1) % HOME_LAYERS if ctx.slot > 0 else 0
         given = ctx.params["home"]
         if given is not None:
             self._home = read_point("flight.return_home", "home", given)

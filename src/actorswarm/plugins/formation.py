@@ -544,7 +544,7 @@ class Formation(Plugin):
             default=0.0,
             minimum=0.0,
             doc="metres between the transit layers a member flies while far from its slot "
-            "(slot k on layer (k - 1) mod 6, half below the altitude, half above); 0: none",
+            "(slot k on layer (k - 1) mod 4, two below the altitude, two above); 0: none",
         ),
     }
 
