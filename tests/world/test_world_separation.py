@@ -38,7 +38,7 @@ def test_least_distance_closest_pairs_and_one_breach_per_stretch() -> None:
     assert [(e.a, e.b) for e in report.pairs] == [(1, 2)]
     lines = report.violations()
     assert len(lines) == 2 and all(line.startswith(BREACH_PREFIX) for line in lines)
-    assert "platforms 1 and 2 1.0 m apart at t = 3.0 s" in lines[0]
+    assert "platforms 1 and 2 1.00 m apart at t = 3.0 s" in lines[0]
     assert "BREACH" in separation_line(report.as_dict())
 
 
@@ -65,7 +65,7 @@ def test_vehicles_on_the_ground_do_not_count() -> None:
 
 def test_a_fatal_monitor_raises_at_the_first_breach() -> None:
     monitor = SeparationMonitor([1, 2, 3], [3.0, 3.0, 3.0], fatal=True)
-    with pytest.raises(SeparationBreachError, match=r"platforms 1 and 2 2\.0 m apart"):
+    with pytest.raises(SeparationBreachError, match=r"platforms 1 and 2 2\.00 m apart"):
         _fly(monitor, [10.0, 2.0, 1.0])
     assert monitor.result().halted is not None
 

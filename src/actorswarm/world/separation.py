@@ -98,7 +98,7 @@ class Encounter:
     def describe(self) -> str:
         x, y, z = self.where
         return (
-            f"platforms {self.a} and {self.b} {self.distance:.1f} m apart at "
+            f"platforms {self.a} and {self.b} {self.distance:.2f} m apart at "
             f"t = {self.t:.1f} s near ({x:.0f}, {y:.0f}, {z:.0f})"
         )
 
@@ -341,7 +341,7 @@ def separation_line(separation: dict[str, Any]) -> str:
     a, b = closest["platforms"]
     x, y, z = closest["where"]
     head = (
-        f"separation: closest {closest['distance_m']:.1f} m (platforms {a} and {b} at "
+        f"separation: closest {closest['distance_m']:.2f} m (platforms {a} and {b} at "
         f"{closest['t']:.1f} s near ({x:.0f}, {y:.0f}, {z:.0f})); minimums: {mins}"
     )
     breaches = separation["breaches"]
