@@ -106,3 +106,20 @@ def test_task_check_with_a_world_prints_them(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert f"{tmp_path / 's.xml'}:8:" in result.output
     assert "warning: formation.arrow: spacing 6 m" in result.output
+
+
+def test_platforms_that_start_at_one_target_are_warned_about() -> None:
+    script = """<TaskScript name="meet" version="1">
+  <_ActorsConfig>
+    <Actor><_P_Name>Go</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>flight.goto</_P_Name><param key="target" value="30 30 10"/></Plugin>
+    </Bus></OODAConfig></Actor>
+  </_ActorsConfig>
+  <_TaskConfig/>
+  <_PlatformActorConfig><platform id="1-2" actor="Go"/></_PlatformActorConfig>
+</TaskScript>
+"""
+    ((line, message),) = _warnings(script, "")
+    assert line == 4
+    assert message.startswith("flight.goto: the 2 platforms that start here all fly to this")
+    assert "(quadrotor 3 m in the world)" in message

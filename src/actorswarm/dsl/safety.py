@@ -49,6 +49,9 @@ def check_safety(script: TaskScript, world: WorldConfig, report: Report) -> None
     separation = max(minimums[k] for k in kinds)
     what = " and ".join(f"{k} {minimums[k]:g} m" for k in sorted(kinds))
     holders = _holders(script, len(platforms))
+    started = {line.actor: 0 for line in script.platforms}
+    for line in script.platforms:
+        started[line.actor] += len(line.ids)
     ceiling = world.safety.ceiling
     for actor in script.actors:
         count = holders.get(actor.name, 0)
@@ -58,7 +61,8 @@ def check_safety(script: TaskScript, world: WorldConfig, report: Report) -> None
                 if spec.name.startswith("formation."):
                     _formation(spec, params, count, separation, what, ceiling, report)
                 elif spec.name == "flight.goto":
-                    _goto(spec, params, count, separation, what, ceiling, report)
+                    sent = count - started.get(actor.name, 0)
+                    _goto(spec, params, (sent, count), separation, what, ceiling, report)
                 else:
                     _altitude(spec, params, ceiling, report)
                 if "area" in params:
@@ -140,20 +144,30 @@ def _formation(
 def _goto(
     spec: PluginSpec,
     params: Mapping[str, Param],
-    count: int,
+    counts: tuple[int, int],
     separation: float,
     what: str,
     ceiling: float,
     report: Report,
 ) -> None:
+    """``counts``: the platforms a transition may send here (spacing spreads those), and
+    all that may hold the actor."""
+    sent, count = counts
     spacing = _number(params.get("spacing"), 0.0)
-    if count > 1 and spacing is not None and spacing < separation:
+    if sent > 1 and spacing is not None and spacing < separation:
         said = "no spacing" if spacing == 0 else f"spacing {spacing:g} m"
         report.warning(
             _at(spec, params.get("spacing")),
-            f"flight.goto: up to {count} platforms may be sent here with {said}: they would "
+            f"flight.goto: up to {sent} platforms may be sent here with {said}: they would "
             f"meet closer than their separation ({what} in the world); give "
             f'<param key="spacing" value="{separation:g}"/> or more',
+        )
+    elif count > 1 and sent <= 1 and "target" in params:
+        report.warning(
+            params["target"].pos,
+            f"flight.goto: the {count} platforms that start here all fly to this one target "
+            f"and would meet closer than their separation ({what} in the world); start them "
+            "in an actor of their own each, or send them here with a transition and a spacing",
         )
     if ceiling > 0 and "target" in params:
         _point(params["target"], ceiling, report)
