@@ -137,3 +137,14 @@ def test_a_refused_fence_and_a_silent_autopilot_are_errors() -> None:
     silent.tick(1.0)
     assert silent.tick(2.5) == [] and silent.phase == "failed"
     assert silent.error is not None and "did not set its fence parameters in 2 s" in silent.error
+
+
+def test_the_daemon_file_turns_the_push_on(tmp_path: Any) -> None:
+    from actorswarm.daemon.config import load_daemon_config
+
+    config = tmp_path / "d.toml"
+    config.write_text('vehicle = "mavlink"\nmavlink_push_fence = true\n')
+    parsed, _ = load_daemon_config(config)
+    assert parsed.mavlink_push_fence is True
+    config.write_text('vehicle = "mavlink"\n')
+    assert load_daemon_config(config)[0].mavlink_push_fence is False

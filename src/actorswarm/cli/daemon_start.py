@@ -265,6 +265,7 @@ def _mavlink_vehicle(
         force=file.mavlink_force,
         fence=fence,
         name=f"platform {platform}",
+        push_fence=file.mavlink_push_fence,
     )
     try:
         return MavlinkVehicle(settings)

@@ -31,6 +31,7 @@ and where the mission's origin is; the keys after these three exist only in the 
     mavlink_link_timeout = 3.0         # seconds of heartbeat silence: vehicle_link_lost
     mavlink_force = false              # take off even with the failsafes off
     fence = [-300, -300, 300, 300, 60] # x_min, y_min, x_max, y_max, z_max: bounds every goal
+    mavlink_push_fence = true          # also set the autopilot's own geofence to the fence
 
     [core]
     t_leave = 0.5
@@ -100,6 +101,7 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     mavlink_link_timeout: Annotated[float, msgspec.Meta(gt=0)] = 3.0
     mavlink_force: bool = False
     fence: Annotated[list[float], msgspec.Meta(min_length=5, max_length=5)] | None = None
+    mavlink_push_fence: bool = False
     fleet: str | None = None
     transport: Literal["zenoh"] | None = None
     core: dict[str, Any] = {}
