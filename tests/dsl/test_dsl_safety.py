@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from actorswarm.cli.app import app
@@ -123,3 +124,26 @@ def test_platforms_that_start_at_one_target_are_warned_about() -> None:
     assert line == 4
     assert message.startswith("flight.goto: the 2 platforms that start here all fly to this")
     assert "(quadrotor 3 m in the world)" in message
+
+
+class _Sent(Exception):
+    """The deployment reached the point of sending (the link is not opened in tests)."""
+
+
+def test_gs_deploy_with_a_world_warns_and_still_sends(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from actorswarm.cli.swarm_options import Link
+
+    def session(self: Link, patience: float | None = None) -> object:
+        raise _Sent
+
+    monkeypatch.setattr(Link, "session", session)
+    (tmp_path / "s.xml").write_text(SCRIPT)
+    (tmp_path / "w.toml").write_text(WORLD)
+    args = ["gs", "deploy", "--expect", "6", "--insecure", "--state", str(tmp_path / "st.json")]
+    result = CliRunner().invoke(
+        app, [*args, "--world", str(tmp_path / "w.toml"), str(tmp_path / "s.xml")]
+    )
+    assert isinstance(result.exception, _Sent), result.output
+    assert "warning: formation.arrow: spacing 6 m is below" in result.output
