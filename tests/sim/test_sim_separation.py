@@ -61,3 +61,15 @@ def test_the_world_can_make_a_breach_fatal(tmp_path: Path) -> None:
     code, output, report = _sim(tmp_path, world="[safety]\nfatal_separation = true\n")
     assert code == 1, output
     assert report["halted"] is not None and float(report["sim_time_s"]) < 30.0
+
+
+def test_min_separation_without_a_world_is_refused(tmp_path: Path) -> None:
+    script = tmp_path / "meet.xml"
+    script.write_text(
+        SCRIPT.replace("flight.goto", "core.idle").replace(
+            '<param key="target" value="30 30 10"/>', ""
+        )
+    )
+    result = CliRunner().invoke(app, ["sim", str(script), "--no-world", "--min-separation", "5"])
+    assert result.exit_code == 2
+    assert "--min-separation needs vehicles: leave out --no-world" in result.output

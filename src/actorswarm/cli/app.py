@@ -596,6 +596,9 @@ def sim(
     if no_world and world is not None:
         typer.echo("--world and --no-world exclude each other", err=True)
         raise typer.Exit(2)
+    if no_world and min_separation is not None:
+        typer.echo("--min-separation needs vehicles: leave out --no-world", err=True)
+        raise typer.Exit(2)
     world_config: WorldConfig | None = None
     if not no_world:
         try:
