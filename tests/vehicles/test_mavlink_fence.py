@@ -148,3 +148,39 @@ def test_the_daemon_file_turns_the_push_on(tmp_path: Any) -> None:
     assert parsed.mavlink_push_fence is True
     config.write_text('vehicle = "mavlink"\n')
     assert load_daemon_config(config)[0].mavlink_push_fence is False
+
+
+def test_the_simulated_autopilot_takes_mavsdk_s_geofence_upload() -> None:
+    """The receiving side against an uploader we did not write: MAVSDK's Geofence plugin
+    (a ground station's) uploads an inclusion polygon to the simulated autopilot. (MAVSDK
+    has no geofence server to check the uploading side against.)"""
+    from mavsdk import ComponentType, Configuration, Mavsdk
+    from mavsdk.plugins.geofence import (
+        FenceType,
+        Geofence,
+        GeofenceData,
+        GeofenceResult,
+        Point,
+        Polygon,
+    )
+
+    port = free_port()
+    sim = SimAutopilot(AutopilotOptions(f"udpin:127.0.0.1:{port}", ORIGIN, system=1, kind="px4"))
+    stop = threading.Event()
+    thread = threading.Thread(target=sim.run, args=(stop,), daemon=True)
+    thread.start()
+    station = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    try:
+        station.add_any_connection(f"udpout://127.0.0.1:{port}")
+        wait_for("the autopilot", lambda: station.system_count() > 0, 5.0)
+        corners = [(47.3977, 8.5455), (47.3977, 8.5460), (47.3980, 8.5460), (47.3980, 8.5455)]
+        polygon = Polygon([Point(lat, lon) for lat, lon in corners], FenceType.INCLUSION)
+        result = Geofence(station.get_systems()[0]).upload_geofence(GeofenceData([polygon], []))
+        assert result == GeofenceResult.SUCCESS
+        received = [v for corner in sim.fence.polygon() for v in corner]
+        assert received == pytest.approx([v for corner in corners for v in corner], abs=1e-7)
+    finally:
+        station.destroy()
+        stop.set()
+        thread.join(timeout=2)
+        sim.close()
