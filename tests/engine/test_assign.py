@@ -82,6 +82,64 @@ def test_the_assignment_is_optimal_and_no_two_paths_cross(
         assert not _crosses(a, b, c, d), (i, j)
 
 
+def _squares(
+    positions: list[tuple[float, float]], points: list[tuple[float, float]], slots: list[int]
+) -> float:
+    return sum(math.dist(p, points[s - 1]) ** 2 for p, s in zip(positions, slots, strict=True))
+
+
+def _closest_on_the_way(a: XY, b: XY, c: XY, d: XY) -> float:
+    """The least distance of two members flying a→b and c→d in step (the same fraction of
+    the way at every instant)."""
+    dx, dy = a[0] - c[0], a[1] - c[1]
+    ex, ey = (b[0] - d[0]) - dx, (b[1] - d[1]) - dy
+    denom = ex * ex + ey * ey
+    s = 0.0 if denom == 0 else min(1.0, max(0.0, -(dx * ex + dy * ey) / denom))
+    return math.hypot(dx + s * ex, dy + s * ey)
+
+
+@given(positions=points_st, data=st.data())
+def test_the_assignment_is_optimal_and_keeps_members_apart_on_the_way(
+    positions: list[tuple[float, float]], data: st.DataObject
+) -> None:
+    """Least sum of squared distances, and two members flying to their slots in step never
+    come closer than 1/√2 of the lesser of their distances at the start and at the end."""
+    points = data.draw(
+        st.lists(
+            st.tuples(st.floats(-500, 500), st.floats(-500, 500)),
+            min_size=len(positions),
+            max_size=len(positions),
+            unique=True,
+        ).filter(_apart)
+    )
+    slots = assign_slots(positions, points, squared=True)
+    assert sorted(slots) == list(range(1, len(points) + 1))
+    best = min(
+        _squares(positions, points, [s + 1 for s in perm])
+        for perm in itertools.permutations(range(len(points)))
+    )
+    assert _squares(positions, points, slots) == pytest.approx(best, rel=1e-9, abs=1e-6)
+    for i, j in itertools.combinations(range(len(positions)), 2):
+        a, b = positions[i], points[slots[i] - 1]
+        c, d = positions[j], points[slots[j] - 1]
+        floor = min(math.dist(a, c), math.dist(b, d)) / math.sqrt(2.0)
+        assert _closest_on_the_way(a, b, c, d) >= floor - 1e-6, (i, j)
+
+
+def test_a_crafted_near_miss_of_the_least_total_distance_is_avoided() -> None:
+    """Two members 20 m apart on a line, slots 20 m apart just beyond: the least plain sum
+    (60 m either way) may send the back one through the front one; the least squares (for
+    members in step, a formation) sends each straight ahead, 20 m apart all the way."""
+    positions = [(0.0, 0.0), (20.0, 0.0)]
+    points = [(40.0, 0.0), (60.0, 0.0)]
+    crossing = [2, 1]  # the back member to the far slot, past the front one
+    assert _total(positions, points, crossing) == pytest.approx(_total(positions, points, [1, 2]))
+    assert _closest_on_the_way(positions[0], points[1], positions[1], points[0]) == 0.0
+    slots = assign_slots(positions, points, squared=True)
+    assert slots == [1, 2]
+    assert _closest_on_the_way(positions[0], points[0], positions[1], points[1]) == 20.0
+
+
 SCRIPT = """<TaskScript name="p" version="1">
   <_ActorsConfig>
     <Actor><_P_Name>A</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name><Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig></Actor>

@@ -26,10 +26,14 @@ from actorswarm.plugins.formation import Formation
 from actorswarm.plugins.tracking import TrackTarget
 from actorswarm.sim.mission import prepare, run_slices
 from actorswarm.sim.tasksim import Fault, TaskSim
+from actorswarm.world.separation import BREACH_PREFIX
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-#: The least 3-D distance between two airborne vehicles the shipped missions keep, metres.
-SAFETY_DISTANCE = 3.0
+#: The least 3-D distance between two airborne fixed-wings the formation mission keeps,
+#: metres, in every run below. Below the 10 m separation of its world: the formation mission
+#: still breaches it once or twice a run, by up to 2.4 m (docs/safety.md gives the figures);
+#: the search-and-track and battery missions keep their separation (no breach at all).
+SAFETY_DISTANCE = 7.0
 #: Seeds of the "under other seeds" runs: 1-4 in every run of the suite (each formation
 #: run is ~45 s of CPU and the suite must stay under 15 minutes on two cores); set
 #: ACTORSWARM_MISSION_SEEDS=10 (or more) for the long sweep before a release.
@@ -93,24 +97,24 @@ class Run:
             if t["cause"] not in ("start", "lost")
         )
 
-    def clean(self) -> None:
-        """Completed, every invariant held, no plugin failed."""
+    def clean(self, *, separation: bool = True) -> None:
+        """Completed, every invariant held, no plugin failed; and, with ``separation``,
+        no separation breach either (without: breaches are left to the caller)."""
         r = self.report
         how = f"replay: {self.replay}"
         assert r["completed"], f"not completed, final actors {r['final_actors']}; {how}"
-        assert r["violations"] == [], f"{r['violations']}; {how}"
+        violations = r["violations"]
+        if not separation:
+            violations = [v for v in violations if not v.startswith(BREACH_PREFIX)]
+        assert violations == [], f"{violations}; {how}"
         assert r["plugin_failures"] == [], f"{r['plugin_failures']}; {how}"
 
     def least_separation(self) -> float:
-        """The least 3-D distance between two airborne vehicles (above 5 m) in the run."""
-        world = self.sim.world
-        assert world is not None
-        positions = world.track().positions
-        d = np.linalg.norm(positions[:, :, None, :] - positions[:, None, :, :], axis=-1)
-        n = positions.shape[1]
-        d[:, np.arange(n), np.arange(n)] = np.inf
-        air = positions[:, :, 2] > 5.0
-        return float(np.where(air[:, :, None] & air[:, None, :], d, np.inf).min())
+        """The least 3-D distance between two airborne vehicles in the run (the report's
+        separation, measured every physics step)."""
+        least = self.report["separation"]["min_distance_m"]
+        assert least is not None
+        return float(least)
 
 
 @pytest.fixture(scope="module")
@@ -159,7 +163,7 @@ def test_an_unknown_mission_is_refused_with_a_suggestion() -> None:
 
 
 def test_formation_runs_every_phase_of_the_paper(formation: Run) -> None:
-    formation.clean()
+    formation.clean(separation=False)
     assert formation.moves() == {
         ("Standby", "A", "ready_event"): 30,
         ("A", "B", "AtoB_event"): 30,
@@ -195,7 +199,12 @@ def test_formation_members_converge_to_their_shapes(formation: Run) -> None:
 
 
 def test_formation_keeps_airborne_vehicles_apart(formation: Run) -> None:
+    """At least SAFETY_DISTANCE everywhere, and every breach of the 10 m separation is in
+    the report's violations, at most two."""
     assert formation.least_separation() >= SAFETY_DISTANCE
+    breaches = formation.report["separation"]["breaches"]
+    lines = [v for v in formation.report["violations"] if v.startswith(BREACH_PREFIX)]
+    assert len(lines) == len(breaches) <= 2, breaches
 
 
 def test_formation_slots_are_the_master_s_least_distance_assignment(formation: Run) -> None:
@@ -207,7 +216,7 @@ def test_formation_slots_are_the_master_s_least_distance_assignment(formation: R
 @pytest.mark.parametrize("seed", SEEDS)
 def test_formation_completes_under_other_seeds(seed: int) -> None:
     run = Run("formation", seed=seed)
-    run.clean()
+    run.clean(separation=False)
     moves = run.moves()
     assert moves[("A", "B", "AtoB_event")] == 30
     assert moves[("B", "C", "BtoBC_branching_event")] == 15
@@ -218,24 +227,27 @@ def test_formation_completes_under_other_seeds(seed: int) -> None:
 def test_formation_scales_to_another_swarm_size() -> None:
     """``--platforms 15``: the branch of 15 of 30 becomes 8 of 15."""
     run = Run("formation", seed=1, platforms=15)
-    run.clean()
+    run.clean(separation=False)
     moves = run.moves()
     assert moves[("A", "B", "AtoB_event")] == 15
     assert moves[("B", "C", "BtoBC_branching_event")] == 8
     assert moves[("A", "Return", "go_home_event")] == 15
+    assert run.least_separation() >= SAFETY_DISTANCE
 
 
 def test_formation_completes_with_ten_percent_loss() -> None:
     run = Run("formation", seed=4, loss=0.1)
-    run.clean()
+    run.clean(separation=False)
     assert run.moves()[("A", "Return", "go_home_event")] == 30
+    assert run.least_separation() >= SAFETY_DISTANCE
 
 
 def test_formation_completes_with_a_platform_killed_mid_mission() -> None:
     run = Run("formation", seed=5, kills=((7, 100.0),))
-    run.clean()
+    run.clean(separation=False)
     assert "7" not in run.report["final_actors"]
     assert run.moves()[("A", "Return", "go_home_event")] == 29
+    assert run.least_separation() >= SAFETY_DISTANCE
 
 
 # --- search and track --------------------------------------------------------------------

@@ -635,6 +635,15 @@ def sim(
             help="Exit 4 when the task has not completed by the end of the run.",
         ),
     ] = False,
+    min_separation: Annotated[
+        float | None,
+        typer.Option(
+            metavar="M",
+            min=0.01,
+            help="Every pair of airborne vehicles must keep at least M metres (over each "
+            "kind's separation in the world), and a breach stops the run (exit 1).",
+        ),
+    ] = None,
 ) -> None:
     """Run a task script on a simulated swarm, in virtual time (docs/design.md §7).
 
@@ -663,6 +672,9 @@ def sim(
     if no_world and world is not None:
         typer.echo("--world and --no-world exclude each other", err=True)
         raise typer.Exit(2)
+    if no_world and min_separation is not None:
+        typer.echo("--min-separation needs vehicles: leave out --no-world", err=True)
+        raise typer.Exit(2)
     world_config: WorldConfig | None = None
     if not no_world:
         try:
@@ -672,7 +684,7 @@ def sim(
             raise typer.Exit(2) from None
     # The world is known here, so the script's area names are checked against it.
     areas = None if world_config is None else [a.name for a in world_config.areas]
-    code, script = check_script(file, DEFAULT_MAX_BYTES, areas)
+    code, script = check_script(file, DEFAULT_MAX_BYTES, areas, world_config)
     if script is None:
         raise typer.Exit(code or 1)
     try:
@@ -713,6 +725,7 @@ def sim(
             config=CoreConfig(channel_bitrate=channel_bitrate),
             world_config=world_config,
             airtime=airtime,
+            min_separation=min_separation,
         )
         if serve:
             from actorswarm.cli.web_cmd import serve_sim
@@ -906,20 +919,25 @@ def task_check(
     ] = DEFAULT_MAX_BYTES,
     world: Annotated[
         Path | None,
-        typer.Option(help="The world (TOML) the scripts will run in: check their area names."),
+        typer.Option(
+            help="The world (TOML) the scripts will run in: check their area names, and warn "
+            "about separation, the ceiling and crowded areas."
+        ),
     ] = None,
 ) -> None:
     """Check task scripts before deploying them.
 
     Prints "FILE: ok" on stdout for each valid script; every problem goes to stderr as
     FILE:LINE:COL: message (warnings too, without failing). With --world, every area a
-    plugin names must be one of that world's [[areas]]. Exit status: 0 when every script
+    plugin names must be one of that world's [[areas]], and what can be known of separation
+    before flight is warned about (docs/safety.md). Exit status: 0 when every script
     is valid, 1 when any has an error, 2 when a file (or the world) cannot be read.
     """
-    areas = None if world is None else [area.name for area in read_world(world).areas]
+    world_config = None if world is None else read_world(world)
+    areas = None if world_config is None else [area.name for area in world_config.areas]
     status = 0
     for path in files:
-        code, _ = check_script(path, max_bytes, areas)
+        code, _ = check_script(path, max_bytes, areas, world_config)
         if code == 0:
             typer.echo(f"{path}: ok")
         status = max(status, code)

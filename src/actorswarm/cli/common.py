@@ -63,16 +63,20 @@ def read_world(path: Path) -> WorldConfig:
 
 
 def check_script(
-    path: Path, max_bytes: int = DEFAULT_MAX_BYTES, areas: Collection[str] | None = None
+    path: Path,
+    max_bytes: int = DEFAULT_MAX_BYTES,
+    areas: Collection[str] | None = None,
+    world: WorldConfig | None = None,
 ) -> tuple[int, TaskScript | None]:
     """Check one script, printing its diagnostics on stderr as ``FILE:LINE:COL: message``:
     (exit status, model or None). Status 2 when the file cannot be read, 1 when the script
     has errors. ``areas``: the world's area names, which every ``area`` param must use
-    (None: not checked)."""
+    (None: not checked); ``world``: the world, for the safety warnings
+    (:mod:`actorswarm.dsl.safety`)."""
     from actorswarm.dsl import check_file
 
     try:
-        result = check_file(path, max_bytes=max_bytes, areas=areas)
+        result = check_file(path, max_bytes=max_bytes, areas=areas, world=world)
     except OSError as exc:
         typer.echo(f"{path}: cannot read the file: {exc.strerror or exc}", err=True)
         return 2, None

@@ -314,6 +314,7 @@ def _mavlink_vehicle(
         arm_timeout=file.mavlink_arm_timeout,
         fence=fence,
         name=f"platform {platform}",
+        push_fence=file.mavlink_push_fence,
     )
     try:
         return MavlinkVehicle(settings)

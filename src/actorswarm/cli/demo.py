@@ -29,6 +29,7 @@ from actorswarm.sim.mission import prepare, run_slices
 from actorswarm.sim.tasksim import Fault, failure_lines, steps
 from actorswarm.sim.verdict import verdict
 from actorswarm.viz import timeline_png, trajectory_png
+from actorswarm.world.separation import BREACH_PREFIX, separation_line
 
 __all__ = ["demo_status", "describe_steps", "run_demo"]
 
@@ -99,10 +100,11 @@ def _summary_table(report: dict[str, Any], mission: Mission) -> Table:
         )
     if report["plugin_failures"]:
         table.add_row("plugin failures", str(len(report["plugin_failures"])))
-    table.add_row(
-        "invariants",
-        "all held" if not report["violations"] else "; ".join(report["violations"]),
-    )
+    separation = report.get("separation")
+    if separation is not None:
+        table.add_row("separation", separation_line(separation).removeprefix("separation: "))
+    invariants = [v for v in report["violations"] if not v.startswith(BREACH_PREFIX)]
+    table.add_row("invariants", "all held" if not invariants else "; ".join(invariants))
     return table
 
 

@@ -91,20 +91,22 @@ def gs_deploy(
         Path | None,
         typer.Option(
             help="The world (TOML) the swarm flies in: refuse a script naming an area it "
-            "does not have, before anything is sent."
+            "does not have, before anything is sent, and warn about separation and the ceiling."
         ),
     ] = None,
 ) -> None:
     """Send a script to the swarm and wait until every expected platform confirmed it.
 
-    The script is checked first, as task check does (with --world, its area names too):
+    The script is checked first, as task check does (with --world, its area names too, and
+    the safety warnings of docs/safety.md, which do not stop the deployment):
     a script with errors is not sent, its diagnostics go to stderr as FILE:LINE:COL:
     message, and the exit status is 1 (2 when the script or the world cannot be read)."""
     ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     platforms = int_list_or_count(expect, "--expect")
     output_file(state or default_state_file(ln.swarm), "--state")  # before anything is sent
-    areas = None if world is None else [area.name for area in read_world(world).areas]
-    code, script = check_script(file, areas=areas)
+    world_config = None if world is None else read_world(world)
+    areas = None if world_config is None else [area.name for area in world_config.areas]
+    code, script = check_script(file, areas=areas, world=world_config)
     if script is None or code:
         raise typer.Exit(code or 1)
     try:

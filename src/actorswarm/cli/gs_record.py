@@ -83,6 +83,15 @@ def gs_record(
     live: LiveOpt = False,
     live_host: LiveHostOpt = "127.0.0.1",
     live_port: LivePortOpt = LIVE_PORT,
+    min_separation: Annotated[
+        float,
+        typer.Option(
+            min=0.01,
+            metavar="M",
+            help="Every pair of airborne platforms must keep M metres: each breach of it in "
+            "the reported positions is recorded and said (default: a quadrotor's 3 m).",
+        ),
+    ] = 3.0,
 ) -> None:
     """Record a real swarm (poses, actors' switches, masters, joins and leaves, vehicle
     faults, the platforms' answers to the operator's commands) until Ctrl-C, as an MCAP
@@ -92,8 +101,10 @@ def gs_record(
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
     from actorswarm.ground.recorder import SwarmRecorder
+    from actorswarm.ground.separation import SwarmSeparation
     from actorswarm.recording import McapSink, Recorder, RecordingWriteError, Sink
     from actorswarm.web.membership import Membership
+    from actorswarm.world.separation import separation_line
 
     ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
     meta = {
@@ -118,6 +129,7 @@ def gs_record(
     writer = Recorder(sinks, meta=meta, t0_ns=time.time_ns(), origin=frame)
     session = ln.session()
     recorder = SwarmRecorder(writer, clock())
+    separation = SwarmSeparation(min_separation, max_age=max(3 * poll, 1.0))
     membership = Membership(session.station.config.t_leave)
     show = sys.stderr.isatty()
 
@@ -150,6 +162,8 @@ def gs_record(
                     recorder.reply(record.t, record.platform, record.reply)
                     if isinstance(record.reply, cmds.StatusReply):
                         answered = record.t
+                        if record.reply.position is not None:
+                            separation.position(record.t, record.platform, record.reply.position)
                 station.replies.clear()
                 now = clock()
                 if (
@@ -167,6 +181,8 @@ def gs_record(
                     )
                     answered = now
                 if now >= next_look:
+                    for breach in separation.observe(now):
+                        writer.event(recorder.t(now), "separation", 0, breach.describe())
                     membership.update(station, now)
                     recorder.membership(now, membership)
                     progress()
@@ -194,6 +210,7 @@ def gs_record(
     if show:
         typer.echo("", err=True)
     progress(final=True)
+    typer.echo(separation_line(separation.result().as_dict()))
     typer.echo(f"wrote {out}")
 
 

@@ -32,6 +32,7 @@ and where the mission's origin is; the keys after these three exist only in the 
     mavlink_force = false              # take off even with the failsafes off
     mavlink_arm_timeout = 120.0        # seconds a take-off waits for the autopilot to be ready
     fence = [-300, -300, 300, 300, 60] # x_min, y_min, x_max, y_max, z_max: bounds every goal
+    mavlink_push_fence = true          # also set the autopilot's own geofence to the fence
 
     [core]
     t_leave = 0.5
@@ -105,6 +106,7 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     mavlink_force: bool = False
     mavlink_arm_timeout: Annotated[float, msgspec.Meta(gt=0)] = 120.0
     fence: Annotated[list[float], msgspec.Meta(min_length=5, max_length=5)] | None = None
+    mavlink_push_fence: bool = False
     fleet: str | None = None
     transport: Literal["zenoh"] | None = None
     core: dict[str, Any] = {}

@@ -9,7 +9,9 @@ The pipeline, each stage its own module:
 3. :func:`~actorswarm.dsl.rules.check_references` — names, duplicates, counts, plugins and
    their buses and params (``area`` names against the world's, when it is given);
 4. :func:`~actorswarm.dsl.rules.check_whole` — reachability and barrier-group feasibility,
-   only once 2 and 3 found no error.
+   only once 2 and 3 found no error;
+5. with a world, :func:`~actorswarm.dsl.safety.check_safety` — warnings about separation,
+   the ceiling and areas the script's platforms cannot share.
 
 A script with any error is refused whole (docs/design.md §4): :func:`check` then returns no model
 and :func:`load` raises :class:`~actorswarm.dsl.diagnostics.ScriptError`. Warnings never
@@ -22,6 +24,7 @@ import os
 from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from actorswarm.dsl import rules
 from actorswarm.dsl.builder import build
@@ -29,6 +32,10 @@ from actorswarm.dsl.diagnostics import Diagnostic, Report, ScriptError
 from actorswarm.dsl.model import TaskScript
 from actorswarm.dsl.parser import DEFAULT_MAX_BYTES, XmlError, check_size, parse_xml
 from actorswarm.dsl.plugins import installed_plugins
+from actorswarm.dsl.safety import check_safety
+
+if TYPE_CHECKING:
+    from actorswarm.world.config import WorldConfig
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -59,6 +66,7 @@ def check(
     known_plugins: Collection[str] | None = None,
     max_bytes: int = DEFAULT_MAX_BYTES,
     areas: Collection[str] | None = None,
+    world: WorldConfig | None = None,
 ) -> CheckResult:
     """Check the task script ``source`` (text, or UTF-8 bytes).
 
@@ -66,7 +74,8 @@ def check(
     script may use (default: :func:`~actorswarm.dsl.plugins.installed_plugins`).
     ``max_bytes`` caps the script's size. ``areas`` are the names of the areas of the world
     the script will run in: every ``area`` param must name one of them (or be a rectangle);
-    None (the default) leaves names unchecked. Never raises for a bad script: everything
+    None (the default) leaves names unchecked. ``world``: the world it will fly in, for the
+    warnings of :mod:`~actorswarm.dsl.safety`. Never raises for a bad script: everything
     wrong with it is in the result.
     """
     name = os.fspath(path)
@@ -86,6 +95,8 @@ def check(
             )
             if not report.has_errors:
                 rules.check_whole(script, report)
+            if not report.has_errors and world is not None:
+                check_safety(script, world, report)
     found = report.sorted()
     errors = tuple(d for d in found if d.severity == "error")
     return CheckResult(
@@ -102,6 +113,7 @@ def check_file(
     known_plugins: Collection[str] | None = None,
     max_bytes: int = DEFAULT_MAX_BYTES,
     areas: Collection[str] | None = None,
+    world: WorldConfig | None = None,
 ) -> CheckResult:
     """:func:`check` the file at ``path``. A file above ``max_bytes`` is refused before it
     is read. ``OSError`` (no such file, no permission) is left to the caller."""
@@ -116,7 +128,14 @@ def check_file(
         return CheckResult(path=os.fspath(path), errors=(error,), warnings=(), script=None)
     with file.open("rb") as stream:
         data = stream.read(max_bytes + 1)  # the file may have grown since stat()
-    return check(data, path=path, known_plugins=known_plugins, max_bytes=max_bytes, areas=areas)
+    return check(
+        data,
+        path=path,
+        known_plugins=known_plugins,
+        max_bytes=max_bytes,
+        areas=areas,
+        world=world,
+    )
 
 
 def load(

@@ -2,13 +2,31 @@
 
 The master knows where each chosen member is (each request carries its position) and,
 through the successor actor's plugins (:meth:`~actorswarm.runtime.plugin.Plugin.
-group_points`), where the slots are. :func:`assign_slots` pairs them so that the total
-distance flown is least — the linear assignment problem, solved exactly by
-:func:`scipy.optimize.linear_sum_assignment` (a few milliseconds for a thousand members).
-The least total distance has a property a swarm needs: no two straight paths from members
-to their slots cross, since uncrossing two crossing paths would make the total shorter
-(the triangle inequality). Ties are broken the same way on every master (the solver is
-deterministic), so a master that takes over a release mid-way scatters the same slots.
+group_points`), where the slots are. :func:`assign_slots` pairs them by one of two costs,
+each solved exactly as a linear assignment problem by
+:func:`scipy.optimize.linear_sum_assignment` (a few milliseconds for a thousand members):
+
+* **Least total distance** (``squared=False``), for members that each fly to their place
+  on their own (a search's strips, a goto's grid): no two straight paths cross, since
+  uncrossing two crossing paths would make the total shorter (the triangle inequality).
+* **Least total squared distance** (``squared=True``), for members that close on their
+  places *in step* (:attr:`~actorswarm.runtime.plugin.Plugin.group_in_step`: the
+  formations, whose members close the gap to a slot in proportion): member ``i`` is at
+  ``x_i + s·(g_i - x_i)`` when the group is a fraction ``s`` of the way. The least sum of
+  squares means no two members would gain by swapping slots, which is
+  ``(x_i - x_j)·(g_i - g_j) ≥ 0`` for every pair, and then their distance at every ``s``
+  is at least ``min(|x_i - x_j|, |g_i - g_j|) / √2`` (expand the square: the cross term is
+  not negative). Members that start apart and slots that are apart keep apart on the way:
+  slots ``spacing`` apart, from a shape whose members were ``spacing`` apart, keep at least
+  ``0.71·spacing`` at every instant of a change in step (the concurrent assignment of
+  Turpin, Michael and Kumar, "CAPT", 2014). The least plain sum only rules out crossing
+  paths, and lets two members in step converge to within any distance: one flies past
+  another's slot just as that one arrives (tests/engine/test_assign.py crafts one). The
+  squared cost also weighs the longest path most, so no member is left with a much longer
+  flight than the rest.
+
+Ties are broken the same way on every master (the solver is deterministic), so a master
+that takes over a release mid-way scatters the same slots.
 """
 
 from __future__ import annotations
@@ -19,12 +37,16 @@ __all__ = ["assign_slots"]
 
 
 def assign_slots(
-    positions: Sequence[Sequence[float]], points: Sequence[Sequence[float]]
+    positions: Sequence[Sequence[float]],
+    points: Sequence[Sequence[float]],
+    *,
+    squared: bool = False,
 ) -> list[int]:
     """For member ``i`` at ``positions[i]`` (``(x, y)`` or ``(x, y, z)``; only x and y
     count), the 1-based slot whose point (``points[j]``, ``(x, y)``) it should take, so that
-    the sum of the horizontal distances is least. There must be at least as many points as
-    members (ValueError otherwise); with more, the extra slots stay empty."""
+    the sum of the horizontal distances (``squared``: of their squares) is least (module
+    docstring). There must be at least as many points as members (ValueError otherwise);
+    with more, the extra slots stay empty."""
     n, m = len(positions), len(points)
     if n > m:
         raise ValueError(f"{n} members cannot share {m} slots")
@@ -37,8 +59,8 @@ def assign_slots(
 
     here = np.asarray([(float(p[0]), float(p[1])) for p in positions])
     there = np.asarray([(float(p[0]), float(p[1])) for p in points])
-    cost = np.linalg.norm(here[:, None, :] - there[None, :, :], axis=-1)
-    rows, cols = linear_sum_assignment(cost)
+    squares = ((here[:, None, :] - there[None, :, :]) ** 2).sum(axis=-1)
+    rows, cols = linear_sum_assignment(squares if squared else np.sqrt(squares))
     out = [0] * n
     for r, c in zip(rows.tolist(), cols.tolist(), strict=True):
         out[r] = c + 1

@@ -72,6 +72,11 @@ class ActorHost(Protocol):
         ``params`` will go (slot 1 first), or None when its plugins give no places."""
         ...
 
+    def group_in_step(self, actor: str, count: int, now: float, params: dict[str, str]) -> bool:
+        """Whether those members close on their places in step (a formation), so that the
+        places are handed out by least squared distance."""
+        ...
+
     def drain_switch_times(self) -> list[float]:
         """Seconds each :meth:`switch` since the last call took, from the call to the end of
         the new actor's first step (oldest first); a benchmark reads them."""

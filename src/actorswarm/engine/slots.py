@@ -75,8 +75,8 @@ def _assigned(
     now: float,
 ) -> list[int]:
     """Slots for the members in ``order`` (part then index order): by least total
-    distance to the successor's places when its plugins give places and every member
-    said where it is; otherwise in that order."""
+    distance to the successor's places (squared, when they move in step) when its plugins
+    give places and every member said where it is; otherwise in that order."""
     in_order = list(range(1, len(order) + 1))
     said = [where.get(p) for p in order]
     if len(order) < 2 or not all(_is_xy(p) for p in said):
@@ -85,7 +85,8 @@ def _assigned(
     points = runtime.group_points(successor, len(order), now, params)
     if points is None:
         return in_order
-    return assign_slots(positions, points[: len(order)])
+    squared = runtime.group_in_step(successor, len(order), now, params)
+    return assign_slots(positions, points[: len(order)], squared=squared)
 
 
 def scattered_successor(data: Any, transition: Transition) -> str | None:

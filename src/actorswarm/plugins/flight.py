@@ -57,6 +57,14 @@ LANDED_ALTITUDE: Final = 0.2
 LANDED_SPEED: Final = 0.1
 
 
+#: How many transit layers a formation changing shape is spread over (the formations'
+#: ``transit_step``), half below its altitude and half above.
+TRANSIT_LAYERS: Final = 4
+#: How many layers a group flying home is spread over (``flight.return_home``'s
+#: ``layer_step``), from its altitude up.
+HOME_LAYERS: Final = 6
+
+
 def _scope_param() -> Param:
     return Param(
         kind="str",
@@ -187,6 +195,13 @@ class GoTo(Plugin):
         the plugin then tells the vehicle to hold.
     ``scope`` (``local``, the default, or ``swarm``)
         The event's scope.
+    ``spacing`` (float ≥ 0, default 0)
+        When a group is sent (``ctx.slots`` > 1), each member flies to its own place on a
+        grid around the point, ``spacing`` metres apart (slot ``k``: the ``k``-th place of
+        :func:`~actorswarm.plugins.formation.slots` ``("grid", slots, spacing)``, the grid
+        centred on the point), which the master hands out by
+        :mod:`actorswarm.engine.assign`. 0: every member flies to the point itself — they
+        meet there, which ``actorswarm task check --world`` warns about.
 
     A vehicle on the ground takes off on its way (what the vehicle does with a ``goto``).
     The snapshot is ``{"target": [x, y, z], "fired": bool}``: the point resolved at start,
@@ -196,6 +211,9 @@ class GoTo(Plugin):
     bus = "act_bus"
     resources = frozenset({"autopilot"})
     needs_vehicle = True
+    # A group sent to a grid around one point flies there at one speed from about as far
+    # away (a translated grid): about in step, so the places go by least squared distance.
+    group_in_step = True
     params: ClassVar[Mapping[str, Param]] = {
         "target": Param(
             kind="point",
@@ -219,11 +237,48 @@ class GoTo(Plugin):
         ),
         "event": _event_param("arriving_event", "when the vehicle is within tolerance"),
         "scope": _scope_param(),
+        "spacing": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="metres between the places of a group's members on a grid around the "
+            "point; 0: every member to the point itself",
+        ),
     }
 
     def __init__(self) -> None:
         self._target: Point | None = None
         self._fired = False
+
+    @staticmethod
+    def places(count: int, spacing: float) -> list[tuple[float, float]]:
+        """The offsets of ``count`` members' places from the point: a grid ``spacing``
+        apart, centred on it (all ``(0, 0)`` when ``spacing`` is 0)."""
+        if count < 1:
+            return []
+        if spacing <= 0:
+            return [(0.0, 0.0)] * count
+        from actorswarm.plugins.formation import slots
+
+        grid = slots("grid", count, spacing)
+        centre = (grid.max(axis=0) + grid.min(axis=0)) / 2.0
+        return [(float(x), float(y)) for x, y in (grid - centre).tolist()]
+
+    @classmethod
+    def group_points(
+        cls,
+        params: Mapping[str, Any],
+        count: int,
+        now: float,
+        areas: Mapping[str, Sequence[tuple[float, float]]],
+    ) -> list[tuple[float, float]] | None:
+        """The members' places around the point (``spacing``), or None without spacing
+        (every member goes to the same point, so there is nothing to hand out)."""
+        spacing = float(params.get("spacing") or 0.0)
+        if spacing <= 0:
+            return None
+        x, y, _ = cls.resolve_target(params)
+        return [(x + dx, y + dy) for dx, dy in cls.places(count, spacing)]
 
     @staticmethod
     def resolve_target(params: Mapping[str, Any]) -> Point:
@@ -240,7 +295,12 @@ class GoTo(Plugin):
         return read_point("flight.goto", "target", point)
 
     def on_start(self, ctx: PluginContext) -> None:
-        self._target = self.resolve_target(ctx.params)
+        x, y, z = self.resolve_target(ctx.params)
+        spacing = float(ctx.params.get("spacing") or 0.0)
+        if spacing > 0 and ctx.slots > 1 and 1 <= ctx.slot <= ctx.slots:
+            dx, dy = self.places(ctx.slots, spacing)[ctx.slot - 1]
+            x, y = x + dx, y + dy
+        self._target = (x, y, z)
         self._fired = False
         self._command(ctx)
 
@@ -301,6 +361,11 @@ class ReturnHome(Plugin):
         than 0.1 m/s), or, with ``land`` false, when it is over home.
     ``scope`` (``local``, the default, or ``swarm``)
         The event's scope.
+    ``layer_step`` (float ≥ 0, default 0)
+        Members of a group sent home together travel on :data:`HOME_LAYERS` layers,
+        slot ``k`` at ``altitude + ((k - 1) mod HOME_LAYERS) · layer_step``, so that the
+        paths of neighbours that cross on the way home pass above each other; 0: all at
+        ``altitude``.
 
     The phases are ``transit`` (a ``goto`` to the point ``altitude`` metres over home),
     ``landing`` (a ``land`` once within ``tolerance`` of it) and ``done``. A vehicle already
@@ -335,6 +400,13 @@ class ReturnHome(Plugin):
         ),
         "event": _event_param("landed_event", "when the vehicle is down at home"),
         "scope": _scope_param(),
+        "layer_step": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="metres between the layers a group travels home on (slot k on layer "
+            "(k - 1) mod 6); 0: one layer",
+        ),
     }
 
     _PHASES: ClassVar[tuple[str, ...]] = ("transit", "landing", "done")
@@ -342,6 +414,7 @@ class ReturnHome(Plugin):
     def __init__(self) -> None:
         self._home: Point | None = None
         self._phase = "transit"
+        self._layer = 0
 
     @property
     def home(self) -> Point | None:
@@ -358,6 +431,7 @@ class ReturnHome(Plugin):
         if altitude <= 0:
             raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
+        self._layer = (ctx.slot - 1) % HOME_LAYERS if ctx.slot > 0 else 0
         given = ctx.params["home"]
         if given is not None:
             self._home = read_point("flight.return_home", "home", given)
@@ -406,7 +480,8 @@ class ReturnHome(Plugin):
 
     def _over_home(self, ctx: PluginContext) -> Point:
         assert self._home is not None
-        return (self._home[0], self._home[1], float(ctx.params["altitude"]))
+        step = float(ctx.params["layer_step"])
+        return (self._home[0], self._home[1], float(ctx.params["altitude"]) + self._layer * step)
 
     def _finish(self, ctx: PluginContext) -> None:
         self._phase = "done"

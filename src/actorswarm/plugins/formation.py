@@ -57,10 +57,22 @@ Three layers, each usable on its own:
 
 Which member takes which slot is the master's choice when it releases the group: by
 :meth:`Formation.group_points` it knows where the slots are, by the requests where the
-members are, and it hands out the slots by least total distance, so no two members' paths
-to their slots cross (:mod:`actorswarm.engine.assign`). The plugins do not steer around
-each other beyond that; ``altitude_step`` separates the members vertically as well (one
-layer per slot), for the paths that still meet while the shape turns with the leader.
+members are, and it hands out the slots by least total squared distance, so that members
+closing on their slots in step keep apart (:mod:`actorswarm.engine.assign`). The plugins
+do not steer around each other beyond that, since they do not know where the others are;
+two things separate them vertically. ``altitude_step`` gives every slot a layer of its own
+(small steps: it separates members on their slots, not members crossing). ``transit_step``
+deconflicts the changes of shape, when paths cross and converge: a member further than half
+the spacing from its slot flies one of
+:data:`~actorswarm.plugins.flight.TRANSIT_LAYERS` transit layers, ``transit_step`` apart,
+half below the formation's altitude and half above, none at it (slot ``k`` on layer
+``(k - 1) mod TRANSIT_LAYERS``, so members with neighbouring slots are on different
+layers, and every member in transit passes at least a step above or below the members
+already on their slots), and goes back to its slot's altitude once within a quarter of the
+spacing. With a step at least the vehicles' separation, two members in transit on
+different layers cannot breach it; two on one layer still can. How close they come is
+measured in every run (:mod:`actorswarm.world.separation`; docs/safety.md gives the
+figures of the shipped missions).
 """
 
 from __future__ import annotations
@@ -73,6 +85,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Final
 import numpy as np
 from numpy.typing import NDArray
 
+from actorswarm.plugins.flight import TRANSIT_LAYERS
 from actorswarm.plugins.snapshot import finite
 from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
@@ -86,6 +99,9 @@ __all__ = [
     "RECOMMAND_DISTANCE",
     "ROUTE_PATTERN",
     "SHAPES",
+    "TRANSIT_ENTER",
+    "TRANSIT_LAYERS",
+    "TRANSIT_LEAVE",
     "Arrow",
     "Circle",
     "Formation",
@@ -104,6 +120,10 @@ FloatArray = NDArray[np.float64]
 
 #: A slot's point that moved less than this (metres) since the last command is not re-sent.
 RECOMMAND_DISTANCE: Final = 1.0
+#: With ``transit_step``, a member further than this share of the spacing from its slot
+#: flies a transit layer, until it is within :data:`TRANSIT_LEAVE` of the spacing again.
+TRANSIT_ENTER: Final = 0.5
+TRANSIT_LEAVE: Final = 0.25
 #: The commanded speed closes the distance to the slot in about this many seconds, on top
 #: of the leader's speed.
 CATCH_UP_TIME: Final = 5.0
@@ -398,6 +418,10 @@ class Formation(Plugin):
         Slot ``k`` flies at ``altitude + (k - 1) · altitude_step``. Members fly straight to
         their slots and may cross each other's paths on the way; a step of a few metres
         puts every member on a layer of its own, so crossing paths pass above each other.
+    ``transit_step`` (float ≥ 0, default 0)
+        While far from its slot (changing shape), fly a transit layer: ``transit_step``
+        metres apart, by slot (module docstring). 0: no transit layers. A step of at least
+        the vehicles' separation keeps members on different layers apart.
     ``loop`` (bool, default false)
         Fly the route round and round (back from the last point to the first) instead of
         stopping at the last point.
@@ -437,6 +461,7 @@ class Formation(Plugin):
     bus = "act_bus"
     resources = frozenset({"autopilot"})
     needs_vehicle = True
+    group_in_step = True
     #: The :func:`slots` shape this class flies.
     shape: ClassVar[str] = "arrow"
     params: ClassVar[Mapping[str, Param]] = {
@@ -514,6 +539,13 @@ class Formation(Plugin):
             form="two numbers 'forward left' in metres, such as '0 -30'",
             doc="'forward left' metres from the route's leader to this formation's leader",
         ),
+        "transit_step": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="metres between the transit layers a member flies while far from its slot "
+            "(slot k on layer (k - 1) mod 4, two below the altitude, two above); 0: none",
+        ),
     }
 
     def __init__(self) -> None:
@@ -525,6 +557,10 @@ class Formation(Plugin):
         self._slot = 0
         self._arrived = False
         self._sent: tuple[float, float, float] | None = None
+        self._base = 0.0
+        self._spacing = 0.0
+        #: The transit layer flown now (a multiple of transit_step), None: the slot's own.
+        self._layer: int | None = None
 
     @classmethod
     def group_points(
@@ -562,6 +598,9 @@ class Formation(Plugin):
         spacing = _positive(name, params, "spacing")
         self._speed = _positive(name, params, "speed")
         self._altitude = _positive(name, params, "altitude")
+        self._base = self._altitude
+        self._spacing = spacing
+        self._layer = None
         slot = ctx.slot if ctx.slot > 0 else 1
         size = int(params["size"]) or max(ctx.slots, slot)
         if slot > size:
@@ -605,11 +644,38 @@ class Formation(Plugin):
         else:
             target = slot
             speed = self._speed + math.dist(position, slot) / CATCH_UP_TIME
+        z = self._transit(ctx, slot, position)
+        target = (target[0], target[1], z)
         unchanged = self._sent is not None and math.dist(target, self._sent) < RECOMMAND_DISTANCE
         if unchanged and not force:
             return
         vehicle.goto(*target, speed=speed)
         self._sent = target
+
+    def _transit(self, ctx: PluginContext, slot: Point, position: Point) -> float:
+        """The altitude to fly at now: the slot's, or while far from it (more than half the
+        spacing), the transit layer of the way it must go in the leader's frame — chosen
+        when it leaves its slot's neighbourhood and kept until it is within a quarter of
+        the spacing (so a member does not hop between layers on the way)."""
+        step = float(ctx.params["transit_step"])
+        assert self._leader is not None
+        if step <= 0:
+            return slot[2]
+        ex, ey = slot[0] - position[0], slot[1] - position[1]
+        far = math.hypot(ex, ey)
+        if self._layer is not None and far < TRANSIT_LEAVE * self._spacing:
+            self._layer = None
+        elif self._layer is None and far > TRANSIT_ENTER * self._spacing:
+            # Layers by slot: members whose slots are neighbours (in any shape, mostly a
+            # few numbers apart) cross and converge on different layers.
+            self._layer = (self._slot - 1) % TRANSIT_LAYERS
+        if self._layer is None:
+            return slot[2]
+        # Half the layers below the formation's altitude, half above, none at it: a member
+        # in transit passes at least one step above or below the members on their slots.
+        half = TRANSIT_LAYERS // 2
+        level = self._layer - half if self._layer < half else self._layer - half + 1
+        return self._base + level * step
 
     def on_start(self, ctx: PluginContext) -> None:
         self._arrived = False

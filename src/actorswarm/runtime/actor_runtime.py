@@ -271,6 +271,18 @@ class ActorRuntime:
         """The first answer of ``actor``'s plugins to :meth:`Plugin.group_points` that
         gives ``count`` points or more, or None. A plugin that raises is skipped: the
         master's release must not fail over a plugin's geometry."""
+        answer = self._group_answer(actor, count, now, params)
+        return None if answer is None else answer[0]
+
+    def group_in_step(self, actor: str, count: int, now: float, params: Mapping[str, str]) -> bool:
+        """Whether the plugin that gives ``actor``'s group points moves the group in step
+        (:attr:`Plugin.group_in_step`)."""
+        answer = self._group_answer(actor, count, now, params)
+        return answer is not None and answer[1]
+
+    def _group_answer(
+        self, actor: str, count: int, now: float, params: Mapping[str, str]
+    ) -> tuple[list[tuple[float, float]], bool] | None:
         definition = self._defs.get(actor)
         if definition is None or count < 1:
             return None
@@ -280,7 +292,7 @@ class ActorRuntime:
                 points = pdef.cls.group_points(bound, count, now, self.areas)
                 if points is None or len(points) < count:
                     continue
-                return [(float(p[0]), float(p[1])) for p in points]
+                return [(float(p[0]), float(p[1])) for p in points], pdef.cls.group_in_step
             except Exception:
                 continue
         return None

@@ -493,6 +493,12 @@ class Plugin(ABC):
     #: The ``<param key value>`` pairs it accepts, by key. Every declared key is present in
     #: ``ctx.params`` (a value, or the default, which may be None).
     params: ClassVar[Mapping[str, Param]] = MappingProxyType({})
+    #: True when a group's members close on their :meth:`group_points` in step, each the
+    #: same fraction of the way at every moment (a formation): the master then hands the
+    #: places out by least *squared* distance, which keeps such members apart on the way;
+    #: False, by least total distance, which keeps their straight paths from crossing
+    #: (:mod:`actorswarm.engine.assign`).
+    group_in_step: ClassVar[bool] = False
 
     # The instance's place in :data:`LIFECYCLE`. A class attribute, so a subclass
     # ``__init__`` that forgets ``super().__init__()`` still starts out "new".

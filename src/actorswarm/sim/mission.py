@@ -63,11 +63,13 @@ def prepare(
     loss: float = 0.0,
     kills: tuple[tuple[int, float], ...] = (),
     packets: list[tuple[float, int]] | None = None,
+    min_separation: float | None = None,
 ) -> TaskSim:
     """The mission's simulation, events and crashes scheduled, recording every
     :data:`RECORD_PERIOD` seconds. ``loss`` is an extra independent loss on every packet,
     on top of the world's distance-driven radio model. ``packets``: as
-    :func:`~actorswarm.sim.record.sample_world` takes it."""
+    :func:`~actorswarm.sim.record.sample_world` takes it; ``min_separation``: as
+    :attr:`TaskSim.min_separation <actorswarm.sim.tasksim.TaskSim.min_separation>`."""
     script = load(mission.script_path)
     script = resize(script, platforms or mission.platforms, mission.platforms)
     sim = TaskSim(
@@ -76,6 +78,7 @@ def prepare(
         link=LinkModel(loss=loss),
         config=CoreConfig(),
         world_config=load_world(mission.world_path),
+        min_separation=min_separation,
     )
     sample_world(sim, RECORD_PERIOD, packets)
     sim.schedule(

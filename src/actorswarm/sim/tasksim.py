@@ -34,6 +34,12 @@ from actorswarm.sim.radio import Airtime, LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
 from actorswarm.world.config import WorldConfig
+from actorswarm.world.separation import (
+    SeparationBreachError,
+    SeparationMonitor,
+    separation_line,
+)
+from actorswarm.world.vehicles import FLYING, LANDING, TAKEOFF
 from actorswarm.world.world import World
 
 
@@ -79,7 +85,16 @@ class TaskSim:
     #: The radio's shared channel (:attr:`~actorswarm.sim.radio.SimRadio.airtime`); None:
     #: no airtime modelled, packets never wait for the channel.
     airtime: Airtime | None = None
+    #: Every pair of airborne vehicles must keep at least this many metres (over the
+    #: world's per-kind separation), and a breach stops the run (``--min-separation``).
+    #: None: the world's separations, fatal only with its ``[safety] fatal_separation``.
+    min_separation: float | None = None
     world: World | None = field(default=None, init=False)
+    #: How close the airborne vehicles come (:mod:`actorswarm.world.separation`), measured
+    #: after every physics step; None without a world.
+    separation: SeparationMonitor | None = field(default=None, init=False)
+    #: Why the run stopped before its end (a fatal separation breach); None: it did not.
+    halted: str | None = field(default=None, init=False)
     ground: GroundStation | None = field(default=None, init=False)
     _gs_timer: Timer | None = field(default=None, init=False)
     _gs_at: float = field(default=float("inf"), init=False)
@@ -109,6 +124,7 @@ class TaskSim:
         self.swarm.radio.airtime = self.airtime
         if self.world_config is not None:
             self.world = World(self.world_config, platforms)
+            self.separation = self._monitor(self.world_config, self.world)
             self.swarm.radio.link_fn = self._link
             self.swarm.at(0.0, self._physics)
         self.ground = GroundStation(swarm=self.swarm.swarm, config=self.config)
@@ -160,6 +176,33 @@ class TaskSim:
                 self.swarm.crash(platform)
                 self._retire(platform)
         self.swarm.scheduler.after(self.world_config.world.step, self._physics)
+        # Last: with a fatal separation this raises, out of the scheduler (_run_to).
+        self._separate()
+
+    def _monitor(self, config: WorldConfig, world: World) -> SeparationMonitor:
+        minimums = config.separations()
+        fatal = config.safety.fatal_separation
+        if self.min_separation is not None:
+            if not self.min_separation > 0:
+                raise ValueError(
+                    f"--min-separation must be a number of metres > 0, not {self.min_separation}"
+                )
+            minimums = {k: max(v, self.min_separation) for k, v in minimums.items()}
+            fatal = True
+        return SeparationMonitor(
+            world.platforms,
+            [minimums[kind] for kind in world.fleet.kinds],
+            fatal=fatal,
+            minimums=minimums,
+        )
+
+    def _separate(self) -> None:
+        """Measure the separation of the vehicles in the air now."""
+        assert self.world is not None and self.separation is not None
+        fleet = self.world.fleet
+        modes = fleet.modes
+        airborne = (modes == TAKEOFF) | (modes == FLYING) | (modes == LANDING)
+        self.separation.observe(self.world.time, fleet.positions, airborne)
 
     @staticmethod
     def _resume_or_start(engine: TaskEngine, now: float) -> None:
@@ -329,7 +372,7 @@ class TaskSim:
         the last call (the report's ``transitions`` entries), oldest first: a caller that
         advances in slices sees the mission unfold."""
         before = len(self.records)
-        self.swarm.run_until(until)
+        self._run_to(until)
         for host in self.hosts.values():
             self._collect(host.engine)
         return sorted(self.records[before:], key=lambda r: (r["t"], r["platform"]))
@@ -343,8 +386,17 @@ class TaskSim:
     ) -> dict[str, Any]:
         """Run for ``duration`` seconds of virtual time; return the JSON-ready report."""
         self.schedule(events, faults)
-        self.swarm.run_until(duration)
+        self._run_to(duration)
         return self.report()
+
+    def _run_to(self, until: float) -> None:
+        """Run to ``until``, unless a fatal separation breach stops the run (for good)."""
+        if self.halted is not None:
+            return
+        try:
+            self.swarm.run_until(until)
+        except SeparationBreachError as exc:
+            self.halted = str(exc)
 
     def report(self) -> dict[str, Any]:
         for host in self.hosts.values():
@@ -355,8 +407,10 @@ class TaskSim:
         terminal = {a.name for a in self.script.actors} - {
             t.actor for ts in self.script.transitions.values() for t in ts
         }
-        completed = bool(final) and all(
-            actors and all(a in terminal for a in actors) for actors in final.values()
+        completed = (
+            self.halted is None
+            and bool(final)
+            and all(actors and all(a in terminal for a in actors) for actors in final.values())
         )
         # Why not: the actors still held that have transitions, with the events they wait
         # for (a platform running nothing waits for nothing it can get).
@@ -371,6 +425,8 @@ class TaskSim:
             str(p): {k: v for k, v in row.items() if k != "by_kind"}
             for p, row in self.swarm.traffic().items()
         }
+        separation = None if self.separation is None else self.separation.result()
+        separation_lines = [] if separation is None else separation.violations()
         return {
             "completed": completed,
             "waiting": dict(sorted(waiting.items())),
@@ -385,7 +441,9 @@ class TaskSim:
             "ignored_events": self.ignored,
             "plugin_failures": self.plugin_failures,
             "wrecks": list(self.wrecks),
-            "violations": self.swarm.finish(),
+            "violations": self.swarm.finish() + separation_lines,
+            "separation": None if separation is None else separation.as_dict(),
+            "halted": self.halted,
             "seed": self.seed,
             "channel": self.swarm.radio.channel_stats().as_dict(),
         }
@@ -526,6 +584,11 @@ def summary(report: dict[str, Any]) -> list[str]:
     if report["ignored_events"]:
         lines.append(f"ignored events: {len(report['ignored_events'])}")
     lines += failure_lines(report.get("plugin_failures", []))
+    separation = report.get("separation")
+    if separation is not None:
+        lines.append(separation_line(separation))
+    if report.get("halted"):
+        lines.append(f"HALTED: {report['halted']}")
     lines.append(
         "invariants: all held"
         if not report["violations"]

@@ -9,10 +9,11 @@ Two moments:
   fault set after the end of the run (it would never happen), a platform the script does not
   start. Each is a mistake in the command, refused before anything runs
   (:data:`EXIT_USAGE`).
-* **After the run**, :func:`verdict` reads the report: an invariant violated
-  (:data:`EXIT_VIOLATION`), a plugin that failed (:data:`EXIT_PLUGIN_FAILED`), and, when
-  the caller expects it, a task that did not complete (:data:`EXIT_INCOMPLETE`). When
-  several went wrong, the status is the first of those in that order; every one is said.
+* **After the run**, :func:`verdict` reads the report: an invariant violated or two
+  airborne vehicles closer than their separation (:data:`EXIT_VIOLATION`), a plugin that
+  failed (:data:`EXIT_PLUGIN_FAILED`), and, when the caller expects it, a task that did
+  not complete (:data:`EXIT_INCOMPLETE`). When several went wrong, the status is the
+  first of those in that order; every one is said.
 """
 
 from __future__ import annotations
@@ -24,10 +25,12 @@ from actorswarm.dsl.model import TaskScript
 from actorswarm.dsl.syntax import id_ranges
 from actorswarm.sim.tasksim import Fault, GroundEvent
 from actorswarm.suggest import did_you_mean
+from actorswarm.world.separation import BREACH_PREFIX
 
 #: The run went as asked.
 EXIT_OK: Final = 0
-#: An invariant of the collective core was violated (also: the script has errors).
+#: An invariant of the collective core was violated, or a separation breached (also: the
+#: script has errors).
 EXIT_VIOLATION: Final = 1
 #: The command line cannot be run as written: an option, the world file, or the schedule.
 EXIT_USAGE: Final = 2
@@ -92,8 +95,15 @@ def verdict(report: Mapping[str, Any], *, expect_complete: bool = False) -> tupl
     """The exit status of a finished run's ``report`` and what went wrong, one line each
     (no line when the status is :data:`EXIT_OK`)."""
     found: list[tuple[int, str]] = []
-    if report["violations"]:
-        found.append((EXIT_VIOLATION, f"{len(report['violations'])} invariant(s) violated"))
+    breaches = sum(1 for v in report["violations"] if v.startswith(BREACH_PREFIX))
+    invariants = len(report["violations"]) - breaches
+    if invariants:
+        found.append((EXIT_VIOLATION, f"{invariants} invariant(s) violated"))
+    if breaches:
+        separation = report.get("separation") or {}
+        count = len(separation.get("breaches", ())) or breaches
+        halted = " (fatal: the run stopped at the first)" if report.get("halted") else ""
+        found.append((EXIT_VIOLATION, f"{count} separation breach(es){halted}"))
     if report["plugin_failures"]:
         count = len(report["plugin_failures"])
         found.append((EXIT_PLUGIN_FAILED, f"{count} plugin failure(s)"))

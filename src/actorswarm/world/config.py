@@ -33,6 +33,9 @@ The file's top-level tables:
 ``[camera]``
     Every vehicle's downward-looking camera: field of view, range, the least altitude it
     works at (:class:`CameraConfig`, used by :mod:`actorswarm.world.sensors`).
+``[safety]``
+    The altitude ``ceiling`` and whether a separation breach stops a run
+    (:class:`SafetyConfig`); each kind's least ``separation`` is in its own table.
 
 Units are SI — metres, seconds, m/s, m/s² — except angles, which are degrees in the file
 (headings, turn rates) because that is how people write them; the physics converts. The
@@ -76,6 +79,7 @@ __all__ = [
     "Kind",
     "QuadrotorParams",
     "RadioConfig",
+    "SafetyConfig",
     "TargetConfig",
     "VehicleEntry",
     "VehicleSpec",
@@ -189,6 +193,10 @@ class QuadrotorParams:
     The draw grows linearly with speed, from ``rest_power`` (the share of full-speed power
     a hover takes) at rest to 1 at ``max_speed``; a hovering quadrotor therefore lasts a
     little longer than ``endurance``, one racing at full speed a little less.
+
+    ``separation``: the least distance, metres, a quadrotor in the air must keep from any
+    other airborne vehicle (a pair keeps the larger of its two kinds'):
+    :mod:`actorswarm.world.separation` measures it in every run.
     """
 
     max_speed: float = 12.0
@@ -197,9 +205,12 @@ class QuadrotorParams:
     max_climb: float = 3.0
     endurance: float = 1200.0
     rest_power: float = 0.7
+    separation: float = 3.0
 
     def __post_init__(self) -> None:
-        _positive(self, "max_speed", "cruise_speed", "max_accel", "max_climb", "endurance")
+        _positive(
+            self, "max_speed", "cruise_speed", "max_accel", "max_climb", "endurance", "separation"
+        )
         _fraction(self, "rest_power", open_low=True)
         if self.cruise_speed > self.max_speed:
             raise _fail(
@@ -227,6 +238,9 @@ class FixedWingParams:
     Battery: as for :class:`QuadrotorParams` — ``endurance`` seconds at cruise speed, the
     draw growing linearly from ``rest_power`` (extrapolated to zero airspeed) to 1 at
     ``max_speed``.
+
+    ``separation``: the least distance, metres, a fixed-wing in the air must keep from any
+    other airborne vehicle (as for :class:`QuadrotorParams`).
     """
 
     min_airspeed: float = 12.0
@@ -238,10 +252,12 @@ class FixedWingParams:
     loiter_radius: float = 80.0
     endurance: float = 3600.0
     rest_power: float = 0.5
+    separation: float = 10.0
 
     def __post_init__(self) -> None:
         _positive(
             self,
+            "separation",
             "min_airspeed",
             "max_speed",
             "cruise_speed",
@@ -292,6 +308,27 @@ class FixedWingParams:
 
 
 VehicleParams = QuadrotorParams | FixedWingParams
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SafetyConfig:
+    """``[safety]``: the limits every run is held to.
+
+    ``ceiling``: the highest altitude, metres above the ground, any vehicle may be sent to
+    (0: none); ``actorswarm task check --world`` warns at a script line that asks for more.
+    ``fatal_separation``: a separation breach (two airborne vehicles closer than their
+    kinds' ``separation``) stops the run at once instead of being reported at its end.
+    """
+
+    ceiling: float = 0.0
+    fatal_separation: bool = False
+
+    def __post_init__(self) -> None:
+        _non_negative(self, "ceiling")
+        if not isinstance(self.fatal_separation, bool):
+            raise _fail(
+                self, "fatal_separation", f"must be true or false, not {self.fatal_separation!r}"
+            )
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -571,6 +608,7 @@ class WorldConfig:
     areas: tuple[Area, ...] = ()
     radio: RadioConfig = field(default_factory=RadioConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
+    safety: SafetyConfig = field(default_factory=SafetyConfig)
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
@@ -642,6 +680,10 @@ class WorldConfig:
     def params(self, kind: Kind) -> VehicleParams:
         """The performance of ``kind``."""
         return self.quadrotor if kind == "quadrotor" else self.fixed_wing
+
+    def separations(self) -> dict[str, float]:
+        """The least separation of each kind, metres (``[<kind>] separation``)."""
+        return {kind: self.params(kind).separation for kind in KINDS}
 
     def area(self, name: str) -> Area:
         """The area called ``name``; KeyError with a suggestion when there is none."""
@@ -799,6 +841,7 @@ _TOP_KEYS: Final = (
     "areas",
     "radio",
     "camera",
+    "safety",
 )
 
 
@@ -928,6 +971,7 @@ class _Loader:
         fixed_wing = self.simple(root, "fixed_wing", FixedWingParams)
         radio = self.simple(root, "radio", RadioConfig)
         camera = self.simple(root, "camera", CameraConfig)
+        safety = self.safety(root.table("safety", _field_names(SafetyConfig)))
         fleet = self.fleet(root.table("fleet", (*_field_names(FleetConfig), "groups")))
         vehicles = tuple(
             self.vehicle(t) for t in root.tables("vehicles", _field_names(VehicleEntry))
@@ -945,6 +989,7 @@ class _Loader:
             areas=areas,
             radio=radio,
             camera=camera,
+            safety=safety,
             source=self.source,
         )
 
@@ -952,6 +997,14 @@ class _Loader:
         """A section whose keys are all numbers, one per field of ``cls``."""
         table = root.table(name, _field_names(cast(type[Any], cls)))
         return table.build(cls, **{key: table.number(key) for key in table.data})
+
+    def safety(self, table: _Table) -> SafetyConfig:
+        kwargs: dict[str, Any] = {}
+        if table.has("ceiling"):
+            kwargs["ceiling"] = table.number("ceiling")
+        if table.has("fatal_separation"):
+            kwargs["fatal_separation"] = table.boolean("fatal_separation")
+        return table.build(SafetyConfig, **kwargs)
 
     def kind(self, table: _Table, name: str) -> Kind:
         value = table.string(name)

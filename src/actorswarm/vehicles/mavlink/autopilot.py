@@ -32,11 +32,13 @@ What it models
 
 What it does not model
 ----------------------
-Sensors, EKF and GPS (the position is exact), wind, attitude and yaw, RC input, geofences,
-missions (``MISSION_*``), RTL, the failsafes themselves (the parameters are read, never
-acted on), pre-arm checks beyond the mode, the battery and the replayed boot
-(:mod:`~actorswarm.vehicles.mavlink.boot`), parameters other than the
-failsafes', MAVLink signing, fixed-wing and VTOL vehicles, and any other message.
+Sensors, EKF and GPS (the position is exact), wind, attitude and yaw, RC input, enforcing
+a geofence (one is taken, :class:`~actorswarm.vehicles.mavlink.fence.FenceReceiver`, with
+its parameters, but never acted on), missions other than the fence (``MISSION_*``), RTL,
+the failsafes themselves (the parameters are read, never acted on), pre-arm checks beyond
+the mode, the battery and the replayed boot (:mod:`~actorswarm.vehicles.mavlink.boot`),
+parameters other than the failsafes' and the fence's, MAVLink signing, fixed-wing and VTOL
+vehicles, and any other message.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ from typing import Any, Final, Literal
 
 from actorswarm.vehicles.mavlink.boot import DEFAULT_READY_AFTER, Boot, chunks
 from actorswarm.vehicles.mavlink.dialect import mav
+from actorswarm.vehicles.mavlink.fence import FenceReceiver, fence_params
 from actorswarm.vehicles.mavlink.flavours import ARDUPILOT_MODES, PX4_MAIN, PX4_SUB, px4_custom_mode
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import open_connection, read_available
@@ -150,6 +153,9 @@ class SimAutopilot:
         self._params = dict.fromkeys(
             FAILSAFE_PARAMS[options.kind], 1.0 if options.failsafes else 0.0
         )
+        # The geofence: its parameters take PARAM_SET, its polygon the mission protocol.
+        self._params.update(fence_params(options.kind, 100.0))
+        self.fence = FenceReceiver(options.system)
         self._intervals = dict(_DEFAULT_STREAMS)
         self._sent: dict[int, float] = {}
         self._physics_at = self._started = clock()
@@ -260,6 +266,9 @@ class SimAutopilot:
             self._setpoint(message, now)
         elif kind == "PARAM_REQUEST_READ":
             self._param_value(message.param_id)
+        elif kind in ("MISSION_COUNT", "MISSION_ITEM_INT"):
+            for answer in self.fence.on_message(message):
+                self._conn.mav.send(answer)
         elif kind == "PARAM_SET" and message.param_id in self._params:
             self._params[message.param_id] = float(message.param_value)
             self._param_value(message.param_id)

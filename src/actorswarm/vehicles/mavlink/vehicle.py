@@ -44,6 +44,7 @@ from typing import Any, Final, Literal
 
 from actorswarm.vehicles.mavlink.commands import Check, Command, CommandSender, Step
 from actorswarm.vehicles.mavlink.dialect import mav, result_name
+from actorswarm.vehicles.mavlink.fence import FencePusher
 from actorswarm.vehicles.mavlink.flavours import (
     Flavour,
     Kind,
@@ -174,6 +175,9 @@ class MavlinkSettings:
     force: bool = False
     fence: Fence = field(default_factory=Fence)
     name: str = "mavlink"
+    #: Also push ``fence`` to the autopilot's own geofence once it is heard
+    #: (:mod:`~actorswarm.vehicles.mavlink.fence`).
+    push_fence: bool = False
 
 
 @dataclass(slots=True)
@@ -238,6 +242,11 @@ class MavlinkVehicle:
         self._ignored = False
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._fence = (
+            FencePusher(settings.fence, settings.origin, f"vehicle {self.name}")
+            if settings.push_fence
+            else None
+        )
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -291,6 +300,11 @@ class MavlinkVehicle:
             self._watch_link(now)
             if self._state.kind is not None:
                 self._ask_params(now)
+                if self._fence is not None:
+                    target = (self._filter.system or 0, self.settings.component)
+                    for message in self._fence.service(self._state.kind, target, now):
+                        self._send(message)
+                    self._errors += self._fence.drain_error()
             for sender in (self._setup, self._plan):
                 if sender is not None:
                     sender.tick(now)
@@ -556,6 +570,9 @@ class MavlinkVehicle:
     def _on_message(self, message: Any, now: float) -> None:
         kind = message.get_type()
         s = self._state
+        if self._fence is not None:
+            for answer in self._fence.on_message(message, now):
+                self._send(answer)
         if kind == "HEARTBEAT":
             self._on_heartbeat(message, now)
         elif kind == "GLOBAL_POSITION_INT":
