@@ -203,3 +203,46 @@ def test_the_same_run_gives_the_same_file(run: tuple[Path, dict[str, Any]], tmp_
     write_simulation(once_more, report, meta={"seed": 0})
     assert again.read_bytes() == once_more.read_bytes()
     assert read_recording(again).transitions == data.transitions
+
+
+def test_the_recording_says_how_close_the_vehicles_came(run: tuple[Path, dict[str, Any]]) -> None:
+    path, report = run
+    separation = report["separation"]
+    assert separation["closest"] is not None
+    data = read_recording(path)
+    said = [e for e in data.events if e["what"] == "separation"]
+    closest = separation["closest"]
+    a, b = closest["platforms"]
+    assert any(
+        e["t"] == pytest.approx(closest["t"])
+        and f"platforms {a} and {b} {closest['distance_m']:.2f} m" in e["text"]
+        for e in said
+    ), said
+    breaches = [e for e in said if e["text"].startswith("separation breach")]
+    assert len(breaches) == len(separation["breaches"])
+
+
+def test_a_breach_in_a_report_becomes_an_event(tmp_path: Path) -> None:
+    report = {
+        "transitions": [],
+        "masters": [],
+        "separation": {
+            "breaches": [
+                {
+                    "platforms": [3, 4],
+                    "distance_m": 2.5,
+                    "minimum_m": 10.0,
+                    "t": 7.0,
+                    "start": 6.5,
+                    "end": 7.5,
+                    "where": [0.0, 0.0, 20.0],
+                }
+            ],
+            "closest": None,
+        },
+    }
+    path = tmp_path / "breach.mcap"
+    write_simulation(path, report, meta={"script": "x", "seed": 0})
+    events = [e for e in read_recording(path).events if e["what"] == "separation"]
+    assert [(e["t"], e["platform"]) for e in events] == [(6.5, 3)]
+    assert "platforms 3 and 4 2.50 m apart (minimum 10 m) from 6.5 s to 7.5 s" in events[0]["text"]

@@ -83,6 +83,8 @@ def _facts(
         t, p = f.get("t", 0.0), f.get("platform", 0)
         text = f"plugin {f.get('plugin', '?')} failed: {f.get('error', '')}"
         add(t, recorder.event, t, "fault", p, text)
+    for t, platform, text in _separation_events(report.get("separation")):
+        add(t, recorder.event, t, "separation", platform, text)
     fleet = len(report.get("final_actors", {})) or None
     for c in collective_transitions(report["transitions"], fleet=fleet):
         ms = (c.t_last - c.t) * 1000.0
@@ -92,6 +94,34 @@ def _facts(
             add(t1, recorder.metrics, t1, packets_per_s=(n1 - n0) / (t1 - t0))
     items.sort(key=lambda item: item[:3])
     yield from items
+
+
+def _separation_events(
+    separation: Mapping[str, Any] | None,
+) -> Iterator[tuple[float, int, str]]:
+    """``(t, platform, text)`` for each separation breach of a report's ``separation``
+    (:meth:`~actorswarm.world.separation.SeparationReport.as_dict`), and for its closest
+    approach: a recording says where the swarm came closest, breach or not."""
+    if not separation:
+        return
+    for breach in separation.get("breaches", []):
+        a, b = breach["platforms"]
+        yield (
+            breach["start"],
+            a,
+            f"separation breach: platforms {a} and {b} {breach['distance_m']:.2f} m apart "
+            f"(minimum {breach['minimum_m']:g} m) from {breach['start']:.1f} s to "
+            f"{breach['end']:.1f} s",
+        )
+    closest = separation.get("closest")
+    if closest is not None:
+        a, b = closest["platforms"]
+        yield (
+            closest["t"],
+            a,
+            f"closest approach of the run: platforms {a} and {b} {closest['distance_m']:.2f} m "
+            f"apart (minimum {closest['minimum_m']:g} m)",
+        )
 
 
 def _snapshots(
