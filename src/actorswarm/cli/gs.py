@@ -231,7 +231,7 @@ def gs_status(
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
 ) -> None:
-    """Each platform heard: its actors, master flag, epoch, incarnation, last heard.
+    """Each platform heard: its actors, roles, master flag, epoch, incarnation, last heard.
 
     Exits 1 when no platform answered (none heard, or every one refused the request), and
     says why as far as the ground station can tell."""
@@ -274,6 +274,7 @@ def gs_status(
                     "last_heard_s": round(now - gs.station.heard[p], 3),
                     "script": "" if reply is None else reply.script,
                     "vehicle": {} if reply is None else dict(reply.vehicle),
+                    "roles": [] if reply is None else list(reply.roles),
                 }
             return {"platforms": out}, gs.explain(heard, got)
 
@@ -284,6 +285,8 @@ def gs_status(
     for p, row in rows.items() if not as_json else ():
         flag = " (master)" if row["master"] else ""
         said = (", ".join(row["actors"]) or "-") if row["answered"] else "no answer"
+        if row["roles"]:
+            said += f" (roles {', '.join(row['roles'])})"
         typer.echo(
             f"  {p}{flag}: {said}; epoch {row['epoch']}, "
             f"incarnation {row['incarnation']}, heard {row['last_heard_s']} s ago"
