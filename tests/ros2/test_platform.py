@@ -132,7 +132,7 @@ def test_a_flood_is_bounded_and_counted_and_the_loop_stays_free(ros_domain: int)
     from actorswarm.ros2.node import RosNode
     from actorswarm.ros2.platform import PlatformRos
 
-    async def go() -> tuple[list[int], int, dict[str, dict[str, int]], float]:
+    async def go() -> tuple[list[int], int, dict[str, Any], float]:
         loop = asyncio.get_running_loop()
         ros = PlatformRos(1, "sw", loop)
         wakes = [0]
@@ -155,19 +155,21 @@ def test_a_flood_is_bounded_and_counted_and_the_loop_stays_free(ros_domain: int)
             await asyncio.sleep(0.2)
             ros.pump()
             got = [m.data for m in reader.take()]
-            return got, reader.dropped, ros.counters(), worst
+            return got, reader.dropped, ros.status(), worst
         finally:
             flooder.close()
             ros.close()
 
-    got, dropped, counters, worst = asyncio.run(go())
+    got, dropped, status, worst = asyncio.run(go())
     assert len(got) == 10 and got == sorted(got) and got[-1] == 2999  # the newest ten
-    inlet = counters["/sw/flood"]
+    # What the daemon's status.json says of its node (key "ros2").
+    assert status["node"] == "/sw/p1/platform" and status["errors"] == 0
+    inlet = status["topics"]["/sw/flood"]
     assert inlet["received"] >= 500  # DDS's own history (depth 10) drops some first
     # Every message received is accounted for: kept, or dropped by the node's queue (100)
     # or by the reader's (10), and counted.
     assert inlet["dropped"] + dropped + len(got) == inlet["received"]
-    assert inlet["dropped"] > 0 and dropped == 90
+    assert inlet["dropped"] > 0 and dropped == inlet["readers_dropped"] == 90
     assert worst < 0.05, worst
 
 
