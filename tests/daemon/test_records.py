@@ -78,9 +78,9 @@ def test_status_shows_the_last_switches(tmp_path: Path) -> None:
 
 def test_status_carries_the_ros2_nodes_counters(tmp_path: Path) -> None:
     endpoint = _endpoint()
+    counts = {"keep": 100, "received": 9, "dropped": 4, "undecodable": 1, "readers_dropped": 0}
     said = {"node": "/sw/p1/platform", "alive": True, "errors": 2,
-            "topics": {"/sw/p1/detections": {"keep": 100, "received": 9, "dropped": 4, "undecodable": 1,
-                                             "readers_dropped": 0}}}  # fmt: skip
+            "topics": {"/sw/p1/detections": counts}}  # fmt: skip
     files = DaemonFiles(
         StateDir(tmp_path / "state"), endpoint, PacketGuard.insecure(), Traffic(), ros2=lambda: said
     )
