@@ -14,11 +14,11 @@ an operator wants to see: start, master changes, transitions, stop.
 Files are written only when what they say changed
 (:class:`~actorswarm.daemon.state.WritePacer`): ``status.json`` within a second of a change
 of the platform's state (master, members, actors, transitions, packets rejected...), but
-when only the packet counters moved (``traffic``, ``accepted``, ``dropped``, ``receive``) at
-most every :data:`_METERS_EVERY` seconds; its ``t`` is when it was written. The replay windows are
-saved at most every :data:`_REPLAY_EVERY` seconds, when a packet was accepted since. A
-platform alone rewrites only its status, every :data:`_METERS_EVERY` seconds (the heartbeats
-it sent).
+when only the packet counters moved (``traffic``, ``accepted``, ``dropped``, ``receive``,
+``ros2``) at most every :data:`_METERS_EVERY` seconds; its ``t`` is when it was written. The
+replay windows are saved at most every :data:`_REPLAY_EVERY` seconds, when a packet was
+accepted since. A platform alone rewrites only its status, every :data:`_METERS_EVERY`
+seconds (the heartbeats it sent).
 
 ``receive`` counts how packets were taken in: ``batches`` (wakes that took packets),
 ``packets``, ``largest_batch``, ``cut_batches`` (batches cut at
