@@ -17,6 +17,7 @@ from actorswarm.runtime.collective import PLUGIN_KEY_BASE
 from actorswarm.runtime.context import PluginContext
 from actorswarm.runtime.plugin import Param, Plugin
 from actorswarm.sim.tasksim import TaskSim
+from actorswarm.web import SimSource
 
 
 class Rendezvous(Plugin):
@@ -110,6 +111,9 @@ def test_plugin_barrier_gathers_scatters_and_drives_a_transition(
         if isinstance(r.reply, cmds.StatusReply)
     }
     assert roles == {p: ["leader"] if p in leaders else [] for p in (1, 2, 3, 4)}
+    # The web page of the simulated run says the same.
+    members = SimSource(sim).swarm_view()["members"]
+    assert {m["id"]: m["roles"] for m in members} == roles
 
 
 def test_status_reports_the_actor_control_blocks() -> None:
