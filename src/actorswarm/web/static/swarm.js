@@ -87,7 +87,7 @@ export class SwarmPanel {
     }
     if (!actors.length) actors.push("—");
     if (m.roles && m.roles.length) {
-      actors.push(el("span", { class: "muted roles", title: "roles held" }, ` roles: ${m.roles.join(", ")}`));
+      actors.push(el("span", { class: "muted roles", title: "roles held" }, `roles: ${m.roles.join(", ")}`));
     }
     return el(
       "tr",
