@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from actorswarm.cli.gs import _vehicle_line
+from actorswarm.cli.gs import _status_line, _vehicle_line
 from actorswarm.engine import commands as cmds
 
 
@@ -48,3 +48,14 @@ def test_a_lost_link_or_a_failed_status_is_an_alarm() -> None:
     assert alarm({"error": "RuntimeError: no port"})
     assert describe({"error": "RuntimeError: no port"}) == "status failed: RuntimeError: no port"
     assert not alarm({"link": "up", "mode": "GUIDED"}) and not alarm({})
+
+
+def test_a_platform_line_names_the_roles_it_holds() -> None:
+    row = {"answered": True, "actors": ["Track"], "roles": ["leader", "tracker"],
+           "master": True, "epoch": 2, "incarnation": 5, "last_heard_s": 0.4,
+           "vehicle": {}}  # fmt: skip
+    assert _status_line("3", row) == (
+        "  3 (master): Track (roles leader, tracker); epoch 2, incarnation 5, heard 0.4 s ago"
+    )
+    quiet = {**row, "answered": False, "actors": [], "roles": [], "master": False}
+    assert _status_line("4", quiet) == ("  4: no answer; epoch 2, incarnation 5, heard 0.4 s ago")

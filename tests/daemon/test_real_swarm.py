@@ -53,6 +53,7 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
     assert {p: row["actors"] for p, row in platforms.items()} == {p: ["B"] for p in "123"}
     assert [p for p, row in platforms.items() if row["master"]] == [str(master)]
     assert {row["incarnation"] for row in platforms.values()} == {0}
+    assert {p: row["roles"] for p, row in platforms.items()} == {p: [] for p in "123"}
     # Every packet taken in went through the pipeline, in batches of one wake each.
     for p in (1, 2, 3):
         meters = swarm.status(p)

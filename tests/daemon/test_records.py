@@ -74,3 +74,18 @@ def test_status_shows_the_last_switches(tmp_path: Path) -> None:
     assert len(shown) == STATUS_TRANSITIONS == 50
     assert shown[0]["event"] == "e70" and shown[-1]["event"] == "e119"
     assert shown[-1] == {"t": 119.0, "from": "B", "to": "A", "event": "e119", "cause": "barrier"}
+
+
+def test_status_carries_the_ros2_nodes_counters(tmp_path: Path) -> None:
+    endpoint = _endpoint()
+    counts = {"keep": 100, "received": 9, "dropped": 4, "undecodable": 1, "readers_dropped": 0}
+    said = {"node": "/sw/p1/platform", "alive": True, "errors": 2,
+            "topics": {"/sw/p1/detections": counts}}  # fmt: skip
+    files = DaemonFiles(
+        StateDir(tmp_path / "state"), endpoint, PacketGuard.insecure(), Traffic(), ros2=lambda: said
+    )
+    files.close(1.0)
+    assert json.loads(files.status_file.read_text())["ros2"] == said
+    bare = DaemonFiles(StateDir(tmp_path / "bare"), endpoint, PacketGuard.insecure(), Traffic())
+    bare.close(1.0)
+    assert "ros2" not in json.loads(bare.status_file.read_text())

@@ -17,6 +17,7 @@ from actorswarm.runtime.collective import PLUGIN_KEY_BASE
 from actorswarm.runtime.context import PluginContext
 from actorswarm.runtime.plugin import Param, Plugin
 from actorswarm.sim.tasksim import TaskSim
+from actorswarm.web import SimSource
 
 
 class Rendezvous(Plugin):
@@ -100,6 +101,19 @@ def test_plugin_barrier_gathers_scatters_and_drives_a_transition(
     assert plugin and all(sorted(d for _, d in r.gathered) == [1, 2, 3, 4] for r in plugin)
     assert engine and all(r.gathered == [] for r in engine)
     assert all(e.data["to"] == "Go" for r in engine for e in r.entries if e.index)
+    # The operator's status reply says who holds the role.
+    sim.operate(lambda g, now: g.send(cmds.Status(), [1, 2, 3, 4], now))
+    sim.swarm.run_until(4.5)
+    assert sim.ground is not None
+    roles = {
+        r.platform: r.reply.roles
+        for r in sim.ground.replies
+        if isinstance(r.reply, cmds.StatusReply)
+    }
+    assert roles == {p: ["leader"] if p in leaders else [] for p in (1, 2, 3, 4)}
+    # The web page of the simulated run says the same.
+    members = SimSource(sim).swarm_view()["members"]
+    assert {m["id"]: m["roles"] for m in members} == roles
 
 
 def test_status_reports_the_actor_control_blocks() -> None:

@@ -34,6 +34,7 @@ def _station(now: float) -> GroundStation:
                 script="ab" * 32,
                 position=[10.0, -5.0, 12.0],
                 vehicle={"link": "lost", "mode": "GUIDED"},
+                roles=["tracker", "leader"],
             ),
         )
     )
@@ -56,6 +57,7 @@ def test_the_bridge_publishes_what_the_ground_station_knows(ros_domain: int) -> 
                     ("p1/pose", "geometry_msgs/msg/PoseStamped", "reliable"),
                     ("p1/fix", "sensor_msgs/msg/NavSatFix", "reliable"),
                     ("p1/actor", "std_msgs/msg/String", "latched"),
+                    ("p1/roles", "std_msgs/msg/String", "latched"),
                     ("p1/vehicle_state", "diagnostic_msgs/msg/DiagnosticArray", "reliable"),
                     ("master", "std_msgs/msg/UInt16", "latched"),
                     ("membership", "diagnostic_msgs/msg/DiagnosticArray", "reliable"),
@@ -104,6 +106,9 @@ def test_the_bridge_publishes_what_the_ground_station_knows(ros_domain: int) -> 
     assert got["master"].data == 1
     members = {s.name: s.message for s in got["membership"].status}
     assert members == {"p1": "joined", "p2": "joined"}
+    assert got["p1/roles"].data == "leader,tracker"
+    said = {s.name: {kv.key: kv.value for kv in s.values} for s in got["membership"].status}
+    assert said["p1"]["roles"] == "leader,tracker" and said["p2"]["roles"] == ""
     labels = [m.text for m in got["markers"].markers if m.ns == "labels"]
     assert labels == ["p1 Search"]
 

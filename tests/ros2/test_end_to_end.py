@@ -64,7 +64,18 @@ def test_daemons_fly_ros2_robots_seen_and_commanded_over_ros2(
         # A clean stop closes the node (an executor thread left at exit would abort).
         assert swarm.stop(1) == 0
         assert swarm.events(1, "stopped")
+        ros_meters = swarm.status(1)["ros2"]  # written at the stop
     assert started["vehicle"] == "ros2" and started["ros2"] == "/e2e/p1/platform"
+    # The node's counters in status.json: the robot's poses (only the newest kept, the rest
+    # dropped by design) and the perception topic (nothing dropped); no error.
+    assert ros_meters["node"] == "/e2e/p1/platform" and ros_meters["errors"] == 0, ros_meters
+    topics = ros_meters["topics"]
+    pose = topics["/e2e/p1/robot/pose"]
+    assert pose["keep"] == 1 and pose["received"] > 10, topics
+    detections = topics["/e2e/detections"]
+    assert detections["keep"] >= 100 and detections["received"] >= 1, topics  # "person"
+    assert detections["dropped"] == detections["readers_dropped"] == 0, topics
+    assert all(c["undecodable"] == 0 for c in topics.values()), topics
     for p in (1, 2):
         assert seen[f"p{p}/actor"] == ["Hover", "Watch", "Found"], (seen, bridge_log)
     # Where each robot is, in the mission frame: above its start, at the take-off height

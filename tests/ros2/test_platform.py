@@ -124,6 +124,53 @@ def test_publish_state_sends_the_actor_and_the_pose() -> None:
 
 
 @pytest.mark.rclpy
+def test_publish_state_reaches_a_ros2_subscriber_under_the_platforms_namespace(
+    ros_domain: int,
+) -> None:
+    """A real node: the actor, published once at the start and latched, reaches a
+    subscriber that comes later; the poses follow at the plugin's rate."""
+    from actorswarm.ros2.node import RosNode
+    from actorswarm.ros2.platform import PlatformRos
+
+    async def go() -> tuple[Any, Any, str]:
+        ros = PlatformRos(1, "sw", asyncio.get_running_loop())
+        ros.start()
+        watcher = RosNode("watcher")
+        watcher.start()
+        try:
+            vehicle = SimpleNamespace(position=lambda: (1.0, 2.0, 3.0))
+            ctx = make_context(PublishState, vehicle=vehicle, ros2=ros)  # type: ignore[arg-type]
+            plugin = PublishState()
+            plugin.on_start(ctx)  # the actor, before anyone listens
+            actor = watcher.subscribe("/sw/p1/actor", "std_msgs/msg/String", qos="latched")
+            pose = watcher.subscribe("/sw/p1/pose", "geometry_msgs/msg/PoseStamped")
+            got: dict[str, Any] = {}
+
+            def look() -> bool:
+                for name, inlet in (("actor", actor), ("pose", pose)):
+                    latest = inlet.latest()
+                    if latest is not None:
+                        got[name] = latest
+                return len(got) == 2
+
+            for _ in range(100):  # 0.2 s of the plugin's time a round: a pose each
+                plugin.step(ctx)
+                ctx.now += 0.2
+                if await until(look, 0.1):
+                    break
+            assert not ros.drain_errors() and not watcher.drain_errors()
+            return got.get("actor"), got.get("pose"), ctx.actor
+        finally:
+            watcher.close()
+            ros.close()
+
+    actor, pose, name = asyncio.run(go())
+    assert actor is not None and actor.data == name
+    assert pose is not None and pose.header.frame_id == "map"
+    assert (pose.pose.position.x, pose.pose.position.y, pose.pose.position.z) == (1, 2, 3)
+
+
+@pytest.mark.rclpy
 def test_a_flood_is_bounded_and_counted_and_the_loop_stays_free(ros_domain: int) -> None:
     """A publisher far faster than the plugins read: the reader keeps its newest messages,
     drops and counts the rest, and the loop's other work is not held up."""
@@ -132,7 +179,7 @@ def test_a_flood_is_bounded_and_counted_and_the_loop_stays_free(ros_domain: int)
     from actorswarm.ros2.node import RosNode
     from actorswarm.ros2.platform import PlatformRos
 
-    async def go() -> tuple[list[int], int, dict[str, dict[str, int]], float]:
+    async def go() -> tuple[list[int], int, dict[str, Any], float]:
         loop = asyncio.get_running_loop()
         ros = PlatformRos(1, "sw", loop)
         wakes = [0]
@@ -155,19 +202,21 @@ def test_a_flood_is_bounded_and_counted_and_the_loop_stays_free(ros_domain: int)
             await asyncio.sleep(0.2)
             ros.pump()
             got = [m.data for m in reader.take()]
-            return got, reader.dropped, ros.counters(), worst
+            return got, reader.dropped, ros.status(), worst
         finally:
             flooder.close()
             ros.close()
 
-    got, dropped, counters, worst = asyncio.run(go())
+    got, dropped, status, worst = asyncio.run(go())
     assert len(got) == 10 and got == sorted(got) and got[-1] == 2999  # the newest ten
-    inlet = counters["/sw/flood"]
+    # What the daemon's status.json says of its node (key "ros2").
+    assert status["node"] == "/sw/p1/platform" and status["errors"] == 0
+    inlet = status["topics"]["/sw/flood"]
     assert inlet["received"] >= 500  # DDS's own history (depth 10) drops some first
     # Every message received is accounted for: kept, or dropped by the node's queue (100)
     # or by the reader's (10), and counted.
     assert inlet["dropped"] + dropped + len(got) == inlet["received"]
-    assert inlet["dropped"] > 0 and dropped == 90
+    assert inlet["dropped"] > 0 and dropped == inlet["readers_dropped"] == 90
     assert worst < 0.05, worst
 
 

@@ -147,7 +147,7 @@ def test_a_pose_topic_of_another_type_is_named(ros_domain: int) -> None:
     from actorswarm.ros2.node import RosNode
     from actorswarm.ros2.vehicle import Ros2Vehicle
 
-    async def go() -> list[str]:
+    async def go() -> tuple[list[str], int]:
         node = RosNode("platform", "/sw/p3")
         Ros2Vehicle(node, Ros2VehicleSettings(pose_type="nav_msgs/msg/Odometry"))
         node.start()
@@ -155,11 +155,12 @@ def test_a_pose_topic_of_another_type_is_named(ros_domain: int) -> None:
         try:
             with robot("/sw/p3/robot"):  # publishes PoseStamped on pose
                 await until(lambda: bool(errors.extend(node.drain_errors()) or errors), 10.0)
-                return errors
+                return errors, node.errors
         finally:
             node.close()
 
-    errors = asyncio.run(go())
+    errors, counted = asyncio.run(go())
+    assert counted >= len(errors) >= 1  # counted for status.json's ros2.errors
     assert errors and errors[0] == (
         "topic /sw/p3/robot/pose: published as geometry_msgs/msg/PoseStamped, subscribed as "
         "nav_msgs/msg/Odometry: those messages are not received"

@@ -182,7 +182,8 @@ def test_the_state_machine_of_a_recall_from_every_actor_is_drawn_apart(page: Any
 def test_a_vehicle_whose_link_is_lost_is_shown_in_red(page: Any) -> None:
     """A real swarm (the stand-in session of test_web_real_source) whose platform 2 lost
     the link to its autopilot: its row says so in red, the summary counts it, the map
-    rings it; a simulated swarm's table has no vehicle column (its vehicles say nothing)."""
+    rings it; a simulated swarm's table has no vehicle column (its vehicles say nothing).
+    Platform 1's row names the role it holds."""
     import threading
 
     from test_web_real_source import FakeSession
@@ -194,6 +195,7 @@ def test_a_vehicle_whose_link_is_lost_is_shown_in_red(page: Any) -> None:
         1: {"link": "up", "autopilot": "ardupilot", "mode": "GUIDED", "armed": True},
         2: {"link": "lost", "autopilot": "ardupilot", "mode": "GUIDED", "armed": True},
     }
+    session.platforms.roles = {1: ["leader"]}
     stop = threading.Event()
 
     def heartbeats() -> None:
@@ -211,6 +213,8 @@ def test_a_vehicle_whose_link_is_lost_is_shown_in_red(page: Any) -> None:
             assert ok == "link up, ardupilot GUIDED, armed"
             assert page.inner_text("#swarm-table tr[data-platform='3'] td.vehicle") == "—"
             assert "1 vehicle not answering" in page.inner_text("#swarm-summary .vehicle-alarms")
+            assert page.inner_text("#swarm-table tr[data-platform='1'] .roles") == "roles: leader"
+            assert page.query_selector("#swarm-table tr[data-platform='2'] .roles") is None
             _wait(page, "document.querySelector('#map').dataset.vehicleAlarms === '1'")
     finally:
         stop.set()

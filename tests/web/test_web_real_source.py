@@ -29,6 +29,8 @@ class FakeSwarm:
         self.actors = {p: {"A": "running"} for p in (1, 2, 3)}
         #: What each platform's vehicle adapter says of itself (none: nothing).
         self.vehicles: dict[int, dict[str, Any]] = {}
+        #: The roles each platform holds (none: none).
+        self.roles: dict[int, list[str]] = {}
         station.send = self.answer  # type: ignore[method-assign]
 
     def beat(self) -> None:
@@ -52,6 +54,7 @@ class FakeSwarm:
                     incarnation=0,
                     acbs=acbs,
                     vehicle=self.vehicles.get(p, {}),
+                    roles=self.roles.get(p, []),
                 )
             elif isinstance(command, cmds.Inject):
                 self.actors[p] = {"B": "running"}
@@ -169,6 +172,7 @@ def test_the_swarm_view_says_what_each_vehicle_says_and_flags_a_lost_link() -> N
     async def scenario() -> dict[str, Any]:
         session = FakeSession()
         session.platforms.vehicles = {1: up, 2: lost}
+        session.platforms.roles = {2: ["tracker", "leader"]}
         source = RealSource(session, poll=0.1)  # type: ignore[arg-type]
         await source.start()
         try:
@@ -190,3 +194,5 @@ def test_the_swarm_view_says_what_each_vehicle_says_and_flags_a_lost_link() -> N
         3: ("", False),
     }
     assert said[1][0] == describe(up)  # the words of gs status, from the one builder
+    roles = {m["id"]: m["roles"] for m in swarm["members"]}
+    assert roles == {1: [], 2: ["leader", "tracker"], 3: []}

@@ -209,6 +209,19 @@ def gs_start(
         raise typer.Exit(1)
 
 
+def _status_line(platform: str, row: dict[str, Any]) -> str:
+    """One platform's line of ``gs status`` (``row``: its entry of ``--json``)."""
+    flag = " (master)" if row["master"] else ""
+    said = (", ".join(row["actors"]) or "-") if row["answered"] else "no answer"
+    if row["roles"]:
+        said += f" (roles {', '.join(row['roles'])})"
+    return (
+        f"  {platform}{flag}: {said}; epoch {row['epoch']}, "
+        f"incarnation {row['incarnation']}, heard {row['last_heard_s']} s ago"
+        + _vehicle_line(row["vehicle"])
+    )
+
+
 def _vehicle_line(vehicle: dict[str, Any]) -> str:
     """``; vehicle: link up, ardupilot GUIDED, armed, battery 87 %`` (empty without one)."""
     from actorswarm.ground.vehicle import describe
@@ -231,7 +244,7 @@ def gs_status(
     keys: KeysOpt = None,
     insecure: InsecureOpt = False,
 ) -> None:
-    """Each platform heard: its actors, master flag, epoch, incarnation, last heard.
+    """Each platform heard: its actors, roles, master flag, epoch, incarnation, last heard.
 
     Exits 1 when no platform answered (none heard, or every one refused the request), and
     says why as far as the ground station can tell."""
@@ -274,6 +287,7 @@ def gs_status(
                     "last_heard_s": round(now - gs.station.heard[p], 3),
                     "script": "" if reply is None else reply.script,
                     "vehicle": {} if reply is None else dict(reply.vehicle),
+                    "roles": [] if reply is None else list(reply.roles),
                 }
             return {"platforms": out}, gs.explain(heard, got)
 
@@ -282,13 +296,7 @@ def gs_status(
     if as_json:
         typer.echo(json.dumps(status, indent=2))
     for p, row in rows.items() if not as_json else ():
-        flag = " (master)" if row["master"] else ""
-        said = (", ".join(row["actors"]) or "-") if row["answered"] else "no answer"
-        typer.echo(
-            f"  {p}{flag}: {said}; epoch {row['epoch']}, "
-            f"incarnation {row['incarnation']}, heard {row['last_heard_s']} s ago"
-            + _vehicle_line(row["vehicle"])
-        )
+        typer.echo(_status_line(p, row))
     for line in why:
         typer.echo(line, err=True)
     if not any(row["answered"] for row in rows.values()):

@@ -32,8 +32,9 @@ from msgspec import Meta, Struct
 #: The wire format's version, in every packet's header: a packet of any other is refused
 #: before its body is read (:class:`WireError` ``version``; a daemon's guard counts it as
 #: malformed), so a swarm half upgraded says so instead of half working.
-#: Raised whenever a message's fields change (2: ``BarrierRequest.renew``).
-PROTOCOL_VERSION: Final = 2
+#: Raised whenever a message's fields change, the ground station's included (2:
+#: ``BarrierRequest.renew``; 3: ``StatusReply.roles``, actorswarm.engine.commands).
+PROTOCOL_VERSION: Final = 3
 GROUND_STATION: Final = 0
 MAX_PLATFORM: Final = 65535
 

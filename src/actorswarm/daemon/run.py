@@ -14,11 +14,11 @@ an operator wants to see: start, master changes, transitions, stop.
 Files are written only when what they say changed
 (:class:`~actorswarm.daemon.state.WritePacer`): ``status.json`` within a second of a change
 of the platform's state (master, members, actors, transitions, packets rejected...), but
-when only the packet counters moved (``traffic``, ``accepted``, ``dropped``, ``receive``) at
-most every :data:`_METERS_EVERY` seconds; its ``t`` is when it was written. The replay windows are
-saved at most every :data:`_REPLAY_EVERY` seconds, when a packet was accepted since. A
-platform alone rewrites only its status, every :data:`_METERS_EVERY` seconds (the heartbeats
-it sent).
+when only the packet counters moved (``traffic``, ``accepted``, ``dropped``, ``receive``,
+``ros2``) at most every :data:`_METERS_EVERY` seconds; its ``t`` is when it was written. The
+replay windows are saved at most every :data:`_REPLAY_EVERY` seconds, when a packet was
+accepted since. A platform alone rewrites only its status, every :data:`_METERS_EVERY`
+seconds (the heartbeats it sent).
 
 ``receive`` counts how packets were taken in: ``batches`` (wakes that took packets),
 ``packets``, ``largest_batch``, ``cut_batches`` (batches cut at
@@ -62,6 +62,8 @@ With ``--ros2`` (or ``--vehicle ros2``) the daemon owns one ROS 2 node
 (:mod:`actorswarm.ros2.platform`) that its plugins reach as ``ctx.ros2``; the node's errors
 are logged as ``ros2-error``, and a node that cannot be made as ``ros2-failed`` — the daemon
 then runs on without ROS 2, unless its vehicle is the ROS 2 one (exit status 1).
+``status.json``'s ``ros2`` says what the node's subscriptions received, dropped (a topic
+that floods) and could not decode, and how many errors it reported.
 
 A signal stops it cleanly: the loop ends, the transport closes (the swarm notices the
 platform leave within its failure-detection time) and the process exits 0.
@@ -160,9 +162,12 @@ def _status(
     autopilot: MavlinkVehicle | Ros2Vehicle | None = None,
     receive: Callable[[], dict[str, int]] | None = None,
     transitions: Iterable[TransitionRecord] | None = None,
+    ros2: Callable[[], dict[str, Any]] | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """What ``status.json`` says: the platform's state, and the packet counters that move
-    all the time (written less often when nothing else changed)."""
+    all the time (written less often when nothing else changed), the ROS 2 node's among
+    them (``ros2``: its topics' counters, :meth:`~actorswarm.ros2.platform.PlatformRos.
+    status`)."""
     node, engine = endpoint.node, endpoint.engine
     state = {
         "platform": node.platform,
@@ -196,6 +201,8 @@ def _status(
     }
     if receive is not None:
         meters["receive"] = receive()
+    if ros2 is not None:
+        meters["ros2"] = ros2()
     return state, meters
 
 
@@ -221,6 +228,7 @@ class DaemonFiles:
         *,
         receive: Callable[[], dict[str, int]] | None = None,
         transitions: Iterable[TransitionRecord] | None = None,
+        ros2: Callable[[], dict[str, Any]] | None = None,
     ) -> None:
         self.state = state
         self.status_file = state.path / "status.json"
@@ -231,6 +239,8 @@ class DaemonFiles:
         self.receive = receive
         #: The transitions status.json shows (None: the engine's last ones).
         self.transitions = transitions
+        #: What status.json says of the ROS 2 node (None: the daemon has none).
+        self.ros2 = ros2
         self.status = WritePacer(_STATUS_EVERY, _METERS_EVERY)
         self.replay = WritePacer(_REPLAY_EVERY, seen=guard.replay_snapshot())
 
@@ -255,6 +265,7 @@ class DaemonFiles:
             self.autopilot,
             self.receive,
             self.transitions,
+            self.ros2,
         )
         if self.status.changed(now, content, meters, closing=closing):
             _write_status(self.status_file, content, meters, now)
@@ -378,6 +389,7 @@ async def _main(options: DaemonOptions) -> int:
         autopilot,
         receive=lambda: {**inbox.as_dict(), **transport.receive_counters()},
         transitions=records.recent,
+        ros2=None if ros is None else ros.status,
     )
     raised = 0
 

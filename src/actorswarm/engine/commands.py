@@ -130,6 +130,10 @@ class StatusReply(_Cmd, frozen=True):
     #: What the vehicle adapter says of itself when it says anything (a MAVLink vehicle:
     #: ``link`` up/lost, ``autopilot``, ``mode``, ``armed``, ``battery``, ``override``).
     vehicle: dict[Name, str | int | float | bool | None] = {}
+    #: The roles the platform holds now (the collective core's arbitration, names sorted).
+    #: Added in wire protocol 3: a ground station of an older build would refuse the whole
+    #: reply for this field, so the protocol version says it and refuses the packet instead.
+    roles: list[Name] = []
 
 
 class BackupReply(_Cmd, frozen=True):

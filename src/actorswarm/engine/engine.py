@@ -203,6 +203,7 @@ class TaskEngine(ActorMachine):
             script=self.script_sha,
             position=None if position is None else [round(v, 3) for v in position],
             vehicle=self.runtime.vehicle_state(),
+            roles=sorted(self.node.roles.held),
         )
 
     def _deploy_chunk(self, chunk: cmds.DeployChunk, now: float) -> str | None:

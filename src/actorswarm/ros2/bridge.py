@@ -14,6 +14,9 @@ platform N, under ``/<swarm>/pN/`` (what is sent, QoS):
                                                            ``--origin`` only)
 ``actor``          ``std_msgs/String``: the running        latched, on change
                    actors, comma-separated ("" for none)
+``roles``          ``std_msgs/String``: the roles the      latched, on change
+                   platform holds, comma-separated
+                   and sorted ("" for none)
 ``vehicle_state``  ``diagnostic_msgs/DiagnosticArray``:    reliable, on each status
                    the vehicle's own status entries
 =================  ======================================  ==========================
@@ -21,7 +24,7 @@ platform N, under ``/<swarm>/pN/`` (what is sent, QoS):
 and for the swarm, ``/<swarm>/master`` (``std_msgs/UInt16``, 0 while none is known;
 latched, on change), ``/<swarm>/membership`` (``diagnostic_msgs/DiagnosticArray``: one
 status per platform, ``OK`` joined, ``STALE`` left, ``WARN`` never heard; its values say
-the incarnation, epoch and master flag) and ``/<swarm>/markers``
+the incarnation, epoch, master flag, actors and roles) and ``/<swarm>/markers``
 (``visualization_msgs/MarkerArray``: a sphere and a label per platform with a position,
 for RViz and Foxglove). Poses are in one ENU frame of the mission (``--frame``, default
 ``map``: x east, y north, z up, metres from the mission's origin); with ``--origin
@@ -93,6 +96,10 @@ class Platform:
     actors: dict[str, str] = field(default_factory=dict)
     vehicle: dict[str, object] = field(default_factory=dict)
     script: str = ""
+    #: The roles it holds (its latest status reply).
+    roles: list[str] = field(default_factory=list)
+    #: Whether a status reply of it came.
+    answered: bool = False
 
     def running(self) -> list[str]:
         return [a for a, s in self.actors.items() if s == "running"]
@@ -120,6 +127,8 @@ class GroundView:
                 p.actors = dict(reply.actors)
                 p.vehicle = dict(reply.vehicle)
                 p.script = reply.script
+                p.roles = sorted(reply.roles)
+                p.answered = True
                 self.answered = record.t
                 if reply.position is not None and len(reply.position) >= 3:
                     x, y, z = reply.position[:3]
@@ -150,6 +159,7 @@ class GroundBridge:
         self.settings = settings
         self.root = f"/{swarm}"
         self._actors: dict[int, str] = {}
+        self._roles: dict[int, str] = {}
         self._master: int | None = -1
         self._served: set[int] = set()
         self._paused: dict[int, list[str]] = {}
@@ -186,6 +196,13 @@ class GroundBridge:
                 self._actors[p.platform] = actor
                 self.node.publish(
                     f"{base}/actor", "std_msgs/msg/String", msgs.string(actor), qos="latched"
+                )
+            roles = ",".join(p.roles)
+            # Only once it answered: "" then says "holds none", not "not known yet".
+            if p.answered and self._roles.get(p.platform) != roles:
+                self._roles[p.platform] = roles
+                self.node.publish(
+                    f"{base}/roles", "std_msgs/msg/String", msgs.string(roles), qos="latched"
                 )
             if self.settings.commands and p.platform not in self._served:
                 self._serve_platform(p.platform)
@@ -227,6 +244,7 @@ class GroundBridge:
                 "incarnation": p.incarnation,
                 "epoch": p.epoch,
                 "actors": json.dumps(p.actors),
+                "roles": ",".join(p.roles),
             }
             status.values = [pair(key=k, value=str(v)) for k, v in values.items()]
             array.status.append(status)

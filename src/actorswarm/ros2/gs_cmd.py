@@ -79,8 +79,8 @@ def gs_ros2(
         typer.Option(min=0, max=232, help="The ROS 2 domain (default: ROS_DOMAIN_ID, or 0)."),
     ] = None,
 ) -> None:
-    """Put the swarm on ROS 2 topics under /SWARM/ (poses, actors, vehicle state, master,
-    membership, RViz markers) until Ctrl-C; with --commands, take the operator's actions
+    """Put the swarm on ROS 2 topics under /SWARM/ (poses, actors, roles, vehicle state,
+    master, membership, RViz markers) until Ctrl-C; with --commands, take the operator's actions
     from ROS 2 services (docs/ros2.md)."""
     from actorswarm.ros2.bridge import BridgeSettings, parse_origin
     from actorswarm.ros2.load import Ros2Error

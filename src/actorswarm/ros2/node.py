@@ -144,7 +144,11 @@ class Inlet:
         return out
 
     def counters(self) -> dict[str, int]:
+        """What came: ``keep`` (the queue's size: a topic of which only the newest message
+        matters keeps 1 and drops the rest by design), ``received``, ``dropped``,
+        ``undecodable``."""
         return {
+            "keep": self._queue.maxlen or 0,
             "received": self.received,
             "dropped": self.dropped,
             "undecodable": self.undecodable,
@@ -214,6 +218,8 @@ class RosNode:
         self._wake = wake or (lambda: None)
         self._errors: deque[str] = deque(maxlen=_ERRORS_KEPT)
         self._errors_lock = threading.Lock()
+        #: Every error reported since the node was made, those dropped unread included.
+        self.errors = 0
         self._context = Context()
         try:
             # No log files under ~/.ros: the daemon's own log says what happens.
@@ -285,6 +291,7 @@ class RosNode:
         """(Any thread.) Report ``text`` to the loop (:meth:`drain_errors`)."""
         with self._errors_lock:
             self._errors.append(text)
+            self.errors += 1
         self._wake()
 
     def drain_errors(self) -> list[str]:

@@ -83,6 +83,8 @@ class PlatformRos:
         self.namespace = f"/{swarm}/p{platform}"
         self._topics: dict[tuple[str, str, str], tuple[Inlet, weakref.WeakSet[Reader]]] = {}
         self._reports: list[str] = []
+        #: What plugins reported (:meth:`report`) since the node was made.
+        self.reported = 0
         self._wake_loop: Callable[[], None] = lambda: None
         waker = Waker(loop, self._woken)
         self.node = RosNode("platform", self.namespace, wake=waker, domain_id=domain)
@@ -137,6 +139,7 @@ class PlatformRos:
     def report(self, text: str) -> None:
         """Say what went wrong (the daemon logs it as ``ros2-error``)."""
         self._reports.append(text)
+        self.reported += 1
 
     # --- for the daemon -----------------------------------------------------------------
 
@@ -154,5 +157,32 @@ class PlatformRos:
         return out
 
     def counters(self) -> dict[str, dict[str, int]]:
-        """Per topic subscribed: messages received, dropped (a flood), undecodable."""
-        return {inlet.topic: inlet.counters() for inlet, _ in self._topics.values()}
+        """Per topic the node subscribes (the plugins' and the vehicle's): the node's queue
+        size ``keep`` (1: only the newest message matters, as for the vehicle's pose, and
+        the rest is dropped by design), messages ``received``, ``dropped`` by that queue (a
+        flood faster than the loop), ``undecodable``, and ``readers_dropped``: those the
+        plugins' readers dropped because they did not take them in time (the readers alive
+        now). Counted since the node was made; two subscriptions of one topic add up (their
+        largest ``keep``)."""
+        readers = {id(inlet): group for inlet, group in self._topics.values()}
+        out: dict[str, dict[str, int]] = {}
+        for inlet in self.node.inlets:
+            counts = inlet.counters()
+            counts["readers_dropped"] = sum(r.dropped for r in readers.get(id(inlet), ()))
+            before = out.get(inlet.topic)
+            if before is not None:
+                counts = {k: max(v, before[k]) if k == "keep" else v + before[k]
+                          for k, v in counts.items()}  # fmt: skip
+            out[inlet.topic] = counts
+        return out
+
+    def status(self) -> dict[str, Any]:
+        """What the daemon's ``status.json`` says of its ROS 2 node (key ``ros2``): its
+        name, whether it still spins, the errors reported since it was made (the log's
+        ``ros2-error`` lines, the node's and the plugins') and :meth:`counters`."""
+        return {
+            "node": self.node.name,
+            "alive": self.node.alive,
+            "errors": self.node.errors + self.reported,
+            "topics": self.counters(),
+        }

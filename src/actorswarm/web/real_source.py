@@ -144,6 +144,10 @@ class RealSource(SwarmSource):
         status = self._status.get(platform)
         return {} if status is None else status.vehicle
 
+    def roles_of(self, platform: int) -> list[str]:
+        status = self._status.get(platform)
+        return [] if status is None else sorted(status.roles)
+
     def areas(self) -> dict[str, list[list[float]]]:
         if self.world is None:
             return {}

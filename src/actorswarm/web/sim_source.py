@@ -143,6 +143,11 @@ class SimSource(SwarmSource):
         host = self.sim.hosts.get(platform)
         return {} if host is None else host.engine.runtime.vehicle_state()
 
+    def roles_of(self, platform: int) -> list[str]:
+        # What a status reply would carry: the roles its core holds.
+        host = self.sim.hosts.get(platform)
+        return [] if host is None else sorted(host.engine.node.roles.held)
+
     def targets(self) -> list[dict[str, Any]]:
         if self.sim.world is None:
             return []

@@ -220,6 +220,11 @@ class SwarmSource(abc.ABC):
         link, autopilot, mode...); empty when it says nothing or is unknown."""
         return {}
 
+    def roles_of(self, platform: int) -> list[str]:
+        """The roles ``platform`` holds (a status reply's ``roles``), sorted; empty when it
+        holds none or it is unknown."""
+        return []
+
     def targets(self) -> list[dict[str, Any]]:
         """Moving targets: ``{"name", "x", "y"}``."""
         return []
@@ -430,6 +435,7 @@ class SwarmSource(abc.ABC):
                     "script": self.script_of(p)[:12],
                     "actors": [_summary(a) for a in acbs.values()],
                     **_vehicle(self.vehicle_of(p)),
+                    "roles": self.roles_of(p),
                 }
             )
         return {

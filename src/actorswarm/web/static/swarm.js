@@ -86,6 +86,9 @@ export class SwarmPanel {
       actors.push(el("span", { class: "muted", title: more.map((a) => `${a.name}: ${said(a.status)}`).join("\n") }, `+${more.length} ${more.every((a) => a.status === "sleeping") ? "paused" : "loaded"}`));
     }
     if (!actors.length) actors.push("—");
+    if (m.roles && m.roles.length) {
+      actors.push(el("span", { class: "muted roles", title: "roles held" }, `roles: ${m.roles.join(", ")}`));
+    }
     return el(
       "tr",
       {
