@@ -5,15 +5,13 @@ suspects, local health, and what a change of the view sets off (see :mod:`.membe
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from actorswarm.core import airtime, wire
 from actorswarm.core.election import OnHeartbeat
 from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
-)
-from actorswarm.core.node_base import (
-    MAX_HEALTH,
-    NodeBase,
 )
 from actorswarm.core.ready import PROBE
 from actorswarm.core.roster import RosterLog
@@ -24,57 +22,90 @@ from actorswarm.core.wire import (
     RosterRequest,
 )
 
+if TYPE_CHECKING:
+    from actorswarm.core.node.coordinator import Node
+
 #: A master that has more members asking for the whole roster than this at one heartbeat
 #: broadcasts it once instead of sending it to each.
 ROSTER_BROADCAST_FROM = 4
+#: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
+#: ticks late.
+MAX_HEALTH = 8
 
 
-class NodeMembership(NodeBase):
-    """See the module docstring."""
+class Liveness:
+    """Who is alive, for one :class:`~actorswarm.core.node.Node`: see the module docstring.
+    It acts on the node's shared state (view, master, epoch) and keeps its own (heartbeat
+    count, probe answers, local health, roster requests)."""
+
+    def __init__(self, node: Node, now: float) -> None:
+        self._node = node
+        #: Heartbeats sent so far (scheduled ones; probes and probe answers not counted).
+        self.hb_count = 0
+        # Member: when the roster was last asked for; on a shared channel, a request
+        # waiting to go. Master: when the roster was last broadcast, and the roster
+        # (epoch, version) its last heartbeat told.
+        self._roster_asked = -1e9
+        self._roster_ask_at: float | None = None
+        self._roster_broadcast_at = -1e9
+        self._roster_told = (0, 0)
+        #: As a star master: heartbeating twice per interval under heavy loss
+        #: (``CoreConfig.fast_master_loss``).
+        self._fast = False
+        # Star: lower IDs heard lately without a master (:meth:`lower_heard`).
+        self._heard_lower: dict[int, float] = {}
+        # When each prober was last answered.
+        self._answered: dict[int, float] = {}
+        # Local health: how late the host ticks, as a grace on every leave decision.
+        self.health = 0
+        self._health_decay_at = now
+        self._changes: list[MemberJoined | MemberLeft] = []  # scratch, reused per heartbeat
 
     def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
         """This platform's heartbeat; a star master's carries what its members need."""
+        node = self._node
         if suspects is None:
             suspects = self._suspect_list()
         awaited = (
-            self._bmaster.awaited(now, lambda: {*self.members.peers, self.platform})
-            if self.is_master
+            node._bmaster.awaited(now, lambda: {*node.members.peers, node.platform})
+            if node.is_master
             else []
         )
-        if not (self._star and self.is_master):
+        if not (node._star and node.is_master):
             return Heartbeat(
-                is_master=self.is_master,
-                epoch=self.epoch,
-                master=self.master or 0,
-                count=self._hb_count,
+                is_master=node.is_master,
+                epoch=node.epoch,
+                master=node.master or 0,
+                count=self.hb_count,
                 suspects=suspects,
                 awaited=awaited,
             )
-        log = self._roster_log
+        log = node._roster_log
         return Heartbeat(
             is_master=True,
-            epoch=self.epoch,
-            master=self.platform,
-            count=self._hb_count,
+            epoch=node.epoch,
+            master=node.platform,
+            count=self.hb_count,
             suspects=suspects,
             roster=log.version,
-            size=len(self.members),
+            size=len(node.members),
             changes=list(log.changes),
-            succession=log.succession(self.members.peers),
-            cadence=0.0 if self._cadence == self.config.heartbeat_interval else self._cadence,
+            succession=log.succession(node.members.peers),
+            cadence=0.0 if node._cadence == node.config.heartbeat_interval else node._cadence,
             awaited=awaited,
-            interval_ms=round(self._own_interval() * 1000) if self._fast else 0,
+            interval_ms=round(self.own_interval() * 1000) if self._fast else 0,
         )
 
-    def _own_interval(self) -> float:
+    def own_interval(self) -> float:
         """How often this platform heartbeats: a star member following a master at the
         cadence its master asks for; a star master at half ``heartbeat_interval`` while it
         is fast (:meth:`_update_fast`); anyone else at ``heartbeat_interval``."""
-        if self._following_star():
-            return self._cadence
+        node = self._node
+        if node._following_star():
+            return node._cadence
         if self._fast:
-            return self.config.heartbeat_interval / 2
-        return self.config.heartbeat_interval
+            return node.config.heartbeat_interval / 2
+        return node.config.heartbeat_interval
 
     def _update_fast(self) -> None:
         """A star master heartbeats faster while the loss it measures is heavy
@@ -82,69 +113,72 @@ class NodeMembership(NodeBase):
         alone, and the silence that tells a dead master from a run of losses is a number of
         its heartbeats: at twice the rate, half the time. Not on a shared channel, where a
         master's heartbeat (roster, succession) is the largest regular packet on the air."""
-        cfg = self.config
+        node = self._node
+        cfg = node.config
         threshold = cfg.fast_master_loss
         if (
             threshold is None
             or cfg.channel_bitrate is not None
-            or not (self._star and self.is_master)
+            or not (node._star and node.is_master)
         ):
             self._fast = False
             return
-        loss = self.members.loss.value
+        loss = node.members.loss.value
         self._fast = loss >= threshold or (self._fast and loss >= threshold * 2 / 3)
 
     def _suspect_list(self) -> list[int]:
         """Up to MAX_SUSPECTS suspects, rotating through them when there are more."""
-        suspects = self.members.suspects
+        node = self._node
+        suspects = node.members.suspects
         if not suspects:
             return []
         ordered = sorted(suspects)
         if len(ordered) <= wire.MAX_SUSPECTS:
             return ordered
-        start = (self._hb_count * wire.MAX_SUSPECTS) % len(ordered)
+        start = (self.hb_count * wire.MAX_SUSPECTS) % len(ordered)
         return (ordered[start:] + ordered[:start])[: wire.MAX_SUSPECTS]
 
-    def _send_heartbeat(self, now: float) -> None:
+    def send_heartbeat(self, now: float) -> None:
         """The scheduled heartbeat: to the master alone when following one in a star, else
         broadcast — except that a masterless star platform that hears a lower ID (or presumes
         a lower successor alive) keeps quiet: it could not become master, and at boot this is
         what keeps a thousand platforms from all broadcasting at once."""
-        self._hb_count += 1
-        if self._heard is not None:
-            self._heard.sweep(now)
+        node = self._node
+        self.hb_count += 1
+        if node._heard is not None:
+            node._heard.sweep(now)
         # On a shared channel the roster of a new epoch is broadcast unasked
         # (:meth:`_roster_outrun`), after the claim's heartbeat: a member takes a roster
         # only from the master it follows.
         roster_after = (
-            self.config.channel_bitrate is not None and self._roster_told[0] != self.epoch
+            node.config.channel_bitrate is not None and self._roster_told[0] != node.epoch
         )
         self._update_fast()
-        if self.is_master and self._star:
-            self._cadence = self._member_cadence()
-            self.members.cadence = self._cadence
+        if node.is_master and node._star:
+            node._cadence = node._member_cadence()
+            node.members.cadence = node._cadence
             if not roster_after:
                 self._serve_roster_requests(now)
-        if self.config.channel_bitrate is not None:
+        if node.config.channel_bitrate is not None:
             # What the swarm needs to put one packet each on the shared channel: reliable
             # delivery waits at least that long for an acknowledgement.
-            size = self._swarm_size()
-            self.reliable.channel_time = airtime.channel_time(self.config, size)
-            self.reliable.channel_size = size
+            size = node._swarm_size()
+            node.reliable.channel_time = airtime.channel_time(node.config, size)
+            node.reliable.channel_size = size
         hb = self._heartbeat(now)
-        if self._following_star():
+        if node._following_star():
             if self._heartbeats_held(now):
-                self.counters["heartbeat_held"] += 1
+                node.counters["heartbeat_held"] += 1
             else:
-                self._emit(self.master, hb, NORMAL)
-        elif self._quiet(now) and not (self._hb_count == 1 and self._heard is not None):
+                node._emit(node.master, hb, NORMAL)
+        elif self._quiet(now) and not (self.hb_count == 1 and node._heard is not None):
             # On a shared channel the first heartbeat goes out all the same: one packet per
             # platform, and every platform hears how many there are (:meth:`_swarm_size`)
             # before the first claim asks all of them to report at once.
-            self.counters["heartbeat_quiet"] += 1
+            node.counters["heartbeat_quiet"] += 1
         else:
-            self._emit(None, hb, NORMAL)
-        if roster_after and self.is_master and self._star:
+            node._emit(None, hb, NORMAL)
+        if roster_after and node.is_master and node._star:
             self._serve_roster_requests(now)
 
     def _heartbeats_held(self, now: float) -> bool:
@@ -154,22 +188,25 @@ class NodeMembership(NodeBase):
         members heartbeating at 10 Hz meanwhile would fill the channel its heartbeats need
         (docs/collective-core.md, "Airtime"). By then the master has counted the reports it
         received, and its heartbeat carries a cadence for them."""
-        return now < self._heartbeats_held_until and self.reliable.master_holds(self._report_seq)
+        node = self._node
+        return now < node._heartbeats_held_until and node.reliable.master_holds(node._report_seq)
 
     def _quiet(self, now: float) -> bool:
-        if not self._star or self.is_master or self.master is not None:
+        node = self._node
+        if not node._star or node.is_master or node.master is not None:
             return False
-        if any(p < self.platform for p in self._presumed):
+        if any(p < node.platform for p in node._presumed):
             return True
-        return bool(self._lower_heard(now))
+        return bool(self.lower_heard(now))
 
-    def _lower_heard(self, now: float) -> list[int]:
+    def lower_heard(self, now: float) -> list[int]:
         """Lower IDs heard lately without a master (they elect, so I need not be heard).
 
         A lower ID that is a master does not count: if I do not follow it (its epoch is
         below mine), it must hear me to claim again above my epoch. "Lately" is as long as
         a member stays in a view, so a lost heartbeat or two change nothing."""
-        horizon = now - max(self.config.t_join, self.members.silence())
+        node = self._node
+        horizon = now - max(node.config.t_join, node.members.silence())
         heard = self._heard_lower
         for peer in [p for p, t in heard.items() if t < horizon]:
             del heard[peer]
@@ -180,113 +217,120 @@ class NodeMembership(NodeBase):
         more than a heartbeat's changes can tell (a new epoch, a swarm joining by the
         hundred), so every member is behind — one broadcast of the roster serves them all,
         and saves the channel a request from each. Notes the version told."""
-        log = self._roster_log
+        node = self._node
+        log = node._roster_log
         told_epoch, told_version = self._roster_told
-        self._roster_told = (self.epoch, log.version)
-        if self.config.channel_bitrate is None or not self.members:
+        self._roster_told = (node.epoch, log.version)
+        if node.config.channel_bitrate is None or not node.members:
             return False
-        return told_epoch != self.epoch or log.version - told_version > wire.MAX_CHANGES
+        return told_epoch != node.epoch or log.version - told_version > wire.MAX_CHANGES
 
     def _serve_roster_requests(self, now: float) -> None:
         """Send the whole roster to the members that asked since the last heartbeat: to each,
         or once to everyone when many asked (after a failover every member does) or, on a
         shared channel, when all of them are behind (:meth:`_roster_outrun`)."""
+        node = self._node
         outrun = self._roster_outrun()
-        if not self._roster_requests and not (outrun and now >= self._roster_broadcast_at):
+        if not node._roster_requests and not (outrun and now >= self._roster_broadcast_at):
             return
-        requesters = sorted(self._roster_requests)
-        self._roster_requests.clear()
-        members = {p: m.incarnation for p, m in self.members.peers.items()}
+        requesters = sorted(node._roster_requests)
+        node._roster_requests.clear()
+        members = {p: m.incarnation for p, m in node.members.peers.items()}
         chunks = RosterLog.chunks(
-            self.epoch, self._roster_log.version, members, self.config.roster_chunk
+            node.epoch, node._roster_log.version, members, node.config.roster_chunk
         )
         if outrun or len(requesters) > ROSTER_BROADCAST_FROM:
             if now < self._roster_broadcast_at:
                 # A roster that changes fast (a swarm booting) is broadcast once per t_join
                 # at most: the members ask again meanwhile, at no cost to anyone else.
-                self._roster_requests.update(requesters)
+                node._roster_requests.update(requesters)
                 return
-            self._roster_broadcast_at = now + self.config.t_join
+            self._roster_broadcast_at = now + node.config.t_join
         targets: list[int | None] = (
             [None] if outrun or len(requesters) > ROSTER_BROADCAST_FROM else list(requesters)
         )
         for dst in targets:
             for chunk in chunks:
-                self._emit(dst, chunk, NORMAL)
+                node._emit(dst, chunk, NORMAL)
 
-    def _master_unheard_since(self, now: float) -> bool:
+    def master_unheard_since(self, now: float) -> bool:
         """The followed master is outside the view and silent for ``t_leave``."""
+        node = self._node
         return (
-            self.master is not None
-            and not self.is_master
-            and self.master not in self.members
-            and now - self._master_heard >= self.members.silence() + self._channel_patience()
-            and now >= self._master_hold
+            node.master is not None
+            and not node.is_master
+            and node.master not in node.members
+            and now - node._master_heard >= node.members.silence() + node._channel_patience()
+            and now >= node._master_hold
         )
 
-    def _check_health(self, now: float) -> None:
+    def check_health(self, now: float) -> None:
         """Local health (Lifeguard): a tick later than asked means this host was not
         listening (a starved CPU, a paused process); each one adds a heartbeat interval of
         grace to every leave decision, and every second of punctual ticks takes one away."""
-        late = now - self._due
-        if late > self.config.heartbeat_interval / 2:
-            if self._health < MAX_HEALTH:
-                self._health += 1
-                self.counters["late_tick"] += 1
+        node = self._node
+        late = now - node._due
+        if late > node.config.heartbeat_interval / 2:
+            if self.health < MAX_HEALTH:
+                self.health += 1
+                node.counters["late_tick"] += 1
             self._health_decay_at = now + 1.0
-        elif self._health and now >= self._health_decay_at:
-            self._health -= 1
+        elif self.health and now >= self._health_decay_at:
+            self.health -= 1
             self._health_decay_at = now + 1.0
 
-    def _probes(self, suspect: int) -> bool:
+    def probes(self, suspect: int) -> bool:
         """Whether this platform probes ``suspect``: always — except that on a shared
         channel a star member's silent master is probed by its successors alone. They are
         the ones who act on its loss (the others wait for the claim), and every member of a
         swarm of hundreds probing at once would delay that claim on the air."""
-        if self.config.channel_bitrate is None or not self._following_star():
+        node = self._node
+        if node.config.channel_bitrate is None or not node._following_star():
             return True
-        return suspect != self.master or self.platform in self.roster.succession
+        return suspect != node.master or node.platform in node.roster.succession
 
-    def _probe(self, now: float) -> None:
+    def probe(self, now: float) -> None:
         """Probe the suspects directly (a heartbeat naming them, sent to each): at once on
         suspicion, then every ``probe_interval`` while there are few; many suspects at once
         (a master after a mass failure) are probed by the list in the heartbeats alone."""
-        if not self._probe_due:
+        node = self._node
+        if not node._probe_due:
             return
-        suspects = self.members.suspects
-        for peer in [p for p in self._probe_due if p not in suspects]:
-            del self._probe_due[peer]
-        if len(self._probe_due) > wire.MAX_SUSPECTS // 4:
-            due = [p for p, t in self._probe_due.items() if t == now]  # fresh suspicions only
-            for peer in self._probe_due:
-                self._probe_due[peer] = now + self.config.heartbeat_interval
+        suspects = node.members.suspects
+        for peer in [p for p in node._probe_due if p not in suspects]:
+            del node._probe_due[peer]
+        if len(node._probe_due) > wire.MAX_SUSPECTS // 4:
+            due = [p for p, t in node._probe_due.items() if t == now]  # fresh suspicions only
+            for peer in node._probe_due:
+                node._probe_due[peer] = now + node.config.heartbeat_interval
         else:
-            due = [p for p, t in self._probe_due.items() if t <= now]
+            due = [p for p, t in node._probe_due.items() if t <= now]
         for peer in due:
-            self.counters["probe"] += 1
-            self._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
-            self._probe_due[peer] = now + self.config.probe_interval
+            node.counters["probe"] += 1
+            node._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
+            node._probe_due[peer] = now + node.config.probe_interval
 
-    def _on_heartbeat(
+    def on_heartbeat(
         self, sender: int, incarnation: int, hb: Heartbeat, now: float, seq: int
     ) -> None:
+        node = self._node
         if sender == wire.GROUND_STATION:
-            self.counters["drop:not_for_me"] += 1
+            node.counters["drop:not_for_me"] += 1
             return
-        if hb.suspects and self.platform in hb.suspects:
+        if hb.suspects and node.platform in hb.suspects:
             self._answer_probe(sender, now)
-        if hb.awaited and sender == self.master and self.platform in hb.awaited:
+        if hb.awaited and sender == node.master and node.platform in hb.awaited:
             self._hurry(now)
-        self._max_epoch = max(self._max_epoch, hb.epoch)
-        if sender == self.master and not self.is_master:
-            if incarnation > self._master_incarnation >= 0:
+        node._max_epoch = max(node._max_epoch, hb.epoch)
+        if sender == node.master and not node.is_master:
+            if incarnation > node._master_incarnation >= 0:
                 # My master rebooted: the new incarnation claims nothing (a heartbeat of an
                 # older epoch would otherwise pass for a late one from before its claim).
-                self.counters["master_restarted"] += 1
-                self._lose_master(now)
+                node.counters["master_restarted"] += 1
+                node._lead.lose_master(now)
             elif hb.is_master:
-                self._master_incarnation = incarnation
-        if sender < self.platform and self._star and self.master is None:
+                node._master_incarnation = incarnation
+        if sender < node.platform and node._star and node.master is None:
             # Only a lower ID that follows no master either keeps this one quiet: one that
             # follows a master this platform does not (its probe answers reach me) or is a
             # master itself cannot stand in for me in an election.
@@ -296,70 +340,71 @@ class NodeMembership(NodeBase):
                 self._heard_lower[sender] = now
         # A star member that follows a master watches that master only: other platforms'
         # heartbeats matter to it for the election alone (a master, or its own master's).
-        if not self._following_star() or sender == self.master:
+        if not node._following_star() or sender == node.master:
             changes = self._changes  # reused: this runs for every heartbeat heard
-            self.members.heartbeat(sender, incarnation, now, changes, seq, hb.count)
+            node.members.heartbeat(sender, incarnation, now, changes, seq, hb.count)
             if changes:
                 self._changes = []
-                self._membership_changed(changes, now, hb)
-        if sender == self.master:
-            self._master_heard = now
-            if hb.is_master and hb.epoch == self.epoch and not self.is_master:
+                self.membership_changed(changes, now, hb)
+        if sender == node.master:
+            node._master_heard = now
+            if hb.is_master and hb.epoch == node.epoch and not node.is_master:
                 self._on_master_heartbeat(sender, hb, now)
-        if not (hb.is_master or self.is_master or sender == self._epoch_master):
+        if not (hb.is_master or node.is_master or sender == node._epoch_master):
             return  # the common case at scale: an ordinary member's heartbeat
-        action = self._decide(sender, hb.is_master, hb.epoch)
+        action = node._decide(sender, hb.is_master, hb.epoch)
         if action is OnHeartbeat.IGNORE:
-            better = self._best_claim is None or hb.epoch > self._best_claim[0]
-            if hb.is_master and hb.epoch > self.epoch and better:
-                self._best_claim = (hb.epoch, sender, now)
+            better = node._best_claim is None or hb.epoch > node._best_claim[0]
+            if hb.is_master and hb.epoch > node.epoch and better:
+                node._best_claim = (hb.epoch, sender, now)
             return
-        if self._apply(action, sender, hb.epoch, now):
-            if action is OnHeartbeat.FOLLOW and self.master == sender:
+        if node._lead.apply(action, sender, hb.epoch, now):
+            if action is OnHeartbeat.FOLLOW and node.master == sender:
                 # Known from its first heartbeat, so that its reboot is noticed even if it
                 # is the last one heard (campaign seed 951123, broadcast).
-                self._master_incarnation = incarnation
+                node._master_incarnation = incarnation
                 self._on_master_heartbeat(sender, hb, now)
             return
         if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any
-            self._lose_master(now)
-            if hb.master not in (0, self.platform, sender):
-                self._epoch_master = hb.master
+            node._lead.lose_master(now)
+            if hb.master not in (0, node.platform, sender):
+                node._epoch_master = hb.master
 
     def _on_master_heartbeat(self, sender: int, hb: Heartbeat, now: float) -> None:
         """What a member takes from its master's heartbeat: the cadence it asks for, the
         succession list, and the roster (asking for all of it when behind)."""
-        if not self._star:
+        node = self._node
+        if not node._star:
             return
         # The one peer this member watches heartbeats at this interval: its silence is
         # judged in those heartbeats (loss-aware leave time, suspicion).
-        self.members.cadence = hb.interval_ms / 1000 or self.config.heartbeat_interval
-        cadence = hb.cadence if hb.cadence > 0 else self.config.heartbeat_interval
-        if cadence != self._cadence:
+        node.members.cadence = hb.interval_ms / 1000 or node.config.heartbeat_interval
+        cadence = hb.cadence if hb.cadence > 0 else node.config.heartbeat_interval
+        if cadence != node._cadence:
             # Every member hears a master's first slow cadence in the same heartbeat: each
             # takes a phase of its own for it within one interval, or they would all
             # heartbeat in the same instant on a shared channel. Later changes keep the
             # schedule (a new phase at each would put the next heartbeat off again and
             # again while the master's count grows), bringing it forward when faster.
-            if self._cadence == self.config.heartbeat_interval:
-                self._next_heartbeat = now + self._rng.uniform(0, cadence)
+            if node._cadence == node.config.heartbeat_interval:
+                node._next_heartbeat = now + node._rng.uniform(0, cadence)
             else:
-                self._next_heartbeat = min(self._next_heartbeat, now + cadence)
-            self._cadence = cadence
-        rejected = self.roster.rejected
-        behind = self.roster.on_heartbeat(hb.epoch, hb)
-        if self.roster.rejected != rejected:
-            self.counters["drop:roster"] += 1
+                node._next_heartbeat = min(node._next_heartbeat, now + cadence)
+            node._cadence = cadence
+        rejected = node.roster.rejected
+        behind = node.roster.on_heartbeat(hb.epoch, hb)
+        if node.roster.rejected != rejected:
+            node.counters["drop:roster"] += 1
         self._roster_removed(now)
         if not behind:
             self._roster_ask_at = None
         elif self._roster_ask_due(now):
-            self.counters["roster_request"] += 1
-            self._emit(
+            node.counters["roster_request"] += 1
+            node._emit(
                 sender,
                 RosterRequest(
                     epoch=hb.epoch,
-                    version=self.roster.version if self.roster.epoch == hb.epoch else 0,
+                    version=node.roster.version if node.roster.epoch == hb.epoch else 0,
                 ),
                 NORMAL,
             )
@@ -370,7 +415,8 @@ class NodeMembership(NodeBase):
         master broadcasts the roster by itself when every member is behind (at most once per
         ``t_join``), only when still behind after a random half to one and a half
         ``t_join``, and then at most once per ``t_join``."""
-        cfg = self.config
+        node = self._node
+        cfg = node.config
         if cfg.channel_bitrate is None:
             if now - self._roster_asked < cfg.retry_cap:
                 return False
@@ -378,106 +424,112 @@ class NodeMembership(NodeBase):
             if now - self._roster_asked < cfg.t_join:
                 return False
             if self._roster_ask_at is None:
-                self._roster_ask_at = now + cfg.t_join * self._rng.uniform(0.5, 1.5)
+                self._roster_ask_at = now + cfg.t_join * node._rng.uniform(0.5, 1.5)
             if now < self._roster_ask_at:
                 return False
             self._roster_ask_at = None
         self._roster_asked = now
         return True
 
-    def _on_roster_chunk(self, sender: int, chunk: RosterChunk, now: float) -> None:
+    def on_roster_chunk(self, sender: int, chunk: RosterChunk, now: float) -> None:
+        node = self._node
         if not (
-            self._star
-            and sender == self.master
-            and not self.is_master
-            and chunk.epoch == self.epoch
+            node._star
+            and sender == node.master
+            and not node.is_master
+            and chunk.epoch == node.epoch
         ):
-            self.counters["drop:roster"] += 1
+            node.counters["drop:roster"] += 1
             return
-        rejected = self.roster.rejected
-        self.roster.on_chunk(chunk)
-        if self.roster.rejected != rejected:
-            self.counters["drop:roster"] += 1
+        rejected = node.roster.rejected
+        node.roster.on_chunk(chunk)
+        if node.roster.rejected != rejected:
+            node.counters["drop:roster"] += 1
         self._roster_removed(now)
 
     def _roster_removed(self, now: float) -> None:
         """Platforms that left the master's view left the swarm for this member too: its
         queues to them are dropped and their messages reported failed."""
-        if not self.roster.removed:
+        node = self._node
+        if not node.roster.removed:
             return
-        for platform in self.roster.removed:
-            if platform != self.master:
-                self.reliable.drop_destination(platform, now)
-        self.roster.removed.clear()
-        self._report_failures()
+        for platform in node.roster.removed:
+            if platform != node.master:
+                node.reliable.drop_destination(platform, now)
+        node.roster.removed.clear()
+        node._report_failures()
 
     def _hurry(self, now: float) -> None:
         """My master names me as awaited by a barrier of all: what it has not acknowledged
         of mine goes again now, at most once per two heartbeat intervals (so a request
         still queued on a busy channel is not sent on every heartbeat)."""
-        sent = self.reliable.hurry_master(now, 2 * self.config.heartbeat_interval)
+        node = self._node
+        sent = node.reliable.hurry_master(now, 2 * node.config.heartbeat_interval)
         if sent:
-            self.counters["hurried"] += sent
+            node.counters["hurried"] += sent
 
     def _answer_probe(self, prober: int, now: float) -> None:
         """A peer suspects me: answer it directly (at most twice per probe interval)."""
-        if now - self._answered.get(prober, -1e9) < self.config.probe_interval / 2:
+        node = self._node
+        if now - self._answered.get(prober, -1e9) < node.config.probe_interval / 2:
             return
         if len(self._answered) > 4 * wire.MAX_SUSPECTS:
-            horizon = now - self.config.probe_interval
+            horizon = now - node.config.probe_interval
             self._answered = {p: t for p, t in self._answered.items() if t >= horizon}
         self._answered[prober] = now
-        self.counters["probe_answered"] += 1
-        self._emit(prober, self._heartbeat(now), NORMAL, PROBE)
+        node.counters["probe_answered"] += 1
+        node._emit(prober, self._heartbeat(now), NORMAL, PROBE)
 
-    def _membership_changed(
+    def membership_changed(
         self, changes: list[MemberJoined | MemberLeft], now: float, hb: Heartbeat | None = None
     ) -> None:
+        node = self._node
         if not changes:
             return
         for change in changes:
-            self._out.events.append(change)
+            node._out.events.append(change)
             if isinstance(change, MemberLeft):
-                self.reliable.drop_destination(change.platform, now)
-                self._probe_due.pop(change.platform, None)
+                node.reliable.drop_destination(change.platform, now)
+                node._probe_due.pop(change.platform, None)
                 if change.reason == "restarted":
-                    self.reliable.forget_sender(change.platform, change.incarnation)
-                if self.is_master:
-                    self._handshake_waiting.discard(change.platform)
-                    self._bmaster.member_left(change.platform, now, self.epoch)
-                    self._rmaster.member_left(
+                    node.reliable.forget_sender(change.platform, change.incarnation)
+                if node.is_master:
+                    node._handshake_waiting.discard(change.platform)
+                    node._bmaster.member_left(change.platform, now, node.epoch)
+                    node._rmaster.member_left(
                         change.platform, restarted=change.reason == "restarted"
                     )
-                    self._board.member_left(change.platform)
-                    self._roster_log.left(change.platform)
-                    if change.platform in self._reported and change.reason != "restarted":
-                        self._rejoining.add(change.platform)
-                    self._reported.discard(change.platform)
-                if change.platform == self.master:
-                    self._lose_master(now)
-            elif self.is_master:
-                self._roster_log.joined(change.platform, change.incarnation)
-                self._master_joined(change.platform, now, hb)
-            elif change.platform == self.master and self._master_hold > now:
-                self.members.hold(change.platform, self._master_hold, now)
+                    node._board.member_left(change.platform)
+                    node._roster_log.left(change.platform)
+                    if change.platform in node._reported and change.reason != "restarted":
+                        node._rejoining.add(change.platform)
+                    node._reported.discard(change.platform)
+                if change.platform == node.master:
+                    node._lead.lose_master(now)
+            elif node.is_master:
+                node._roster_log.joined(change.platform, change.incarnation)
+                node._lead.master_joined(change.platform, now, hb)
+            elif change.platform == node.master and node._master_hold > now:
+                node.members.hold(change.platform, node._master_hold, now)
         self._update_lowest_peer(changes)
-        self._report_failures()
-        if self.is_master:
-            if self._handshake_deadline is not None and not self._handshake_waiting:
-                self._finish_handshake(now)
-            self._flush_master(now)
-        self._maybe_claim(now)
+        node._report_failures()
+        if node.is_master:
+            if node._handshake_deadline is not None and not node._handshake_waiting:
+                node._lead.finish_handshake(now)
+            node._flush_master(now)
+        node._lead.maybe_claim(now)
 
     def _update_lowest_peer(self, changes: list[MemberJoined | MemberLeft]) -> None:
         """Keep the lowest ID of the view in O(1) per join; only losing the lowest one costs
         a scan (at boot a platform sees N joins: a scan per join would be O(N²))."""
-        lowest = self._lowest_peer
+        node = self._node
+        lowest = node._lowest_peer
         for change in changes:
             if isinstance(change, MemberJoined):
                 if lowest is None or change.platform < lowest:
                     lowest = change.platform
             elif change.platform == lowest:
-                lowest = None if not self.members.peers else -1
+                lowest = None if not node.members.peers else -1
         if lowest == -1:
-            lowest = min(self.members.peers)
-        self._lowest_peer = lowest
+            lowest = min(node.members.peers)
+        node._lowest_peer = lowest

@@ -16,13 +16,15 @@ The application (task engine, tests) asks for coordination with :meth:`request_b
 node reads no clock, opens no socket, starts no thread and draws randomness only from the
 seeded ``rng`` it was given (the phase of its heartbeats).
 
-Inside, the node composes membership (:mod:`.membership`), election (:mod:`.election`),
-reliable streams (:mod:`.reliable`), bulletins (:mod:`.bulletin`), barriers
-(:mod:`.barrier`) and roles (:mod:`.roles`). Each part writes what it sends and reports
-into the node's one collector (:mod:`.ready`). It is built in layers, one class per module:
-:class:`~.node_base.NodeBase` (state and output), :class:`~.node_membership.NodeMembership`
-(who is alive), :class:`~.node_election.NodeElection` (who is master, the handshake) and
-:class:`Node` here (the host interface, packet dispatch, coordination messages).
+Inside, the node composes membership (:mod:`actorswarm.core.membership`), election
+(:mod:`actorswarm.core.election`), reliable streams (:mod:`actorswarm.core.reliable`),
+bulletins (:mod:`actorswarm.core.bulletin`), barriers (:mod:`actorswarm.core.barrier`) and
+roles (:mod:`actorswarm.core.roles`). Each part writes what it sends and reports into the
+node's one collector (:mod:`actorswarm.core.ready`). The node keeps the state its parts
+share (whom it follows, in which epoch) and hands the work to them as objects:
+:class:`~.liveness.Liveness` (who is alive: heartbeats, probes, the roster, view changes)
+and :class:`~.leadership.Leadership` (who is master: claims, following, stepping down, the
+handshake, reports).
 Master-bound messages are sent to the current master — or handled in place when this platform
 is the master — and wait, in order, while there is none. Packets that fail any check are
 dropped and counted in :attr:`Node.counters`, never raised: untrusted bytes cannot crash a
@@ -31,11 +33,24 @@ platform nor change its state.
 
 from __future__ import annotations
 
+import math
+import random
+from collections import Counter
 from collections.abc import Callable, Iterable
 from typing import Any, Final
 
-from actorswarm.core import wire
-from actorswarm.core.barrier import addressee
+from actorswarm.core import airtime, wire
+from actorswarm.core.barrier import (
+    BarrierMaster,
+    BarrierMember,
+    Gathers,
+    NeedResolver,
+    Scatter,
+    addressee,
+)
+from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
+from actorswarm.core.config import CoreConfig
+from actorswarm.core.election import OnHeartbeat, on_heartbeat
 from actorswarm.core.events import (
     AppReceived,
     CoreEvent,
@@ -43,13 +58,16 @@ from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
 )
-from actorswarm.core.node_base import (
-    KEEP_ERRORS,
-    MASTER_BOUND,
-)
-from actorswarm.core.node_election import NodeElection
-from actorswarm.core.ready import Outgoing, Ready
+from actorswarm.core.membership import Membership
+from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
+from actorswarm.core.node.liveness import Liveness
+from actorswarm.core.ready import Collector, Outgoing, Ready
+from actorswarm.core.reliable import Reliable
+from actorswarm.core.roles import RoleMaster, RoleMember
+from actorswarm.core.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.wire import (
+    BULLETIN_STREAM,
+    NEED_ALL,
     NORMAL,
     URGENT,
     Ack,
@@ -76,9 +94,296 @@ from actorswarm.core.wire import (
     WireError,
 )
 
+#: Unexpected internal errors kept for diagnosis (:attr:`Node.errors`).
+KEEP_ERRORS = 20
 
-class Node(NodeElection):
+
+class Node:
     """The collective core of platform ``platform`` (1..65535) in its ``incarnation``."""
+
+    def __init__(
+        self,
+        platform: int,
+        *,
+        swarm: str = "swarm",
+        incarnation: int = 0,
+        config: CoreConfig | None = None,
+        now: float = 0.0,
+        rng: random.Random | None = None,
+        roster_pool: RosterPool | None = None,
+    ) -> None:
+        if not 1 <= platform <= wire.MAX_PLATFORM:
+            raise ValueError(f"platform ID must be 1..{wire.MAX_PLATFORM}, got {platform}")
+        if incarnation < 0:
+            raise ValueError(f"incarnation must be >= 0, got {incarnation}")
+        self.platform = platform
+        self.swarm = swarm
+        self.incarnation = incarnation
+        self.config = config or CoreConfig()
+        self._rng = rng if rng is not None else random.Random(platform)
+        self._started = now
+        # Everything this platform sends and reports, whichever part produced it.
+        self._out = Collector(swarm=swarm, sender=platform, incarnation=incarnation)
+        self.members = Membership(platform, self.config)
+        self.reliable = Reliable(self.config, self._out)
+        # Master to every member as one broadcast (event relays, what the master runs).
+        self._board = BulletinBoard(self.config, self._out)
+        self._board.retry_delay = self.reliable.retry_delay
+        self._claim_bulletin = 0  # the first bulletin of the members of the claim
+        self._inbox = BulletinInbox(platform)
+        self.barriers = BarrierMember(platform)
+        self.roles = RoleMember()
+        self._bmaster = self._new_barrier_master()
+        self._rmaster = RoleMaster()
+        # Election state: ``_epoch_master`` claimed ``epoch``; ``master`` is whom we follow
+        # now (None while we have lost it).
+        self.epoch = 0
+        self.master: int | None = None
+        self._epoch_master: int | None = None
+        self.is_master = False
+        self._max_epoch = 0
+        self._best_claim: tuple[int, int, float] | None = None  # (epoch, sender, heard at)
+        self._handshake_waiting: set[int] = set()
+        self._handshake_deadline: float | None = None
+        self._sync_at: float | None = None
+        self.handshake_complete = False
+        self._lowest_peer: int | None = None
+        self._awake = False
+        # When the master was last heard: a master followed before it joined the view (or
+        # that left it and came back) has no leave detector of its own yet.
+        self._master_heard = now
+        #: A star member on a shared channel does not give up its new master before this:
+        #: the master's heartbeats queue behind the packets its claim set off.
+        self._master_hold = -math.inf
+        # The incarnation of the followed master that claimed (-1: not known yet): a
+        # heartbeat of a newer one means the master rebooted and is master no more.
+        self._master_incarnation = -1
+        interval = self.config.heartbeat_interval
+        if self.config.membership == "star":
+            # Lower IDs speak first at boot (up to one interval later for the highest ID), so
+            # a booting swarm hears its lowest IDs before the others would broadcast, and
+            # they keep quiet. The phase is drawn afresh after this first heartbeat.
+            self._next_heartbeat = now + interval * (
+                math.log2(platform) / 16 + self._rng.uniform(0.0, 0.05)
+            )
+            self._rephase = True
+        else:
+            self._next_heartbeat = now + self._rng.uniform(0.0, interval)
+            self._rephase = False
+        # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
+        # copy it, the member heartbeat interval the master asks for, and the succession
+        # entries presumed alive after the master was lost (platform -> presumed until).
+        self._star = self.config.membership == "star"
+        self.roster = RosterView(roster_pool)
+        self._roster_log = RosterLog(self.config.succession)
+        self._roster_requests: set[int] = set()
+        self._cadence = self.config.heartbeat_interval
+        self._presumed: dict[int, float] = {}
+        # On a shared channel: every platform heard lately, for the swarm size estimate;
+        # None without a channel, where nothing needs it.
+        self._heard = airtime.HeardLog(now) if self.config.channel_bitrate is not None else None
+        # On a shared channel, a star member's heartbeats to a master it just followed wait
+        # for its report's acknowledgement (the report's master-bound sequence number), at
+        # most until ``_heartbeats_held_until``.
+        self._report_seq = 0
+        self._heartbeats_held_until = -math.inf
+        # A master-bound message was given up: report again at the next tick.
+        self._restate = False
+        #: Since when this platform has elected as in broadcast mode (no master, no
+        #: presumed successor): only then may a platform outside the succession list claim.
+        self._listening_since = now
+        # Suspicion: when each suspect is probed next.
+        self._probe_due: dict[int, float] = {}
+        # Master: who reported in this epoch, and who did and was then declared gone.
+        self._reported: set[int] = set()
+        self._rejoining: set[int] = set()
+        # When the host was asked to tick next (local health, :class:`.liveness.Liveness`).
+        self._due = now
+        self.counters: Counter[str] = Counter()
+        #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
+        #: tests require it to stay empty).
+        self.errors: list[str] = []
+        #: Hook for the task engine: what part ``part`` of barrier ``key`` waits for, given
+        #: its need (a number or NEED_ALL): :data:`~actorswarm.core.barrier.NeedResolver`.
+        #: Default: the number asked for, and every live platform in the master's view for
+        #: NEED_ALL.
+        self.resolve_need: NeedResolver = self._default_need
+        #: Hook for the task engine: per-participant data a release scatters (default: none,
+        #: each participant learns only its index). Used whenever this platform is master.
+        self.scatter: Scatter | None = None
+        #: Hook for the task engine: whether a release of a key carries every chosen
+        #: participant's request data to all (default: yes; the engine's transitions say no,
+        #: their data is read by the master's ``scatter`` alone).
+        self.gathers: Gathers = lambda key: True
+        # The parts that act on this state: who is alive, and who is master.
+        self._live = Liveness(self, now)
+        self._lead = Leadership(self)
+
+    @property
+    def reports_awaited(self) -> int:
+        """As master: how many members of its view have not reported in its handshake yet
+        (members that join after the handshake are waited for too; ``handshake_complete``
+        says only that the first round ended). 0 when not master."""
+        return len(self._handshake_waiting) if self.is_master else 0
+
+    @property
+    def view(self) -> tuple[int, ...]:
+        """Live platforms in this platform's view, itself included, ascending.
+
+        A star member that follows a master sees the swarm through its master: the master's
+        roster (as far as this member has it), the master and itself.
+        """
+        if self._following_star():
+            return tuple(sorted({*self.roster.members, self.master or 0, self.platform} - {0}))
+        return tuple(sorted((*self.members.peers, self.platform)))
+
+    @property
+    def view_size(self) -> int:
+        """``len(self.view)``, without building the view (O(1))."""
+        if self._following_star():
+            roster = self.roster.members
+            extra = {self.platform, self.master or 0} - {0}
+            return len(roster) + sum(1 for p in extra if p not in roster)
+        return len(self.members) + 1
+
+    def _following_star(self) -> bool:
+        """A star member that follows a live remote master (heartbeats to it only)."""
+        return self._star and self.master is not None and not self.is_master
+
+    @property
+    def grace(self) -> float:
+        """Extra patience of every leave decision: while this host ticks late, and for a
+        star member on a shared channel (:meth:`_channel_patience`)."""
+        return self._live.health * self.config.heartbeat_interval + self._channel_patience()
+
+    def _channel_patience(self) -> float:
+        """On a shared channel, how much longer a star member waits for its master's
+        heartbeats: twice the time the swarm takes to put a packet each on the air (0
+        otherwise). They queue behind the swarm's bursts — a barrier of all puts a request,
+        its acknowledgement and a release acknowledgement of every member on the air at
+        once — and a member that gives its master up for that starts a needless failover."""
+        return 2 * self.reliable.channel_time if self._following_star() else 0.0
+
+    def _default_need(self, key: int, part: int, count: int) -> int:
+        return len(self.members) + 1 if count == NEED_ALL else count
+
+    def _new_barrier_master(self) -> BarrierMaster:
+        # Late-bound, so the engine may replace ``resolve_need`` after construction.
+        master = BarrierMaster(
+            self.config,
+            resolve_need=lambda k, p, n: self.resolve_need(k, p, n),  # noqa: PLW0108
+            platform=self.platform,
+        )
+        master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
+        master.gathers = lambda k: self.gathers(k)  # noqa: PLW0108
+        master.live = lambda p: p == self.platform or p in self.members
+        master.first_retry = lambda: self.reliable.timeout(None)
+        master.retry_delay = self.reliable.retry_delay
+        return master
+
+    def _set_epoch(self, epoch: int, master: int) -> None:
+        if epoch < self.epoch:
+            raise AssertionError(f"epoch would go back from {self.epoch} to {epoch}")
+        self.epoch = epoch
+        self._epoch_master = master
+        self.barriers.adopt_epoch(epoch, master)
+        self._max_epoch = max(self._max_epoch, epoch)
+
+    def _decide(self, sender: int, sender_is_master: bool, sender_epoch: int) -> OnHeartbeat:
+        """The election rules' answer to ``sender``'s word (a heartbeat, a Sync)."""
+        return on_heartbeat(
+            self_id=self.platform,
+            is_master=self.is_master,
+            epoch=self.epoch,
+            master=self._epoch_master,
+            master_alive=self.master is not None,
+            sender=sender,
+            sender_is_master=sender_is_master,
+            sender_epoch=sender_epoch,
+            master_suspected=self.master is not None and self.master in self.members.suspects,
+        )
+
+    def _report_failures(self) -> None:
+        """Every message the reliable streams or the bulletin board gave up on becomes a
+        DeliveryFailed event, in the order they gave up. Called at fixed points of a step
+        (after the retransmission timers, after a view change), so each failure's event comes
+        after the events of the step that caused it."""
+        out = self._out
+        if not out.failures:
+            return
+        for failure in out.failures:
+            if failure.reason == "deadline" and isinstance(failure.payload, MASTER_BOUND):
+                # A request or claim the master never acknowledged (on a lossy shared
+                # channel a few retries span the whole deadline) would otherwise wait
+                # unsent until the next master: the next tick reports again, and the
+                # report restates everything still pending.
+                self._restate = True
+            reason = {
+                "left": "the destination left the swarm",
+                "stepped_down": "this platform stepped down as master before it was delivered",
+            }.get(failure.reason, f"not acknowledged within {self.config.delivery_deadline} s")
+            out.events.append(
+                DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
+            )
+        out.failures.clear()
+
+    def _emit(
+        self, dst: int | None, body: wire.Body, channel: int, kind: str | None = None
+    ) -> None:
+        """Send ``body``, numbered after what the streams and the board queued before it
+        (:meth:`~actorswarm.core.ready.Collector.send`; ``kind`` labels it otherwise than
+        by its type)."""
+        self._out.send(dst, body, channel, kind)
+
+    def _member_cadence(self, members: int | None = None) -> float:
+        """The member heartbeat interval a star master asks for
+        (:func:`~actorswarm.core.airtime.member_cadence`) for ``members`` (default: every
+        other platform of :meth:`_swarm_size`)."""
+        if not self._star:
+            return self.config.heartbeat_interval
+        others = self._swarm_size() - 1 if members is None else members
+        return airtime.member_cadence(self.config, others)
+
+    def _swarm_size(self) -> int:
+        """This platform's estimate of the swarm's size, itself included: the largest of its
+        view, its copy of the roster, the platforms it heard lately (on a shared channel) and,
+        for a star member, the size its master's cadence implies. Before a master has heard
+        its members, or a member has the roster, the platforms heard are what is known —
+        at boot every platform broadcasts a heartbeat once — and a boot paced by the view
+        alone would start a swarm of hundreds at 10 Hz on a channel that carries a tenth."""
+        size = max(len(self.members), len(self.roster.members), len(self._heard or ()))
+        if not self.is_master:  # a master's own cadence follows from this: it must not feed it
+            size = max(size, airtime.implied_size(self.config, self._cadence))
+        return size + 1
+
+    def _handshake_airtime(self, members: int) -> float:
+        """:func:`~actorswarm.core.airtime.handshake_airtime` of this platform's channel."""
+        return airtime.handshake_airtime(self.config, members)
+
+    def _to_master(self, payload: Payload, now: float) -> None:
+        """Barrier and role traffic for the master. Without a master nothing is queued: the
+        report sent on following the next master states every pending request and claim."""
+        if self.is_master:
+            self._master_handle(self.platform, payload, now)
+        elif self.master is not None:
+            self.reliable.send_to_master(payload, now, self.epoch)
+
+    def _to_member(self, platform: int, payload: Payload, now: float) -> None:
+        if platform == self.platform:
+            self._member_handle(payload, now)
+        else:
+            self.reliable.send(platform, payload, now, self.epoch)
+
+    def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
+        for item in items:
+            self._out.events.append(
+                AppReceived(
+                    sender=sender,
+                    topic=item.message.topic,
+                    body=item.message.body,
+                    stream=(incarnation, BULLETIN_STREAM, item.seq),
+                )
+            )
 
     def ready(self) -> Ready:
         """Everything to send and to read since the last call, taken at once: packets
@@ -184,23 +489,23 @@ class Node(NodeElection):
         """Advance timers to ``now``: leaves, elections, heartbeats, retransmissions."""
         if not self._awake and now >= self._started + self.config.startup_wait:
             self._awake = True  # listened long enough to know whether a master exists
-        self._check_health(now)
+        self._live.check_health(now)
         joined_left: list[MemberJoined | MemberLeft] = []
         suspected: list[int] = []
         self.members.expire(now, joined_left, suspected, self.grace)
         for peer in suspected:
             self.counters["suspected"] += 1
-            if self._probes(peer):
+            if self._live.probes(peer):
                 self._probe_due[peer] = now
-        self._membership_changed(joined_left, now)
-        self._probe(now)
-        if self._master_unheard_since(now):
-            self._lose_master(now)
+        self._live.membership_changed(joined_left, now)
+        self._live.probe(now)
+        if self._live.master_unheard_since(now):
+            self._lead.lose_master(now)
         if self._presumed:
             self._presumed = {p: t for p, t in self._presumed.items() if t > now}
             if not self._presumed:
                 self._listening_since = now
-        self._maybe_claim(now)
+        self._lead.maybe_claim(now)
         if self.is_master:
             if self._sync_at is not None and now >= self._sync_at:
                 self._sync_at = None
@@ -208,7 +513,7 @@ class Node(NodeElection):
                     sync = Sync(epoch=self.epoch, bulletin=self._claim_bulletin)
                     self.reliable.send(peer, sync, now, self.epoch)
             if self._handshake_deadline is not None and now >= self._handshake_deadline:
-                self._finish_handshake(now)
+                self._lead.finish_handshake(now)
             self._bmaster.tick(now, self.epoch)
             self._flush_master(now)
             self._board.tick(now, self.epoch, self.reliable.timeout(None))
@@ -218,10 +523,10 @@ class Node(NodeElection):
             self._restate = False
             if self.master is not None and not self.is_master:
                 self.counters["restated"] += 1
-                self._report(now)
+                self._lead.report(now)
         if now + self._heartbeat_window() >= self._next_heartbeat:
-            self._send_heartbeat(now)
-            interval = self._own_interval()
+            self._live.send_heartbeat(now)
+            interval = self._live.own_interval()
             if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
                 self._rephase = False
                 interval *= self._rng.uniform(0.5, 1.5)
@@ -368,7 +673,7 @@ class Node(NodeElection):
         if self._heard is not None and packet.sender != wire.GROUND_STATION:
             self._heard.heard(packet.sender, now)
         if type(body) is Heartbeat:
-            self._on_heartbeat(packet.sender, packet.incarnation, body, now, packet.seq)
+            self._live.on_heartbeat(packet.sender, packet.incarnation, body, now, packet.seq)
             return
         if packet.sender != wire.GROUND_STATION and self.members.is_newer(
             packet.sender, packet.incarnation
@@ -377,10 +682,8 @@ class Node(NodeElection):
             # incarnation leaves first, so nothing granted to the new one is taken back.
             left: list[MemberJoined | MemberLeft] = []
             self.members.note_incarnation(packet.sender, packet.incarnation, left)
-            self._membership_changed(left, now)
+            self._live.membership_changed(left, now)
         _BODY_HANDLERS[type(body)](self, packet, now)
-
-    # --- one handler per body type (the table _BODY_HANDLERS below the class) -----------
 
     def _packet_data(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, Data)
@@ -408,7 +711,7 @@ class Node(NodeElection):
 
     def _packet_roster_chunk(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, RosterChunk)
-        self._on_roster_chunk(packet.sender, packet.body, now)
+        self._live.on_roster_chunk(packet.sender, packet.body, now)
 
     def _packet_bulletin(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, Bulletin)
@@ -463,7 +766,7 @@ class Node(NodeElection):
                 AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
             )
         elif isinstance(payload, Sync):
-            self._on_sync(sender, payload, now, -1 if stream is None else stream[0])
+            self._lead.on_sync(sender, payload, now, -1 if stream is None else stream[0])
         elif isinstance(payload, MASTER_BOUND):
             if not self.is_master or epoch != self.epoch:
                 self.counters["drop:stale_epoch"] += 1
@@ -515,7 +818,7 @@ class Node(NodeElection):
             if sender in self._handshake_waiting:
                 self._handshake_waiting.discard(sender)
                 if not self._handshake_waiting and self._handshake_deadline is not None:
-                    self._finish_handshake(now)
+                    self._lead.finish_handshake(now)
         self._flush_master(now)
 
     def _flush_master(self, now: float) -> None:
