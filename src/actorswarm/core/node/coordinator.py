@@ -46,7 +46,6 @@ from actorswarm.core.barrier import (
     Gathers,
     NeedResolver,
     Scatter,
-    addressee,
 )
 from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
@@ -59,6 +58,7 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.membership import Membership
+from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
 from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.node.liveness import Liveness
 from actorswarm.core.ready import Collector, Outgoing, Ready
@@ -72,8 +72,6 @@ from actorswarm.core.wire import (
     URGENT,
     Ack,
     AppMessage,
-    BarrierRequest,
-    BarrierStale,
     Bulletin,
     BulletinAck,
     Data,
@@ -82,12 +80,7 @@ from actorswarm.core.wire import (
     Payload,
     Release,
     ReleaseAck,
-    Report,
-    RoleClaim,
-    RoleDeny,
-    RoleGrant,
     RoleRelease,
-    RoleRevoke,
     RosterChunk,
     RosterRequest,
     Sync,
@@ -218,13 +211,18 @@ class Node:
         # The parts that act on this state: who is alive, and who is master.
         self._live = Liveness(self, now)
         self._lead = Leadership(self)
+        # The role: what this platform does as master or as member, swapped by
+        # :meth:`_take_role` (``is_master`` says which one it holds).
+        self._master_duties = MasterDuties(self)
+        self._member_duties = MemberDuties(self)
+        self._role: Duties = self._member_duties
 
     @property
     def reports_awaited(self) -> int:
         """As master: how many members of its view have not reported in its handshake yet
         (members that join after the handshake are waited for too; ``handshake_complete``
         says only that the first round ended). 0 when not master."""
-        return len(self._handshake_waiting) if self.is_master else 0
+        return self._role.reports_awaited()
 
     @property
     def view(self) -> tuple[int, ...]:
@@ -360,19 +358,11 @@ class Node:
         """:func:`~actorswarm.core.airtime.handshake_airtime` of this platform's channel."""
         return airtime.handshake_airtime(self.config, members)
 
-    def _to_master(self, payload: Payload, now: float) -> None:
-        """Barrier and role traffic for the master. Without a master nothing is queued: the
-        report sent on following the next master states every pending request and claim."""
-        if self.is_master:
-            self._master_handle(self.platform, payload, now)
-        elif self.master is not None:
-            self.reliable.send_to_master(payload, now, self.epoch)
-
-    def _to_member(self, platform: int, payload: Payload, now: float) -> None:
-        if platform == self.platform:
-            self._member_handle(payload, now)
-        else:
-            self.reliable.send(platform, payload, now, self.epoch)
+    def _take_role(self, role: Duties) -> None:
+        """Become master (:class:`~.duties.MasterDuties`) or member
+        (:class:`~.duties.MemberDuties`): the one place ``is_master`` changes."""
+        self._role = role
+        self.is_master = role.is_master
 
     def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
         for item in items:
@@ -428,8 +418,7 @@ class Node:
             min(self._probe_due.values(), default=None),
             min(self._presumed.values(), default=None),
             self.reliable.next_deadline(),
-            self._bmaster.next_deadline() if self.is_master else None,
-            self._board.next_deadline() if self.is_master else None,
+            *self._role.deadlines(),
             self._handshake_deadline,
             self._sync_at,
         ):
@@ -506,24 +495,12 @@ class Node:
             if not self._presumed:
                 self._listening_since = now
         self._lead.maybe_claim(now)
-        if self.is_master:
-            if self._sync_at is not None and now >= self._sync_at:
-                self._sync_at = None
-                for peer in sorted(self._handshake_waiting):
-                    sync = Sync(epoch=self.epoch, bulletin=self._claim_bulletin)
-                    self.reliable.send(peer, sync, now, self.epoch)
-            if self._handshake_deadline is not None and now >= self._handshake_deadline:
-                self._lead.finish_handshake(now)
-            self._bmaster.tick(now, self.epoch)
-            self._flush_master(now)
-            self._board.tick(now, self.epoch, self.reliable.timeout(None))
+        self._role.tick(now)
         self.reliable.tick(now)
         self._report_failures()
         if self._restate:
             self._restate = False
-            if self.master is not None and not self.is_master:
-                self.counters["restated"] += 1
-                self._lead.report(now)
+            self._role.restate(now)
         if now + self._heartbeat_window() >= self._next_heartbeat:
             self._live.send_heartbeat(now)
             interval = self._live.own_interval()
@@ -596,18 +573,18 @@ class Node:
             master=self._epoch_master or 0,
             renew=renew,
         )
-        self._to_master(req, now)
+        self._role.to_master(req, now)
         return req.generation
 
     def claim_role(self, role: str, quota: int, now: float, *, bid: float | None = None) -> None:
         """Claim ``role`` (at most ``quota`` holders); answered by RoleGranted/RoleDenied."""
         claim = self.roles.claim(role, quota, float(self.platform if bid is None else bid))
         if role not in self.roles.held:
-            self._to_master(claim, now)
+            self._role.to_master(claim, now)
 
     def release_role(self, role: str, now: float) -> None:
         if self.roles.release(role):
-            self._to_master(RoleRelease(role=role), now)
+            self._role.to_master(RoleRelease(role=role), now)
 
     def send_app(
         self, dst: int | None, topic: str, body: bytes, now: float, *, urgent: bool = False
@@ -616,10 +593,7 @@ class Node:
         msg = AppMessage(topic=topic, body=body)
         channel = URGENT if urgent else NORMAL
         if dst is None:
-            if self.is_master:
-                self._out.events.append(AppReceived(sender=self.platform, topic=topic, body=body))
-            else:
-                self.reliable.send_to_master(msg, now, self.epoch)
+            self._role.app_to_master(msg, now)
         elif dst == self.platform:
             self._out.events.append(AppReceived(sender=self.platform, topic=topic, body=body))
         else:
@@ -632,37 +606,24 @@ class Node:
         as one broadcast, retransmitted only to those that do not acknowledge (delivered in
         order, exactly once, as :class:`AppReceived`; not to this platform itself). A
         platform that is not master sends nothing."""
-        if not self.is_master:
-            self.counters["bulletin_not_master"] += 1
-            return
-        self._board.post(
-            AppMessage(topic=topic, body=body),
-            set(self.members.peers),
-            now,
-            self.epoch,
-            self.reliable.timeout(None),
-            skip=skip,
-        )
+        self._role.post_bulletin(AppMessage(topic=topic, body=body), now, skip)
 
     def needs_changed(self, now: float, keys: Iterable[int] | None = None) -> None:
         """Master: what the parts of barriers ``keys`` (None: all) wait for may have changed
         (the task engine learnt that a platform entered or left an actor): fire what is now
         complete."""
-        if self.is_master:
-            self._bmaster.needs_changed(now, self.epoch, keys)
-            self._flush_master(now)
+        self._role.needs_changed(now, keys)
 
     def waiting_occasions(self, key: int) -> tuple[str, ...]:
         """Master: the occasions of the requests waiting at barrier ``key`` (none on a
         member)."""
-        return self._bmaster.waiting_occasions(key) if self.is_master else ()
+        return self._role.waiting_occasions(key)
 
     def hold_barrier(self, key: int, until: float) -> None:
         """Master only: fire nothing of barrier ``key`` before ``until``, so that requests
         on their way are chosen by their bids rather than by who arrives first
         (:meth:`~actorswarm.core.barrier.BarrierMaster.hold`). Elsewhere it does nothing."""
-        if self.is_master:
-            self._bmaster.hold(key, until)
+        self._role.hold_barrier(key, until)
 
     def role_holders(self, role: str) -> tuple[int, ...]:
         """Master only: who holds ``role`` according to the master's table."""
@@ -699,15 +660,12 @@ class Node:
 
     def _packet_release(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, Release)
-        self._on_release(packet.sender, packet.body, now)
+        self._role.on_release(packet.sender, packet.body, now)
 
     def _packet_roster_request(self, packet: Packet, now: float) -> None:
         body = packet.body
         assert isinstance(body, RosterRequest)
-        if not (self._star and self.is_master and body.epoch == self.epoch):
-            self.counters["drop:roster"] += 1
-            return
-        self._roster_requests.add(packet.sender)
+        self._role.on_roster_request(packet.sender, body)
 
     def _packet_roster_chunk(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, RosterChunk)
@@ -728,10 +686,7 @@ class Node:
     def _packet_release_ack(self, packet: Packet, now: float) -> None:
         body = packet.body
         assert isinstance(body, ReleaseAck)
-        if body.dst != self.platform or not self.is_master or body.epoch != self.epoch:
-            self.counters["drop:stale_epoch"] += 1
-            return
-        self._bmaster.on_ack(packet.sender, body.key, body.generation)
+        self._role.on_release_ack(packet.sender, body)
 
     def _on_bulletin(self, sender: int, incarnation: int, bulletin: Bulletin, now: float) -> None:
         delivered, ack = self._inbox.on_bulletin(sender, incarnation, bulletin)
@@ -768,103 +723,11 @@ class Node:
         elif isinstance(payload, Sync):
             self._lead.on_sync(sender, payload, now, -1 if stream is None else stream[0])
         elif isinstance(payload, MASTER_BOUND):
-            if not self.is_master or epoch != self.epoch:
-                self.counters["drop:stale_epoch"] += 1
-                return
-            if isinstance(payload, Report) and payload.epoch != self.epoch:
-                self.counters["drop:stale_epoch"] += 1
-                return
-            self._master_handle(sender, payload, now)
+            self._role.on_master_bound(sender, epoch, payload, now)
         elif sender != self.master or epoch != self.epoch:
             self.counters["drop:stale_epoch"] += 1
         else:
-            self._member_handle(payload, now)
-
-    def _on_release(self, sender: int, rel: Release, now: float) -> None:
-        if sender != self.master or rel.epoch != self.epoch or self.is_master:
-            self.counters["drop:stale_epoch"] += 1
-            return
-        event, ack = self.barriers.on_release(rel)
-        if event is not None:
-            self._out.events.append(event)
-        if ack:
-            self._emit(
-                sender,
-                ReleaseAck(dst=sender, epoch=rel.epoch, key=rel.key, generation=rel.generation),
-                NORMAL,
-            )
-
-    def _master_handle(self, sender: int, payload: Payload, now: float) -> None:
-        bm, rm = self._bmaster, self._rmaster
-        if isinstance(payload, BarrierRequest):
-            bm.request(sender, payload, now, self.epoch)
-        elif isinstance(payload, RoleClaim):
-            rm.claim(sender, payload)
-        elif isinstance(payload, RoleRelease):
-            rm.release(sender, payload.role)
-        elif isinstance(payload, Report):
-            if sender != self.platform and sender not in self.members:
-                bm.topology_changed(now)  # a platform from beyond the view: more may follow
-            # Releases first: they decide whether a waiting request is to be completed.
-            for record in payload.released:
-                bm.record_released(sender, record)
-            for key, generation in payload.generations.items():
-                bm.known_generation(key, generation, now, self.epoch)
-            for req in payload.pending:
-                bm.request(sender, req, now, self.epoch)
-            bm.reported(now, self.epoch)
-            rm.report(sender, payload.held, payload.claims)
-            self._reported.add(sender)
-            if sender in self._handshake_waiting:
-                self._handshake_waiting.discard(sender)
-                if not self._handshake_waiting and self._handshake_deadline is not None:
-                    self._lead.finish_handshake(now)
-        self._flush_master(now)
-
-    def _flush_master(self, now: float) -> None:
-        """Send what the barrier and role tables decided; apply the parts meant for me.
-
-        The tables keep lists of their own rather than writing into the collector: what they
-        decided is routed here (to this platform or over a stream), and their firings are
-        reported here, after the view changes of the same step that set them off."""
-        bm, rm = self._bmaster, self._rmaster
-        self._out.events.extend(bm.events)
-        bm.events.clear()
-        for platform, notice in bm.notices:
-            self._to_member(platform, notice, now)
-        bm.notices.clear()
-        for platform, reply in rm.replies:
-            self._to_member(platform, reply, now)
-        rm.replies.clear()
-        for rel in bm.broadcasts:
-            if any(e.platform == self.platform for e in rel.entries):
-                event, _ = self.barriers.on_release(rel)
-                if event is not None:
-                    self._out.events.append(event)
-                bm.on_ack(self.platform, rel.key, rel.generation)
-                if all(e.platform == self.platform for e in rel.entries):
-                    continue
-            self._emit(addressee(rel, self.platform), rel, NORMAL)
-        bm.broadcasts.clear()
-        for key, generation, unacked in bm.failed:
-            self._out.events.append(
-                DeliveryFailed(
-                    dst=None,
-                    kind="Release",
-                    reason=f"barrier {key}/{generation}: no acknowledgement from {sorted(unacked)}",
-                )
-            )
-        bm.failed.clear()
-
-    def _member_handle(self, payload: Payload, now: float) -> None:
-        if isinstance(payload, BarrierStale):
-            notice = self.barriers.on_stale(payload)
-            if notice is not None:
-                self._out.events.append(notice)
-        elif isinstance(payload, RoleGrant | RoleDeny | RoleRevoke):
-            event = self.roles.on_reply(payload)
-            if event is not None:
-                self._out.events.append(event)
+            self._member_duties.handle(payload, now)
 
 
 __all__ = ["Node", "Outgoing", "Ready"]

@@ -51,8 +51,7 @@ class Leadership:
             pending=node.barriers.restated(now),
             # A former master also reports the firings it decided (its barrier table is
             # kept until it claims again).
-            released=node.barriers.records()
-            + ([] if node.is_master else node._bmaster.decided(node.platform)),
+            released=node.barriers.records() + node._role.own_releases(),
             held=list(node.roles.held.values()),
             claims=list(node.roles.claims.values()),
         )
@@ -194,7 +193,7 @@ class Leadership:
             # (two masters settling after a heal), and a candidate of one whose release was
             # lost could then never be completed (campaign seed 7765517).
             decided = node._bmaster.decided(node.platform)
-            node.is_master = True
+            node._take_role(node._master_duties)
             node._bmaster = node._new_barrier_master()
             for record in decided:
                 node._bmaster.record_released(node.platform, record)
@@ -244,9 +243,9 @@ class Leadership:
         )
         node._live.send_heartbeat(now)
         # The master's own state counts like any member's report.
-        node._master_handle(node.platform, self._own_report(now), now)
+        node._master_duties.handle(node.platform, self._own_report(now), now)
         for payload in node.reliable.take_unrouted():
-            node._master_handle(node.platform, payload, now)
+            node._master_duties.handle(node.platform, payload, now)
         if not node._handshake_waiting:
             self.finish_handshake(now)
 
@@ -262,11 +261,11 @@ class Leadership:
             node._out.events.append(HandshakeComplete(epoch=node.epoch, members=len(node.members)))
         node._bmaster.become_ready(now, node.epoch)
         node._rmaster.become_ready()
-        node._flush_master(now)
+        node._master_duties.flush(now)
 
     def _step_down(self, to: int, now: float) -> None:
         node = self._node
-        node.is_master = False
+        node._take_role(node._member_duties)
         node._board.clear("stepped_down")
         node._roster_requests.clear()
         node._cadence = node.config.heartbeat_interval

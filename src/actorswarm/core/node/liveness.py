@@ -493,30 +493,14 @@ class Liveness:
                 node._probe_due.pop(change.platform, None)
                 if change.reason == "restarted":
                     node.reliable.forget_sender(change.platform, change.incarnation)
-                if node.is_master:
-                    node._handshake_waiting.discard(change.platform)
-                    node._bmaster.member_left(change.platform, now, node.epoch)
-                    node._rmaster.member_left(
-                        change.platform, restarted=change.reason == "restarted"
-                    )
-                    node._board.member_left(change.platform)
-                    node._roster_log.left(change.platform)
-                    if change.platform in node._reported and change.reason != "restarted":
-                        node._rejoining.add(change.platform)
-                    node._reported.discard(change.platform)
+                node._role.member_left(change, now)
                 if change.platform == node.master:
                     node._lead.lose_master(now)
-            elif node.is_master:
-                node._roster_log.joined(change.platform, change.incarnation)
-                node._lead.master_joined(change.platform, now, hb)
-            elif change.platform == node.master and node._master_hold > now:
-                node.members.hold(change.platform, node._master_hold, now)
+            else:
+                node._role.member_joined(change, now, hb)
         self._update_lowest_peer(changes)
         node._report_failures()
-        if node.is_master:
-            if node._handshake_deadline is not None and not node._handshake_waiting:
-                node._lead.finish_handshake(now)
-            node._flush_master(now)
+        node._role.view_changed(now)
         node._lead.maybe_claim(now)
 
     def _update_lowest_peer(self, changes: list[MemberJoined | MemberLeft]) -> None:
