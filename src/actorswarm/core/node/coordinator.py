@@ -727,7 +727,7 @@ class Node:
         elif sender != self.master or epoch != self.epoch:
             self.counters["drop:stale_epoch"] += 1
         else:
-            self._member_duties.handle(payload, now)
+            self._member_duties.take(payload, now)
 
 
 __all__ = ["Node", "Outgoing", "Ready"]

@@ -79,7 +79,7 @@ class MasterDuties:
 
     def to_master(self, payload: Payload, now: float) -> None:
         """Barrier and role traffic of its own is handled in place."""
-        self.handle(self._node.platform, payload, now)
+        self.decide(self._node.platform, payload, now)
 
     def app_to_master(self, msg: AppMessage, now: float) -> None:
         node = self._node
@@ -133,7 +133,7 @@ class MasterDuties:
         if isinstance(payload, Report) and payload.epoch != node.epoch:
             node.counters["drop:stale_epoch"] += 1
             return
-        self.handle(sender, payload, now)
+        self.decide(sender, payload, now)
 
     def on_release(self, sender: int, rel: Release, now: float) -> None:
         """A master takes releases from nobody."""
@@ -156,6 +156,38 @@ class MasterDuties:
         node._roster_log.joined(change.platform, change.incarnation)
         node._lead.master_joined(change.platform, now, hb)
 
+    def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
+        """The master's heartbeat names the members a barrier of all awaits; a star
+        master's also carries the roster's version and changes, the succession list, the
+        cadence it asks its members for and its own interval while fast."""
+        node = self._node
+        awaited = node._bmaster.awaited(now, lambda: {*node.members.peers, node.platform})
+        if not node._star:
+            return Heartbeat(
+                is_master=True,
+                epoch=node.epoch,
+                master=node.master or 0,
+                count=count,
+                suspects=suspects,
+                awaited=awaited,
+            )
+        log = node._roster_log
+        live = node._live
+        return Heartbeat(
+            is_master=True,
+            epoch=node.epoch,
+            master=node.platform,
+            count=count,
+            suspects=suspects,
+            roster=log.version,
+            size=len(node.members),
+            changes=list(log.changes),
+            succession=log.succession(node.members.peers),
+            cadence=0.0 if node._cadence == node.config.heartbeat_interval else node._cadence,
+            awaited=awaited,
+            interval_ms=round(live.own_interval() * 1000) if live.fast else 0,
+        )
+
     def view_changed(self, now: float) -> None:
         """After a change of the view: the handshake may be over, a firing may be due."""
         node = self._node
@@ -165,7 +197,9 @@ class MasterDuties:
 
     # --- the master's own -----------------------------------------------------------------
 
-    def handle(self, sender: int, payload: Payload, now: float) -> None:
+    def decide(self, sender: int, payload: Payload, now: float) -> None:
+        """A master-bound message of ``sender`` (itself included): a barrier request, a
+        role claim or release, a report; then what the tables decided goes out."""
         node = self._node
         bm, rm = node._bmaster, node._rmaster
         if isinstance(payload, BarrierRequest):
@@ -232,7 +266,7 @@ class MasterDuties:
     def to_member(self, platform: int, payload: Payload, now: float) -> None:
         node = self._node
         if platform == node.platform:
-            node._member_duties.handle(payload, now)
+            node._member_duties.take(payload, now)
         else:
             node.reliable.send(platform, payload, now, node.epoch)
 
@@ -325,12 +359,26 @@ class MemberDuties:
         if change.platform == node.master and node._master_hold > now:
             node.members.hold(change.platform, node._master_hold, now)
 
+    def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
+        """A member's heartbeat: whom it follows, in which epoch, whom it suspects."""
+        node = self._node
+        return Heartbeat(
+            is_master=False,
+            epoch=node.epoch,
+            master=node.master or 0,
+            count=count,
+            suspects=suspects,
+            awaited=[],
+        )
+
     def view_changed(self, now: float) -> None:
         """Only a master has a handshake and firings to flush."""
 
     # --- the member's own -----------------------------------------------------------------
 
-    def handle(self, payload: Payload, now: float) -> None:
+    def take(self, payload: Payload, now: float) -> None:
+        """A message from its master (or, on the master, from itself): a barrier's stale
+        notice, a role's grant, denial or revocation."""
         node = self._node
         if isinstance(payload, BarrierStale):
             notice = node.barriers.on_stale(payload)

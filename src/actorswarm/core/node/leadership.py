@@ -243,9 +243,9 @@ class Leadership:
         )
         node._live.send_heartbeat(now)
         # The master's own state counts like any member's report.
-        node._master_duties.handle(node.platform, self._own_report(now), now)
+        node._master_duties.decide(node.platform, self._own_report(now), now)
         for payload in node.reliable.take_unrouted():
-            node._master_duties.handle(node.platform, payload, now)
+            node._master_duties.decide(node.platform, payload, now)
         if not node._handshake_waiting:
             self.finish_handshake(now)
 

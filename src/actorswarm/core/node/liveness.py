@@ -50,8 +50,8 @@ class Liveness:
         self._roster_broadcast_at = -1e9
         self._roster_told = (0, 0)
         #: As a star master: heartbeating twice per interval under heavy loss
-        #: (``CoreConfig.fast_master_loss``).
-        self._fast = False
+        #: (``CoreConfig.fast_master_loss``, :meth:`_update_fast`).
+        self.fast = False
         # Star: lower IDs heard lately without a master (:meth:`lower_heard`).
         self._heard_lower: dict[int, float] = {}
         # When each prober was last answered.
@@ -62,39 +62,12 @@ class Liveness:
         self._changes: list[MemberJoined | MemberLeft] = []  # scratch, reused per heartbeat
 
     def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
-        """This platform's heartbeat; a star master's carries what its members need."""
+        """This platform's heartbeat (its role's: a star master's carries what its members
+        need), naming ``suspects`` (default: its suspects, rotating through many)."""
         node = self._node
         if suspects is None:
             suspects = self._suspect_list()
-        awaited = (
-            node._bmaster.awaited(now, lambda: {*node.members.peers, node.platform})
-            if node.is_master
-            else []
-        )
-        if not (node._star and node.is_master):
-            return Heartbeat(
-                is_master=node.is_master,
-                epoch=node.epoch,
-                master=node.master or 0,
-                count=self.hb_count,
-                suspects=suspects,
-                awaited=awaited,
-            )
-        log = node._roster_log
-        return Heartbeat(
-            is_master=True,
-            epoch=node.epoch,
-            master=node.platform,
-            count=self.hb_count,
-            suspects=suspects,
-            roster=log.version,
-            size=len(node.members),
-            changes=list(log.changes),
-            succession=log.succession(node.members.peers),
-            cadence=0.0 if node._cadence == node.config.heartbeat_interval else node._cadence,
-            awaited=awaited,
-            interval_ms=round(self.own_interval() * 1000) if self._fast else 0,
-        )
+        return node._role.heartbeat(now, self.hb_count, suspects)
 
     def own_interval(self) -> float:
         """How often this platform heartbeats: a star member following a master at the
@@ -103,7 +76,7 @@ class Liveness:
         node = self._node
         if node._following_star():
             return node._cadence
-        if self._fast:
+        if self.fast:
             return node.config.heartbeat_interval / 2
         return node.config.heartbeat_interval
 
@@ -121,10 +94,10 @@ class Liveness:
             or cfg.channel_bitrate is not None
             or not (node._star and node.is_master)
         ):
-            self._fast = False
+            self.fast = False
             return
         loss = node.members.loss.value
-        self._fast = loss >= threshold or (self._fast and loss >= threshold * 2 / 3)
+        self.fast = loss >= threshold or (self.fast and loss >= threshold * 2 / 3)
 
     def _suspect_list(self) -> list[int]:
         """Up to MAX_SUSPECTS suspects, rotating through them when there are more."""
