@@ -22,9 +22,11 @@ bulletins (:mod:`actorswarm.core.bulletin`), barriers (:mod:`actorswarm.core.bar
 roles (:mod:`actorswarm.core.roles`). Each part writes what it sends and reports into the
 node's one collector (:mod:`actorswarm.core.ready`). The node keeps the state its parts
 share (whom it follows, in which epoch) and hands the work to them as objects:
-:class:`~.liveness.Liveness` (who is alive: heartbeats, probes, the roster, view changes)
-and :class:`~.leadership.Leadership` (who is master: claims, following, stepping down, the
-handshake, reports).
+:class:`~.liveness.Liveness` (who is alive: heartbeats, probes, the roster, view changes),
+:class:`~.leadership.Leadership` (who is master: claims, following, stepping down, the
+handshake, reports), :class:`~.intake.Intake` (what a received packet's body is handed
+to) and its role, :class:`~.duties.MasterDuties` or :class:`~.duties.MemberDuties`,
+swapped when it claims or steps down.
 Master-bound messages are sent to the current master — or handled in place when this platform
 is the master — and wait, in order, while there is none. Packets that fail any check are
 dropped and counted in :attr:`Node.counters`, never raised: untrusted bytes cannot crash a
@@ -36,8 +38,8 @@ from __future__ import annotations
 import math
 import random
 from collections import Counter
-from collections.abc import Callable, Iterable
-from typing import Any, Final
+from collections.abc import Iterable
+from typing import Any
 
 from actorswarm.core import airtime, wire
 from actorswarm.core.barrier import (
@@ -59,6 +61,7 @@ from actorswarm.core.events import (
 )
 from actorswarm.core.membership import Membership
 from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
+from actorswarm.core.node.intake import _BODY_HANDLERS, Intake
 from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.node.liveness import Liveness
 from actorswarm.core.ready import Collector, Outgoing, Ready
@@ -66,24 +69,13 @@ from actorswarm.core.reliable import Reliable
 from actorswarm.core.roles import RoleMaster, RoleMember
 from actorswarm.core.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.wire import (
-    BULLETIN_STREAM,
     NEED_ALL,
     NORMAL,
     URGENT,
-    Ack,
     AppMessage,
-    Bulletin,
-    BulletinAck,
-    Data,
     Heartbeat,
     Packet,
-    Payload,
-    Release,
-    ReleaseAck,
     RoleRelease,
-    RosterChunk,
-    RosterRequest,
-    Sync,
     WireError,
 )
 
@@ -159,10 +151,10 @@ class Node:
             self._next_heartbeat = now + interval * (
                 math.log2(platform) / 16 + self._rng.uniform(0.0, 0.05)
             )
-            self._rephase = True
+            rephase = True
         else:
             self._next_heartbeat = now + self._rng.uniform(0.0, interval)
-            self._rephase = False
+            rephase = False
         # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
         # copy it, the member heartbeat interval the master asks for, and the succession
         # entries presumed alive after the master was lost (platform -> presumed until).
@@ -209,8 +201,9 @@ class Node:
         #: their data is read by the master's ``scatter`` alone).
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master.
-        self._live = Liveness(self, now)
+        self._live = Liveness(self, now, rephase=rephase)
         self._lead = Leadership(self)
+        self._intake = Intake(self)
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
         self._master_duties = MasterDuties(self)
@@ -333,47 +326,11 @@ class Node:
         by its type)."""
         self._out.send(dst, body, channel, kind)
 
-    def _member_cadence(self, members: int | None = None) -> float:
-        """The member heartbeat interval a star master asks for
-        (:func:`~actorswarm.core.airtime.member_cadence`) for ``members`` (default: every
-        other platform of :meth:`_swarm_size`)."""
-        if not self._star:
-            return self.config.heartbeat_interval
-        others = self._swarm_size() - 1 if members is None else members
-        return airtime.member_cadence(self.config, others)
-
-    def _swarm_size(self) -> int:
-        """This platform's estimate of the swarm's size, itself included: the largest of its
-        view, its copy of the roster, the platforms it heard lately (on a shared channel) and,
-        for a star member, the size its master's cadence implies. Before a master has heard
-        its members, or a member has the roster, the platforms heard are what is known —
-        at boot every platform broadcasts a heartbeat once — and a boot paced by the view
-        alone would start a swarm of hundreds at 10 Hz on a channel that carries a tenth."""
-        size = max(len(self.members), len(self.roster.members), len(self._heard or ()))
-        if not self.is_master:  # a master's own cadence follows from this: it must not feed it
-            size = max(size, airtime.implied_size(self.config, self._cadence))
-        return size + 1
-
-    def _handshake_airtime(self, members: int) -> float:
-        """:func:`~actorswarm.core.airtime.handshake_airtime` of this platform's channel."""
-        return airtime.handshake_airtime(self.config, members)
-
     def _take_role(self, role: Duties) -> None:
         """Become master (:class:`~.duties.MasterDuties`) or member
         (:class:`~.duties.MemberDuties`): the one place ``is_master`` changes."""
         self._role = role
         self.is_master = role.is_master
-
-    def _deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
-        for item in items:
-            self._out.events.append(
-                AppReceived(
-                    sender=sender,
-                    topic=item.message.topic,
-                    body=item.message.body,
-                    stream=(incarnation, BULLETIN_STREAM, item.seq),
-                )
-            )
 
     def ready(self) -> Ready:
         """Everything to send and to read since the last call, taken at once: packets
@@ -407,7 +364,7 @@ class Node:
         deadline = self.next_deadline()
         if deadline is not None and deadline <= now + (self.config.heartbeat_slack or 0.0):
             return True
-        return now + self._heartbeat_window() >= self._next_heartbeat
+        return now + self._live.heartbeat_window() >= self._next_heartbeat
 
     def next_deadline(self) -> float | None:
         """The latest time by which :meth:`tick` must be called next."""
@@ -501,40 +458,7 @@ class Node:
         if self._restate:
             self._restate = False
             self._role.restate(now)
-        if now + self._heartbeat_window() >= self._next_heartbeat:
-            self._live.send_heartbeat(now)
-            interval = self._live.own_interval()
-            if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
-                self._rephase = False
-                interval *= self._rng.uniform(0.5, 1.5)
-            if self._rides_master() and now >= self._next_heartbeat:
-                # A wake of its own: nothing it could ride on came within a slack of its
-                # time. Half a slack later next time, towards the wakes its master's
-                # heartbeats cause, until they come within the window; then it keeps that
-                # phase (below), so the rate stays one per cadence however often it wakes.
-                self._next_heartbeat += interval + (self.config.heartbeat_slack or 0.0) / 2
-            else:
-                # Sent early, on a tick the host made anyway: keep the phase, so the rate
-                # stays one per interval.
-                self._next_heartbeat += interval
-            if self._next_heartbeat <= now:  # the host fell behind: do not burst
-                self._next_heartbeat = now + interval
-
-    def _rides_master(self) -> bool:
-        """Whether this platform's heartbeats ride on its master's: a star member following
-        a live master, with a heartbeat slack (a daemon)."""
-        return bool(self.config.heartbeat_slack) and self._following_star()
-
-    def _heartbeat_window(self) -> float:
-        """How long before its time a heartbeat goes out on a wake the host makes anyway:
-        the slack; or, for one that rides on its master's, two slacks before the time it
-        goes out on a wake of its own, a window a slack either side of its phase: the
-        master's heartbeats come up to a slack early (a busy master sends early on a wake
-        it makes anyway) or late (a loaded host, a radio's jitter), and a window of one
-        slack before lost them at every early one, waking twice per interval until the
-        phase drifted back (see :meth:`tick`)."""
-        slack = self.config.heartbeat_slack or 0.0
-        return 2 * slack if self._rides_master() else slack
+        self._live.heartbeat_tick(now)
 
     def request_barrier(
         self,
@@ -644,104 +568,7 @@ class Node:
             left: list[MemberJoined | MemberLeft] = []
             self.members.note_incarnation(packet.sender, packet.incarnation, left)
             self._live.membership_changed(left, now)
-        _BODY_HANDLERS[type(body)](self, packet, now)
-
-    def _packet_data(self, packet: Packet, now: float) -> None:
-        assert isinstance(packet.body, Data)
-        self._on_data(packet.sender, packet.incarnation, packet.body, now)
-
-    def _packet_ack(self, packet: Packet, now: float) -> None:
-        body = packet.body
-        assert isinstance(body, Ack)
-        if body.dst != self.platform or body.dst_incarnation != self.incarnation:
-            self.counters["drop:not_for_me"] += 1
-            return
-        self.reliable.on_ack(packet.sender, body, now)
-
-    def _packet_release(self, packet: Packet, now: float) -> None:
-        assert isinstance(packet.body, Release)
-        self._role.on_release(packet.sender, packet.body, now)
-
-    def _packet_roster_request(self, packet: Packet, now: float) -> None:
-        body = packet.body
-        assert isinstance(body, RosterRequest)
-        self._role.on_roster_request(packet.sender, body)
-
-    def _packet_roster_chunk(self, packet: Packet, now: float) -> None:
-        assert isinstance(packet.body, RosterChunk)
-        self._live.on_roster_chunk(packet.sender, packet.body, now)
-
-    def _packet_bulletin(self, packet: Packet, now: float) -> None:
-        assert isinstance(packet.body, Bulletin)
-        self._on_bulletin(packet.sender, packet.incarnation, packet.body, now)
-
-    def _packet_bulletin_ack(self, packet: Packet, now: float) -> None:
-        body = packet.body
-        assert isinstance(body, BulletinAck)
-        if body.dst != self.platform or body.dst_incarnation != self.incarnation:
-            self.counters["drop:not_for_me"] += 1
-            return
-        self._board.on_ack(packet.sender, body)
-
-    def _packet_release_ack(self, packet: Packet, now: float) -> None:
-        body = packet.body
-        assert isinstance(body, ReleaseAck)
-        self._role.on_release_ack(packet.sender, body)
-
-    def _on_bulletin(self, sender: int, incarnation: int, bulletin: Bulletin, now: float) -> None:
-        delivered, ack = self._inbox.on_bulletin(sender, incarnation, bulletin)
-        if ack is None:
-            self.counters["drop:bulletin"] += 1
-            return
-        self._emit(sender, ack, NORMAL)
-        self._deliver_bulletins(sender, incarnation, delivered)
-
-    def _on_data(self, sender: int, incarnation: int, data: Data, now: float) -> None:
-        if data.dst != self.platform:
-            self.counters["drop:not_for_me"] += 1
-            return
-        delivered, ack = self.reliable.on_data(sender, incarnation, data)
-        if ack is not None:
-            self._emit(sender, ack, URGENT if data.channel == URGENT else NORMAL)
-        first = ack.seq - len(delivered) + 1 if ack is not None else 0
-        for i, (epoch, payload) in enumerate(delivered):
-            self._on_payload(sender, epoch, payload, now, (incarnation, data.channel, first + i))
-
-    def _on_payload(
-        self,
-        sender: int,
-        epoch: int,
-        payload: Payload,
-        now: float,
-        stream: tuple[int, int, int] | None = None,
-    ) -> None:
-        """One message delivered in order, exactly once, from ``sender``'s stream."""
-        if isinstance(payload, AppMessage):
-            self._out.events.append(
-                AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
-            )
-        elif isinstance(payload, Sync):
-            self._lead.on_sync(sender, payload, now, -1 if stream is None else stream[0])
-        elif isinstance(payload, MASTER_BOUND):
-            self._role.on_master_bound(sender, epoch, payload, now)
-        elif sender != self.master or epoch != self.epoch:
-            self.counters["drop:stale_epoch"] += 1
-        else:
-            self._member_duties.take(payload, now)
+        _BODY_HANDLERS[type(body)](self._intake, packet, now)
 
 
 __all__ = ["Node", "Outgoing", "Ready"]
-
-
-#: What a received packet's body is handed to (heartbeats are taken first, in
-#: :meth:`Node._dispatch`); the wire decoder produces no other body type.
-_BODY_HANDLERS: Final[dict[type[Any], Callable[[Node, Packet, float], None]]] = {
-    Data: Node._packet_data,
-    Ack: Node._packet_ack,
-    Release: Node._packet_release,
-    RosterRequest: Node._packet_roster_request,
-    RosterChunk: Node._packet_roster_chunk,
-    Bulletin: Node._packet_bulletin,
-    BulletinAck: Node._packet_bulletin_ack,
-    ReleaseAck: Node._packet_release_ack,
-}

@@ -99,7 +99,9 @@ class Leadership:
         node = self._node
         if sender != node.master or not sync.bulletin:
             return
-        node._deliver_bulletins(sender, node._inbox.incarnation, node._inbox.start(sync.bulletin))
+        node._intake.deliver_bulletins(
+            sender, node._inbox.incarnation, node._inbox.start(sync.bulletin)
+        )
 
     def apply(self, action: OnHeartbeat, sender: int, epoch: int, now: float) -> bool:
         """Carry out an election decision about ``sender``'s claim of ``epoch``; False when
@@ -209,10 +211,10 @@ class Leadership:
                     for p, i in node.roster.members.items()
                     if p not in (predecessor, node.platform)
                 ]
-                node.members.cadence = node._member_cadence(
-                    max(len(inherited), node._swarm_size() - 1)
+                node.members.cadence = node._live.member_cadence(
+                    max(len(inherited), node._live.swarm_size() - 1)
                 )
-                grace = node._handshake_airtime(len(inherited))
+                grace = node._live.handshake_airtime(len(inherited))
                 for peer, incarnation in inherited:
                     node.members.admit(peer, incarnation, now, grace=grace)
                 node._lowest_peer = min(node.members.peers, default=None)
@@ -221,11 +223,11 @@ class Leadership:
             node._rmaster.ready = False
             # On a shared channel the members' heartbeats now queue behind their reports
             # (and wait for their acknowledgement) as after any claim.
-            hold = now + node._handshake_airtime(len(node.members))
+            hold = now + node._live.handshake_airtime(len(node.members))
             for peer in list(node.members.peers) if hold > now else ():
                 node.members.hold(peer, hold, now)
         node._roster_log.reset(node.epoch)
-        node._cadence = node._member_cadence()
+        node._cadence = node._live.member_cadence()
         node.members.cadence = node._cadence
         node.handshake_complete = False
         node._bmaster.topology_changed(now)
@@ -239,7 +241,7 @@ class Leadership:
         # On a shared channel the reports queue behind each other: no sync before they had
         # their airtime.
         node._sync_at = now + max(
-            2 * node.config.retry_base, node._handshake_airtime(len(node._handshake_waiting))
+            2 * node.config.retry_base, node._live.handshake_airtime(len(node._handshake_waiting))
         )
         node._live.send_heartbeat(now)
         # The master's own state counts like any member's report.
@@ -296,8 +298,8 @@ class Leadership:
             # Until its heartbeats say otherwise, the master beats at the ordinary interval.
             node.members.cadence = node.config.heartbeat_interval
             # On a shared channel the master's heartbeats queue behind the reports its
-            # claim sets off (``_handshake_airtime``): not given up before they had theirs.
-            airtime = node._handshake_airtime(node._swarm_size() - 1)
+            # claim sets off (``handshake_airtime``): not given up before they had theirs.
+            airtime = node._live.handshake_airtime(node._live.swarm_size() - 1)
             if airtime > 0.0:
                 node._master_hold = now + airtime
                 node.members.hold(master, node._master_hold, now)

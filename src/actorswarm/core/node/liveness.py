@@ -38,8 +38,11 @@ class Liveness:
     It acts on the node's shared state (view, master, epoch) and keeps its own (heartbeat
     count, probe answers, local health, roster requests)."""
 
-    def __init__(self, node: Node, now: float) -> None:
+    def __init__(self, node: Node, now: float, *, rephase: bool = False) -> None:
         self._node = node
+        # After the boot heartbeat, draw a phase of its own (star: the boot heartbeat's
+        # phase follows the platform's rank).
+        self._rephase = rephase
         #: Heartbeats sent so far (scheduled ones; probes and probe answers not counted).
         self.hb_count = 0
         # Member: when the roster was last asked for; on a shared channel, a request
@@ -68,6 +71,75 @@ class Liveness:
         if suspects is None:
             suspects = self._suspect_list()
         return node._role.heartbeat(now, self.hb_count, suspects)
+
+    def member_cadence(self, members: int | None = None) -> float:
+        """The member heartbeat interval a star master asks for
+        (:func:`~actorswarm.core.airtime.member_cadence`) for ``members`` (default: every
+        other platform of :meth:`swarm_size`)."""
+        node = self._node
+        if not node._star:
+            return node.config.heartbeat_interval
+        others = self.swarm_size() - 1 if members is None else members
+        return airtime.member_cadence(node.config, others)
+
+    def swarm_size(self) -> int:
+        """This platform's estimate of the swarm's size, itself included: the largest of its
+        view, its copy of the roster, the platforms it heard lately (on a shared channel) and,
+        for a star member, the size its master's cadence implies. Before a master has heard
+        its members, or a member has the roster, the platforms heard are what is known —
+        at boot every platform broadcasts a heartbeat once — and a boot paced by the view
+        alone would start a swarm of hundreds at 10 Hz on a channel that carries a tenth."""
+        node = self._node
+        size = max(len(node.members), len(node.roster.members), len(node._heard or ()))
+        if not node.is_master:  # a master's own cadence follows from this: it must not feed it
+            size = max(size, airtime.implied_size(node.config, node._cadence))
+        return size + 1
+
+    def handshake_airtime(self, members: int) -> float:
+        """:func:`~actorswarm.core.airtime.handshake_airtime` of this platform's channel."""
+        node = self._node
+        return airtime.handshake_airtime(node.config, members)
+
+    def _rides_master(self) -> bool:
+        """Whether this platform's heartbeats ride on its master's: a star member following
+        a live master, with a heartbeat slack (a daemon)."""
+        node = self._node
+        return bool(node.config.heartbeat_slack) and node._following_star()
+
+    def heartbeat_window(self) -> float:
+        """How long before its time a heartbeat goes out on a wake the host makes anyway:
+        the slack; or, for one that rides on its master's, two slacks before the time it
+        goes out on a wake of its own, a window a slack either side of its phase: the
+        master's heartbeats come up to a slack early (a busy master sends early on a wake
+        it makes anyway) or late (a loaded host, a radio's jitter), and a window of one
+        slack before lost them at every early one, waking twice per interval until the
+        phase drifted back (see :meth:`heartbeat_tick`)."""
+        node = self._node
+        slack = node.config.heartbeat_slack or 0.0
+        return 2 * slack if self._rides_master() else slack
+
+    def heartbeat_tick(self, now: float) -> None:
+        """Send the scheduled heartbeat if it is due (within :meth:`heartbeat_window`), and
+        schedule the next one."""
+        node = self._node
+        if now + self.heartbeat_window() >= node._next_heartbeat:
+            self.send_heartbeat(now)
+            interval = self.own_interval()
+            if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
+                self._rephase = False
+                interval *= node._rng.uniform(0.5, 1.5)
+            if self._rides_master() and now >= node._next_heartbeat:
+                # A wake of its own: nothing it could ride on came within a slack of its
+                # time. Half a slack later next time, towards the wakes its master's
+                # heartbeats cause, until they come within the window; then it keeps that
+                # phase (below), so the rate stays one per cadence however often it wakes.
+                node._next_heartbeat += interval + (node.config.heartbeat_slack or 0.0) / 2
+            else:
+                # Sent early, on a tick the host made anyway: keep the phase, so the rate
+                # stays one per interval.
+                node._next_heartbeat += interval
+            if node._next_heartbeat <= now:  # the host fell behind: do not burst
+                node._next_heartbeat = now + interval
 
     def own_interval(self) -> float:
         """How often this platform heartbeats: a star member following a master at the
@@ -128,14 +200,14 @@ class Liveness:
         )
         self._update_fast()
         if node.is_master and node._star:
-            node._cadence = node._member_cadence()
+            node._cadence = self.member_cadence()
             node.members.cadence = node._cadence
             if not roster_after:
                 self._serve_roster_requests(now)
         if node.config.channel_bitrate is not None:
             # What the swarm needs to put one packet each on the shared channel: reliable
             # delivery waits at least that long for an acknowledgement.
-            size = node._swarm_size()
+            size = self.swarm_size()
             node.reliable.channel_time = airtime.channel_time(node.config, size)
             node.reliable.channel_size = size
         hb = self._heartbeat(now)
@@ -146,7 +218,7 @@ class Liveness:
                 node._emit(node.master, hb, NORMAL)
         elif self._quiet(now) and not (self.hb_count == 1 and node._heard is not None):
             # On a shared channel the first heartbeat goes out all the same: one packet per
-            # platform, and every platform hears how many there are (:meth:`_swarm_size`)
+            # platform, and every platform hears how many there are (:meth:`swarm_size`)
             # before the first claim asks all of them to report at once.
             node.counters["heartbeat_quiet"] += 1
         else:
