@@ -22,7 +22,8 @@ bulletins (:mod:`actorswarm.core.bulletin`), barriers (:mod:`actorswarm.core.bar
 roles (:mod:`actorswarm.core.roles`). Each part writes what it sends and reports into the
 node's one collector (:mod:`actorswarm.core.ready`). The node keeps the state its parts
 share (whom it follows, in which epoch) and hands the work to them as objects:
-:class:`~.liveness.Liveness` (who is alive: heartbeats, probes, the roster, view changes),
+:class:`~.liveness.Liveness` (who is alive: heartbeats, probes, view changes),
+:class:`~.rostersync.RosterSync` (a star swarm's roster, served and followed),
 :class:`~.leadership.Leadership` (who is master: claims, following, stepping down, the
 handshake, reports), :class:`~.intake.Intake` (what a received packet's body is handed
 to) and its role, :class:`~.duties.MasterDuties` or :class:`~.duties.MemberDuties`,
@@ -64,6 +65,7 @@ from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
 from actorswarm.core.node.intake import _BODY_HANDLERS, Intake
 from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.node.liveness import Liveness
+from actorswarm.core.node.rostersync import RosterSync
 from actorswarm.core.ready import Collector, Outgoing, Ready
 from actorswarm.core.reliable import Reliable
 from actorswarm.core.roles import RoleMaster, RoleMember
@@ -204,6 +206,7 @@ class Node:
         self._live = Liveness(self, now, rephase=rephase)
         self._lead = Leadership(self)
         self._intake = Intake(self)
+        self._rosters = RosterSync(self)
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
         self._master_duties = MasterDuties(self)

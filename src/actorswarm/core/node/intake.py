@@ -79,7 +79,7 @@ class Intake:
     def _packet_roster_chunk(self, packet: Packet, now: float) -> None:
         node = self._node
         assert isinstance(packet.body, RosterChunk)
-        node._live.on_roster_chunk(packet.sender, packet.body, now)
+        node._rosters.on_chunk(packet.sender, packet.body, now)
 
     def _packet_bulletin(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, Bulletin)

@@ -1,5 +1,6 @@
-"""The election layer of a node: claiming, following and stepping down, the loss of the
-master and its succession, the handshake (decisions in :mod:`.election`).
+"""Who is master, as one node sees it: claiming, following and stepping down, the loss of
+the master and its succession, the handshake and the reports that feed it (the decisions
+themselves are the rules of :mod:`actorswarm.core.election`).
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
-"""The membership layer of a node: heartbeats sent and heard, the master's roster, probes of
-suspects, local health, and what a change of the view sets off (see :mod:`.membership`,
-:mod:`.roster`; on a shared channel, :mod:`.airtime`).
+"""Who is alive, as one node sees it: heartbeats sent (when, to whom, paced to the master
+on a daemon) and heard, probes of suspects, local health, the swarm-size estimate, and
+what a change of the view sets off (see :mod:`actorswarm.core.membership`; on a shared
+channel, :mod:`actorswarm.core.airtime`).
 """
 
 from __future__ import annotations
@@ -14,20 +15,14 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.ready import PROBE
-from actorswarm.core.roster import RosterLog
 from actorswarm.core.wire import (
     NORMAL,
     Heartbeat,
-    RosterChunk,
-    RosterRequest,
 )
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
 
-#: A master that has more members asking for the whole roster than this at one heartbeat
-#: broadcasts it once instead of sending it to each.
-ROSTER_BROADCAST_FROM = 4
 #: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
 #: ticks late.
 MAX_HEALTH = 8
@@ -36,7 +31,7 @@ MAX_HEALTH = 8
 class Liveness:
     """Who is alive, for one :class:`~actorswarm.core.node.Node`: see the module docstring.
     It acts on the node's shared state (view, master, epoch) and keeps its own (heartbeat
-    count, probe answers, local health, roster requests)."""
+    count, probe answers, local health)."""
 
     def __init__(self, node: Node, now: float, *, rephase: bool = False) -> None:
         self._node = node
@@ -45,13 +40,6 @@ class Liveness:
         self._rephase = rephase
         #: Heartbeats sent so far (scheduled ones; probes and probe answers not counted).
         self.hb_count = 0
-        # Member: when the roster was last asked for; on a shared channel, a request
-        # waiting to go. Master: when the roster was last broadcast, and the roster
-        # (epoch, version) its last heartbeat told.
-        self._roster_asked = -1e9
-        self._roster_ask_at: float | None = None
-        self._roster_broadcast_at = -1e9
-        self._roster_told = (0, 0)
         #: As a star master: heartbeating twice per interval under heavy loss
         #: (``CoreConfig.fast_master_loss``, :meth:`_update_fast`).
         self.fast = False
@@ -193,17 +181,17 @@ class Liveness:
         if node._heard is not None:
             node._heard.sweep(now)
         # On a shared channel the roster of a new epoch is broadcast unasked
-        # (:meth:`_roster_outrun`), after the claim's heartbeat: a member takes a roster
+        # (:meth:`.RosterSync._outrun`), after the claim's heartbeat: a member takes a roster
         # only from the master it follows.
         roster_after = (
-            node.config.channel_bitrate is not None and self._roster_told[0] != node.epoch
+            node.config.channel_bitrate is not None and node._rosters.told[0] != node.epoch
         )
         self._update_fast()
         if node.is_master and node._star:
             node._cadence = self.member_cadence()
             node.members.cadence = node._cadence
             if not roster_after:
-                self._serve_roster_requests(now)
+                node._rosters.serve_requests(now)
         if node.config.channel_bitrate is not None:
             # What the swarm needs to put one packet each on the shared channel: reliable
             # delivery waits at least that long for an acknowledgement.
@@ -224,7 +212,7 @@ class Liveness:
         else:
             node._emit(None, hb, NORMAL)
         if roster_after and node.is_master and node._star:
-            self._serve_roster_requests(now)
+            node._rosters.serve_requests(now)
 
     def _heartbeats_held(self, now: float) -> bool:
         """On a shared channel, a star member heartbeats to a master it just followed only
@@ -256,47 +244,6 @@ class Liveness:
         for peer in [p for p, t in heard.items() if t < horizon]:
             del heard[peer]
         return list(heard)
-
-    def _roster_outrun(self) -> bool:
-        """On a shared channel: the roster changed since the master's last heartbeat by
-        more than a heartbeat's changes can tell (a new epoch, a swarm joining by the
-        hundred), so every member is behind — one broadcast of the roster serves them all,
-        and saves the channel a request from each. Notes the version told."""
-        node = self._node
-        log = node._roster_log
-        told_epoch, told_version = self._roster_told
-        self._roster_told = (node.epoch, log.version)
-        if node.config.channel_bitrate is None or not node.members:
-            return False
-        return told_epoch != node.epoch or log.version - told_version > wire.MAX_CHANGES
-
-    def _serve_roster_requests(self, now: float) -> None:
-        """Send the whole roster to the members that asked since the last heartbeat: to each,
-        or once to everyone when many asked (after a failover every member does) or, on a
-        shared channel, when all of them are behind (:meth:`_roster_outrun`)."""
-        node = self._node
-        outrun = self._roster_outrun()
-        if not node._roster_requests and not (outrun and now >= self._roster_broadcast_at):
-            return
-        requesters = sorted(node._roster_requests)
-        node._roster_requests.clear()
-        members = {p: m.incarnation for p, m in node.members.peers.items()}
-        chunks = RosterLog.chunks(
-            node.epoch, node._roster_log.version, members, node.config.roster_chunk
-        )
-        if outrun or len(requesters) > ROSTER_BROADCAST_FROM:
-            if now < self._roster_broadcast_at:
-                # A roster that changes fast (a swarm booting) is broadcast once per t_join
-                # at most: the members ask again meanwhile, at no cost to anyone else.
-                node._roster_requests.update(requesters)
-                return
-            self._roster_broadcast_at = now + node.config.t_join
-        targets: list[int | None] = (
-            [None] if outrun or len(requesters) > ROSTER_BROADCAST_FROM else list(requesters)
-        )
-        for dst in targets:
-            for chunk in chunks:
-                node._emit(dst, chunk, NORMAL)
 
     def master_unheard_since(self, now: float) -> bool:
         """The followed master is outside the view and silent for ``t_leave``."""
@@ -436,73 +383,7 @@ class Liveness:
             else:
                 node._next_heartbeat = min(node._next_heartbeat, now + cadence)
             node._cadence = cadence
-        rejected = node.roster.rejected
-        behind = node.roster.on_heartbeat(hb.epoch, hb)
-        if node.roster.rejected != rejected:
-            node.counters["drop:roster"] += 1
-        self._roster_removed(now)
-        if not behind:
-            self._roster_ask_at = None
-        elif self._roster_ask_due(now):
-            node.counters["roster_request"] += 1
-            node._emit(
-                sender,
-                RosterRequest(
-                    epoch=hb.epoch,
-                    version=node.roster.version if node.roster.epoch == hb.epoch else 0,
-                ),
-                NORMAL,
-            )
-
-    def _roster_ask_due(self, now: float) -> bool:
-        """A member behind its master's roster asks for it now: at once and at most every
-        ``retry_cap`` — or, on a shared channel, where every request takes airtime and a
-        master broadcasts the roster by itself when every member is behind (at most once per
-        ``t_join``), only when still behind after a random half to one and a half
-        ``t_join``, and then at most once per ``t_join``."""
-        node = self._node
-        cfg = node.config
-        if cfg.channel_bitrate is None:
-            if now - self._roster_asked < cfg.retry_cap:
-                return False
-        else:
-            if now - self._roster_asked < cfg.t_join:
-                return False
-            if self._roster_ask_at is None:
-                self._roster_ask_at = now + cfg.t_join * node._rng.uniform(0.5, 1.5)
-            if now < self._roster_ask_at:
-                return False
-            self._roster_ask_at = None
-        self._roster_asked = now
-        return True
-
-    def on_roster_chunk(self, sender: int, chunk: RosterChunk, now: float) -> None:
-        node = self._node
-        if not (
-            node._star
-            and sender == node.master
-            and not node.is_master
-            and chunk.epoch == node.epoch
-        ):
-            node.counters["drop:roster"] += 1
-            return
-        rejected = node.roster.rejected
-        node.roster.on_chunk(chunk)
-        if node.roster.rejected != rejected:
-            node.counters["drop:roster"] += 1
-        self._roster_removed(now)
-
-    def _roster_removed(self, now: float) -> None:
-        """Platforms that left the master's view left the swarm for this member too: its
-        queues to them are dropped and their messages reported failed."""
-        node = self._node
-        if not node.roster.removed:
-            return
-        for platform in node.roster.removed:
-            if platform != node.master:
-                node.reliable.drop_destination(platform, now)
-        node.roster.removed.clear()
-        node._report_failures()
+        node._rosters.on_master_heartbeat(sender, hb, now)
 
     def _hurry(self, now: float) -> None:
         """My master names me as awaited by a barrier of all: what it has not acknowledged
