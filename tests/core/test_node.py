@@ -462,7 +462,7 @@ def test_every_body_type_but_heartbeats_has_one_handler() -> None:
     the table lacks would be dropped as an internal error."""
     import typing
 
-    from actorswarm.core import node as node_module
+    from actorswarm.core.node import intake as node_module
     from actorswarm.core.wire import Body, Heartbeat
 
     bodies = set(typing.get_args(Body)) - {Heartbeat}

@@ -26,7 +26,7 @@ from typing import Any, TypeVar
 
 import pytest
 
-from actorswarm.core import airtime, node_base, wire
+from actorswarm.core import airtime, wire
 from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.core.election import OnHeartbeat
 from actorswarm.core.events import (
@@ -38,7 +38,7 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.membership import Membership, leave_silence
-from actorswarm.core.node import Node, Outgoing, Ready
+from actorswarm.core.node import Node, Outgoing, Ready, coordinator
 from actorswarm.core.ready import PROBE
 from actorswarm.core.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.wire import (
@@ -970,12 +970,12 @@ def test_under_loss_a_member_that_suspects_its_master_follows_the_claim_at_once(
     assert tail <= 0.2, f"the last survivor followed {tail:.3f} s after the claim"
     assert handshake <= 0.3, f"handshake {handshake:.3f} s"
 
-    unsuspecting = node_base.on_heartbeat
+    unsuspecting = coordinator.on_heartbeat
 
     def never_suspects(**hearing: Any) -> OnHeartbeat:
         return unsuspecting(**{**hearing, "master_suspected": False})
 
-    monkeypatch.setattr(node_base, "on_heartbeat", never_suspects)
+    monkeypatch.setattr(coordinator, "on_heartbeat", never_suspects)
     control, _ = _follow_tail(settled())
     assert control > 0.2, f"control: {control:.3f} s"
 
@@ -996,9 +996,9 @@ def test_under_heavy_loss_the_master_beats_faster_and_a_failover_takes_less() ->
 
     def master_rate(swarm: SimSwarm) -> float:
         # The count a heartbeat carries numbers the scheduled ones (probes repeat it).
-        sent = swarm.node(1)._hb_count
+        sent = swarm.node(1)._live.hb_count
         swarm.run_until(swarm.now + 2.0)
-        return (swarm.node(1)._hb_count - sent) / 2.0
+        return (swarm.node(1)._live.hb_count - sent) / 2.0
 
     def claim_after(swarm: SimSwarm) -> float:
         swarm.crash(1)

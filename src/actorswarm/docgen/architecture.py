@@ -8,7 +8,8 @@ Two Mermaid diagrams between ``<!-- architecture:begin -->`` and ``<!-- architec
   readable while every dependency remains reachable along the arrows;
 - **the parts of a platform's** :class:`~actorswarm.core.node.Node`: its class chain (each
   class with its length in lines) and the objects each class creates and keeps
-  (``self.x = Part(...)``), named by attribute.
+  (``self.x = Part(...)``), named by attribute; the parts of the node's own package
+  (``actorswarm.core.node``) are drawn with their length and their own parts too.
 
 ::
 
@@ -124,11 +125,11 @@ def _on_self(target: ast.expr) -> bool:
     )
 
 
-def _parts(cls: type) -> dict[str, str]:
+def _parts(cls: type) -> dict[str, type]:
     """Attribute → class name of what ``cls``'s own methods create and keep
     (``self.x = Part(...)``, also as one arm of a conditional expression)."""
     module = sys.modules[cls.__module__]
-    found: dict[str, str] = {}
+    found: dict[str, type] = {}
     for node in ast.walk(ast.parse(inspect.getsource(cls))):
         if not isinstance(node, ast.Assign | ast.AnnAssign) or node.value is None:
             continue
@@ -147,7 +148,7 @@ def _parts(cls: type) -> dict[str, str]:
             for target in targets:
                 if _on_self(target):
                     assert isinstance(target, ast.Attribute)
-                    found.setdefault(target.attr, made.__name__)
+                    found.setdefault(target.attr, made)
     return found
 
 
@@ -155,16 +156,30 @@ def node_diagram(qualified: str = "actorswarm.core.node:Node") -> list[str]:
     module_name, _, name = qualified.partition(":")
     top: type = getattr(importlib.import_module(module_name), name)
     chain = [c for c in top.__mro__ if c.__module__.startswith("actorswarm.")]
+    # The package the node's own parts live in (``actorswarm.core.node``).
+    home = top.__module__.rpartition(".")[0] + "."
     lines = ["```mermaid", "classDiagram"]
-    for cls in chain:
+
+    def declare(cls: type) -> None:
         length = len(inspect.getsource(cls).splitlines())
         module = cls.__module__.removeprefix("actorswarm.")
         lines.append(f'    class {cls.__name__}["{cls.__name__} ({module}, {length} lines)"]')
+
+    for cls in chain:
+        declare(cls)
     for lower, upper in zip(chain[1:], chain, strict=False):
         lines.append(f"    {lower.__name__} <|-- {upper.__name__}")
-    for cls in chain:
+    edges: list[str] = []
+    todo, seen = list(chain), set(chain)
+    while todo:
+        cls = todo.pop(0)
         for attr, part in sorted(_parts(cls).items()):
-            lines.append(f"    {cls.__name__} *-- {part} : {attr}")
+            edges.append(f"    {cls.__name__} *-- {part.__name__} : {attr}")
+            if part.__module__.startswith(home) and part not in seen:
+                seen.add(part)
+                todo.append(part)
+                declare(part)
+    lines.extend(edges)
     lines.append("```")
     return lines
 
@@ -180,7 +195,7 @@ def render() -> str:
         *packages_diagram(),
         "",
         "A platform's `Node`: its class chain, each class with its length, and the parts",
-        "each class creates and keeps:",
+        "each class creates and keeps (the node's own parts, of `core/node/`, with theirs):",
         "",
         *node_diagram(),
     ]

@@ -1,0 +1,394 @@
+"""What a node does as master and what it does as member: two objects with one interface,
+:class:`MasterDuties` and :class:`MemberDuties`. The node holds one of them as its role and
+swaps it when it claims or steps down (:meth:`Node._take_role
+<actorswarm.core.node.coordinator.Node._take_role>`), as raft swaps its step function on
+becoming leader, instead of asking ``is_master`` at every step. Neither keeps state of its
+own: both act on the node's (its barrier and role tables, its handshake), which outlives a
+change of role.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Final
+
+from actorswarm.core.barrier import addressee
+from actorswarm.core.events import AppReceived, DeliveryFailed, MemberJoined, MemberLeft
+from actorswarm.core.wire import (
+    NORMAL,
+    AppMessage,
+    BarrierRequest,
+    BarrierStale,
+    Heartbeat,
+    Payload,
+    Release,
+    ReleaseAck,
+    Report,
+    RoleClaim,
+    RoleDeny,
+    RoleGrant,
+    RoleRelease,
+    RoleRevoke,
+    RosterRequest,
+    Sync,
+)
+
+if TYPE_CHECKING:
+    from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.wire import ReleaseRecord
+
+_NO_DEADLINES: Final = (None, None)
+
+
+class MasterDuties:
+    """The master's side: it decides barriers and roles, answers roster requests, posts
+    bulletins and runs the handshake's timers."""
+
+    is_master: Final = True
+
+    def __init__(self, node: Node) -> None:
+        self._node = node
+
+    # --- the interface both roles share ---------------------------------------------------
+
+    def reports_awaited(self) -> int:
+        return len(self._node._handshake_waiting)
+
+    def deadlines(self) -> tuple[float | None, float | None]:
+        """The barrier table's and the bulletin board's next deadlines."""
+        node = self._node
+        return node._bmaster.next_deadline(), node._board.next_deadline()
+
+    def tick(self, now: float) -> None:
+        """The handshake's Syncs and deadline, the barrier table's timers, the board's
+        retransmissions."""
+        node = self._node
+        if node._sync_at is not None and now >= node._sync_at:
+            node._sync_at = None
+            for peer in sorted(node._handshake_waiting):
+                sync = Sync(epoch=node.epoch, bulletin=node._claim_bulletin)
+                node.reliable.send(peer, sync, now, node.epoch)
+        if node._handshake_deadline is not None and now >= node._handshake_deadline:
+            node._lead.finish_handshake(now)
+        node._bmaster.tick(now, node.epoch)
+        self.flush(now)
+        node._board.tick(now, node.epoch, node.reliable.timeout(None))
+
+    def restate(self, now: float) -> None:
+        """A master-bound message was given up: a master has nobody to report to."""
+
+    def to_master(self, payload: Payload, now: float) -> None:
+        """Barrier and role traffic of its own is handled in place."""
+        self.decide(self._node.platform, payload, now)
+
+    def app_to_master(self, msg: AppMessage, now: float) -> None:
+        node = self._node
+        node._out.events.append(AppReceived(sender=node.platform, topic=msg.topic, body=msg.body))
+
+    def post_bulletin(self, msg: AppMessage, now: float, skip: tuple[int, ...]) -> None:
+        node = self._node
+        node._board.post(
+            msg,
+            set(node.members.peers),
+            now,
+            node.epoch,
+            node.reliable.timeout(None),
+            skip=skip,
+        )
+
+    def needs_changed(self, now: float, keys: Iterable[int] | None) -> None:
+        node = self._node
+        node._bmaster.needs_changed(now, node.epoch, keys)
+        self.flush(now)
+
+    def waiting_occasions(self, key: int) -> tuple[str, ...]:
+        return self._node._bmaster.waiting_occasions(key)
+
+    def hold_barrier(self, key: int, until: float) -> None:
+        self._node._bmaster.hold(key, until)
+
+    def own_releases(self) -> list[ReleaseRecord]:
+        """Firings of an earlier term to report: a master reports to nobody."""
+        return []
+
+    def on_roster_request(self, sender: int, body: RosterRequest) -> None:
+        node = self._node
+        if not (node._star and body.epoch == node.epoch):
+            node.counters["drop:roster"] += 1
+            return
+        node._roster_requests.add(sender)
+
+    def on_release_ack(self, sender: int, body: ReleaseAck) -> None:
+        node = self._node
+        if body.dst != node.platform or body.epoch != node.epoch:
+            node.counters["drop:stale_epoch"] += 1
+            return
+        node._bmaster.on_ack(sender, body.key, body.generation)
+
+    def on_master_bound(self, sender: int, epoch: int, payload: Payload, now: float) -> None:
+        node = self._node
+        if epoch != node.epoch:
+            node.counters["drop:stale_epoch"] += 1
+            return
+        if isinstance(payload, Report) and payload.epoch != node.epoch:
+            node.counters["drop:stale_epoch"] += 1
+            return
+        self.decide(sender, payload, now)
+
+    def on_release(self, sender: int, rel: Release, now: float) -> None:
+        """A master takes releases from nobody."""
+        self._node.counters["drop:stale_epoch"] += 1
+
+    def member_left(self, change: MemberLeft, now: float) -> None:
+        """A member left the view: its requests, roles, bulletins and roster entry go."""
+        node = self._node
+        node._handshake_waiting.discard(change.platform)
+        node._bmaster.member_left(change.platform, now, node.epoch)
+        node._rmaster.member_left(change.platform, restarted=change.reason == "restarted")
+        node._board.member_left(change.platform)
+        node._roster_log.left(change.platform)
+        if change.platform in node._reported and change.reason != "restarted":
+            node._rejoining.add(change.platform)
+        node._reported.discard(change.platform)
+
+    def member_joined(self, change: MemberJoined, now: float, hb: Heartbeat | None) -> None:
+        node = self._node
+        node._roster_log.joined(change.platform, change.incarnation)
+        node._lead.master_joined(change.platform, now, hb)
+
+    def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
+        """The master's heartbeat names the members a barrier of all awaits; a star
+        master's also carries the roster's version and changes, the succession list, the
+        cadence it asks its members for and its own interval while fast."""
+        node = self._node
+        awaited = node._bmaster.awaited(now, lambda: {*node.members.peers, node.platform})
+        if not node._star:
+            return Heartbeat(
+                is_master=True,
+                epoch=node.epoch,
+                master=node.master or 0,
+                count=count,
+                suspects=suspects,
+                awaited=awaited,
+            )
+        log = node._roster_log
+        live = node._live
+        return Heartbeat(
+            is_master=True,
+            epoch=node.epoch,
+            master=node.platform,
+            count=count,
+            suspects=suspects,
+            roster=log.version,
+            size=len(node.members),
+            changes=list(log.changes),
+            succession=log.succession(node.members.peers),
+            cadence=0.0 if node._cadence == node.config.heartbeat_interval else node._cadence,
+            awaited=awaited,
+            interval_ms=round(live.own_interval() * 1000) if live.fast else 0,
+        )
+
+    def view_changed(self, now: float) -> None:
+        """After a change of the view: the handshake may be over, a firing may be due."""
+        node = self._node
+        if node._handshake_deadline is not None and not node._handshake_waiting:
+            node._lead.finish_handshake(now)
+        self.flush(now)
+
+    # --- the master's own -----------------------------------------------------------------
+
+    def decide(self, sender: int, payload: Payload, now: float) -> None:
+        """A master-bound message of ``sender`` (itself included): a barrier request, a
+        role claim or release, a report; then what the tables decided goes out."""
+        node = self._node
+        bm, rm = node._bmaster, node._rmaster
+        if isinstance(payload, BarrierRequest):
+            bm.request(sender, payload, now, node.epoch)
+        elif isinstance(payload, RoleClaim):
+            rm.claim(sender, payload)
+        elif isinstance(payload, RoleRelease):
+            rm.release(sender, payload.role)
+        elif isinstance(payload, Report):
+            if sender != node.platform and sender not in node.members:
+                bm.topology_changed(now)  # a platform from beyond the view: more may follow
+            # Releases first: they decide whether a waiting request is to be completed.
+            for record in payload.released:
+                bm.record_released(sender, record)
+            for key, generation in payload.generations.items():
+                bm.known_generation(key, generation, now, node.epoch)
+            for req in payload.pending:
+                bm.request(sender, req, now, node.epoch)
+            bm.reported(now, node.epoch)
+            rm.report(sender, payload.held, payload.claims)
+            node._reported.add(sender)
+            if sender in node._handshake_waiting:
+                node._handshake_waiting.discard(sender)
+                if not node._handshake_waiting and node._handshake_deadline is not None:
+                    node._lead.finish_handshake(now)
+        self.flush(now)
+
+    def flush(self, now: float) -> None:
+        """Send what the barrier and role tables decided; apply the parts meant for me.
+
+        The tables keep lists of their own rather than writing into the collector: what they
+        decided is routed here (to this platform or over a stream), and their firings are
+        reported here, after the view changes of the same step that set them off."""
+        node = self._node
+        bm, rm = node._bmaster, node._rmaster
+        node._out.events.extend(bm.events)
+        bm.events.clear()
+        for platform, notice in bm.notices:
+            self.to_member(platform, notice, now)
+        bm.notices.clear()
+        for platform, reply in rm.replies:
+            self.to_member(platform, reply, now)
+        rm.replies.clear()
+        for rel in bm.broadcasts:
+            if any(e.platform == node.platform for e in rel.entries):
+                event, _ = node.barriers.on_release(rel)
+                if event is not None:
+                    node._out.events.append(event)
+                bm.on_ack(node.platform, rel.key, rel.generation)
+                if all(e.platform == node.platform for e in rel.entries):
+                    continue
+            node._emit(addressee(rel, node.platform), rel, NORMAL)
+        bm.broadcasts.clear()
+        for key, generation, unacked in bm.failed:
+            node._out.events.append(
+                DeliveryFailed(
+                    dst=None,
+                    kind="Release",
+                    reason=f"barrier {key}/{generation}: no acknowledgement from {sorted(unacked)}",
+                )
+            )
+        bm.failed.clear()
+
+    def to_member(self, platform: int, payload: Payload, now: float) -> None:
+        node = self._node
+        if platform == node.platform:
+            node._member_duties.take(payload, now)
+        else:
+            node.reliable.send(platform, payload, now, node.epoch)
+
+
+class MemberDuties:
+    """A member's side (also a platform that follows no master): master-bound traffic goes
+    to the master it follows, releases and replies come from it."""
+
+    is_master: Final = False
+
+    def __init__(self, node: Node) -> None:
+        self._node = node
+
+    def reports_awaited(self) -> int:
+        return 0
+
+    def deadlines(self) -> tuple[float | None, float | None]:
+        return _NO_DEADLINES
+
+    def tick(self, now: float) -> None:
+        """A member's timers are its streams' and its membership's, ticked by the node."""
+
+    def restate(self, now: float) -> None:
+        """A master-bound message was given up: report everything again to the master."""
+        node = self._node
+        if node.master is not None:
+            node.counters["restated"] += 1
+            node._lead.report(now)
+
+    def to_master(self, payload: Payload, now: float) -> None:
+        """Without a master nothing is queued: the report sent on following the next master
+        states every pending request and claim."""
+        node = self._node
+        if node.master is not None:
+            node.reliable.send_to_master(payload, now, node.epoch)
+
+    def app_to_master(self, msg: AppMessage, now: float) -> None:
+        node = self._node
+        node.reliable.send_to_master(msg, now, node.epoch)
+
+    def post_bulletin(self, msg: AppMessage, now: float, skip: tuple[int, ...]) -> None:
+        self._node.counters["bulletin_not_master"] += 1
+
+    def needs_changed(self, now: float, keys: Iterable[int] | None) -> None:
+        """Only a master decides barriers."""
+
+    def waiting_occasions(self, key: int) -> tuple[str, ...]:
+        return ()
+
+    def hold_barrier(self, key: int, until: float) -> None:
+        """Only a master decides barriers."""
+
+    def own_releases(self) -> list[ReleaseRecord]:
+        """The firings it decided as master in an earlier term (its barrier table is kept
+        until it claims again)."""
+        node = self._node
+        return node._bmaster.decided(node.platform)
+
+    def on_roster_request(self, sender: int, body: RosterRequest) -> None:
+        self._node.counters["drop:roster"] += 1
+
+    def on_release_ack(self, sender: int, body: ReleaseAck) -> None:
+        self._node.counters["drop:stale_epoch"] += 1
+
+    def on_master_bound(self, sender: int, epoch: int, payload: Payload, now: float) -> None:
+        self._node.counters["drop:stale_epoch"] += 1
+
+    def on_release(self, sender: int, rel: Release, now: float) -> None:
+        node = self._node
+        if sender != node.master or rel.epoch != node.epoch:
+            node.counters["drop:stale_epoch"] += 1
+            return
+        event, ack = node.barriers.on_release(rel)
+        if event is not None:
+            node._out.events.append(event)
+        if ack:
+            node._emit(
+                sender,
+                ReleaseAck(dst=sender, epoch=rel.epoch, key=rel.key, generation=rel.generation),
+                NORMAL,
+            )
+
+    def member_left(self, change: MemberLeft, now: float) -> None:
+        """Only a master keeps tables of its members."""
+
+    def member_joined(self, change: MemberJoined, now: float, hb: Heartbeat | None) -> None:
+        """Its master joined the view while a shared channel holds its heartbeats back: the
+        hold applies to the new detector too."""
+        node = self._node
+        if change.platform == node.master and node._master_hold > now:
+            node.members.hold(change.platform, node._master_hold, now)
+
+    def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
+        """A member's heartbeat: whom it follows, in which epoch, whom it suspects."""
+        node = self._node
+        return Heartbeat(
+            is_master=False,
+            epoch=node.epoch,
+            master=node.master or 0,
+            count=count,
+            suspects=suspects,
+            awaited=[],
+        )
+
+    def view_changed(self, now: float) -> None:
+        """Only a master has a handshake and firings to flush."""
+
+    # --- the member's own -----------------------------------------------------------------
+
+    def take(self, payload: Payload, now: float) -> None:
+        """A message from its master (or, on the master, from itself): a barrier's stale
+        notice, a role's grant, denial or revocation."""
+        node = self._node
+        if isinstance(payload, BarrierStale):
+            notice = node.barriers.on_stale(payload)
+            if notice is not None:
+                node._out.events.append(notice)
+        elif isinstance(payload, RoleGrant | RoleDeny | RoleRevoke):
+            event = node.roles.on_reply(payload)
+            if event is not None:
+                node._out.events.append(event)
+
+
+#: Either role: the interface the node calls without asking which one it holds.
+Duties = MasterDuties | MemberDuties

@@ -1,0 +1,353 @@
+"""Who is master, as one node sees it: claiming, following and stepping down, the loss of
+the master and its succession, the handshake and the reports that feed it (the decisions
+themselves are the rules of :mod:`actorswarm.core.election`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from actorswarm.core.election import OnHeartbeat, should_claim
+from actorswarm.core.events import (
+    BecameMaster,
+    HandshakeComplete,
+    MasterChanged,
+    SteppedDown,
+)
+from actorswarm.core.roles import RoleMaster
+from actorswarm.core.wire import (
+    BarrierRequest,
+    Heartbeat,
+    Report,
+    RoleClaim,
+    RoleRelease,
+    Sync,
+)
+
+if TYPE_CHECKING:
+    from actorswarm.core.node.coordinator import Node
+
+#: Master-bound messages: sent to the master over its stream (or handled in place by it).
+MASTER_BOUND = (BarrierRequest, RoleClaim, RoleRelease, Report)
+#: A report is sent in as many copies as keep the chance of losing them all at most this
+#: (``_report_copies``), and in at most :data:`MAX_REPORT_COPIES`.
+REPORT_LOST_ALL = 0.1
+MAX_REPORT_COPIES = 3
+
+
+class Leadership:
+    """Who is master, for one :class:`~actorswarm.core.node.Node`: see the module
+    docstring. It acts on the node's election state (``epoch``, ``master``,
+    ``is_master``) and its handshake."""
+
+    def __init__(self, node: Node) -> None:
+        self._node = node
+
+    def _own_report(self, now: float) -> Report:
+        node = self._node
+        return Report(
+            epoch=node.epoch,
+            generations=dict(node.barriers.known),
+            pending=node.barriers.restated(now),
+            # A former master also reports the firings it decided (its barrier table is
+            # kept until it claims again).
+            released=node.barriers.records() + node._role.own_releases(),
+            held=list(node.roles.held.values()),
+            claims=list(node.roles.claims.values()),
+        )
+
+    def report(self, now: float) -> None:
+        node = self._node
+        if node.master is None or node.master == node.platform:
+            return
+        # On the master-bound stream, in order with the claims and requests: a report made
+        # before a claim must not reach the master after the claim's grant and erase it.
+        node._report_seq = node.reliable.send_to_master(
+            self._own_report(now), now, node.epoch, copies=self._report_copies()
+        )
+
+    def _report_copies(self) -> int:
+        """How many copies of a report go out at once: enough that all are lost with a
+        chance of at most :data:`REPORT_LOST_ALL` at the loss this platform measures, at
+        most :data:`MAX_REPORT_COPIES`. A master decides nothing until every member has
+        reported, so its handshake lasts as long as the unluckiest report's retries: among
+        1000 members at 30 % loss, six or seven tries, a third of a second. Not on a shared
+        channel (``channel_bitrate``), whose handshake is paced by the reports' airtime."""
+        node = self._node
+        loss = node.members.loss.value
+        if node.config.channel_bitrate is not None or loss <= REPORT_LOST_ALL:
+            return 1
+        return min(MAX_REPORT_COPIES, math.ceil(math.log(REPORT_LOST_ALL) / math.log(loss)))
+
+    def on_sync(self, sender: int, sync: Sync, now: float, incarnation: int = -1) -> None:
+        node = self._node
+        node._max_epoch = max(node._max_epoch, sync.epoch)
+        self._sync_bulletins(sender, sync)
+        if sender == node.master and sync.epoch == node.epoch:
+            node._master_incarnation = max(node._master_incarnation, incarnation)
+            self.report(now)
+            return
+        action = node._decide(sender, True, sync.epoch)
+        if not self.apply(action, sender, sync.epoch, now):
+            node.counters["drop:stale_epoch"] += 1
+        if node.master == sender:
+            node._master_incarnation = incarnation
+        self._sync_bulletins(sender, sync)
+
+    def _sync_bulletins(self, sender: int, sync: Sync) -> None:
+        """The master's handshake says where this platform's part of its bulletins begins."""
+        node = self._node
+        if sender != node.master or not sync.bulletin:
+            return
+        node._intake.deliver_bulletins(
+            sender, node._inbox.incarnation, node._inbox.start(sync.bulletin)
+        )
+
+    def apply(self, action: OnHeartbeat, sender: int, epoch: int, now: float) -> bool:
+        """Carry out an election decision about ``sender``'s claim of ``epoch``; False when
+        the decision is left to the caller (IGNORE, DEMOTED)."""
+        node = self._node
+        if action is OnHeartbeat.FOLLOW:
+            self._follow(sender, epoch, now)
+        elif action is OnHeartbeat.STEP_DOWN:
+            self._step_down(sender, now)
+            if epoch > node.epoch:
+                self._follow(sender, epoch, now)
+        elif action is OnHeartbeat.RECLAIM:
+            self._claim(now)
+        else:
+            return False
+        return True
+
+    def master_joined(self, platform: int, now: float, hb: Heartbeat | None) -> None:
+        """A platform joined the master's view. One that already reported in this epoch
+        (it followed the claim before its heartbeats made it join) needs nothing more. One
+        that reported and was then declared gone (a false alarm) is asked to report again —
+        its pending requests were dropped with it — but holds nothing back: everything it
+        knows it learnt from this master. Anyone else (a newcomer, the other side of a healed
+        partition) must follow and report, and until it has, the master decides nothing,
+        since the report may show a firing to complete."""
+        node = self._node
+        if platform in node._reported:
+            return
+        rejoining = (
+            platform in node._rejoining
+            and hb is not None
+            and hb.epoch == node.epoch
+            and hb.master == node.platform
+        )
+        node._rejoining.discard(platform)
+        sync = Sync(epoch=node.epoch, bulletin=node._board.next_seq)
+        node.reliable.send(platform, sync, now, node.epoch)
+        if rejoining:
+            node.counters["rejoined"] += 1
+            return
+        node._handshake_waiting.add(platform)
+        node._bmaster.topology_changed(now)
+        if node._handshake_deadline is None:
+            node._handshake_deadline = now + node.config.handshake_timeout
+        node._bmaster.ready = False
+        node._rmaster.ready = False
+
+    def maybe_claim(self, now: float) -> None:
+        node = self._node
+        lowest = node._lowest_peer
+        listened = now - node._started
+        if node._star and node.master is None and not node.is_master:
+            # A star platform also counts the lower IDs it heard but that have not joined its
+            # view (they keep quiet only if they hear someone lower still) and the successors
+            # it presumes alive. The first live successor takes over at once; anyone else
+            # elects as in broadcast mode, having listened for ``startup_wait`` first.
+            lower = [p for p in node._presumed if p < node.platform]
+            lower += node._live.lower_heard(now)
+            if lower:
+                lowest = min(lower) if lowest is None else min(lowest, *lower)
+            if node.platform not in node.roster.succession:
+                listened = min(listened, now - node._listening_since)
+        if should_claim(
+            self_id=node.platform,
+            lowest_peer=lowest,
+            is_master=node.is_master,
+            master=node.master,
+            master_alive=node.master is not None,
+            takeover_on_join=node.config.takeover_on_join,
+            listened=listened,
+            startup_wait=node.config.startup_wait,
+        ):
+            self._claim(now)
+
+    def _claim(self, now: float) -> None:
+        """Become master in a new epoch above every epoch seen; start the handshake."""
+        node = self._node
+        node._max_epoch += 1
+        predecessor = node._epoch_master
+        node._set_epoch(node._max_epoch, node.platform)
+        node.master = node.platform
+        node._inbox.follow(None)
+        node._claim_bulletin = node._board.next_seq
+        node._presumed.clear()
+        node._probe_due.clear()
+        node._reported.clear()
+        node._rejoining.clear()
+        if not node.is_master:
+            # The firings it decided in an earlier term, which it would have reported to the
+            # master it stepped down to: it may claim again before it reported them to anyone
+            # (two masters settling after a heal), and a candidate of one whose release was
+            # lost could then never be completed (campaign seed 7765517).
+            decided = node._bmaster.decided(node.platform)
+            node._take_role(node._master_duties)
+            node._bmaster = node._new_barrier_master()
+            for record in decided:
+                node._bmaster.record_released(node.platform, record)
+            node._rmaster = RoleMaster()
+            if node._star:
+                # The predecessor's roster: those platforms were members a moment ago. They
+                # are watched from now on and waited for in the handshake, and those that do
+                # not answer leave like any silent member — at the cadence they will be
+                # asked for, and on a shared channel only once the handshake's packets
+                # have had their airtime: their first heartbeats queue behind them.
+                inherited = [
+                    (p, i)
+                    for p, i in node.roster.members.items()
+                    if p not in (predecessor, node.platform)
+                ]
+                node.members.cadence = node._live.member_cadence(
+                    max(len(inherited), node._live.swarm_size() - 1)
+                )
+                grace = node._live.handshake_airtime(len(inherited))
+                for peer, incarnation in inherited:
+                    node.members.admit(peer, incarnation, now, grace=grace)
+                node._lowest_peer = min(node.members.peers, default=None)
+        else:  # a new epoch while master: everyone reports again, nothing fires meanwhile
+            node._bmaster.ready = False
+            node._rmaster.ready = False
+            # On a shared channel the members' heartbeats now queue behind their reports
+            # (and wait for their acknowledgement) as after any claim.
+            hold = now + node._live.handshake_airtime(len(node.members))
+            for peer in list(node.members.peers) if hold > now else ():
+                node.members.hold(peer, hold, now)
+        node._roster_log.reset(node.epoch)
+        node._cadence = node._live.member_cadence()
+        node.members.cadence = node._cadence
+        node.handshake_complete = False
+        node._bmaster.topology_changed(now)
+        node._out.events.append(BecameMaster(epoch=node.epoch))
+        node._out.events.append(MasterChanged(master=node.platform, epoch=node.epoch))
+        node.reliable.retarget(None, now)
+        node._handshake_waiting = set(node.members.peers)
+        node._handshake_deadline = now + node.config.handshake_timeout
+        # Members follow the claim heartbeat and report on their own; a Sync goes only to
+        # those who have not reported after a round trip's worth of retry delay.
+        # On a shared channel the reports queue behind each other: no sync before they had
+        # their airtime.
+        node._sync_at = now + max(
+            2 * node.config.retry_base, node._live.handshake_airtime(len(node._handshake_waiting))
+        )
+        node._live.send_heartbeat(now)
+        # The master's own state counts like any member's report.
+        node._master_duties.decide(node.platform, self._own_report(now), now)
+        for payload in node.reliable.take_unrouted():
+            node._master_duties.decide(node.platform, payload, now)
+        if not node._handshake_waiting:
+            self.finish_handshake(now)
+
+    def finish_handshake(self, now: float) -> None:
+        node = self._node
+        node._handshake_deadline = None
+        node._sync_at = None
+        if node._handshake_waiting:
+            node.counters["handshake_incomplete"] += 1
+        node._handshake_waiting.clear()
+        if not node.handshake_complete:
+            node.handshake_complete = True
+            node._out.events.append(HandshakeComplete(epoch=node.epoch, members=len(node.members)))
+        node._bmaster.become_ready(now, node.epoch)
+        node._rmaster.become_ready()
+        node._master_duties.flush(now)
+
+    def _step_down(self, to: int, now: float) -> None:
+        node = self._node
+        node._take_role(node._member_duties)
+        node._board.clear("stepped_down")
+        node._roster_requests.clear()
+        node._cadence = node.config.heartbeat_interval
+        node.members.cadence = node._cadence
+        node.handshake_complete = False
+        node._handshake_waiting.clear()
+        node._handshake_deadline = None
+        node._sync_at = None
+        node._out.events.append(SteppedDown(epoch=node.epoch, to=to))
+        node.master = None
+        node._epoch_master = to
+        node._out.events.append(MasterChanged(master=None, epoch=node.epoch))
+
+    def _follow(self, master: int, epoch: int, now: float) -> None:
+        node = self._node
+        if node.is_master:
+            self._step_down(master, now)
+        node._set_epoch(epoch, master)
+        node.master = master
+        node._master_heard = now
+        node._best_claim = None
+        node._presumed.clear()
+        if node._star:
+            # A star member watches its master only; the rest of the swarm it learns from
+            # the master's roster (fetched anew: it is the new master's, or newer).
+            for peer in [p for p in node.members.peers if p != master]:
+                node.members.forget(peer)
+            # Until its heartbeats say otherwise, the master beats at the ordinary interval.
+            node.members.cadence = node.config.heartbeat_interval
+            # On a shared channel the master's heartbeats queue behind the reports its
+            # claim sets off (``handshake_airtime``): not given up before they had theirs.
+            airtime = node._live.handshake_airtime(node._live.swarm_size() - 1)
+            if airtime > 0.0:
+                node._master_hold = now + airtime
+                node.members.hold(master, node._master_hold, now)
+            if node.config.channel_bitrate is not None:
+                # Heartbeats wait for the report's acknowledgement (``_heartbeats_held``),
+                # but not past what an inherited member is held for, nor ``t_leave``.
+                node._heartbeats_held_until = now + max(airtime, node.config.t_leave)
+            node._lowest_peer = master if master in node.members else None
+            node._probe_due = {p: t for p, t in node._probe_due.items() if p == master}
+        node._out.events.append(MasterChanged(master=master, epoch=epoch))
+        node.reliable.retarget(master, now, epoch, MASTER_BOUND)
+        node._inbox.follow(master)
+        # Always report: requests and claims made while no master was followed were not sent
+        # (the report states them), and a resumed master may have dropped us meanwhile.
+        self.report(now)
+
+    def lose_master(self, now: float) -> None:
+        node = self._node
+        if node.master is None:
+            return
+        lost = node.master
+        node.master = None
+        node._master_incarnation = -1
+        node._listening_since = now
+        if node._star:
+            # Masterless, it watches whoever broadcasts, at the ordinary interval.
+            node.members.cadence = node.config.heartbeat_interval
+        if node._star:
+            # The master's succession list says who takes over: each successor is presumed
+            # alive for a while per rank, so the first live one claims without a round of
+            # broadcasts, and the others keep quiet meanwhile. The while covers how much
+            # later a successor may notice the loss (its last heartbeats from the master
+            # arrived, mine were lost); a successor slower than that claims beside the
+            # next one, and the lower of the two keeps the role.
+            step = 3 * node.config.heartbeat_interval + node.config.probe_window
+            for rank, peer in enumerate(p for p in node.roster.succession if p != lost):
+                if peer != node.platform:
+                    node._presumed[peer] = now + (rank + 1) * step
+        node._out.events.append(MasterChanged(master=None, epoch=node.epoch))
+        node.reliable.retarget(None, now)
+        node._inbox.follow(None)
+        claim = node._best_claim
+        if (
+            claim is not None
+            and claim[0] > node.epoch
+            and now - claim[2] <= node.config.t_leave
+            and (claim[1] in node.members or node._star)
+        ):
+            # Someone already claimed while we still trusted the old master: follow at once.
+            self._follow(claim[1], claim[0], now)

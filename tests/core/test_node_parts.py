@@ -1,0 +1,62 @@
+"""The node's parts: its two roles share one interface and are swapped when it claims or
+steps down, so ``is_master`` always says which one it holds."""
+
+from __future__ import annotations
+
+import inspect
+
+from actorswarm.core.node import Node
+from actorswarm.core.node.duties import MasterDuties, MemberDuties
+from actorswarm.sim.swarm import SimSwarm
+
+#: What one role does that the other has no part in: the master decides master-bound
+#: messages and sends out what its tables decided; a member takes its master's replies.
+OWN = {MasterDuties: {"decide", "flush", "to_member"}, MemberDuties: {"take"}}
+
+
+def _interface(cls: type) -> dict[str, inspect.Signature]:
+    return {
+        name: inspect.signature(member)
+        for name, member in vars(cls).items()
+        if inspect.isfunction(member) and not name.startswith("_") and name not in OWN[cls]
+    }
+
+
+def test_the_master_and_the_member_duties_have_one_interface() -> None:
+    master, member = _interface(MasterDuties), _interface(MemberDuties)
+    assert master.keys() == member.keys()
+    for name, signature in master.items():
+        assert signature == member[name], name
+    assert len(master) >= 15, sorted(master)  # the node's calls, not a trivial pair
+
+
+def _holds_its_role(node: Node) -> bool:
+    expected = MasterDuties if node.is_master else MemberDuties
+    return type(node._role) is expected
+
+
+def test_a_failover_swaps_the_roles_and_is_master_follows() -> None:
+    swarm = SimSwarm(5, seed=3)
+    swarm.run_until(3.0)
+    assert swarm.current_masters() == [1]
+    assert all(_holds_its_role(node) for node in swarm.nodes.values())
+    assert type(swarm.node(1)._role) is MasterDuties
+    assert type(swarm.node(2)._role) is MemberDuties
+    swarm.crash(1)
+    swarm.run_until(6.0)
+    assert swarm.current_masters() == [2]
+    assert all(_holds_its_role(node) for node in swarm.nodes.values())
+    assert type(swarm.node(2)._role) is MasterDuties
+
+
+def test_a_master_that_steps_down_holds_the_member_duties() -> None:
+    swarm = SimSwarm(4, seed=5)
+    swarm.partition([[1, 2], [3, 4]])
+    swarm.run_until(3.0)
+    assert sorted(swarm.current_masters()) == [1, 3]
+    swarm.partition([[1, 2, 3, 4]])
+    swarm.run_until(8.0)
+    assert swarm.current_masters() == [1]
+    assert type(swarm.node(3)._role) is MemberDuties
+    assert not swarm.node(3).is_master
+    assert all(_holds_its_role(node) for node in swarm.nodes.values())
