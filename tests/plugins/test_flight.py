@@ -313,7 +313,7 @@ def test_return_home_rally_phase_snapshot_restores_the_place() -> None:
     vehicle = FakeVehicle(position=(500.0, 0.0, 50.0))
     ctx = make_context(
         ReturnHome,
-        params={"home": "0 0 0", "rally": "100 0 0"},
+        params={"home": "0 0 0", "rally": "100 0 0", "layer_step": "5"},
         vehicle=vehicle,
         slot=2,
         slots=3,
@@ -322,13 +322,24 @@ def test_return_home_rally_phase_snapshot_restores_the_place() -> None:
     plugin = ReturnHome()
     plugin._drive_start(ctx)
     state = plugin._drive_snapshot()
-    assert state["phase"] == "rally"
-    assert state["rally"] == [90.0, 0.0, 20.0]
-    assert state["rally_way"] == [-1.0, 0.0, 0.0]
+    assert state == {
+        "home": [0.0, 0.0, 0.0],
+        "phase": "rally",
+        "layer": 1,
+        "rally": [90.0, 0.0, 25.0],
+        "rally_way": [-1.0, 0.0, 0.0],
+    }
     second = ReturnHome()
     second._drive_restore(state)
     second._drive_activate(ctx)
-    assert vehicle.commands[-1] == ("goto", 90.0, 0.0, 20.0, None)
+    assert vehicle.commands[-1] == ("goto", 90.0, 0.0, 25.0, None)
+    # Past the rally, a restored member goes home on its own layer.
+    third = ReturnHome()
+    third._drive_restore({"home": [0, 0, 0], "phase": "transit", "layer": 1})
+    third._drive_activate(ctx)
+    assert vehicle.commands[-1] == ("goto", 0.0, 0.0, 25.0, None)
+    with pytest.raises(ValueError, match="layer"):
+        ReturnHome()._drive_restore({"home": [0, 0, 0], "phase": "transit", "layer": -1})
     with pytest.raises(ValueError, match="rally"):
         ReturnHome()._drive_restore({"home": [0, 0, 0], "phase": "rally"})
 

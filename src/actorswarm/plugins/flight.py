@@ -389,9 +389,9 @@ class ReturnHome(Plugin):
     ``transit`` (a ``goto`` to the point ``altitude`` metres over home, plus the layer),
     ``landing`` (a ``land`` once within ``tolerance`` of it) and ``done``. A vehicle
     already on the ground at home when the plugin starts skips straight to ``landing``.
-    The snapshot is ``{"home": [x, y, z], "phase": str}``, plus ``"rally": [x, y, z]``
-    (the member's own place) and ``"rally_way": [ux, uy, 0]`` (the direction of the
-    group's flight there) in the ``rally`` phase.
+    The snapshot is ``{"home": [x, y, z], "phase": str}``, plus ``"layer": k`` above the
+    first layer, and ``"rally": [x, y, z]`` (the member's own place) and ``"rally_way":
+    [ux, uy, 0]`` (the direction of the group's flight there) in the ``rally`` phase.
     """
 
     bus = "act_bus"
@@ -542,6 +542,8 @@ class ReturnHome(Plugin):
             "home": None if self._home is None else list(self._home),
             "phase": self._phase,
         }
+        if self._layer:
+            state["layer"] = self._layer
         if self._rally is not None:
             state["rally"] = list(self._rally)
             state["rally_way"] = list(self._rally_way)
@@ -555,6 +557,13 @@ class ReturnHome(Plugin):
                 f"{', '.join(self._PHASES)}, not {phase!r}"
             )
         self._home = read_point("flight.return_home", "home", state.get("home"))
+        layer = state.get("layer", 0)
+        if not (isinstance(layer, int) and not isinstance(layer, bool) and layer >= 0):
+            raise ValueError(
+                f"flight.return_home: a snapshot's 'layer' must be a whole number ≥ 0, "
+                f"not {layer!r}"
+            )
+        self._layer = layer
         self._rally = None
         if phase == "rally":
             self._rally = read_point("flight.return_home", "rally", state.get("rally"))
