@@ -147,3 +147,30 @@ def test_gs_deploy_with_a_world_warns_and_still_sends(
     )
     assert isinstance(result.exception, _Sent), result.output
     assert "warning: formation.arrow: spacing 6 m is below" in result.output
+
+
+HOME = """<TaskScript name="h" version="1">
+  <_ActorsConfig>
+    <Actor><_P_Name>Home</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>flight.return_home</_P_Name>
+        <param key="altitude" value="60"/>
+        <param key="layer_step" value="11"/>
+        <param key="layers" value="LAYERS"/>
+      </Plugin>
+    </Bus></OODAConfig></Actor>
+  </_ActorsConfig>
+  <_PlatformActorConfig><platform id="1-30" actor="Home"/></_PlatformActorConfig>
+</TaskScript>
+"""
+
+
+def test_the_layers_of_the_way_home_are_checked_against_the_ceiling() -> None:
+    """30 platforms, one layer each from 60 m 11 m apart: the top is 379 m; six shared
+    layers top out at 115 m, under the ceiling."""
+    world = "[safety]\nceiling = 120.0\n"
+    found = _warnings(HOME.replace("LAYERS", "0"), world)
+    assert len(found) == 1, found
+    line, message = found[0]
+    assert line == 6
+    assert "top layer of the way home is at 379 m (altitude 60 + 29 × layer_step 11)" in message
+    assert _warnings(HOME.replace("LAYERS", "6"), world) == []

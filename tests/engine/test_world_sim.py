@@ -165,3 +165,7 @@ def test_the_master_hands_out_slots_by_least_total_distance() -> None:
     assert report["violations"] == []
     slots = {p: h.engine.runtime.acbs()["Line"].context.slot for p, h in sim.hosts.items()}
     assert slots == {1: 3, 2: 1, 3: 2, 4: 4}
+    # Every member also gets the one centre of the group (the mean of where they were),
+    # the common reference of a group that moves together (flight.return_home's rally).
+    centres = [h.engine.runtime.acbs()["Line"].context.data["centre"] for h in sim.hosts.values()]
+    assert centres == [[15.0, -20.0]] * 4

@@ -29,11 +29,15 @@ from actorswarm.sim.tasksim import Fault, TaskSim
 from actorswarm.world.separation import BREACH_PREFIX
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-#: The least 3-D distance between two airborne fixed-wings the formation mission keeps,
-#: metres, in every run below. Below the 10 m separation of its world: the formation mission
-#: still breaches it once or twice a run, by up to 2.4 m (docs/safety.md gives the figures);
-#: the search-and-track and battery missions keep their separation (no breach at all).
-SAFETY_DISTANCE = 7.0
+#: The least 3-D distance between two airborne fixed-wings the formation runs below keep,
+#: metres: their world's separation. docs/safety.md gives the figures.
+SAFETY_DISTANCE = 10.0
+#: The quadrotors' separation, which the search-and-track runs keep (by far: 9.99 m).
+QUADROTOR_DISTANCE = 3.0
+#: Under 10 % loss a member that switches late can still cut through a neighbour's altitude
+#: while climbing to its transit layer in a change of shape: 9.56 m (seed 4) and 9.32 m
+#: (seed 1) at 93 s, just after B branches into C. The way home keeps SAFETY_DISTANCE.
+LOSSY_DISTANCE = 9.0
 #: Seeds of the "under other seeds" runs: 1-4 in every run of the suite (each formation
 #: run is ~45 s of CPU and the suite must stay under 15 minutes on two cores); set
 #: ACTORSWARM_MISSION_SEEDS=10 (or more) for the long sweep before a release.
@@ -108,6 +112,10 @@ class Run:
             violations = [v for v in violations if not v.startswith(BREACH_PREFIX)]
         assert violations == [], f"{violations}; {how}"
         assert r["plugin_failures"] == [], f"{r['plugin_failures']}; {how}"
+
+    def breaches_from(self, t: float) -> list[dict[str, Any]]:
+        """The separation breaches that were still going on at or after ``t`` seconds."""
+        return [b for b in self.report["separation"]["breaches"] if b["end"] >= t]
 
     def least_separation(self) -> float:
         """The least 3-D distance between two airborne vehicles in the run (the report's
@@ -199,12 +207,11 @@ def test_formation_members_converge_to_their_shapes(formation: Run) -> None:
 
 
 def test_formation_keeps_airborne_vehicles_apart(formation: Run) -> None:
-    """At least SAFETY_DISTANCE everywhere, and every breach of the 10 m separation is in
-    the report's violations, at most two."""
+    """The 10 m separation holds at every instant, the way home included: no breach, none
+    in the report's violations."""
     assert formation.least_separation() >= SAFETY_DISTANCE
-    breaches = formation.report["separation"]["breaches"]
-    lines = [v for v in formation.report["violations"] if v.startswith(BREACH_PREFIX)]
-    assert len(lines) == len(breaches) <= 2, breaches
+    assert formation.report["separation"]["breaches"] == []
+    assert not [v for v in formation.report["violations"] if v.startswith(BREACH_PREFIX)]
 
 
 def test_formation_slots_are_the_master_s_least_distance_assignment(formation: Run) -> None:
@@ -239,7 +246,8 @@ def test_formation_completes_with_ten_percent_loss() -> None:
     run = Run("formation", seed=4, loss=0.1)
     run.clean(separation=False)
     assert run.moves()[("A", "Return", "go_home_event")] == 30
-    assert run.least_separation() >= SAFETY_DISTANCE
+    assert run.least_separation() >= LOSSY_DISTANCE
+    assert run.breaches_from(dict(run.mission.events)["go_home_event"]) == []
 
 
 def test_formation_completes_with_a_platform_killed_mid_mission() -> None:
@@ -274,7 +282,7 @@ def test_search_track_finds_and_follows_the_jeep(search_track: Run) -> None:
     over = track.positions[i, list(track.platforms).index(tracker), :2]
     jeep = track.target_positions[i, 0, :2]
     assert math.dist(over.tolist(), jeep.tolist()) < 10.0
-    assert search_track.least_separation() >= SAFETY_DISTANCE
+    assert search_track.least_separation() >= QUADROTOR_DISTANCE
 
 
 @pytest.mark.parametrize("seed", SEEDS)

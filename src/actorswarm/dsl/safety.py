@@ -9,7 +9,8 @@ read the script against the world it will fly in and warn, at the script's line,
 * a ``flight.goto`` a group is sent to with no ``spacing`` (every member to one point), or
   a ``spacing`` below the separation;
 * an altitude above the world's ``[safety] ceiling``: a plugin's ``altitude`` (a formation's
-  top layer, ``altitude + (size - 1) · altitude_step``), a ``target`` or ``TargetPoint``;
+  top layer, ``altitude + (size - 1) · altitude_step``; the way home's, ``altitude +
+  (layers - 1) · layer_step``), a ``target`` or ``TargetPoint``;
 * a named area too small for the platforms that may be sent there: fewer than one square of
   the separation's side for each.
 
@@ -63,6 +64,8 @@ def check_safety(script: TaskScript, world: WorldConfig, report: Report) -> None
                 elif spec.name == "flight.goto":
                     sent = count - started.get(actor.name, 0)
                     _goto(spec, params, (sent, count), separation, what, ceiling, report)
+                elif spec.name == "flight.return_home":
+                    _return_home(spec, params, count, ceiling, report)
                 else:
                     _altitude(spec, params, ceiling, report)
                 if "area" in params:
@@ -171,6 +174,38 @@ def _goto(
         )
     if ceiling > 0 and "target" in params:
         _point(params["target"], ceiling, report)
+
+
+def _return_home(
+    spec: PluginSpec, params: Mapping[str, Param], count: int, ceiling: float, report: Report
+) -> None:
+    """The top of the layers a group of ``count`` goes home on: ``altitude + (layers - 1) ·
+    layer_step``, ``layers`` 0 being one per member."""
+    _altitude(spec, params, ceiling, report)
+    if ceiling <= 0:
+        return
+    # Imported here, as the checker reads plugins' params: only a script that goes home
+    # in a world with a ceiling needs the flight plugins' defaults.
+    from actorswarm.plugins.flight import ReturnHome
+
+    def default(key: str) -> float:
+        value = ReturnHome.params[key].default
+        return float(value) if isinstance(value, int | float) else 0.0
+
+    altitude = _number(params.get("altitude"), default("altitude"))
+    step = _number(params.get("layer_step"), 0.0)
+    layers = _number(params.get("layers"), default("layers"))
+    if altitude is None or step is None or layers is None or step <= 0:
+        return
+    used = min(int(layers) or count, count)
+    top = altitude + max(used - 1, 0) * step
+    if top > ceiling and altitude <= ceiling:
+        report.warning(
+            _at(spec, params.get("layer_step")),
+            f"{spec.name}: the top layer of the way home is at {top:g} m (altitude "
+            f"{altitude:g} + {max(used - 1, 0)} × layer_step {step:g}), above the world's "
+            f"ceiling of {ceiling:g} m ([safety] ceiling)",
+        )
 
 
 def _altitude(

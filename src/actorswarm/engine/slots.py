@@ -31,7 +31,9 @@ def scatter(
 ) -> dict[int, Any]:
     """Each chosen participant's successor, and its slot among everyone the firing
     sends to that successor: ``{"to": actor, "slot": k, "slots": n}``, plus ``"event"``:
-    the data of the event it became a candidate for, when there was any.
+    the data of the event it became a candidate for, when there was any, and
+    ``"centre"``: the mean ``[x, y]`` of the positions of everyone sent to that successor,
+    when every one of them said where it was.
 
     Slots are counted across the parts of a group (two transitions sharing a key, such
     as the paper's merge of B and C into D), in part then index order, so a merged
@@ -56,8 +58,13 @@ def scatter(
         members.sort()
         order = [platform for _, _, platform in members]
         slots = _assigned(runtime, successor, order, where, params[successor], now)
+        centre = _centre([where.get(p) for p in order])
         for platform, slot in zip(order, slots, strict=True):
             entry: dict[str, Any] = {"to": successor, "slot": slot, "slots": len(members)}
+            if centre is not None:
+                # One point every member of the group knows: a group that must move
+                # together (flight.return_home's rally) translates by the same vector.
+                entry["centre"] = centre
             if said.get(platform) is not None:
                 # The data of the event that made it a candidate (a detection's target
                 # position): the successor's plugins find it in ctx.data["event"].
@@ -87,6 +94,17 @@ def _assigned(
         return in_order
     squared = runtime.group_in_step(successor, len(order), now, params)
     return assign_slots(positions, points[: len(order)], squared=squared)
+
+
+def _centre(said: list[Any]) -> list[float] | None:
+    """The mean ``[x, y]`` of the members' positions, or None unless every member said
+    where it was."""
+    if not said or not all(_is_xy(p) for p in said):
+        return None
+    return [
+        sum(float(p[0]) for p in said) / len(said),
+        sum(float(p[1]) for p in said) / len(said),
+    ]
 
 
 def scattered_successor(data: Any, transition: Transition) -> str | None:

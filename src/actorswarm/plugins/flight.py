@@ -9,7 +9,8 @@
     ``tolerance`` of it.
 ``flight.return_home`` (:class:`ReturnHome`)
     The paper's *Return* actor (switched in by ``go_home_event``): fly to ``home`` at
-    ``altitude``, land there, and emit ``event`` (``landed_event``) once on the ground.
+    ``altitude``, land there, and emit ``event`` (``landed_event``) once on the ground; a
+    group given a ``rally`` point first flies there together, keeping its shape.
 
 Theory of operation
 -------------------
@@ -43,7 +44,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
-from actorswarm.plugins.snapshot import read_flag, read_point
+from actorswarm.plugins.snapshot import finite, read_flag, read_point
 from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
@@ -61,7 +62,7 @@ LANDED_SPEED: Final = 0.1
 #: ``transit_step``), half below its altitude and half above.
 TRANSIT_LAYERS: Final = 4
 #: How many layers a group flying home is spread over (``flight.return_home``'s
-#: ``layer_step``), from its altitude up.
+#: ``layer_step``), from its altitude up, unless its ``layers`` says otherwise.
 HOME_LAYERS: Final = 6
 
 
@@ -362,15 +363,35 @@ class ReturnHome(Plugin):
     ``scope`` (``local``, the default, or ``swarm``)
         The event's scope.
     ``layer_step`` (float ≥ 0, default 0)
-        Members of a group sent home together travel on :data:`HOME_LAYERS` layers,
-        slot ``k`` at ``altitude + ((k - 1) mod HOME_LAYERS) · layer_step``, so that the
-        paths of neighbours that cross on the way home pass above each other; 0: all at
-        ``altitude``.
+        Members of a group sent home together travel on ``layers`` layers, slot ``k`` at
+        ``altitude + ((k - 1) mod layers) · layer_step``, so that the paths of neighbours
+        that cross on the way home pass above each other; 0: all at ``altitude``.
+    ``layers`` (int ≥ 0, default :data:`HOME_LAYERS`)
+        How many layers; 0: one per member (``ctx.slots``), so that no two members of the
+        group share an altitude and, with ``layer_step`` above the separation, two members
+        level on their layers cannot meet however their paths cross. (A landing still
+        descends through the layers below it.)
+    ``rally`` (point ``"x y z"``, optional; z unused)
+        Where a group sent home together (``ctx.slots`` > 1) flies first, *keeping its
+        shape*: each member flies to ``rally + (its position − the group's centre)``, the
+        centre being the one point the master scattered to all of them (``ctx.data
+        ["centre"]``, the mean of the members' positions at the release), at its layer's
+        altitude. Every member thus flies the same horizontal vector, the same way, at its
+        cruise speed: the group moves as a rigid body, its members as far apart as they
+        were when it left (a formation's spacing), however their homes lie, while each
+        climbs or descends to its layer. Only from there does each fly to its own home.
+        Left out, or without a centre (a single vehicle, a release from an older master):
+        straight home.
 
-    The phases are ``transit`` (a ``goto`` to the point ``altitude`` metres over home),
-    ``landing`` (a ``land`` once within ``tolerance`` of it) and ``done``. A vehicle already
-    on the ground at home when the plugin starts skips straight to ``landing``. The
-    snapshot is ``{"home": [x, y, z], "phase": str}``.
+    The phases are ``rally`` (with a rally point: a ``goto`` to the member's place around
+    it, until the member is within ``tolerance`` of it *along the group's way*: every
+    member turns for home at the same instant, an aircraft circling its place included),
+    ``transit`` (a ``goto`` to the point ``altitude`` metres over home, plus the layer),
+    ``landing`` (a ``land`` once within ``tolerance`` of it) and ``done``. A vehicle
+    already on the ground at home when the plugin starts skips straight to ``landing``.
+    The snapshot is ``{"home": [x, y, z], "phase": str}``, plus ``"layer": k`` above the
+    first layer, and ``"rally": [x, y, z]`` (the member's own place) and ``"rally_way":
+    [ux, uy, 0]`` (the direction of the group's flight there) in the ``rally`` phase.
     """
 
     bus = "act_bus"
@@ -405,16 +426,31 @@ class ReturnHome(Plugin):
             default=0.0,
             minimum=0.0,
             doc="metres between the layers a group travels home on (slot k on layer "
-            "(k - 1) mod 6); 0: one layer",
+            "(k - 1) mod layers); 0: one layer",
+        ),
+        "layers": Param(
+            kind="int",
+            default=HOME_LAYERS,
+            minimum=0,
+            doc="how many layers a group travels home on; 0: one per member",
+        ),
+        "rally": Param(
+            kind="point",
+            doc='where a group sent home first flies together, keeping its shape, "x y z" '
+            "metres (z unused); left out: straight home",
         ),
     }
 
-    _PHASES: ClassVar[tuple[str, ...]] = ("transit", "landing", "done")
+    _PHASES: ClassVar[tuple[str, ...]] = ("rally", "transit", "landing", "done")
 
     def __init__(self) -> None:
         self._home: Point | None = None
         self._phase = "transit"
         self._layer = 0
+        # The member's place around the rally point, and the unit vector (x, y, 0) of the
+        # group's flight there: the rally phase ends once that far along it.
+        self._rally: Point | None = None
+        self._rally_way: Point = (0.0, 0.0, 0.0)
 
     @property
     def home(self) -> Point | None:
@@ -431,7 +467,8 @@ class ReturnHome(Plugin):
         if altitude <= 0:
             raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
-        self._layer = (ctx.slot - 1) % HOME_LAYERS if ctx.slot > 0 else 0
+        layers = int(ctx.params["layers"]) or max(ctx.slots, 1)
+        self._layer = (ctx.slot - 1) % layers if ctx.slot > 0 else 0
         given = ctx.params["home"]
         if given is not None:
             self._home = read_point("flight.return_home", "home", given)
@@ -444,12 +481,47 @@ class ReturnHome(Plugin):
         at_home = math.hypot(x - self._home[0], y - self._home[1]) <= ctx.params["tolerance"]
         on_ground = z <= LANDED_ALTITUDE
         self._phase = "landing" if at_home and on_ground and ctx.params["land"] else "transit"
+        self._rally = self._rally_place(ctx, (x, y, z)) if self._phase == "transit" else None
+        if self._rally is not None:
+            dx, dy = self._rally[0] - x, self._rally[1] - y
+            length = math.hypot(dx, dy)
+            if length > ctx.params["tolerance"]:
+                self._phase = "rally"
+                self._rally_way = (dx / length, dy / length, 0.0)
+            else:
+                self._rally = None
         self._command(ctx)
+
+    def _rally_place(self, ctx: PluginContext, here: Point) -> Point | None:
+        """This member's place around the rally point, at its layer's altitude (the class
+        docstring), or None when it flies straight home."""
+        given = ctx.params["rally"]
+        centre = ctx.data.get("centre") if isinstance(ctx.data, Mapping) else None
+        if given is None or ctx.slots < 2 or here[2] <= LANDED_ALTITUDE:
+            return None
+        if not (isinstance(centre, list) and len(centre) == 2 and all(map(finite, centre))):
+            return None
+        rx, ry, _ = read_point("flight.return_home", "rally", given)
+        cx, cy = float(centre[0]), float(centre[1])
+        return (rx + here[0] - cx, ry + here[1] - cy, self._over_home(ctx)[2])
 
     def step(self, ctx: PluginContext) -> None:
         if self._home is None or self._phase == "done":
             return
         vehicle = ctx.require_vehicle()
+        if self._phase == "rally":
+            assert self._rally is not None
+            x, y, _ = vehicle.position()
+            ux, uy, _ = self._rally_way
+            # Along the group's way rather than straight-line: an aircraft circles its goal
+            # (at its loiter radius) and may never come within tolerance of the point, and
+            # every member covers the same way at the same speed, so all of them turn for
+            # home at the same instant, still in shape.
+            if (self._rally[0] - x) * ux + (self._rally[1] - y) * uy <= ctx.params["tolerance"]:
+                self._phase = "transit"
+                self._rally = None
+                self._command(ctx)
+            return
         if self._phase == "transit":
             if _distance(vehicle.position(), self._over_home(ctx)) > ctx.params["tolerance"]:
                 return
@@ -466,7 +538,16 @@ class ReturnHome(Plugin):
         self._command(ctx)
 
     def snapshot(self) -> dict[str, Any]:
-        return {"home": None if self._home is None else list(self._home), "phase": self._phase}
+        state: dict[str, Any] = {
+            "home": None if self._home is None else list(self._home),
+            "phase": self._phase,
+        }
+        if self._layer:
+            state["layer"] = self._layer
+        if self._rally is not None:
+            state["rally"] = list(self._rally)
+            state["rally_way"] = list(self._rally_way)
+        return state
 
     def restore(self, state: Mapping[str, Any]) -> None:
         phase = state.get("phase")
@@ -476,6 +557,17 @@ class ReturnHome(Plugin):
                 f"{', '.join(self._PHASES)}, not {phase!r}"
             )
         self._home = read_point("flight.return_home", "home", state.get("home"))
+        layer = state.get("layer", 0)
+        if not (isinstance(layer, int) and not isinstance(layer, bool) and layer >= 0):
+            raise ValueError(
+                f"flight.return_home: a snapshot's 'layer' must be a whole number ≥ 0, "
+                f"not {layer!r}"
+            )
+        self._layer = layer
+        self._rally = None
+        if phase == "rally":
+            self._rally = read_point("flight.return_home", "rally", state.get("rally"))
+            self._rally_way = read_point("flight.return_home", "rally_way", state.get("rally_way"))
         self._phase = str(phase)
 
     def _over_home(self, ctx: PluginContext) -> Point:
@@ -492,7 +584,9 @@ class ReturnHome(Plugin):
         if self._home is None:
             return
         vehicle = ctx.require_vehicle()
-        if self._phase == "transit":
+        if self._phase == "rally" and self._rally is not None:
+            vehicle.goto(*self._rally)
+        elif self._phase == "transit":
             vehicle.goto(*self._over_home(ctx))
         elif self._phase == "landing" or ctx.params["land"]:
             vehicle.land()
