@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 
 from actorswarm.engine import commands as cmds
+from actorswarm.ground.membership import Membership
 from actorswarm.ground.recorder import SwarmRecorder
 from actorswarm.ground.station import GroundStation
 from actorswarm.recording import McapSink, Recorder, read_recording
 from actorswarm.sim.record import RecordError, RecordWriter, actor_timeline, read_record
-from actorswarm.web.membership import Membership
 
 
 def _status(

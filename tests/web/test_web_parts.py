@@ -11,11 +11,11 @@ import pytest
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.dsl import load
+from actorswarm.ground.membership import Membership
 from actorswarm.ground.station import GroundStation
 from actorswarm.web import SimSource, protocol
 from actorswarm.web.access import Access, is_loopback, policy
 from actorswarm.web.graph_layout import layout
-from actorswarm.web.membership import Membership
 from actorswarm.web.real_source import observed
 from actorswarm.web.timeline import Timeline
 

@@ -100,10 +100,10 @@ def gs_record(
     from actorswarm.cli.record_cmd import open_live, parse_origin_option
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
+    from actorswarm.ground.membership import Membership
     from actorswarm.ground.recorder import SwarmRecorder
     from actorswarm.ground.separation import SwarmSeparation
     from actorswarm.recording import McapSink, Recorder, RecordingWriteError, Sink
-    from actorswarm.web.membership import Membership
     from actorswarm.world.separation import separation_line
 
     ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)

@@ -12,7 +12,7 @@ recording (a :class:`~actorswarm.recording.recorder.Recorder`: the MCAP channels
   dated by the reply that showed it, as coarse as the polling); a change of the vehicle's
   ``link``, ``armed`` or ``mode`` gives an event ``vehicle`` (``fault`` for a link lost);
 * the heartbeats (the station's ``heard`` and ``state``, through a
-  :class:`~actorswarm.web.membership.Membership`) give master changes when the platforms
+  :class:`~actorswarm.ground.membership.Membership`) give master changes when the platforms
   claiming mastership or the epoch change, and events when a platform joins or leaves;
   each look at them (:meth:`SwarmRecorder.membership`) also writes the scene
   (:meth:`~actorswarm.recording.recorder.Recorder.snapshot`) and how many platforms are up;
@@ -40,16 +40,41 @@ is sans-IO: the caller polls and feeds it (:mod:`actorswarm.cli.gs_record`).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Iterable, Mapping
+from typing import Any, Protocol
 
 from actorswarm.engine import commands as cmds
+from actorswarm.ground.membership import Membership
 
-if TYPE_CHECKING:
-    from actorswarm.recording.recorder import Recorder
-    from actorswarm.web.membership import Membership
+__all__ = ["FactSink", "SwarmRecorder", "command_text", "observed"]
 
-__all__ = ["SwarmRecorder", "command_text", "observed"]
+
+class FactSink(Protocol):
+    """Where a :class:`SwarmRecorder` writes (a
+    :class:`~actorswarm.recording.recorder.Recorder` is one): stated here, so that the
+    ground station imports nothing of the recording layer above it."""
+
+    def pose(
+        self,
+        t: float,
+        platform: int,
+        x: float,
+        y: float,
+        z: float,
+        heading: float = 0.0,
+        mode: str = "",
+        battery: float | None = None,
+    ) -> None: ...
+
+    def snapshot(self, t: float) -> None: ...
+
+    def transition(self, record: Mapping[str, Any]) -> None: ...
+
+    def master(self, t: float, masters: Iterable[int], epoch: int | None) -> None: ...
+
+    def event(self, t: float, what: str, platform: int = 0, text: str = "") -> None: ...
+
+    def metrics(self, t: float, **values: float | int) -> None: ...
 
 
 def observed(
@@ -99,7 +124,7 @@ _VEHICLE_KEYS = ("link", "armed", "mode")
 class SwarmRecorder:
     """Writes what the ground station learns to ``out``, times counted from ``t0``."""
 
-    def __init__(self, out: Recorder, t0: float) -> None:
+    def __init__(self, out: FactSink, t0: float) -> None:
         self.out = out
         self.t0 = t0
         self._running: dict[int, tuple[str, ...]] = {}

@@ -59,11 +59,11 @@ from typing import Any
 
 from actorswarm.engine import commands as cmds
 from actorswarm.ground import vehicle as vehicles
+from actorswarm.ground.membership import Membership
 from actorswarm.ground.station import GroundStation
 from actorswarm.ros2 import messages as msgs
 from actorswarm.ros2.load import message_type
 from actorswarm.ros2.node import RosNode, Waker
-from actorswarm.web.membership import Membership
 
 __all__ = ["BridgeSettings", "GroundBridge", "GroundView", "Platform"]
 

@@ -39,10 +39,10 @@ from typing import Any, Literal, TypeVar
 import numpy as np
 
 from actorswarm.dsl.model import TaskScript
+from actorswarm.ground.membership import Membership
 from actorswarm.ground.station import GroundStation
 from actorswarm.sim.record import Recording
 from actorswarm.web import protocol as proto
-from actorswarm.web.membership import Membership
 from actorswarm.web.operator import Outcome
 from actorswarm.web.source import PlatformRow, SwarmSource
 from actorswarm.web.timeline import Timeline

@@ -57,10 +57,10 @@ from typing import Any, Literal, TypeVar
 
 from actorswarm.dsl.model import TaskScript
 from actorswarm.ground import vehicle as vehicles
+from actorswarm.ground.membership import Membership
 from actorswarm.ground.station import GroundStation, ReplyRecord
 from actorswarm.web import protocol as proto
 from actorswarm.web.graph_layout import layout
-from actorswarm.web.membership import Membership
 from actorswarm.web.operator import Operator, Outcome, Timeouts
 from actorswarm.web.timeline import Timeline
 

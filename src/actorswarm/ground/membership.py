@@ -8,7 +8,7 @@ gone), *left* after that, and *unheard* when the script names it but it was neve
 
 A star swarm (the core's default membership) is quiet while it has no master: a platform
 that hears a lower ID keeps its heartbeats to itself, since it could not become master
-(:meth:`~actorswarm.core.node_membership.NodeMembership._send_heartbeat`), and the ground
+(:meth:`~actorswarm.core.node.liveness.Liveness.send_heartbeat`), and the ground
 station hears it once at boot, then through the master's roster once one is elected. So in
 a star swarm a silence is counted only from the last moment it was not such a quiet: while
 no live master is heard and a lower ID is (heard within ``t_leave``), a platform that does
