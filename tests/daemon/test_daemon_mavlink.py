@@ -195,21 +195,7 @@ def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> N
         thread.start()
     try:
         with LocalSwarm(tmp_path, 2) as swarm:
-            for platform, port in zip(homes, ports, strict=True):
-                swarm.start(
-                    platform, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
-                    "--mavlink-sysid", str(10 + platform), "--origin", ORIGIN,
-                )  # fmt: skip
-            swarm.wait(
-                "both links up and a master agreed",
-                lambda: (
-                    swarm.agreed_master() is not None
-                    and all(swarm.status(p).get("vehicle", {}).get("link") == "up" for p in homes)
-                ),
-                timeout=30,
-            )
-            state = ["--state", str(tmp_path / "gs.json")]
-            script = str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")
+            state, script = _start_linked(swarm, homes, ports, 10, tmp_path)
             deployed = swarm.gs("deploy", script, "--expect", "2", *state)
             assert deployed.returncode == 0, deployed.stdout + deployed.stderr
             assert swarm.gs("start", *state).returncode == 0
@@ -427,21 +413,7 @@ def test_one_of_two_that_cannot_take_off_is_grounded_and_the_other_flies_on(
         thread.start()
     try:
         with LocalSwarm(tmp_path, 2) as swarm:
-            for platform, port in zip(homes, ports, strict=True):
-                swarm.start(
-                    platform, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
-                    "--mavlink-sysid", str(20 + platform), "--origin", ORIGIN,
-                )  # fmt: skip
-            swarm.wait(
-                "both links up and a master agreed",
-                lambda: (
-                    swarm.agreed_master() is not None
-                    and all(swarm.status(p).get("vehicle", {}).get("link") == "up" for p in homes)
-                ),
-                timeout=30,
-            )
-            state = ["--state", str(tmp_path / "gs.json")]
-            script = str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")
+            state, script = _start_linked(swarm, homes, ports, 20, tmp_path)
             assert swarm.gs("deploy", script, "--expect", "2", *state).returncode == 0
             assert swarm.gs("start", *state).returncode == 0
             swarm.wait(
@@ -467,3 +439,30 @@ def test_one_of_two_that_cannot_take_off_is_grounded_and_the_other_flies_on(
             thread.join(timeout=2)
         for sim in sims.values():
             sim.close()
+
+
+def _start_linked(
+    swarm: LocalSwarm,
+    homes: dict[int, tuple[float, float, float]],
+    ports: list[int],
+    sysids: int,
+    tmp_path: Path,
+) -> tuple[list[str], str]:
+    """Start one daemon per platform of ``homes`` on its autopilot's port (system ID
+    ``sysids`` + platform), wait until both links are up and a master is agreed; returns the
+    ground station's ``--state`` option and the two-copter script."""
+    for platform, port in zip(homes, ports, strict=True):
+        swarm.start(
+            platform, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
+            "--mavlink-sysid", str(sysids + platform), "--origin", ORIGIN,
+        )  # fmt: skip
+    swarm.wait(
+        "both links up and a master agreed",
+        lambda: (
+            swarm.agreed_master() is not None
+            and all(swarm.status(p).get("vehicle", {}).get("link") == "up" for p in homes)
+        ),
+        timeout=30,
+    )
+    state = ["--state", str(tmp_path / "gs.json")]
+    return state, str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")

@@ -654,7 +654,6 @@ def sim(
     --expect-complete when the task did not complete. The summary says which.
     """
     from actorswarm.cli.record_cmd import (
-        check_record_path,
         parse_origin_option,
         sim_live,
         write_sim_record,
@@ -713,8 +712,6 @@ def sim(
     link = LinkModel(loss=loss, latency=latency / 1000.0, jitter=jitter / 1000.0)
     frame = parse_origin_option(origin)
     packets: list[tuple[float, int]] = []
-    if record is not None:
-        check_record_path(record)  # before the run, not after it
     try:
         run = TaskSim(
             script,

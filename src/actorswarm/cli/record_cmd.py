@@ -24,7 +24,6 @@ __all__ = [
     "LiveOpt",
     "LivePortOpt",
     "OriginOpt",
-    "check_record_path",
     "open_live",
     "parse_origin_option",
     "record_app",
@@ -115,16 +114,6 @@ def write_sim_record(
             origin=origin,
             faults=faults,
         )
-    except RecordingWriteError as exc:
-        raise _fail(str(exc)) from None
-
-
-def check_record_path(path: Path) -> None:
-    """Exit 2, naming ``path``, when a recording cannot be written there."""
-    from actorswarm.recording.mcap_sink import RecordingWriteError, check_writable
-
-    try:
-        check_writable(path)
     except RecordingWriteError as exc:
         raise _fail(str(exc)) from None
 
