@@ -59,3 +59,25 @@ def test_node_picture_names_its_class_chain_and_parts() -> None:
     assert "class Node[" in block
     assert "*-- Reliable : reliable" in block
     assert "*-- Collector : _out" in block
+
+
+def test_tree_lists_every_module_and_part_folder_with_a_plain_summary(tmp_path: Path) -> None:
+    _package(tmp_path, "core", {"__init__.py": '"""The core."""\n', "wire.py": '"""Packets."""\n'})
+    _package(
+        tmp_path / "core",
+        "part",
+        {
+            "__init__.py": '"""One part: what it does.\n\nMore text."""\n',
+            "a.py": '"""Uses :class:`~pkg.core.part.a.Thing` and ``x``. Second sentence."""\n',
+            "b.py": '"""' + "word " * 30 + '"""\n',
+        },
+    )
+    (tmp_path / "core" / "notes").mkdir()  # no __init__.py: not a part
+    lines = architecture.tree_listing("core", tmp_path)
+    assert lines[0] == "```text" and lines[-1] == "```"
+    assert lines[1] == "core/  The core"
+    assert lines[2].split() == ["wire.py", "1", "lines", "Packets"]
+    assert lines[3] == "  part/  One part: what it does"
+    assert lines[4].endswith("Uses Thing and x")  # roles and literals read plain, one sentence
+    assert lines[5].endswith(" …") and len(lines[5].split("lines  ", 1)[1]) <= 74
+    assert len(lines) == 7  # notes/ is left out

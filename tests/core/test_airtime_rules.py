@@ -1,4 +1,4 @@
-"""The shared channel's arithmetic (:mod:`actorswarm.core.airtime`): the cadence a master
+"""The shared channel's arithmetic (:mod:`actorswarm.core.membership.airtime`): the cadence a master
 asks for, the size it implies, a handshake's airtime, the swarm's channel time, and the log
 of platforms heard. Without a channel each is the fast network's value."""
 
@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from actorswarm.core import airtime
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.membership import airtime
 
 MBIT = CoreConfig(channel_bitrate=1e6)
 FAST = CoreConfig()

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from actorswarm.core.bulletin import UNICAST_AT_MOST, BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.delivery.bulletin import UNICAST_AT_MOST, BulletinBoard, BulletinInbox
 from actorswarm.core.events import AppReceived, DeliveryFailed
 from actorswarm.core.ready import Ready
 from actorswarm.core.wire import AppMessage, Bulletin, BulletinAck, decode, encode

@@ -7,7 +7,7 @@ import itertools
 import pytest
 
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.detectors import FixedTimeout, PhiAccrual, make_detector
+from actorswarm.core.membership.detectors import FixedTimeout, PhiAccrual, make_detector
 
 INTERVAL = 0.1
 MIN_STD = 0.02

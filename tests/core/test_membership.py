@@ -6,7 +6,7 @@ import pytest
 
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import MemberJoined, MemberLeft
-from actorswarm.core.membership import Membership
+from actorswarm.core.membership.view import Membership
 
 CONFIG = CoreConfig()  # M = 3, t_join = 1.0, t_leave = 0.5
 PEER = 7

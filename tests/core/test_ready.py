@@ -8,8 +8,9 @@ firings and messages given up arrive through it as events.
 
 from __future__ import annotations
 
-from actorswarm.core.bulletin import BulletinBoard
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.delivery.bulletin import BulletinBoard
+from actorswarm.core.delivery.reliable import Reliable
 from actorswarm.core.events import (
     BarrierFired,
     BarrierReleased,
@@ -18,7 +19,6 @@ from actorswarm.core.events import (
 )
 from actorswarm.core.node import Node
 from actorswarm.core.ready import Collector, Outgoing
-from actorswarm.core.reliable import Reliable
 from actorswarm.core.wire import (
     NORMAL,
     URGENT,

@@ -7,8 +7,8 @@ import itertools
 import pytest
 
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.delivery.reliable import ANSWERS_FLOOR, Reliable
 from actorswarm.core.ready import DeliveryFailure
-from actorswarm.core.reliable import ANSWERS_FLOOR, Reliable
 from actorswarm.core.wire import (
     NORMAL,
     TO_MASTER,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.reliable import Reliable
-from actorswarm.core.rtt import RttEstimator
+from actorswarm.core.delivery.reliable import Reliable
+from actorswarm.core.delivery.rtt import RttEstimator
 from actorswarm.core.wire import NORMAL, Ack, AppMessage
 
 

@@ -26,7 +26,7 @@ from typing import Any, TypeVar
 
 import pytest
 
-from actorswarm.core import airtime, wire
+from actorswarm.core import wire
 from actorswarm.core.config import CoreConfig, MembershipKind
 from actorswarm.core.election import OnHeartbeat
 from actorswarm.core.events import (
@@ -37,10 +37,11 @@ from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
 )
-from actorswarm.core.membership import Membership, leave_silence
+from actorswarm.core.membership import airtime
+from actorswarm.core.membership.roster import RosterLog, RosterPool, RosterView
+from actorswarm.core.membership.view import Membership, leave_silence
 from actorswarm.core.node import Node, Outgoing, Ready, coordinator
 from actorswarm.core.ready import PROBE
-from actorswarm.core.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.wire import (
     MAX_CHANGES,
     MAX_SUCCESSION,

@@ -6,7 +6,6 @@ the core reports upward.
 """
 
 from actorswarm.core.config import ConfigError, CoreConfig
-from actorswarm.core.detectors import FixedTimeout, LeaveDetector, PhiAccrual, make_detector
 from actorswarm.core.events import (
     AppReceived,
     BarrierFired,
@@ -23,6 +22,12 @@ from actorswarm.core.events import (
     RoleGranted,
     RoleRevoked,
     SteppedDown,
+)
+from actorswarm.core.membership.detectors import (
+    FixedTimeout,
+    LeaveDetector,
+    PhiAccrual,
+    make_detector,
 )
 from actorswarm.core.node import Node, Outgoing
 from actorswarm.core.ready import Ready

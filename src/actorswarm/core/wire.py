@@ -291,7 +291,7 @@ class RosterChunk(_Msg, frozen=True, tag=7):
 
 
 class Bulletin(_Msg, frozen=True, tag=8):
-    """One message from the master to every member, broadcast once (see core/bulletin.py).
+    """One message from the master to every member, broadcast once (see core/delivery/bulletin.py).
 
     ``seq`` numbers the master's bulletins (per incarnation); ``floor`` is the lowest it
     still holds. ``skip`` names members it is not for (an event's origin); ``to``, on a

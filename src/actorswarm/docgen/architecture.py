@@ -1,6 +1,6 @@
 """The architecture pictures of docs/design.md, drawn from the code itself.
 
-Two Mermaid diagrams between ``<!-- architecture:begin -->`` and ``<!-- architecture:end -->``:
+Pictures between ``<!-- architecture:begin -->`` and ``<!-- architecture:end -->``:
 
 - **the packages and their imports**: an arrow ``a --> b`` when a module of package ``a``
   imports one of ``b`` at run time (imports under ``if TYPE_CHECKING:`` are not
@@ -9,7 +9,9 @@ Two Mermaid diagrams between ``<!-- architecture:begin -->`` and ``<!-- architec
 - **the parts of a platform's** :class:`~actorswarm.core.node.Node`: its class chain (each
   class with its length in lines) and the objects each class creates and keeps
   (``self.x = Part(...)``), named by attribute; the parts of the node's own package
-  (``actorswarm.core.node``) are drawn with their length and their own parts too.
+  (``actorswarm.core.node``) are drawn with their length and their own parts too;
+- **the collective core's folders**: each module of ``core/`` and of its part folders, with
+  its length and the first line of its docstring.
 
 ::
 
@@ -23,6 +25,7 @@ from __future__ import annotations
 import ast
 import importlib
 import inspect
+import re
 import sys
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -184,6 +187,49 @@ def node_diagram(qualified: str = "actorswarm.core.node:Node") -> list[str]:
     return lines
 
 
+#: Sphinx roles (``:class:`~a.b.C``` → ``C``) and literals (````x```` → ``x``) in a summary.
+_ROLE: Final = re.compile(r":\w+:`~?(?:[\w.]*\.)?([^`]+)`")
+_LITERAL: Final = re.compile(r"``([^`]+)``")
+#: How long a summary may be before it is cut at a word.
+_SUMMARY_WIDTH: Final = 72
+
+
+def _summary(path: Path) -> str:
+    """The first sentence of ``path``'s module docstring, in plain text, cut to
+    :data:`_SUMMARY_WIDTH` characters at a word."""
+    doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+    text = " ".join(doc.partition("\n\n")[0].split())
+    text = _LITERAL.sub(r"\1", _ROLE.sub(r"\1", text))
+    text = re.split(r"(?<=\.)\s", text, maxsplit=1)[0].rstrip(".")
+    if len(text) > _SUMMARY_WIDTH:
+        text = text[:_SUMMARY_WIDTH].rsplit(" ", 1)[0].rstrip(",;:") + " …"
+    return text
+
+
+def tree_listing(package: str = "core", root: Path = PACKAGE) -> list[str]:
+    """``package``'s folders and modules, each with its length and the first line of its
+    docstring: the layout the folders themselves show."""
+    top = root / package
+    lines = ["```text"]
+
+    def listing(folder: Path, depth: int) -> None:
+        indent = "  " * depth
+        modules = sorted(p for p in folder.glob("*.py") if p.name != "__init__.py")
+        width = max((len(p.name) for p in modules), default=0)
+        for path in modules:
+            length = len(path.read_text(encoding="utf-8").splitlines())
+            name = path.name.ljust(width)
+            lines.append(f"{indent}{name}  {length:4} lines  {_summary(path)}")
+        for sub in sorted(p for p in folder.iterdir() if (p / "__init__.py").is_file()):
+            lines.append(f"{indent}{sub.name}/  {_summary(sub / '__init__.py')}")
+            listing(sub, depth + 1)
+
+    lines.append(f"{package}/  {_summary(top / '__init__.py')}")
+    listing(top, 1)
+    lines.append("```")
+    return lines
+
+
 def render() -> str:
     """The generated block, without its markers."""
     lines = [
@@ -198,6 +244,12 @@ def render() -> str:
         "each class creates and keeps (the node's own parts, of `core/node/`, with theirs):",
         "",
         *node_diagram(),
+        "",
+        "The collective core laid out by part (`src/actorswarm/core/`): the vocabulary every",
+        "part shares at the top (packets, events, settings, the output collector), a folder",
+        "per part below it:",
+        "",
+        *tree_listing(),
     ]
     return "\n".join(lines) + "\n"
 

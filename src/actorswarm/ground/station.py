@@ -27,9 +27,9 @@ from dataclasses import dataclass
 
 from actorswarm.core import wire
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.delivery.reliable import Reliable
+from actorswarm.core.membership.roster import RosterView
 from actorswarm.core.ready import Collector, Outgoing
-from actorswarm.core.reliable import Reliable
-from actorswarm.core.roster import RosterView
 from actorswarm.core.wire import (
     URGENT,
     Ack,

@@ -32,8 +32,8 @@ from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
 )
+from actorswarm.core.membership.roster import RosterPool
 from actorswarm.core.node import Node
-from actorswarm.core.roster import RosterPool
 from actorswarm.core.wire import Packet
 from actorswarm.security.guard import PacketGuard
 from actorswarm.security.pipeline import Pipeline

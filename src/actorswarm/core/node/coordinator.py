@@ -16,9 +16,9 @@ The application (task engine, tests) asks for coordination with :meth:`request_b
 node reads no clock, opens no socket, starts no thread and draws randomness only from the
 seeded ``rng`` it was given (the phase of its heartbeats).
 
-Inside, the node composes membership (:mod:`actorswarm.core.membership`), election
-(:mod:`actorswarm.core.election`), reliable streams (:mod:`actorswarm.core.reliable`),
-bulletins (:mod:`actorswarm.core.bulletin`), barriers (:mod:`actorswarm.core.barrier`) and
+Inside, the node composes membership (:mod:`actorswarm.core.membership.view`), election
+(:mod:`actorswarm.core.election`), reliable streams (:mod:`actorswarm.core.delivery.reliable`),
+bulletins (:mod:`actorswarm.core.delivery.bulletin`), barriers (:mod:`actorswarm.core.barrier`) and
 roles (:mod:`actorswarm.core.roles`). Each part writes what it sends and reports into the
 node's one collector (:mod:`actorswarm.core.ready`). The node keeps the state its parts
 share (whom it follows, in which epoch) and hands the work to them as objects:
@@ -42,7 +42,7 @@ from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
-from actorswarm.core import airtime, wire
+from actorswarm.core import wire
 from actorswarm.core.barrier import (
     BarrierMaster,
     BarrierMember,
@@ -50,8 +50,9 @@ from actorswarm.core.barrier import (
     NeedResolver,
     Scatter,
 )
-from actorswarm.core.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
+from actorswarm.core.delivery.reliable import Reliable
 from actorswarm.core.election import OnHeartbeat, on_heartbeat
 from actorswarm.core.events import (
     AppReceived,
@@ -60,16 +61,16 @@ from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
 )
-from actorswarm.core.membership import Membership
+from actorswarm.core.membership import airtime
+from actorswarm.core.membership.roster import RosterLog, RosterPool, RosterView
+from actorswarm.core.membership.view import Membership
 from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
 from actorswarm.core.node.intake import _BODY_HANDLERS, Intake
 from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.node.liveness import Liveness
 from actorswarm.core.node.rostersync import RosterSync
 from actorswarm.core.ready import Collector, Outgoing, Ready
-from actorswarm.core.reliable import Reliable
 from actorswarm.core.roles import RoleMaster, RoleMember
-from actorswarm.core.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.wire import (
     NEED_ALL,
     NORMAL,

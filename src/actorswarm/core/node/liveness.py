@@ -1,19 +1,20 @@
 """Who is alive, as one node sees it: heartbeats sent (when, to whom, paced to the master
 on a daemon) and heard, probes of suspects, local health, the swarm-size estimate, and
-what a change of the view sets off (see :mod:`actorswarm.core.membership`; on a shared
-channel, :mod:`actorswarm.core.airtime`).
+what a change of the view sets off (see :mod:`actorswarm.core.membership.view`; on a shared
+channel, :mod:`actorswarm.core.membership.airtime`).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from actorswarm.core import airtime, wire
+from actorswarm.core import wire
 from actorswarm.core.election import OnHeartbeat
 from actorswarm.core.events import (
     MemberJoined,
     MemberLeft,
 )
+from actorswarm.core.membership import airtime
 from actorswarm.core.ready import PROBE
 from actorswarm.core.wire import (
     NORMAL,
@@ -62,7 +63,7 @@ class Liveness:
 
     def member_cadence(self, members: int | None = None) -> float:
         """The member heartbeat interval a star master asks for
-        (:func:`~actorswarm.core.airtime.member_cadence`) for ``members`` (default: every
+        (:func:`~actorswarm.core.membership.airtime.member_cadence`) for ``members`` (default: every
         other platform of :meth:`swarm_size`)."""
         node = self._node
         if not node._star:
@@ -84,7 +85,8 @@ class Liveness:
         return size + 1
 
     def handshake_airtime(self, members: int) -> float:
-        """:func:`~actorswarm.core.airtime.handshake_airtime` of this platform's channel."""
+        """:func:`~actorswarm.core.membership.airtime.handshake_airtime` of this platform's
+        channel."""
         node = self._node
         return airtime.handshake_airtime(node.config, members)
 

@@ -1,7 +1,7 @@
 """The roster of a star swarm, for one node (docs/design.md §3.1): a master serves its
 roster to the members that ask (or broadcasts it when many do, or when all are behind on a
 shared channel); a member keeps its copy current from its master's heartbeats and asks for
-the whole roster when it falls behind (see :mod:`actorswarm.core.roster`).
+the whole roster when it falls behind (see :mod:`actorswarm.core.membership.roster`).
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from actorswarm.core import wire
-from actorswarm.core.roster import RosterLog
+from actorswarm.core.membership.roster import RosterLog
 from actorswarm.core.wire import NORMAL, Heartbeat, RosterChunk, RosterRequest
 
 if TYPE_CHECKING:

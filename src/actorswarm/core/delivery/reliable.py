@@ -36,8 +36,8 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.delivery.rtt import RttEstimator
 from actorswarm.core.ready import Collector, DeliveryFailure
-from actorswarm.core.rtt import RttEstimator
 from actorswarm.core.wire import NORMAL, TO_MASTER, URGENT, Ack, Data, Payload
 
 #: Key of the master-bound stream in the stream table (no platform has ID -1).

@@ -40,8 +40,8 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.detectors import LeaveDetector, make_detector
 from actorswarm.core.events import MemberJoined, MemberLeft
+from actorswarm.core.membership.detectors import LeaveDetector, make_detector
 
 #: Heap entry stages.
 _SUSPECT = 0
