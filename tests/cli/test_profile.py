@@ -10,7 +10,6 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from actorswarm.cli import gs as gs_module
 from actorswarm.cli.app import app
 from actorswarm.cli.gs_control import _ids, _one_refusal
 from actorswarm.cli.profile import (
@@ -20,18 +19,19 @@ from actorswarm.cli.profile import (
     profile_text,
     read_profile,
 )
+from actorswarm.cli.swarm_options import LinkOptions
 
 
 @pytest.fixture
-def seen(monkeypatch: pytest.MonkeyPatch) -> list[tuple[Any, ...]]:
+def seen(monkeypatch: pytest.MonkeyPatch) -> list[LinkOptions]:
     """The options ``gs status`` would connect with (it stops there)."""
-    calls: list[tuple[Any, ...]] = []
+    calls: list[LinkOptions] = []
 
-    def fake_link(*args: Any) -> Any:
-        calls.append(args)
+    def fake_link(self: LinkOptions) -> Any:
+        calls.append(self)
         raise typer.Exit(0)
 
-    monkeypatch.setattr(gs_module, "link", fake_link)
+    monkeypatch.setattr(LinkOptions, "link", fake_link)
     for variable, _ in ENVIRONMENT.values():
         monkeypatch.delenv(variable, raising=False)
     monkeypatch.delenv("ACTORSWARM_PROFILE", raising=False)
@@ -44,24 +44,25 @@ def _profile(tmp_path: Path) -> Path:
     return path
 
 
-def test_a_profile_gives_the_connection_settings(tmp_path: Path, seen: list[Any]) -> None:
+def test_a_profile_gives_the_connection_settings(tmp_path: Path, seen: list[LinkOptions]) -> None:
     result = CliRunner().invoke(app, ["gs", "--profile", str(_profile(tmp_path)), "status"])
     assert result.exit_code == 0, result.output
-    swarm, connect, _, multicast, _, insecure = seen[0][:6]
-    assert (swarm, connect, multicast, insecure) == ("field", ["tcp/10.0.0.1:7447"], False, True)
+    assert seen == [
+        LinkOptions(swarm="field", connect=["tcp/10.0.0.1:7447"], multicast=False, insecure=True)
+    ]
 
 
 def test_the_environment_comes_before_the_profile_and_the_command_line_first(
-    tmp_path: Path, seen: list[Any]
+    tmp_path: Path, seen: list[LinkOptions]
 ) -> None:
     env = {"ACTORSWARM_PROFILE": str(_profile(tmp_path)), "ACTORSWARM_SWARM": "from-env"}
     CliRunner().invoke(app, ["gs", "status"], env=env)
     CliRunner().invoke(app, ["gs", "status", "--swarm", "typed"], env=env)
-    assert [call[0] for call in seen] == ["from-env", "typed"]
-    assert all(call[1] == ["tcp/10.0.0.1:7447"] for call in seen)
+    assert [call.swarm for call in seen] == ["from-env", "typed"]
+    assert all(call.connect == ["tcp/10.0.0.1:7447"] for call in seen)
 
 
-def test_a_bad_profile_is_one_line_naming_the_key(tmp_path: Path, seen: list[Any]) -> None:
+def test_a_bad_profile_is_one_line_naming_the_key(tmp_path: Path, seen: list[LinkOptions]) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text('swarm = "x"\nconect = ["tcp/1.2.3.4:5"]\n')
     result = CliRunner().invoke(app, ["gs", "--profile", str(bad), "status"])

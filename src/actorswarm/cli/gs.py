@@ -20,18 +20,10 @@ import typer
 
 from actorswarm.cli.common import check_script, int_list_or_count, output_file, read_world
 from actorswarm.cli.swarm_options import (
-    BroadcastOpt,
-    ConnectOpt,
-    GroupOpt,
-    InsecureOpt,
-    InterfaceOpt,
-    KeysOpt,
-    ListenOpt,
-    MulticastOpt,
-    SwarmOpt,
+    LinkOptions,
     TimeoutOpt,
     default_state_file,
-    link,
+    link_options,
 )
 
 #: Where ``deploy`` remembers and ``start`` finds the script, as the help says it.
@@ -70,23 +62,16 @@ def _connection(
 
 
 @gs_app.command("deploy")
+@link_options
 def gs_deploy(
     file: Annotated[Path, typer.Argument(help="The task script to deploy.")],
     expect: Annotated[str, typer.Option(help="Platforms that must confirm: IDS (1-10,12) or N.")],
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
+    conn: LinkOptions,
     timeout: TimeoutOpt = 10.0,
     state: Annotated[
         Path | None,
         typer.Option(help="Where to remember the deployment.", show_default=_STATE_DEFAULT),
     ] = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
     world: Annotated[
         Path | None,
         typer.Option(
@@ -101,7 +86,7 @@ def gs_deploy(
     the safety warnings of docs/safety.md, which do not stop the deployment):
     a script with errors is not sent, its diagnostics go to stderr as FILE:LINE:COL:
     message, and the exit status is 1 (2 when the script or the world cannot be read)."""
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     platforms = int_list_or_count(expect, "--expect")
     output_file(state or default_state_file(ln.swarm), "--state")  # before anything is sent
     world_config = None if world is None else read_world(world)
@@ -139,14 +124,9 @@ def gs_deploy(
 
 
 @gs_app.command("start")
+@link_options
 def gs_start(
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
+    conn: LinkOptions,
     timeout: TimeoutOpt = 10.0,
     force: Annotated[
         bool, typer.Option("--force", help="Start without every confirmation.")
@@ -155,13 +135,11 @@ def gs_start(
         Path | None,
         typer.Option(help="Where deploy remembered the script.", show_default=_STATE_DEFAULT),
     ] = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
 ) -> None:
     """Start the script deployed last: refused unless every expected platform confirmed it."""
     from actorswarm.ground.station import NotConfirmed
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     path = state or default_state_file(ln.swarm)
     try:
         saved: dict[str, Any] = json.loads(path.read_text())
@@ -231,18 +209,11 @@ def _vehicle_line(vehicle: dict[str, Any]) -> str:
 
 
 @gs_app.command("status")
+@link_options
 def gs_status(
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
+    conn: LinkOptions,
     timeout: TimeoutOpt = 3.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
 ) -> None:
     """Each platform heard: its actors, roles, master flag, epoch, incarnation, last heard.
 
@@ -251,7 +222,7 @@ def gs_status(
     from actorswarm.daemon.loop import clock
     from actorswarm.engine import commands as cmds
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
 
     async def go() -> tuple[dict[str, Any], list[str]]:
         async with ln.session(timeout) as gs:

@@ -18,20 +18,7 @@ from typing import Annotated
 import typer
 
 from actorswarm.cli.common import id_list
-from actorswarm.cli.swarm_options import (
-    BroadcastOpt,
-    ConnectOpt,
-    GroupOpt,
-    InsecureOpt,
-    InterfaceOpt,
-    KeysOpt,
-    Link,
-    ListenOpt,
-    MulticastOpt,
-    SwarmOpt,
-    TimeoutOpt,
-    link,
-)
+from actorswarm.cli.swarm_options import Link, LinkOptions, TimeoutOpt, link_options
 from actorswarm.engine import commands as cmds
 from actorswarm.ground.station import GroundStation
 from actorswarm.suggest import did_you_mean
@@ -131,23 +118,16 @@ def _to(command: cmds.Command) -> Send:
     return lambda st, targets, now: st.send(command, targets, now)
 
 
+@link_options
 def gs_event(
     name: Annotated[str, typer.Argument(help="The event to fire.")],
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
+    conn: LinkOptions,
     timeout: TimeoutOpt = 5.0,
     platforms: PlatformsOpt = None,
     actors: Annotated[str | None, typer.Option(help="Only platforms running these actors.")] = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
 ) -> None:
     """Fire an event: every platform heard (or the ones listed) gets it."""
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     names = [a.strip() for a in (actors or "").split(",") if a.strip()]
 
     def send(st: GroundStation, targets: list[int], now: float) -> None:
@@ -167,6 +147,7 @@ def _params(values: list[str] | None) -> dict[str, str]:
     return out
 
 
+@link_options
 def gs_force(
     actor: Annotated[
         str | None, typer.Argument(help="The actor to move away from (default: any running).")
@@ -176,17 +157,10 @@ def gs_force(
         list[str] | None,
         typer.Option(metavar="KEY=VALUE", help="A param of the new actor (repeatable)."),
     ] = None,
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
+    *,
+    conn: LinkOptions,
     timeout: TimeoutOpt = 5.0,
     platforms: PlatformsOpt = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
 ) -> None:
     """Forced transition to --to, now and without a barrier.
 
@@ -199,49 +173,35 @@ def gs_force(
         typer.echo("say who moves: an ACTOR to move away from, or --platforms IDS", err=True)
         raise typer.Exit(2)
     command = cmds.Force(to=to, src=actor, params=_params(param))
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     _execute(ln, "Force", _to(command), platforms, timeout)
 
 
 def _actor_command(name: str, make: Callable[[str], cmds.Command], doc: str) -> Callable[..., None]:
+    @link_options
     def command(
         actor: ActorArg,
-        swarm: SwarmOpt = "swarm",
-        connect: ConnectOpt = None,
-        listen: ListenOpt = None,
-        multicast: MulticastOpt = None,
-        broadcast: BroadcastOpt = None,
-        group: GroupOpt = None,
-        interface: InterfaceOpt = None,
+        conn: LinkOptions,
         timeout: TimeoutOpt = 5.0,
         platforms: PlatformsOpt = None,
-        keys: KeysOpt = None,
-        insecure: InsecureOpt = False,
     ) -> None:
-        ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+        ln = conn.link()
         _execute(ln, name, _to(make(actor)), platforms, timeout, actor)
 
     command.__doc__ = doc
     return command
 
 
+@link_options
 def gs_backup(
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
+    conn: LinkOptions,
     timeout: TimeoutOpt = 5.0,
     platforms: PlatformsOpt = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
 ) -> None:
     """Every platform saves its actors and their plugins' state now.
 
     A restarted daemon resumes from its latest backup."""
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     _execute(ln, "Backup", _to(cmds.Backup()), platforms, timeout)
 
 

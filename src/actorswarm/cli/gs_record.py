@@ -31,18 +31,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from actorswarm.cli.record_cmd import LIVE_PORT, LiveHostOpt, LiveOpt, LivePortOpt, OriginOpt
-from actorswarm.cli.swarm_options import (
-    BroadcastOpt,
-    ConnectOpt,
-    GroupOpt,
-    InsecureOpt,
-    InterfaceOpt,
-    KeysOpt,
-    ListenOpt,
-    MulticastOpt,
-    SwarmOpt,
-    link,
-)
+from actorswarm.cli.swarm_options import LinkOptions, link_options
 
 if TYPE_CHECKING:
     from actorswarm.daemon.ground import GroundSession
@@ -58,17 +47,10 @@ FLUSH_EVERY = 1.0
 _DISPLACED = 3.0
 
 
+@link_options
 def gs_record(
     out: Annotated[Path, typer.Argument(help="The recording to write (MCAP).")],
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
+    conn: LinkOptions,
     poll: Annotated[
         float, typer.Option(min=0.2, max=60.0, help="Seconds between two status requests.")
     ] = 0.5,
@@ -106,10 +88,10 @@ def gs_record(
     from actorswarm.recording import McapSink, Recorder, RecordingWriteError, Sink
     from actorswarm.world.separation import separation_line
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     meta = {
-        "name": name or f"swarm {swarm}",
-        "swarm": swarm,
+        "name": name or f"swarm {ln.swarm}",
+        "swarm": ln.swarm,
         "source": "gs record",
         "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "poll_s": poll,
@@ -122,7 +104,7 @@ def gs_record(
         raise typer.Exit(2) from None
     if live:
         try:
-            sinks.append(open_live(live_host, live_port, f"gs record {swarm}"))
+            sinks.append(open_live(live_host, live_port, f"gs record {ln.swarm}"))
         except typer.Exit:
             sinks[0].close()
             raise

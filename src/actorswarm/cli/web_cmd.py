@@ -23,19 +23,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from actorswarm.cli.swarm_options import (
-    BroadcastOpt,
-    ConnectOpt,
-    GroupOpt,
-    InsecureOpt,
-    InterfaceOpt,
-    KeysOpt,
-    ListenOpt,
-    MulticastOpt,
-    SwarmOpt,
-    default_state_file,
-    link,
-)
+from actorswarm.cli.swarm_options import LinkOptions, default_state_file, link_options
 
 if TYPE_CHECKING:
     from actorswarm.dsl.model import TaskScript
@@ -209,16 +197,9 @@ def _attached_script(text: object) -> tuple[TaskScript | None, str]:
     return result.script, hashlib.sha256(text.encode()).hexdigest()
 
 
+@link_options
 def gs_web(
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
+    conn: LinkOptions,
     script: Annotated[
         Path | None,
         typer.Option(help="The script the swarm runs, to draw (default: the last gs deploy's)."),
@@ -242,9 +223,9 @@ def gs_web(
     in the browser. Open the address it prints."""
     from actorswarm.cli.common import read_world
 
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     known_world = None if world is None else read_world(world)
-    drawn, sha = _known_script(script, state or default_state_file(swarm))
+    drawn, sha = _known_script(script, state or default_state_file(ln.swarm))
     from actorswarm.web.real_source import RealSource
 
     source = RealSource(ln.session(), script=drawn, sha=sha, poll=poll, world=known_world)

@@ -15,18 +15,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from actorswarm.cli.swarm_options import (
-    BroadcastOpt,
-    ConnectOpt,
-    GroupOpt,
-    InsecureOpt,
-    InterfaceOpt,
-    KeysOpt,
-    ListenOpt,
-    MulticastOpt,
-    SwarmOpt,
-    link,
-)
+from actorswarm.cli.swarm_options import LinkOptions, link_options
 
 if TYPE_CHECKING:
     from actorswarm.cli.swarm_options import Link
@@ -40,16 +29,9 @@ __all__ = ["gs_ros2", "register"]
 _DISPLACED = 3.0
 
 
+@link_options
 def gs_ros2(
-    swarm: SwarmOpt = "swarm",
-    connect: ConnectOpt = None,
-    listen: ListenOpt = None,
-    multicast: MulticastOpt = None,
-    broadcast: BroadcastOpt = None,
-    group: GroupOpt = None,
-    interface: InterfaceOpt = None,
-    keys: KeysOpt = None,
-    insecure: InsecureOpt = False,
+    conn: LinkOptions,
     frame: Annotated[
         str, typer.Option(help="The frame id of the mission's ENU frame in the messages.")
     ] = "map",
@@ -90,7 +72,7 @@ def gs_ros2(
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
-    ln = link(swarm, connect, listen, multicast, keys, insecure, broadcast, group, interface)
+    ln = conn.link()
     settings = BridgeSettings(frame=frame, origin=geodetic, commands=commands)
     try:
         asyncio.run(_run(ln, settings, poll, rate, duration, domain))
