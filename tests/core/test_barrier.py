@@ -8,8 +8,8 @@ from typing import Any
 import pytest
 
 from actorswarm.core.barrier import BarrierMaster, BarrierMember
-from actorswarm.core.barrier_member import PASSED_KEPT
-from actorswarm.core.barrier_state import ASSIGNMENT_ALL_CARRY
+from actorswarm.core.barrier.member import PASSED_KEPT
+from actorswarm.core.barrier.shared import ASSIGNMENT_ALL_CARRY
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import BarrierFired, BarrierReleased, BarrierStaleNotice
 from actorswarm.core.wire import (
@@ -52,20 +52,55 @@ def _req(
     )
 
 
-class Harness:
-    """A BarrierMaster plus helpers to drain what it decided."""
+class Recorder:
+    """A :class:`~actorswarm.core.barrier.BarrierOutput` that keeps what it is given."""
 
-    def __init__(self, *, live: int = 10, ready: bool = True, **config: Any) -> None:
+    def __init__(self) -> None:
+        self.events: list[BarrierFired] = []
+        self.notices: list[tuple[int, BarrierStale]] = []
+        self.broadcasts: list[Release] = []
+        self.failed: list[tuple[int, int, set[int]]] = []
+
+    def fired(self, event: BarrierFired) -> None:
+        self.events.append(event)
+
+    def stale(self, platform: int, notice: BarrierStale) -> None:
+        self.notices.append((platform, notice))
+
+    def release(self, packet: Release) -> None:
+        self.broadcasts.append(packet)
+
+    def gave_up(self, key: int, generation: int, unacked: set[int]) -> None:
+        self.failed.append((key, generation, unacked))
+
+
+class Harness:
+    """A BarrierMaster plus helpers to drain what it decided. ``hooks``: the master's
+    other keyword arguments (``platform``, ``scatter``, ``gathers``, ``live``,
+    ``first_retry``)."""
+
+    def __init__(
+        self,
+        *,
+        live: int = 10,
+        ready: bool = True,
+        hooks: dict[str, Any] | None = None,
+        **config: Any,
+    ) -> None:
         self.live = live
+        self.out = Recorder()
         self.master = BarrierMaster(
-            CoreConfig(**config), resolve_need=lambda k, p, n: self.live if n == NEED_ALL else n
+            CoreConfig(**config),
+            self.out,
+            resolve_need=lambda k, p, n: self.live if n == NEED_ALL else n,
+            **(hooks or {}),
         )
         if ready:
             self.master.become_ready(0.0, EPOCH)
 
     def broadcasts(self) -> list[Release]:
-        out = list(self.master.broadcasts)
-        self.master.broadcasts.clear()
+        out = list(self.out.broadcasts)
+        self.out.broadcasts.clear()
         return out
 
     def entries(self) -> dict[int, tuple[int, int]]:
@@ -73,13 +108,13 @@ class Harness:
         return {e.platform: (e.part, e.index) for rel in self.broadcasts() for e in rel.entries}
 
     def notices(self) -> list[tuple[int, BarrierStale]]:
-        out = list(self.master.notices)
-        self.master.notices.clear()
+        out = list(self.out.notices)
+        self.out.notices.clear()
         return out
 
     def events(self) -> list[BarrierFired]:
-        out = list(self.master.events)
-        self.master.events.clear()
+        out = list(self.out.events)
+        self.out.events.clear()
         return out
 
 
@@ -195,8 +230,9 @@ def test_an_unheld_key_fires_on_its_first_request() -> None:
 
 
 def test_gather_and_scatter() -> None:
-    h = Harness()
-    h.master.scatter = lambda key, gen, chosen: {p: f"slot-{i}" for p, _, i, _ in chosen}
+    h = Harness(
+        hooks={"scatter": lambda key, gen, chosen: {p: f"slot-{i}" for p, _, i, _ in chosen}}
+    )
     h.master.request(1, _req(2, data="a"), 0.0, EPOCH)
     h.master.request(2, _req(2, data=None), 0.0, EPOCH)
     (rel,) = h.broadcasts()
@@ -207,9 +243,11 @@ def test_gather_and_scatter() -> None:
 def test_a_key_that_does_not_gather_scatters_only() -> None:
     """The engine's transitions: request data is for the master's scatter, and the release
     (every chunk of it) does not carry every participant's data to all."""
-    h = Harness()
-    h.master.scatter = lambda key, gen, chosen: {p: f"slot-{i}" for p, _, i, _ in chosen}
-    h.master.gathers = lambda key: key != KEY
+    hooks = {
+        "scatter": lambda key, gen, chosen: {p: f"slot-{i}" for p, _, i, _ in chosen},
+        "gathers": lambda key: key != KEY,
+    }
+    h = Harness(hooks=hooks)
     h.master.request(1, _req(2, data="a"), 0.0, EPOCH)
     h.master.request(2, _req(2, data="b"), 0.0, EPOCH)
     (rel,) = h.broadcasts()
@@ -362,7 +400,7 @@ def test_release_fails_visibly_at_deadline() -> None:
     h.master.on_ack(1, KEY, 0)
     while (t := h.master.next_deadline()) is not None and t <= 1.0:
         h.master.tick(t, EPOCH)
-    assert h.master.failed == [(KEY, 0, {2})]
+    assert h.out.failed == [(KEY, 0, {2})]
     assert h.master.next_deadline() is None
 
 
@@ -404,9 +442,8 @@ def test_need_all_resolves_via_resolver() -> None:
 def test_need_all_does_not_count_a_request_from_beyond_the_view() -> None:
     """Every platform means every one in the view: a platform still joining (or one the
     master dropped) that requests does not stand in for a member that has not yet."""
-    h = Harness(live=3)
     view = {1, 2, 3}
-    h.master.live = lambda platform: platform in view
+    h = Harness(live=3, hooks={"live": lambda platform: platform in view})
     for platform in (1, 2, 9):
         h.master.request(platform, _req(NEED_ALL), 0.0, EPOCH)
     assert h.broadcasts() == [], "member 3 has not asked: 9 is not in the view"
@@ -421,8 +458,7 @@ def test_need_all_does_not_count_a_request_from_beyond_the_view() -> None:
 def test_need_all_takes_in_a_requester_from_beyond_the_view() -> None:
     """Once every member has asked, a request from beyond the view is chosen with them
     (a NEED_ALL part is never smaller than its candidates)."""
-    h = Harness(live=2)
-    h.master.live = lambda platform: platform in {1, 2}
+    h = Harness(live=2, hooks={"live": lambda platform: platform in {1, 2}})
     for platform in (9, 1, 2):
         h.master.request(platform, _req(NEED_ALL), 0.0, EPOCH)
     (rel,) = h.broadcasts()
@@ -431,10 +467,10 @@ def test_need_all_takes_in_a_requester_from_beyond_the_view() -> None:
 
 
 def test_the_master_names_the_few_members_a_barrier_of_all_awaits() -> None:
-    h = Harness(live=5)
     view = {1, 2, 3, 4, 5}
-    h.master.live = lambda platform: platform in view
-    h.master.first_retry = lambda: 0.1
+    h = Harness(
+        live=5, hooks={"live": lambda platform: platform in view, "first_retry": lambda: 0.1}
+    )
     for platform in (1, 2, 4):
         h.master.request(platform, _req(NEED_ALL), 0.0, EPOCH)
     assert h.master.awaited(0.05, lambda: view) == [], "before a first retry's time"
@@ -444,13 +480,11 @@ def test_the_master_names_the_few_members_a_barrier_of_all_awaits() -> None:
 
 
 def test_the_master_names_no_one_when_many_are_missing_or_the_need_is_not_all() -> None:
-    many = Harness(live=40)
+    many = Harness(live=40, hooks={"first_retry": lambda: 0.0})
     view = set(range(1, 41))
-    many.master.first_retry = lambda: 0.0
     many.master.request(1, _req(NEED_ALL), 0.0, EPOCH)
     assert many.master.awaited(1.0, lambda: view) == [], "39 missing: more than a heartbeat names"
-    counted = Harness(live=3)
-    counted.master.first_retry = lambda: 0.0
+    counted = Harness(live=3, hooks={"first_retry": lambda: 0.0})
     counted.master.request(1, _req(3), 0.0, EPOCH)
     assert counted.master.awaited(1.0, lambda: {1, 2, 3}) == [], "a need of 3 awaits no one"
 
@@ -582,8 +616,7 @@ def test_a_completion_is_known_to_the_next_master_as_a_partial_assignment() -> N
     that candidate for one the firing never named and call its request stale, although it
     was chosen. The completing master and the members that passed the completion report
     those entries as a *partial* assignment, which names candidates without claiming all."""
-    completing = Harness(ready=False)
-    completing.master.platform = 5
+    completing = Harness(ready=False, hooks={"platform": 5})
     completing.master.record_released(2, _first_firing(index=2))  # seen without the rest
     completing.master.request(3, _req(NEED_ALL, generation=4, bid=3.0, epoch=1), 0.0, 2)
     completing.master.request(4, _req(NEED_ALL, generation=4, bid=4.0, epoch=1), 0.0, 2)
@@ -618,7 +651,7 @@ def test_a_completion_is_known_to_the_next_master_as_a_partial_assignment() -> N
         h = successor(*records)
         assert h.notices() == [], records
         assert h.entries() == {3: added[3]}, "3's entry of the completion, sent again"
-        assert 5 not in h.master.fired[KEY][4][0].assigned, "a former master is no candidate"
+        assert 5 not in h.master.table.fired[KEY][4][0].assigned, "a former master is no candidate"
     alone = successor()
     assert [(p, n.generation) for p, n in alone.notices()] == [(3, 4)], (
         "without the completion's entries, 3 is taken for a late request"

@@ -12,7 +12,7 @@ import pytest
 from actorswarm.bench.scripts import table1_script
 from actorswarm.core.barrier import BarrierMaster, BarrierMember
 from actorswarm.core.config import CoreConfig
-from actorswarm.core.events import BarrierStaleNotice
+from actorswarm.core.events import BarrierFired, BarrierStaleNotice
 from actorswarm.core.node import Node
 from actorswarm.core.wire import BarrierRequest, BarrierStale, Release, ReleaseEntry
 from actorswarm.dsl import check
@@ -29,69 +29,89 @@ def _req(need: int, generation: int, *, renew: bool) -> BarrierRequest:
     )
 
 
-def _master() -> BarrierMaster:
-    master = BarrierMaster(CoreConfig(), resolve_need=lambda k, p, n: n)
+class _Recorder:
+    """What the master decided: its releases and stale notices (firings are not read)."""
+
+    def __init__(self) -> None:
+        self.broadcasts: list[Release] = []
+        self.notices: list[tuple[int, BarrierStale]] = []
+
+    def fired(self, event: BarrierFired) -> None:
+        """Not read here."""
+
+    def stale(self, platform: int, notice: BarrierStale) -> None:
+        self.notices.append((platform, notice))
+
+    def release(self, packet: Release) -> None:
+        self.broadcasts.append(packet)
+
+    def gave_up(self, key: int, generation: int, unacked: set[int]) -> None:
+        raise AssertionError(f"release {key}/{generation} given up")
+
+
+def _master() -> tuple[BarrierMaster, _Recorder]:
+    out = _Recorder()
+    master = BarrierMaster(CoreConfig(), out, resolve_need=lambda k, p, n: n)
     master.become_ready(0.0, EPOCH)
-    return master
+    return master, out
 
 
-def _drain(master: BarrierMaster) -> tuple[list[Release], list[tuple[int, BarrierStale]]]:
-    out = (list(master.broadcasts), list(master.notices))
-    master.broadcasts.clear()
-    master.notices.clear()
-    master.events.clear()
-    return out
+def _drain(out: _Recorder) -> tuple[list[Release], list[tuple[int, BarrierStale]]]:
+    drained = (list(out.broadcasts), list(out.notices))
+    out.broadcasts.clear()
+    out.notices.clear()
+    return drained
 
 
 @pytest.mark.parametrize("renew", [True, False])
 def test_a_request_that_crossed_a_firing_is_released_at_once_when_renewable(renew: bool) -> None:
-    master = _master()
+    master, out = _master()
     master.request(1, _req(1, 0, renew=False), 0.0, EPOCH)
-    assert _drain(master)[0], "setup: generation 0 fires for platform 1"
+    assert _drain(out)[0], "setup: generation 0 fires for platform 1"
     # Platform 3 asked for generation 0 too: its request arrives after that firing.
     master.request(3, _req(1, 0, renew=renew), 0.1, EPOCH)
-    releases, notices = _drain(master)
+    releases, notices = _drain(out)
     if renew:
         assert notices == [], "a renewable request is not refused"
         (rel,) = releases
         assert (rel.generation, rel.entries) == (1, [ReleaseEntry(platform=3, part=0, index=1)])
-        assert master.open[KEY].generation == 2
+        assert master.table.open[KEY].generation == 2
     else:
         assert releases == []
         assert notices == [(3, BarrierStale(key=KEY, generation=0, current=1))]
-        assert master.open[KEY].generation == 1
+        assert master.table.open[KEY].generation == 1
 
 
 def test_a_renewable_request_that_cannot_fire_alone_is_refused_and_not_kept() -> None:
-    master = _master()
+    master, out = _master()
     for p in (1, 2):
         master.request(p, _req(2, 0, renew=False), 0.0, EPOCH)
-    assert _drain(master)[0], "setup: generation 0 fires for 1 and 2"
+    assert _drain(out)[0], "setup: generation 0 fires for 1 and 2"
     master.request(3, _req(2, 0, renew=True), 0.1, EPOCH)
-    releases, notices = _drain(master)
+    releases, notices = _drain(out)
     assert releases == []
     assert notices == [(3, BarrierStale(key=KEY, generation=0, current=1))]
-    assert master.open[KEY].requests == {}, "the refused request does not wait in generation 1"
+    assert master.table.open[KEY].requests == {}, "refused, not kept in generation 1"
     # Generation 1 fires for the two that ask for it, without platform 3.
     for p in (4, 5):
         master.request(p, _req(2, 1, renew=False), 0.2, EPOCH)
-    (rel,) = _drain(master)[0]
+    (rel,) = _drain(out)[0]
     assert {e.platform for e in rel.entries} == {4, 5}
 
 
 def test_a_renewable_request_does_not_join_others_waiting_nor_a_held_key() -> None:
     """Renewed only into a release of its own platform: with another request waiting in
     the open generation, or the key held, it is refused as before."""
-    master = _master()
+    master, out = _master()
     master.request(1, _req(1, 0, renew=False), 0.0, EPOCH)
-    _drain(master)
+    _drain(out)
     master.hold(KEY, 5.0)
     master.request(2, _req(1, 1, renew=False), 0.1, EPOCH)  # waits: the key is held
     master.request(3, _req(1, 0, renew=True), 0.2, EPOCH)
-    releases, notices = _drain(master)
+    releases, notices = _drain(out)
     assert releases == []
     assert notices == [(3, BarrierStale(key=KEY, generation=0, current=1))]
-    assert set(master.open[KEY].requests) == {2}
+    assert set(master.table.open[KEY].requests) == {2}
 
 
 def test_a_member_passes_a_later_generation_for_its_renewable_request() -> None:

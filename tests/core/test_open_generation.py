@@ -8,7 +8,7 @@ from collections import Counter
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from actorswarm.core.barrier_state import OpenGeneration
+from actorswarm.core.barrier.shared import OpenGeneration
 from actorswarm.core.wire import NEED_ALL, BarrierRequest
 
 _requests = st.builds(

@@ -15,16 +15,32 @@ def _claim(quota: int = 1, bid: float = 0.0, role: str = LEADER) -> RoleClaim:
     return RoleClaim(role=role, quota=quota, bid=bid)
 
 
+class _Replies:
+    """A :class:`~actorswarm.core.roles.RoleOutput` that keeps the replies it is given."""
+
+    def __init__(self) -> None:
+        self.sent: list[tuple[int, Reply]] = []
+
+    def reply(self, platform: int, reply: Reply) -> None:
+        self.sent.append((platform, reply))
+
+
+def _new() -> RoleMaster:
+    return RoleMaster(_Replies())
+
+
 def _ready() -> RoleMaster:
-    master = RoleMaster()
+    master = _new()
     master.become_ready()
     return master
 
 
 def _replies(master: RoleMaster) -> list[tuple[int, Reply]]:
-    out = list(master.replies)
-    master.replies.clear()
-    return out
+    """The replies ``master`` sent since the last call."""
+    out = master._output
+    assert isinstance(out, _Replies)
+    sent, out.sent = out.sent, []
+    return sent
 
 
 def _deny(holders: list[int], role: str = LEADER) -> RoleDeny:
@@ -74,7 +90,7 @@ def test_denial_is_reported_once_per_claim() -> None:
 
 
 def test_nothing_granted_before_become_ready() -> None:
-    master = RoleMaster()
+    master = _new()
     master.claim(3, _claim(bid=2.0))
     master.claim(2, _claim(bid=1.0))
     assert _replies(master) == [], "during the handshake claims are only recorded"
@@ -172,7 +188,7 @@ def test_claim_by_holder_is_granted_again() -> None:
 def test_report_with_more_holders_than_quota_revokes_worst(
     quota: int, held: dict[int, float], kept: tuple[int, ...], revoked: list[int]
 ) -> None:
-    master = RoleMaster()
+    master = _new()
     for platform, bid in held.items():
         master.report(platform, held=[_claim(quota, bid)], claims=[])
     assert _replies(master) == []
@@ -192,7 +208,7 @@ def test_report_when_ready_settles_at_once() -> None:
 
 
 def test_report_replaces_what_master_knew() -> None:
-    master = RoleMaster()
+    master = _new()
     master.claim(3, _claim(role="track", quota=2))
     master.report(3, held=[], claims=[_claim(role=LEADER)])
     master.become_ready()
@@ -323,28 +339,29 @@ def test_new_claim_after_withdrawal_reports_denial_again() -> None:
 def test_a_report_that_crossed_a_grant_keeps_the_slot() -> None:
     """A member reports a role as claimed while the grant is on its way to it: the slot
     stays its own (granted again, harmlessly) instead of going to a second claimant."""
-    master = RoleMaster()
+    master = _new()
     master.become_ready()
     leader = RoleClaim(role="leader", quota=1, bid=4.0)
     master.claim(4, leader)
     assert master.holders("leader") == (4,)
-    master.replies.clear()
+    _replies(master)
     master.claim(1, RoleClaim(role="leader", quota=1, bid=1.0))  # denied: 4 holds it
     master.report(4, held=[], claims=[leader])  # written before the grant arrived
     assert master.holders("leader") == (4,)
-    assert (4, RoleGrant(role="leader")) in master.replies
-    assert not any(p == 1 and isinstance(r, RoleGrant) for p, r in master.replies)
+    sent = _replies(master)
+    assert (4, RoleGrant(role="leader")) in sent
+    assert not any(p == 1 and isinstance(r, RoleGrant) for p, r in sent)
 
 
 def test_a_report_without_the_role_frees_the_slot() -> None:
-    master = RoleMaster()
+    master = _new()
     master.become_ready()
     master.claim(4, RoleClaim(role="leader", quota=1, bid=4.0))
     master.claim(1, RoleClaim(role="leader", quota=1, bid=1.0))
-    master.replies.clear()
+    _replies(master)
     master.report(4, held=[], claims=[])
     assert master.holders("leader") == (1,)
-    assert (1, RoleGrant(role="leader")) in master.replies
+    assert (1, RoleGrant(role="leader")) in _replies(master)
 
 
 def test_a_grant_that_arrives_after_the_master_dropped_its_platform_is_given_up() -> None:
@@ -352,22 +369,22 @@ def test_a_grant_that_arrives_after_the_master_dropped_its_platform_is_given_up(
     for gone and granted the slot to 8. The grant reached 7 after the heal, while 7's rejoin
     report (written before it) still said "claimed", so the master counts 7 as waiting and
     denies it. 7 must give the role up and wait again, or two hold a role of quota 1."""
-    master, member = RoleMaster(), RoleMember()
+    master, member = _new(), RoleMember()
     master.become_ready()
     claim = member.claim(LEADER, 1, 7.0)
     master.claim(7, claim)
-    grant = master.replies.pop()
+    grant = _replies(master).pop()
     assert grant == (7, RoleGrant(role=LEADER))
     master.member_left(7)
     master.claim(8, RoleClaim(role=LEADER, quota=1, bid=8.0))
     master.report(7, held=[], claims=[claim])
     assert member.on_reply(grant[1]) == RoleGranted(role=LEADER), "the late grant arrives"
-    deny = [r for p, r in master.replies if p == 7 and isinstance(r, RoleDeny)]
+    deny = [r for p, r in _replies(master) if p == 7 and isinstance(r, RoleDeny)]
     assert master.holders(LEADER) == (8,) and len(deny) == 1
     assert member.on_reply(deny[0]) == RoleRevoked(role=LEADER)
     assert member.held == {} and member.claims == {LEADER: claim}, "it waits again"
     assert member.on_reply(deny[0]) is None, "a re-stated denial is not reported again"
     master.release(8, LEADER)
-    regrant = [r for p, r in master.replies if p == 7 and isinstance(r, RoleGrant)]
+    regrant = [r for p, r in _replies(master) if p == 7 and isinstance(r, RoleGrant)]
     assert master.holders(LEADER) == (7,) and regrant
     assert member.on_reply(regrant[-1]) == RoleGranted(role=LEADER)

@@ -16,11 +16,20 @@ records claims, so it never grants a slot a silent member still holds.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from actorswarm.core.events import RoleDenied, RoleGranted, RoleRevoked
 from actorswarm.core.wire import RoleClaim, RoleDeny, RoleGrant, RoleRevoke
 
 Reply = RoleGrant | RoleDeny | RoleRevoke
+
+
+class RoleOutput(Protocol):
+    """Where the role master puts its replies, given to it at construction (the node
+    routes each: to this platform's own member part, or over a stream)."""
+
+    def reply(self, platform: int, reply: Reply) -> None:
+        """Send ``reply`` to ``platform``."""
 
 
 @dataclass(slots=True)
@@ -32,12 +41,12 @@ class _Role:
 
 
 class RoleMaster:
-    """The master's role table. Replies to send are appended to ``replies``."""
+    """The master's role table. Its replies go to ``output``."""
 
-    def __init__(self) -> None:
+    def __init__(self, output: RoleOutput) -> None:
         self.roles: dict[str, _Role] = {}
         self.ready = False
-        self.replies: list[tuple[int, Reply]] = []
+        self._output = output
 
     def _role(self, claim: RoleClaim) -> _Role:
         role = self.roles.get(claim.role)
@@ -50,7 +59,7 @@ class RoleMaster:
     def claim(self, platform: int, claim: RoleClaim) -> None:
         role = self._role(claim)
         if platform in role.holders:
-            self.replies.append((platform, RoleGrant(role=claim.role)))
+            self._output.reply(platform, RoleGrant(role=claim.role))
             return
         role.waiting[platform] = claim.bid
         role.denied.discard(platform)
@@ -79,7 +88,7 @@ class RoleMaster:
                 crossed.add(name)
                 # Granted again in case the first grant was given up (a member ignores
                 # a grant of a role it already holds).
-                self.replies.append((platform, RoleGrant(role=name)))
+                self._output.reply(platform, RoleGrant(role=name))
                 continue
             if role.holders.pop(platform, None) is not None:
                 touched.add(name)  # a slot it no longer holds may go to someone waiting
@@ -103,7 +112,7 @@ class RoleMaster:
             if role.holders.pop(platform, None) is not None:
                 touched.append(name)
                 if restarted:
-                    self.replies.append((platform, RoleRevoke(role=name)))
+                    self._output.reply(platform, RoleRevoke(role=name))
             role.waiting.pop(platform, None)
         if self.ready:
             for name in touched:
@@ -121,7 +130,7 @@ class RoleMaster:
             ranked = sorted(role.holders.items(), key=lambda kv: (kv[1], kv[0]))
             for platform, _ in ranked[role.quota :]:
                 del role.holders[platform]
-                self.replies.append((platform, RoleRevoke(role=name)))
+                self._output.reply(platform, RoleRevoke(role=name))
         if role.waiting:
             ranked = sorted(role.waiting.items(), key=lambda kv: (kv[1], kv[0]))
             for platform, bid in ranked:
@@ -129,12 +138,10 @@ class RoleMaster:
                     del role.waiting[platform]
                     role.denied.discard(platform)
                     role.holders[platform] = bid
-                    self.replies.append((platform, RoleGrant(role=name)))
+                    self._output.reply(platform, RoleGrant(role=name))
                 elif platform not in role.denied:
                     role.denied.add(platform)
-                    self.replies.append(
-                        (platform, RoleDeny(role=name, holders=sorted(role.holders)))
-                    )
+                    self._output.reply(platform, RoleDeny(role=name, holders=sorted(role.holders)))
 
     def holders(self, name: str) -> tuple[int, ...]:
         role = self.roles.get(name)

@@ -68,6 +68,7 @@ from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
 from actorswarm.core.node.intake import _BODY_HANDLERS, Intake
 from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.node.liveness import Liveness
+from actorswarm.core.node.outbox import MasterOutbox
 from actorswarm.core.node.rostersync import RosterSync
 from actorswarm.core.ready import Collector, Outgoing, Ready
 from actorswarm.core.roles import RoleMaster, RoleMember
@@ -121,8 +122,10 @@ class Node:
         self._inbox = BulletinInbox(platform)
         self.barriers = BarrierMember(platform)
         self.roles = RoleMember()
+        # What the master's tables decide, until the master's duties route it.
+        self._outbox = MasterOutbox()
         self._bmaster = self._new_barrier_master()
-        self._rmaster = RoleMaster()
+        self._rmaster = RoleMaster(self._outbox)
         # Election state: ``_epoch_master`` claimed ``epoch``; ``master`` is whom we follow
         # now (None while we have lost it).
         self.epoch = 0
@@ -263,18 +266,18 @@ class Node:
         return len(self.members) + 1 if count == NEED_ALL else count
 
     def _new_barrier_master(self) -> BarrierMaster:
-        # Late-bound, so the engine may replace ``resolve_need`` after construction.
-        master = BarrierMaster(
+        # Late-bound, so the engine may replace its hooks after construction.
+        return BarrierMaster(
             self.config,
+            self._outbox,
             resolve_need=lambda k, p, n: self.resolve_need(k, p, n),  # noqa: PLW0108
             platform=self.platform,
+            scatter=lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {},
+            gathers=lambda k: self.gathers(k),  # noqa: PLW0108
+            live=lambda p: p == self.platform or p in self.members,
+            first_retry=lambda: self.reliable.timeout(None),
+            retry_delay=self.reliable.retry_delay,
         )
-        master.scatter = lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {}
-        master.gathers = lambda k: self.gathers(k)  # noqa: PLW0108
-        master.live = lambda p: p == self.platform or p in self.members
-        master.first_retry = lambda: self.reliable.timeout(None)
-        master.retry_delay = self.reliable.retry_delay
-        return master
 
     def _set_epoch(self, epoch: int, master: int) -> None:
         if epoch < self.epoch:

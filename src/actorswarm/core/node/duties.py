@@ -13,7 +13,8 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Final
 
 from actorswarm.core.barrier import addressee
-from actorswarm.core.events import AppReceived, DeliveryFailed, MemberJoined, MemberLeft
+from actorswarm.core.events import AppReceived, MemberJoined, MemberLeft
+from actorswarm.core.node.outbox import ToMember
 from actorswarm.core.wire import (
     NORMAL,
     AppMessage,
@@ -230,38 +231,31 @@ class MasterDuties:
     def flush(self, now: float) -> None:
         """Send what the barrier and role tables decided; apply the parts meant for me.
 
-        The tables keep lists of their own rather than writing into the collector: what they
-        decided is routed here (to this platform or over a stream), and their firings are
-        reported here, after the view changes of the same step that set them off."""
+        The tables put what they decide into the node's outbox (:mod:`.outbox`, which says
+        why it waits there): it is routed here, to this platform or over a stream, and
+        their firings are reported here, after the view changes of the same step that set
+        them off."""
         node = self._node
-        bm, rm = node._bmaster, node._rmaster
-        node._out.events.extend(bm.events)
-        bm.events.clear()
-        for platform, notice in bm.notices:
-            self.to_member(platform, notice, now)
-        bm.notices.clear()
-        for platform, reply in rm.replies:
-            self.to_member(platform, reply, now)
-        rm.replies.clear()
-        for rel in bm.broadcasts:
-            if any(e.platform == node.platform for e in rel.entries):
-                event, _ = node.barriers.on_release(rel)
-                if event is not None:
-                    node._out.events.append(event)
-                bm.on_ack(node.platform, rel.key, rel.generation)
-                if all(e.platform == node.platform for e in rel.entries):
-                    continue
-            node._emit(addressee(rel, node.platform), rel, NORMAL)
-        bm.broadcasts.clear()
-        for key, generation, unacked in bm.failed:
-            node._out.events.append(
-                DeliveryFailed(
-                    dst=None,
-                    kind="Release",
-                    reason=f"barrier {key}/{generation}: no acknowledgement from {sorted(unacked)}",
-                )
-            )
-        bm.failed.clear()
+        for decision in node._outbox.take():
+            if isinstance(decision, Release):
+                self._send_release(decision)
+            elif isinstance(decision, ToMember):
+                self.to_member(decision.platform, decision.payload, now)
+            else:
+                node._out.events.append(decision)
+
+    def _send_release(self, rel: Release) -> None:
+        """Broadcast a release (or send it to its one candidate); pass this platform's own
+        entry of it in place."""
+        node = self._node
+        if any(e.platform == node.platform for e in rel.entries):
+            event, _ = node.barriers.on_release(rel)
+            if event is not None:
+                node._out.events.append(event)
+            node._bmaster.on_ack(node.platform, rel.key, rel.generation)
+            if all(e.platform == node.platform for e in rel.entries):
+                return
+        node._emit(addressee(rel, node.platform), rel, NORMAL)
 
     def to_member(self, platform: int, payload: Payload, now: float) -> None:
         node = self._node

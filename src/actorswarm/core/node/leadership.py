@@ -200,7 +200,7 @@ class Leadership:
             node._bmaster = node._new_barrier_master()
             for record in decided:
                 node._bmaster.record_released(node.platform, record)
-            node._rmaster = RoleMaster()
+            node._rmaster = RoleMaster(node._outbox)
             if node._star:
                 # The predecessor's roster: those platforms were members a moment ago. They
                 # are watched from now on and waited for in the handshake, and those that do

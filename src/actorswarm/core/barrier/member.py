@@ -9,7 +9,7 @@ from typing import Any
 
 import msgspec
 
-from actorswarm.core.barrier_state import (
+from actorswarm.core.barrier.shared import (
     ASSIGNMENT_ALL_CARRY,
     ASSIGNMENT_CARRIERS,
     OUTCOME_NAMES,

@@ -31,20 +31,24 @@ requests gather, so that the best bids win rather than the first to arrive: a ``
 would otherwise fire on the first request, whatever the bids of those still on their way.
 
 
-Layout: :mod:`~actorswarm.core.barrier_state` (the master's table and releases in flight),
-:mod:`~actorswarm.core.barrier_master` (requests, firing, time),
-:mod:`~actorswarm.core.barrier_completion` (late requests, failover completion),
-:mod:`~actorswarm.core.barrier_member` (the member's side).
+Layout: :mod:`~.member` (the member's side); the master's side, :class:`BarrierMaster`
+(:mod:`~.master`), a coordinator of four parts with one job each, composed, none derived
+from another — :mod:`~.table` (the open generations and the firings known),
+:mod:`~.firing` (when a key fires and whom it chooses), :mod:`~.releases` (releases in
+flight, retransmitted until acknowledged) and :mod:`~.completion` (late requests and
+failover completion); :mod:`~.shared` (what they share, and :class:`BarrierOutput`, where
+the master's parts put what they decide).
 """
 
 from __future__ import annotations
 
-from actorswarm.core.barrier_master import BarrierMaster
-from actorswarm.core.barrier_member import BarrierMember
-from actorswarm.core.barrier_state import (
+from actorswarm.core.barrier.master import BarrierMaster
+from actorswarm.core.barrier.member import BarrierMember
+from actorswarm.core.barrier.shared import (
     OUTCOME_NAMES,
     RECENT_ASSIGNMENTS,
     RECENT_RELEASES,
+    BarrierOutput,
     Gathers,
     NeedResolver,
     OutgoingRelease,
@@ -58,6 +62,7 @@ __all__ = [
     "RECENT_RELEASES",
     "BarrierMaster",
     "BarrierMember",
+    "BarrierOutput",
     "Gathers",
     "NeedResolver",
     "OutgoingRelease",
