@@ -197,6 +197,9 @@ class Leadership:
             # lost could then never be completed (campaign seed 7765517).
             decided = node._bmaster.decided(node.platform)
             node._take_role(node._master_duties)
+            # What the tables of an earlier term decided and never routed (it stepped down
+            # before its next flush) goes with them: this term's tables start empty.
+            node._outbox.take()
             node._bmaster = node._new_barrier_master()
             for record in decided:
                 node._bmaster.record_released(node.platform, record)
