@@ -203,7 +203,7 @@ def test_a_new_script_drops_the_needs_the_master_kept() -> None:
     first = script(recall(), '<platform id="1-4" actor="A"/>')
     sim = TaskSim(first, seed=0)
     sim.run(3.0)
-    (master,) = [h.engine for h in sim.hosts.values() if h.engine.node.is_master]
+    (master,) = [h.engine.machine for h in sim.hosts.values() if h.engine.node.is_master]
     assert master._need(1, 0, NEED_ALL) == 4  # kept from now on
     nxt = script(
         '<actor name="Y"><transition name="recall" barrierKey="1" sysNum="all">'

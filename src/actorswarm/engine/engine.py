@@ -39,9 +39,13 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
   command carried out) and, on the master, :attr:`TaskEngine.fired` (every transition group
   it released).
 
-Layout: :class:`~actorswarm.engine.machine.ActorMachine` (:mod:`.machine`) is the state
-machine on the core; :class:`TaskEngine` here adds the operator's commands; where the chosen
-go is :mod:`.slots`, the records :mod:`.records`.
+Layout: :class:`TaskEngine` here is the operator's side (deployment and the commands, one
+handler each in :data:`_COMMAND_HANDLERS`) and holds the state machine on the core as a part,
+:attr:`TaskEngine.machine` (:class:`~actorswarm.engine.machine.ActorMachine`,
+:mod:`.machine`), with no inheritance between them: the engine registers its handler for the
+command topic with the machine, steers it through a few named calls (switch, forced start or
+stop, announce, drop the candidacies of an old script) and hands a host's calls on to it;
+where the chosen go is :mod:`.slots`, the records :mod:`.records`.
 """
 
 from __future__ import annotations
@@ -59,19 +63,26 @@ from actorswarm.dsl.isolated import ScriptChecker, ScriptRefused, check_in_proce
 from actorswarm.engine import commands as cmds
 from actorswarm.engine.machine import ActorMachine
 from actorswarm.engine.plan import Plan
-from actorswarm.engine.records import Cause, CommandRecord, FiredRecord, TransitionRecord
+from actorswarm.engine.records import CommandRecord, FiredRecord, TransitionRecord
 from actorswarm.engine.runtime import ActorContext, ActorHost
-from actorswarm.runtime.storage import BackupStore
+from actorswarm.runtime.storage import BackupStore, MemoryBackupStore
 
 if TYPE_CHECKING:
+    from actorswarm.core.events import CoreEvent
     from actorswarm.dsl.model import TaskScript
 
 __all__ = ["CommandRecord", "FiredRecord", "TaskEngine", "TransitionRecord"]
 
 
-class TaskEngine(ActorMachine):
-    """The Actor state machine of platform ``node.platform`` for one task script, and the
-    ground-station commands that deploy, start, steer and inspect it."""
+class TaskEngine:
+    """The Actor state machine of platform ``node.platform`` for one task script
+    (:attr:`machine`), and the ground-station commands that deploy, start, steer and inspect
+    it.
+
+    A host drives it as it would the machine alone (:meth:`start` or :meth:`resume`,
+    :meth:`tick`, :meth:`on_core_event`, :meth:`inject`, :meth:`next_deadline`) and drains
+    :attr:`transitions`, :attr:`ignored`, :attr:`fired` and, the engine's own,
+    :attr:`commands`."""
 
     def __init__(
         self,
@@ -82,7 +93,20 @@ class TaskEngine(ActorMachine):
         grace: float | None = None,
         store: BackupStore | None = None,
     ):
-        super().__init__(node, plan, runtime, grace=grace, store=store)
+        self.node = node
+        self.runtime = runtime
+        #: Where the ``backup`` command writes (atomically); :meth:`resume` reads it back.
+        self.store: BackupStore = store if store is not None else MemoryBackupStore()
+        #: The Actor state machine; application messages on the command topic come back
+        #: to :meth:`_on_command`.
+        self.machine = ActorMachine(
+            node,
+            plan,
+            runtime,
+            grace=grace,
+            store=self.store,
+            topics={cmds.TOPIC_COMMAND: self._on_command},
+        )
         #: Operator commands carried out; the host drains them.
         self.commands: list[CommandRecord] = []
         # Ground-station deployment: chunks being reassembled, scripts confirmed, the one run.
@@ -104,16 +128,72 @@ class TaskEngine(ActorMachine):
         # Scripts whose verdict check_later owes: the bytes, to keep once it is given.
         self._checking: dict[str, bytes] = {}
 
-    def _app(self, msg: AppReceived, now: float) -> None:
-        if msg.topic != cmds.TOPIC_COMMAND:
-            super()._app(msg, now)
-            return
+    # --- the host's calls, handed on to the machine ---------------------------------------
+
+    def start(self, now: float) -> None:
+        """Start this platform's initial actors (:meth:`ActorMachine.start`)."""
+        self.machine.start(now)
+
+    def resume(self, now: float) -> bool:
+        """After a restart: bring back the actors of the latest backup (False: none; the
+        caller starts the initial actors instead; :meth:`ActorMachine.resume`)."""
+        return self.machine.resume(now)
+
+    def tick(self, now: float) -> None:
+        """Time passed (:meth:`ActorMachine.tick`)."""
+        self.machine.tick(now)
+
+    def next_deadline(self) -> float | None:
+        """When :meth:`tick` is due next; None: only an event wakes the engine."""
+        return self.machine.next_deadline()
+
+    def on_core_event(self, event: CoreEvent, now: float) -> None:
+        """An event of the core (an operator's command among its application messages)."""
+        self.machine.on_core_event(event, now)
+
+    def inject(
+        self,
+        event: str,
+        now: float,
+        *,
+        data: Any = None,
+        bid: float | None = None,
+        occasion: str = "",
+        shared: bool = False,
+    ) -> None:
+        """An event from the ground station reached this platform
+        (:meth:`ActorMachine.inject`)."""
+        self.machine.inject(event, now, data=data, bid=bid, occasion=occasion, shared=shared)
+
+    @property
+    def plan(self) -> Plan:
+        """The script this platform runs, compiled (the machine's)."""
+        return self.machine.plan
+
+    @property
+    def transitions(self) -> list[TransitionRecord]:
+        """Every switch of an actor here; the host drains it (the machine's record)."""
+        return self.machine.transitions
+
+    @property
+    def ignored(self) -> list[tuple[float, str, str]]:
+        """``(time, event or topic, why)`` of each event or message that changed nothing;
+        the host drains it (the machine's record)."""
+        return self.machine.ignored
+
+    @property
+    def fired(self) -> list[FiredRecord]:
+        """(Master) transition groups released; the host drains it (the machine's record)."""
+        return self.machine.fired
+
+    def _on_command(self, msg: AppReceived, now: float) -> None:
+        """A message on the command topic (the machine hands it here)."""
         if msg.sender != GROUND_STATION:
             return  # only the ground station commands
         try:
             command = cmds.decode_command(msg.body)
         except (msgspec.DecodeError, cmds.CommandError):
-            self._undecodable(msg, now)
+            self.machine.undecodable(msg, now)
             return
         self._command(command, now)
 
@@ -154,7 +234,7 @@ class TaskEngine(ActorMachine):
         running = set(self.runtime.running())
         if command.actors and not running & set(command.actors):
             return f"not running {', '.join(command.actors)}: event {command.event} skipped"
-        self.inject(
+        self.machine.inject(
             command.event,
             now,
             data=command.data,
@@ -166,22 +246,22 @@ class TaskEngine(ActorMachine):
     def _cmd_force_start(self, command: cmds.ForceStart, now: float) -> str:
         self._known_actor(command.actor)
         self.runtime.start(command.actor, now, ActorContext())
-        self._record("", command.actor, now, "", "forced")
+        self.machine.forced("", command.actor, now)
         return f"started {command.actor}"
 
     def _cmd_force_stop(self, command: cmds.ForceStop, now: float) -> str:
         self.runtime.stop(command.actor, now)
-        self._record(command.actor, "", now, "", "forced")
+        self.machine.forced(command.actor, "", now)
         return f"stopped {command.actor}"
 
     def _cmd_pause(self, command: cmds.Pause, now: float) -> str:
         self.runtime.pause(command.actor, now)
-        self._announce(now)
+        self.machine.announce(now)
         return f"paused {command.actor}"
 
     def _cmd_activate(self, command: cmds.Activate, now: float) -> str:
         self.runtime.activate(command.actor, now)
-        self._announce(now)
+        self.machine.announce(now)
         return f"activated {command.actor}"
 
     def _cmd_backup(self, command: cmds.Backup, now: float) -> None:
@@ -271,11 +351,11 @@ class TaskEngine(ActorMachine):
         if plan is None:
             raise ValueError(f"script {sha[:12]} is not known here; adopt it first")
         self.script_sha = sha
-        self.plan = plan
+        self.machine.plan = plan
         self.runtime.use_script(plan.script)
-        if self.resume(now):
+        if self.machine.resume(now):
             return True
-        self.start(now)
+        self.machine.start(now)
         return False
 
     def _start_script(self, sha: str, now: float) -> str:
@@ -290,23 +370,21 @@ class TaskEngine(ActorMachine):
             self.on_started(sha)
         self.runtime.use_script(plan.script)
         if fresh and not self.runtime.running():
-            self.plan = plan
-            self.start(now)
+            self.machine.plan = plan
+            self.machine.start(now)
             return f"started script {sha[:12]}"
         # A new version while running: candidacies of the old one are void; actors the new
         # script does not know stop; a platform left with nothing starts its initial actors.
-        for key in list(self._pending):
-            self.node.barriers.cancel(key)
-        self._pending.clear()
-        self.plan = plan
+        self.machine.drop_candidacies()
+        self.machine.plan = plan
         known = {a.name for a in plan.script.actors}
         for actor in list(self.runtime.loaded()):
             if actor not in known:
                 self.runtime.stop(actor, now)
-                self._record(actor, "", now, "", "forced")
+                self.machine.forced(actor, "", now)
         if not self.runtime.loaded():
-            self.start(now)
-        self._announce(now)
+            self.machine.start(now)
+        self.machine.announce(now)
         return f"switched to script {sha[:12]}"
 
     def _known_actor(self, actor: str) -> None:
@@ -320,18 +398,10 @@ class TaskEngine(ActorMachine):
             return f"nothing to move: not running {command.src}"
         for actor in moved:
             if actor != command.to:
-                self._switch(
+                self.machine.switch(
                     actor, command.to, now, "", "forced", ActorContext(params=dict(command.params))
                 )
         return f"{', '.join(moved)} -> {command.to}"
-
-    def _record(self, src: str, dst: str, now: float, event: str, cause: Cause) -> None:
-        self.transitions.append(
-            TransitionRecord(
-                t=now, platform=self.node.platform, src=src, dst=dst, event=event, cause=cause
-            )
-        )
-        self._announce(now)
 
 
 #: Each operator command's handler; a test checks that every command type has one.

@@ -1,11 +1,19 @@
 """The Actor state machine on the collective core: events, candidacies, releases, and the
-master's relays and actor table (the theory of operation is :mod:`actorswarm.engine.engine`'s;
-the operator's commands are layered on top there)."""
+master's relays and actor table (the theory of operation is :mod:`actorswarm.engine.engine`'s).
+
+:class:`ActorMachine` is a part :class:`~actorswarm.engine.engine.TaskEngine` holds, and
+knows nothing of the operator: an application message on a topic that is not the machine's
+own goes to the handler its owner registered for that topic (``topics``: the engine's
+operator commands), and the owner steers the machine through a few named calls
+(:meth:`~ActorMachine.switch`, :meth:`~ActorMachine.forced`, :meth:`~ActorMachine.announce`,
+:meth:`~ActorMachine.drop_candidacies`, :meth:`~ActorMachine.undecodable`). It runs alone
+too: a host that needs no operator drives it exactly as it drives the engine."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Final
 
 import msgspec
 
@@ -45,7 +53,11 @@ __all__ = [
     "TOPIC_SWARM_EVENT",
     "TOPIC_WHEREABOUTS",
     "ActorMachine",
+    "AppHandler",
 ]
+
+#: What a part does with an application message on a topic it answers: ``(message, now)``.
+AppHandler = Callable[[AppReceived, float], None]
 
 #: App-message topics between engines.
 TOPIC_ACTORS = "engine.actors"  # member -> master: the actors I run now
@@ -79,8 +91,14 @@ class _Candidacy:
 
 class ActorMachine:
     """The Actor state machine of platform ``node.platform`` for one task script, on the
-    core: events, candidacies, releases and the master's relays (the operator's commands
-    are :class:`~actorswarm.engine.engine.TaskEngine`'s)."""
+    core: events, candidacies, releases and the master's relays.
+
+    A host drives it with :meth:`start` (or :meth:`resume`), :meth:`tick`,
+    :meth:`on_core_event` and :meth:`inject`, asks :meth:`next_deadline`, and drains
+    :attr:`transitions`, :attr:`ignored` and :attr:`fired`. ``topics`` maps each
+    application topic another part answers to its handler, called with every message on
+    that topic that reaches this platform (the machine neither decodes nor logs those);
+    the machine's own topics are the ``TOPIC_*`` of this module."""
 
     def __init__(
         self,
@@ -90,7 +108,12 @@ class ActorMachine:
         *,
         grace: float | None = None,
         store: BackupStore | None = None,
+        topics: Mapping[str, AppHandler] | None = None,
     ):
+        own = set(topics or ()) & set(_APP_HANDLERS)
+        if own:
+            raise ValueError(f"topic {sorted(own)[0]!r} is the Actor machine's own; pick another")
+        self._topics: dict[str, AppHandler] = dict(topics or {})
         self.node = node
         self.plan = plan
         self.runtime = runtime
@@ -152,7 +175,7 @@ class ActorMachine:
                         cause="start",
                     )
                 )
-        self._announce(now)
+        self.announce(now)
 
     def resume(self, now: float) -> bool:
         """After a restart: bring back the actors of the latest backup (False: none, the
@@ -171,7 +194,7 @@ class ActorMachine:
                     t=now, platform=self.node.platform, src="", dst=actor, event="", cause="start"
                 )
             )
-        self._announce(now)
+        self.announce(now)
         return True
 
     def tick(self, now: float) -> None:
@@ -186,7 +209,7 @@ class ActorMachine:
                 self.node.barriers.cancel(key)
                 target = cand.transition.timeout_branch
                 if target is not None and cand.actor in self.runtime.running():
-                    self._switch(cand.actor, target, now, cand.transition.event, "timeout")
+                    self.switch(cand.actor, target, now, cand.transition.event, "timeout")
 
     def next_deadline(self) -> float | None:
         times = [c.fallback_at for c in self._pending.values() if c.fallback_at is not None]
@@ -249,7 +272,7 @@ class ActorMachine:
         elif isinstance(event, MasterChanged):
             self._whereabouts.reset()
             if event.master is not None and event.master != self.node.platform:
-                self._announce(now)  # the new master must know what I run
+                self.announce(now)  # the new master must know what I run
         elif isinstance(event, BecameMaster):
             self._reset_table()
             previous = self._master_actors
@@ -262,7 +285,7 @@ class ActorMachine:
                 self._master_actors = None
                 self._relay_lost(previous[0], previous[1], now)
             self._whereabouts.reset()
-            self._announce(now)
+            self.announce(now)
         elif isinstance(event, MemberJoined) and self.node.is_master:
             # A newcomer must know what the master runs, in case it succeeds it.
             body = _ENCODE.encode(list(self.runtime.running()))
@@ -343,9 +366,7 @@ class ActorMachine:
         transition = cand.transition
         if event.outcome == "timeout":
             if transition.timeout_branch is not None:
-                self._switch(
-                    cand.actor, transition.timeout_branch, now, transition.event, "timeout"
-                )
+                self.switch(cand.actor, transition.timeout_branch, now, transition.event, "timeout")
             return
         if not event.chosen:
             return
@@ -355,7 +376,7 @@ class ActorMachine:
         slot, slots = scattered_slot(event.data) or self.plan.placement(
             transition, event.index, event.size
         )
-        self._switch(
+        self.switch(
             cand.actor,
             target,
             now,
@@ -389,7 +410,7 @@ class ActorMachine:
                 occasion=cand.occasion,
             )
 
-    def _switch(
+    def switch(
         self,
         src: str,
         dst: str,
@@ -398,11 +419,14 @@ class ActorMachine:
         cause: Cause,
         context: ActorContext | None = None,
     ) -> None:
+        """Switch the running actor ``src`` to ``dst`` (a release, a timeout, or the
+        operator's forced transition), record it and tell the master what runs now; a switch
+        the runtime refuses is logged in :attr:`ignored` and changes nothing."""
         try:
             self.runtime.switch(src, dst, now, context or ActorContext())
         except ValueError as exc:  # refused by the runtime (hardware busy, bad params, ...)
             self.ignored.append((now, event, f"switch {src} -> {dst} refused: {exc}"))
-            self._announce(now)
+            self.announce(now)
             return
         self.transitions.append(
             TransitionRecord(
@@ -413,11 +437,30 @@ class ActorMachine:
         for key in [k for k, c in self._pending.items() if c.actor == src]:
             del self._pending[key]
             self.node.barriers.cancel(key)
-        self._announce(now)
+        self.announce(now)
+
+    def forced(self, src: str, dst: str, now: float) -> None:
+        """The operator started ``dst`` (``src`` empty) or stopped ``src`` (``dst`` empty)
+        through the runtime: record it (cause ``forced``) and tell the master what runs now."""
+        self.transitions.append(
+            TransitionRecord(
+                t=now, platform=self.node.platform, src=src, dst=dst, event="", cause="forced"
+            )
+        )
+        self.announce(now)
+
+    def drop_candidacies(self) -> None:
+        """A new version of the script: every candidacy of the old one is void, its barrier
+        request cancelled."""
+        for key in list(self._pending):
+            self.node.barriers.cancel(key)
+        self._pending.clear()
 
     # --- master side ----------------------------------------------------------------------
 
-    def _announce(self, now: float) -> None:
+    def announce(self, now: float) -> None:
+        """Tell the master what this platform runs now (the master: enter it in its own
+        table and tell every member)."""
         running = self.runtime.running()
         if self.node.is_master:
             before = self._run_table(self.node.platform, running)
@@ -428,26 +471,49 @@ class ActorMachine:
             self.node.send_app(None, TOPIC_ACTORS, _ENCODE.encode(list(running)), now)
 
     def _app(self, msg: AppReceived, now: float) -> None:
+        """An application message: to the owner's handler of its topic, or to the machine's
+        own (:data:`_APP_HANDLERS`); a topic neither answers is not for this engine."""
+        answer = self._topics.get(msg.topic)
+        if answer is not None:
+            answer(msg, now)
+            return
+        handler = _APP_HANDLERS.get(msg.topic)
+        if handler is None:
+            return
         try:
-            if msg.topic == TOPIC_ACTORS:
-                before = self._run_table(msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
-                if self.node.is_master:
-                    self._entered(msg.sender, before, now)
-            elif msg.topic == TOPIC_WHEREABOUTS:
-                self._whereabouts.heard(msg.sender, msg.body)
-            elif msg.topic == TOPIC_MASTER_ACTORS:
-                self._master_actors = (msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
-            elif msg.topic == TOPIC_SWARM_EVENT and self.node.is_master:
-                ev = _DECODE_EVENT.decode(msg.body)
-                self._relay(ev.event, ev.data, origin=ev.origin, now=now, occasion=ev.occasion)
-            elif msg.topic == TOPIC_EVENT:
-                ev = _DECODE_EVENT.decode(msg.body)
-                self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data)
-                self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
+            handler(self, msg, now)
         except msgspec.DecodeError:
-            self._undecodable(msg, now)
+            self.undecodable(msg, now)
 
-    def _undecodable(self, msg: AppReceived, now: float) -> None:
+    # --- one handler per topic of the machine's own (the table _APP_HANDLERS) -----------
+
+    def _on_actors(self, msg: AppReceived, now: float) -> None:
+        """A member runs these actors now (the master enters them in its table)."""
+        before = self._run_table(msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
+        if self.node.is_master:
+            self._entered(msg.sender, before, now)
+
+    def _on_whereabouts(self, msg: AppReceived, now: float) -> None:
+        self._whereabouts.heard(msg.sender, msg.body)
+
+    def _on_master_actors(self, msg: AppReceived, now: float) -> None:
+        """What the master runs, for whoever succeeds it to announce them lost."""
+        self._master_actors = (msg.sender, tuple(_DECODE_ACTORS.decode(msg.body)))
+
+    def _on_swarm_event(self, msg: AppReceived, now: float) -> None:
+        """Master: a member raised an event for the whole swarm; relay it."""
+        if self.node.is_master:
+            ev = _DECODE_EVENT.decode(msg.body)
+            self._relay(ev.event, ev.data, origin=ev.origin, now=now, occasion=ev.occasion)
+
+    def _on_event_msg(self, msg: AppReceived, now: float) -> None:
+        """The master relayed (or forwarded) an event to this platform."""
+        ev = _DECODE_EVENT.decode(msg.body)
+        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data)
+        self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
+
+    def undecodable(self, msg: AppReceived, now: float) -> None:
+        """Log an application message whose body did not decode (and carry on)."""
         self.ignored.append((now, msg.topic, f"undecodable message from {msg.sender}"))
 
     def _relay_lost(self, platform: int, actors: tuple[str, ...], now: float) -> None:
@@ -583,3 +649,13 @@ class ActorMachine:
         """The core's scatter hook (master): where each chosen participant goes
         (:func:`~actorswarm.engine.slots.scatter`)."""
         return scatter(self.plan, self.runtime, key, chosen, self._now)
+
+
+#: The handler of each application topic of the machine's own.
+_APP_HANDLERS: Final[dict[str, Callable[[ActorMachine, AppReceived, float], None]]] = {
+    TOPIC_ACTORS: ActorMachine._on_actors,
+    TOPIC_WHEREABOUTS: ActorMachine._on_whereabouts,
+    TOPIC_MASTER_ACTORS: ActorMachine._on_master_actors,
+    TOPIC_SWARM_EVENT: ActorMachine._on_swarm_event,
+    TOPIC_EVENT: ActorMachine._on_event_msg,
+}
