@@ -585,20 +585,6 @@ def _only(actor: str) -> Callable[[list[str]], bool]:
     return lambda actors: actors == [actor]
 
 
-async def _table2(
-    swarm: LocalSwarm,
-    logs: LogTail,
-    rows: list[tuple[Table2Row, Table2Row]],
-    backend: DaemonBackend,
-    rng: random.Random,
-    progress: Progress,
-) -> None:
-    async with ground_session(swarm) as gs:
-        table = _Table2(gs, swarm, logs, backend, rng, progress)
-        for switch_row, branch_row in rows:
-            await table.rows(switch_row, branch_row)
-
-
 # --- Tables II and III ---------------------------------------------------------------------
 
 
@@ -661,8 +647,15 @@ def _one_size(
                 )
             return
         logs = LogTail(swarm)
+
+        async def table2() -> None:
+            async with ground_session(swarm) as gs:
+                table = _Table2(gs, swarm, logs, backend, rng, progress)
+                for switch_row, branch_row in pairs:
+                    await table.rows(switch_row, branch_row)
+
         if pairs:
-            asyncio.run(_table2(swarm, logs, pairs, backend, rng, progress))
+            asyncio.run(table2())
         if row3 is not None:
             _table3(swarm, logs, row3, backend, rng, progress)
 

@@ -69,7 +69,7 @@ __all__ = [
     "SimBackend",
     "radio_model",
     "sim_table1",
-    "sim_table2",
+    "sim_table2_cell",
     "sim_table3",
 ]
 
@@ -131,7 +131,7 @@ class SimBackend:
             yield sim_table1(plan.plugins, self, progress)
         for cell in plan.cells2 if "2" in plan.tables else []:
             for scheme in plan.memberships:
-                yield sim_table2([cell], replace(self, membership=scheme), progress)
+                yield [sim_table2_cell(*cell, replace(self, membership=scheme), progress)]
         for cell3 in plan.cells3 if "3" in plan.tables else []:
             for scheme in plan.memberships:
                 yield sim_table3([cell3], replace(self, membership=scheme), progress)
@@ -401,18 +401,6 @@ def sim_table2_cell(
             progress(label, advance=repeats - r - 1)
             break
     return row
-
-
-def sim_table2(
-    cells: Sequence[tuple[str, int, int, float]],
-    backend: SimBackend,
-    progress: Progress = quiet,
-) -> list[Table2Row]:
-    """:func:`sim_table2_cell` for every ``(case, size, plugins, loss)``."""
-    return [
-        sim_table2_cell(case, size, plugins, loss, backend, progress)
-        for case, size, plugins, loss in cells
-    ]
 
 
 # --- Table III -----------------------------------------------------------------------------

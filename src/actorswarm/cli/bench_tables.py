@@ -62,7 +62,7 @@ def memberships(choice: Membership) -> tuple[MembershipKind, ...]:
 TABLES = {"table1": ("1",), "table2": ("2",), "table3": ("3",), "all": ("1", "2", "3")}
 
 
-def _ints(text: str, flag: str, low: int, high: int, *, empty: bool = False) -> list[int]:
+def _ints(text: str, low: int, high: int, *, empty: bool = False) -> list[int]:
     parts = [p.strip() for p in text.split(",") if p.strip()]
     if not parts and empty:
         return []
@@ -72,7 +72,6 @@ def _ints(text: str, flag: str, low: int, high: int, *, empty: bool = False) -> 
         raise typer.BadParameter(f"expected comma-separated integers, got {text!r}") from None
     if not values or any(v < low or v > high for v in values):
         raise typer.BadParameter(f"every value must be {low}..{high}, got {text!r}")
-    del flag
     return values
 
 
@@ -176,15 +175,14 @@ def bench_tables(
     plan = Plan(
         tables=TABLES[which],
         modes=("sim", "real") if mode is Mode.both else (mode.value,),
-        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), "--sizes", 2, 10_000),
+        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), 2, 10_000),
         big_sizes=_ints(
             big_sizes if big_sizes is not None else ("" if quick else "100,1000"),
-            "--big-sizes",
             2,
             10_000,
             empty=True,
         ),
-        plugins=_ints(plugins or ("1" if quick else "1,5"), "--plugins", 1, 20),
+        plugins=_ints(plugins or ("1" if quick else "1,5"), 1, 20),
         losses=_losses(loss if loss is not None else ("0.1" if quick else "0.1,0.3")),
         repeat=repeat or (2 if quick else 10),
         big_repeat=big_repeat or (1 if quick else 3),
