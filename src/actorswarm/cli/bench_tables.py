@@ -195,11 +195,7 @@ def bench_tables(
     output_paths({"--out": out, "--json": json_out, "--dir": directory}, dirs=("--out", "--dir"))
     command = "actorswarm bench " + shlex.join(sys.argv[2:])  # '' stays visible
 
-    def terminated(signum: int, frame: object) -> None:
-        # Unwind like Ctrl-C, so the daemons started so far are killed on the way out.
-        raise SystemExit(128 + signum)
-
-    signal.signal(signal.SIGTERM, terminated)
+    unwind_on_sigterm()
     saved: list[TablesReport] = []
 
     def checkpoint(report: TablesReport) -> None:
@@ -211,11 +207,34 @@ def bench_tables(
             report = run(plan, command, directory or Path(scratch), checkpoint)
     except (KeyboardInterrupt, SystemExit) as exc:
         if saved:
-            why = "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else f"exit {exc.code}"
-            console.print(f"[yellow]interrupted ({why}): writing the rows so far[/yellow]")
-            _write(_cut(saved[0], f"interrupted ({why})"), out, json_out)
+            _write(_cut(saved[0], interrupted(exc, console)), out, json_out)
         raise
     _write(report, out, json_out)
+
+
+def unwind_on_sigterm() -> None:
+    """SIGTERM unwinds like Ctrl-C: the daemons started so far are killed on the way out,
+    and the rows so far are written."""
+
+    def terminated(signum: int, frame: object) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, terminated)
+
+
+def interrupted(exc: KeyboardInterrupt | SystemExit, console: Console) -> str:
+    """Why a run stops short ("interrupted (Ctrl-C)"), said on ``console`` first."""
+    why = "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else f"exit {exc.code}"
+    console.print(f"[yellow]interrupted ({why}): writing the rows so far[/yellow]")
+    return f"interrupted ({why})"
+
+
+def write_whole(path: Path, text: str) -> None:
+    """``text`` into ``path``, written whole and renamed: a reader never sees half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    part = path.with_name(path.name + ".part")
+    part.write_text(text)
+    part.replace(path)
 
 
 def _cases(text: str) -> tuple[str, ...]:
@@ -244,11 +263,7 @@ def _save_json(report: TablesReport, out: Path | None, json_out: Path | None, wh
         return
     data = json.dumps(to_json(_cut(report, why)), indent=1) + "\n"
     for path in targets:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        # Written whole and renamed: a reader never sees half a file.
-        part = path.with_name(path.name + ".part")
-        part.write_text(data)
-        part.replace(path)
+        write_whole(path, data)
 
 
 def run(
