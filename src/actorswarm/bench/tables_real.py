@@ -69,6 +69,7 @@ from typing import TYPE_CHECKING, Any
 
 from actorswarm.bench.daemons import (
     LogTail,
+    deploy,
     describe_swarm,
     ground_session,
     measure_failover,
@@ -201,36 +202,6 @@ def _not_run(samples: list[list[float]], count: int, progress: Progress, message
         progress(message, advance=1)
 
 
-async def _deploy(
-    gs: GroundSession,
-    swarm: LocalSwarm,
-    script: str,
-    name: str,
-    ready: Callable[[list[str]], bool],
-    timeout: float,
-) -> str:
-    """Deploy ``script`` to every platform and start it (a new version replaces the one
-    running); wait until every platform runs it with actors ``ready`` accepts. "" or why
-    not."""
-    everyone = list(range(1, swarm.size + 1))
-    data = script.encode()
-    (swarm.dir / f"{name}.xml").write_bytes(data)
-    sha = gs.do(lambda st, now: st.deploy(data, everyone, now))
-    if not await gs.wait_for(lambda: not gs.station.missing(sha), timeout):
-        return f"deploy {name}: not confirmed by platforms {gs.station.missing(sha)}"
-    gs.do(lambda st, now: st.start(now))
-
-    def running() -> bool:
-        statuses = [swarm.status(p) for p in everyone]
-        return all(st.get("script") == sha and ready(list(st.get("actors", []))) for st in statuses)
-
-    if await gs.wait_for(running, timeout):
-        return ""
-    statuses = {p: swarm.status(p) for p in everyone}
-    where = {p: (str(st.get("script", ""))[:12], st.get("actors")) for p, st in statuses.items()}
-    return f"start {name}: not every platform runs it (script, actors): {where}"
-
-
 # --- Table I -------------------------------------------------------------------------------
 
 
@@ -277,9 +248,9 @@ def _table1_row(
     def alternating(actors: list[str]) -> bool:
         return actors in ([a], [b])
 
-    async def deploy() -> str:
+    async def start() -> str:
         async with ground_session(swarm) as gs:
-            return await _deploy(
+            return await deploy(
                 gs,
                 swarm,
                 table1_script(swarm.size, row.plugins, _PERIOD),
@@ -288,7 +259,7 @@ def _table1_row(
                 backend.boot_timeout,
             )
 
-    failed = asyncio.run(deploy())
+    failed = asyncio.run(start())
     if failed:
         row.errors.append(failed)
         _not_run([row.cpu_pct, row.rss_mib], backend.settings.repeat, progress, f"{label}: not run")
@@ -381,7 +352,7 @@ class _Table2:
         a, b, c = actor_names(count)
         label = f"real table II: N={size}, {count} plugin(s)"
         self.progress(f"{label}: deploying")
-        failed = await _deploy(
+        failed = await deploy(
             self.gs,
             self.swarm,
             table2_script(size, count),

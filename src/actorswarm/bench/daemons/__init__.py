@@ -61,6 +61,7 @@ from actorswarm.bench.daemons.run import bench
 from actorswarm.bench.daemons.stats import switch_cpu
 from actorswarm.bench.daemons.swarm import (
     daemons_env,
+    deploy,
     describe_swarm,
     ground_session,
     settled,
@@ -73,6 +74,7 @@ __all__ = [
     "SizeResult",
     "bench",
     "daemons_env",
+    "deploy",
     "describe_swarm",
     "from_json",
     "ground_session",
