@@ -62,7 +62,7 @@ import os
 import random
 import statistics
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -357,7 +357,7 @@ class _Table2:
             self.swarm,
             table2_script(size, count),
             f"table2-p{count}",
-            _only(a),
+            lambda actors: actors == [a],
             backend.boot_timeout,
         )
         if failed:
@@ -549,11 +549,6 @@ class _Table2:
                 back_ok = not math.isnan(back.transition_ms)
             if not back_ok and await self.stuck(row, i, a, label):
                 return
-
-
-def _only(actor: str) -> Callable[[list[str]], bool]:
-    """Accepts a platform that runs ``actor`` and nothing else."""
-    return lambda actors: actors == [actor]
 
 
 # --- Tables II and III ---------------------------------------------------------------------
