@@ -20,9 +20,11 @@ from typer.testing import CliRunner
 from actorswarm.bench import paper
 from actorswarm.bench.scripts import table1_script, table2_script
 from actorswarm.bench.tables import (
+    Plan,
     Table1Row,
     Table2Row,
     Table3Row,
+    TableSettings,
     TablesReport,
     from_json,
     merge,
@@ -33,7 +35,7 @@ from actorswarm.bench.tables import (
 from actorswarm.bench.tables_plot import _size_labels, plot_tables
 from actorswarm.bench.tables_report import markdown, problems
 from actorswarm.bench.tables_sim import (
-    SimSettings,
+    SimBackend,
     _left_out,
     replay_command,
     sim_table1,
@@ -41,7 +43,6 @@ from actorswarm.bench.tables_sim import (
     sim_table3,
 )
 from actorswarm.cli.app import app
-from actorswarm.cli.bench_tables import Plan
 from actorswarm.dsl import check
 from actorswarm.engine.records import FiredRecord
 
@@ -89,7 +90,7 @@ def test_a_script_with_no_plugin_is_refused() -> None:
 
 
 def test_simulated_transitions_are_measured_and_replayable() -> None:
-    settings = SimSettings(repeat=3)
+    settings = SimBackend(TableSettings(repeat=3))
     row = sim_table2_cell("switch", 6, 1, 0.0, settings)
     again = sim_table2_cell("switch", 6, 1, 0.0, settings)
     assert row == again  # virtual time: the same seed gives the same figures
@@ -109,7 +110,7 @@ def test_a_platform_left_out_of_a_release_fails_the_repetition_at_once() -> None
     # Under 30 % loss, before suspicion and loss-aware leave times, platform 3 was declared
     # gone during this switch, missed the release and was "not chosen" when it asked again.
     # Now all 8 cross; the rule that fails such a repetition at once is checked below.
-    row = sim_table2_cell("switch", 8, 1, 0.3, SimSettings(repeat=1, seed=12))
+    row = sim_table2_cell("switch", 8, 1, 0.3, SimBackend(TableSettings(repeat=1, seed=12)))
     assert not row.errors and not math.isnan(row.transition_ms[0]), row.errors
     fired = [FiredRecord(t=1.0, key=1, generation=1, outcome="complete", chosen=(1, 2))]
     all_switched = {1: 1.01, 2: 1.02}
@@ -122,7 +123,7 @@ def test_a_platform_left_out_of_a_release_fails_the_repetition_at_once() -> None
 
 @pytest.mark.parametrize("table", ["table2", "table3"])
 def test_a_rows_replay_command_measures_it_again_exactly(table: str) -> None:
-    settings = SimSettings(repeat=2, seed=5)
+    settings = SimBackend(TableSettings(repeat=2, seed=5))
     if table == "table2":
         row: Table2Row | Table3Row = sim_table2_cell("switch", 3, 1, 0.1, settings)
         command = replay_command(table, 3, 0.1, settings, cases="switch", plugins=1)
@@ -137,7 +138,7 @@ def test_a_rows_replay_command_measures_it_again_exactly(table: str) -> None:
     assert [(r.size, r.loss) for r in rows] == [(3, 0.0), (3, 0.1)]  # the loss-free row first
     # Every measured figure, the same (NaN written alike, so compared as JSON text).
     assert json.dumps(asdict(rows[1])) == json.dumps(asdict(row))
-    assert replay_command("table3", 1000, 0.3, SimSettings(big_repeat=2)) == (
+    assert replay_command("table3", 1000, 0.3, SimBackend(big_repeat=2)) == (
         "actorswarm bench table3 --mode sim --sizes 1000 --big-sizes '' --loss 0.3 "
         "--big-repeat 2 --seed 1 --membership star"
     )
@@ -145,7 +146,7 @@ def test_a_rows_replay_command_measures_it_again_exactly(table: str) -> None:
 
 def test_a_transition_that_never_completes_is_a_failed_sample_with_a_replay_line() -> None:
     # Nine of ten packets lost: a barrier of every platform cannot complete in 0.3 s.
-    settings = SimSettings(repeat=2, run_timeout=0.3)
+    settings = SimBackend(TableSettings(repeat=2), run_timeout=0.3)
     row = sim_table2_cell("switch", 5, 1, 0.9, settings)
     assert len(row.transition_ms) == 2
     assert any(math.isnan(v) for v in row.transition_ms)
@@ -169,7 +170,9 @@ def test_the_membership_scheme_reaches_the_core_and_the_report(
         return task_sim(*args, **kwargs)
 
     monkeypatch.setattr(tables_sim, "TaskSim", spy)
-    row = sim_table2_cell("switch", 3, 1, 0.0, SimSettings(repeat=1, membership="broadcast"))
+    row = sim_table2_cell(
+        "switch", 3, 1, 0.0, SimBackend(TableSettings(repeat=1), membership="broadcast")
+    )
     assert built == ["broadcast"] and row.membership == "broadcast"
     assert row.errors == [] and len(row.transition_ms) == 1
 
@@ -210,7 +213,7 @@ def test_the_membership_scheme_reaches_the_core_and_the_report(
 
 
 def test_simulated_failover_and_overhead_rows() -> None:
-    settings = SimSettings(repeat=2, peers=4, window=3.0)
+    settings = SimBackend(TableSettings(repeat=2, peers=4, window=3.0))
     (iii,) = sim_table3([(5, 0.1)], settings)
     assert iii.errors == [] and len(iii.election_ms) == 2
     # A new master cannot be known before the old one is declared gone (T_leave 500 ms).

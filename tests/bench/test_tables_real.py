@@ -17,14 +17,8 @@ import pytest
 
 from actorswarm.bench.alternate import EMIT_ON_ENTRY, EmitOnEntry
 from actorswarm.bench.scripts import table1_script, table2_script
-from actorswarm.bench.tables import Table1Row, Table2Row, Table3Row
-from actorswarm.bench.tables_real import (
-    RealSettings,
-    real_table1,
-    real_table23,
-    table1_units,
-    table23_units,
-)
+from actorswarm.bench.tables import Table1Row, Table2Row, Table3Row, TableSettings, table1_units
+from actorswarm.bench.tables_real import DaemonBackend, real_table1, real_table23, table23_units
 from actorswarm.core.events import AppReceived
 from actorswarm.core.node import Outgoing
 from actorswarm.core.wire import GROUND_STATION, Heartbeat, Packet, encode
@@ -270,7 +264,9 @@ class _Recorder:
 
 
 # Windows of 1.5 s: each holds a switch of the 1 Hz alternation, whatever its phase.
-SMALL = RealSettings(repeat=2, peers=2, window=1.5, boot_timeout=90.0, run_timeout=15.0, settle=0.5)
+SMALL = DaemonBackend(
+    TableSettings(repeat=2, peers=2, window=1.5), boot_timeout=90.0, run_timeout=15.0, settle=0.5
+)
 
 
 def _finite(values: list[float]) -> bool:
@@ -280,7 +276,7 @@ def _finite(values: list[float]) -> bool:
 def test_table1_with_three_daemons(tmp_path: Path) -> None:
     progress = _Recorder()
     rows = real_table1(tmp_path, [1, 5], SMALL, progress)
-    assert progress.units == table1_units([1, 5], SMALL) == 4
+    assert progress.units == table1_units([1, 5], SMALL.settings) == 4
     assert [(r.mode, r.plugins, r.peers) for r in rows] == [("real", 1, 2), ("real", 5, 2)]
     for row in rows:
         assert isinstance(row, Table1Row)

@@ -17,7 +17,6 @@ the wall-clock time each size took is reported too (that one depends on the mach
 
 from __future__ import annotations
 
-import math
 import random
 import statistics
 import time
@@ -25,6 +24,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from actorswarm.bench.tables import summarize
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.events import BarrierReleased
 from actorswarm.core.wire import NEED_ALL
@@ -241,22 +241,14 @@ def bench_size(
     return result
 
 
-def _stats(values: list[float]) -> tuple[float, float, float]:
-    clean = [v for v in values if not math.isnan(v)]
-    if not clean:
-        nan = float("nan")
-        return nan, nan, nan
-    return min(clean), statistics.median(clean), max(clean)
-
-
 def _fmt_ms(values: list[float]) -> str:
-    lo, med, hi = _stats(values)
-    return f"{med * 1000:.1f} ({lo * 1000:.1f}–{hi * 1000:.1f})"
+    s = summarize(values)
+    return f"{s.median * 1000:.1f} ({s.lo * 1000:.1f}–{s.hi * 1000:.1f})"
 
 
 def _fmt(values: list[float], digits: int = 0) -> str:
-    lo, med, hi = _stats(values)
-    return f"{med:.{digits}f} ({lo:.{digits}f}–{hi:.{digits}f})"
+    s = summarize(values)
+    return f"{s.median:.{digits}f} ({s.lo:.{digits}f}–{s.hi:.{digits}f})"
 
 
 def markdown(results: list[SizeResult], *, latency: float, loss: float, config: CoreConfig) -> str:
@@ -301,9 +293,9 @@ def markdown(results: list[SizeResult], *, latency: float, loss: float, config: 
     lines.append("")
     verdicts = []
     for r in results:
-        _, med, _ = _stats([b.latency for b in r.barrier])
-        _, lmed, _ = _stats([b.latency for b in r.barrier_lossy])
-        _, _, fhi = _stats([f.to_acknowledged for f in r.failover])
+        med = summarize([b.latency for b in r.barrier]).median
+        lmed = summarize([b.latency for b in r.barrier_lossy]).median
+        fhi = summarize([f.to_acknowledged for f in r.failover]).hi
         verdicts.append(
             f"- N={r.size}: barrier {'meets' if med <= target_barrier else 'MISSES'} the target "
             f"({med * 1000:.1f} ms); with loss {'meets' if lmed <= target_barrier else 'misses'} "

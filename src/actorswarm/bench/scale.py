@@ -26,15 +26,7 @@ channel_stats`) are taken over the quiet window and over the whole run.
 
 The report (Markdown, picture) is drawn by :mod:`actorswarm.bench.scale_report`.
 
-Figures of a cell (:class:`ScaleCell`): the wall time of the whole run (booting included);
-when the swarm formed (one master, every other platform in its view, its handshake done);
-how many platforms the barrier released; the failover time (the crash → the first new
-master every survivor acknowledged: all in its view, each reported to it, polled every
-5 ms of virtual time); over the quiet window, the
-packets received per second by the median non-master and by the master, the packets and
-bits per second sent on the air (a broadcast counts once: the radio counts a transmission
-at its sender), and the master's false leaves — ``MemberLeft`` of a platform that was alive —
-per member-hour (members watched × window).
+Figures of a cell: :class:`ScaleCell`, whose fields say how each is taken.
 
 Virtual-time figures depend on the protocol and the radio model only, and a cell is
 replayed exactly from its seed (the same seed in either scheme, so two rows of one size

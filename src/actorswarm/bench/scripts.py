@@ -37,12 +37,14 @@ def _group(plugins: int, first: str = "") -> str:
     )
 
 
-def _actor(name: str, plugins: int, first: str = "") -> str:
+def actor_element(name: str, plugins: int, first: str = "") -> str:
+    """An ``<Actor>`` of ``plugins`` plugins spread over the buses, ``first`` among them."""
     group = _group(plugins, first)
     return f"<Actor><_P_Name>{name}</_P_Name><OODAConfig>{group}</OODAConfig></Actor>"
 
 
-def _platforms(size: int, actor: str) -> str:
+def platforms_element(size: int, actor: str) -> str:
+    """Platforms ``1..size``, each starting in ``actor``."""
     if size < 1:
         raise ValueError(f"a swarm needs at least one platform, not {size}")
     ids = "1" if size == 1 else f"1-{size}"
@@ -72,14 +74,14 @@ def table1_script(size: int, plugins: int, period: float = 1.0) -> str:
 
     return (
         f'<TaskScript name="bench-table1-p{plugins}" version="{plugins}"><_ActorsConfig>'
-        + _actor(a, plugins, emitter("to_b"))
-        + _actor(b, plugins, emitter("to_a"))
+        + actor_element(a, plugins, emitter("to_b"))
+        + actor_element(b, plugins, emitter("to_a"))
         + "</_ActorsConfig><_TaskConfig>"
         f'<actor name="{a}"><transition name="to_b" sysNum="1"><successor actor="{b}"/>'
         "</transition></actor>"
         f'<actor name="{b}"><transition name="to_a" sysNum="1"><successor actor="{a}"/>'
         "</transition></actor>"
-        "</_TaskConfig>" + _platforms(size, a) + "</TaskScript>"
+        "</_TaskConfig>" + platforms_element(size, a) + "</TaskScript>"
     )
 
 
@@ -106,14 +108,14 @@ def table2_script(size: int, plugins: int, timeout: float = 30.0) -> str:
 
     return (
         f'<TaskScript name="bench-table2-p{plugins}" version="{plugins}"><_ActorsConfig>'
-        + _actor(a, plugins)
-        + _actor(b, plugins)
-        + _actor(c, plugins)
+        + actor_element(a, plugins)
+        + actor_element(b, plugins)
+        + actor_element(c, plugins)
         + "</_ActorsConfig><_TaskConfig>"
         + f'<actor name="{a}">{transition(GO, b, "all")}{transition(SPLIT, c, "2")}</actor>'
         + f'<actor name="{b}">{transition(BACK, a, "all")}</actor>'
         + f'<actor name="{c}">{transition(REJOIN, a, "2")}</actor>'
         + "</_TaskConfig>"
-        + _platforms(size, a)
+        + platforms_element(size, a)
         + "</TaskScript>"
     )

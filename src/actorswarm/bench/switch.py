@@ -19,8 +19,8 @@ import statistics
 import time
 from dataclasses import asdict, dataclass
 
+from actorswarm.bench.scripts import actor_element, platforms_element
 from actorswarm.dsl import check
-from actorswarm.dsl.model import BUSES
 from actorswarm.engine.runtime import ActorContext
 from actorswarm.runtime.actor_runtime import ActorRuntime
 
@@ -37,23 +37,10 @@ class SwitchRow:
 
 
 def _script(actors: int, plugins: int) -> str:
-    def group() -> str:
-        buses = []
-        for b, bus in enumerate(BUSES):
-            count = len(range(b, plugins, len(BUSES)))  # plugins spread over the buses
-            if count:
-                idle = "<Plugin><_P_Name>core.idle</_P_Name></Plugin>" * count
-                buses.append(f"<Bus><_P_Name>{bus}</_P_Name>{idle}</Bus>")
-        return "".join(buses)
-
-    body = "".join(
-        f"<Actor><_P_Name>S{n}</_P_Name><OODAConfig>{group()}</OODAConfig></Actor>"
-        for n in range(actors)
-    )
+    body = "".join(actor_element(f"S{n}", plugins) for n in range(actors))
     return (
         f'<TaskScript name="bench" version="1"><_ActorsConfig>{body}</_ActorsConfig>'
-        '<_TaskConfig/><_PlatformActorConfig><platform id="1" actor="S0"/>'
-        "</_PlatformActorConfig></TaskScript>"
+        f"<_TaskConfig/>{platforms_element(1, 'S0')}</TaskScript>"
     )
 
 

@@ -14,14 +14,16 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import asdict, astuple, dataclass, field, fields
 from typing import Any, Protocol, TypeVar
 
-from actorswarm.core.config import CoreConfig
+from actorswarm.core.config import CoreConfig, MembershipKind
 
 __all__ = [
     "MODES",
+    "Backend",
+    "Plan",
     "Progress",
     "Summary",
     "Table1Row",
@@ -31,6 +33,7 @@ __all__ = [
     "TableSettings",
     "TablesReport",
     "from_json",
+    "measure",
     "merge",
     "percentile",
     "quiet",
@@ -295,9 +298,9 @@ def quiet(message: str, *, advance: int = 0) -> None:
 
 @dataclass(frozen=True, slots=True)
 class TableSettings:
-    """How much both modes measure: the settings the simulated tables
-    (:class:`~actorswarm.bench.tables_sim.SimSettings`) and the real ones
-    (:class:`~actorswarm.bench.tables_real.RealSettings`) share; each adds its own."""
+    """How much to measure, wherever the tables run: one part of each :class:`Backend`
+    (the simulator's, :class:`~actorswarm.bench.tables_sim.SimBackend`, and real daemons',
+    :class:`~actorswarm.bench.tables_real.DaemonBackend`), which add what is theirs."""
 
     repeat: int = 10
     #: Table I: the platform measured has this many peers (a swarm of ``peers + 1``).
@@ -308,8 +311,101 @@ class TableSettings:
 
 
 def table1_units(plugins: Sequence[int], settings: TableSettings) -> int:
-    """The progress units of Table I, in either mode: one per repetition."""
+    """The progress units of Table I, on either backend: one per repetition."""
     return len(plugins) * settings.repeat
+
+
+@dataclass(slots=True)
+class Plan:
+    """What one run measures. ``sizes`` are the paper's (both modes); ``big_sizes`` and
+    ``losses`` are beyond it (simulator only: Table II(a) and III)."""
+
+    tables: tuple[str, ...]
+    modes: tuple[str, ...]
+    sizes: list[int]
+    big_sizes: list[int]
+    plugins: list[int]
+    losses: list[float]
+    repeat: int
+    big_repeat: int
+    peers: int
+    window: float
+    seed: int
+    #: Table II's cases: ``switch`` (II(a): also the big sizes and the loss rates) and
+    #: ``branch`` (II(b), at the paper's sizes).
+    cases: tuple[str, ...] = CASES
+    #: The simulated rows of Tables II and III are measured once in each of these membership
+    #: schemes (``CoreConfig.membership``); Table I and the real rows run the default.
+    memberships: tuple[MembershipKind, ...] = ("star",)
+    cells2: list[tuple[str, int, int, float]] = field(default_factory=list)
+    cells3: list[tuple[int, float]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        least = min(self.plugins)
+        cells2: list[tuple[str, int, int, float]] = [
+            (case, size, plugins, 0.0)
+            for case in CASES
+            if case in self.cases
+            for size in self.sizes
+            for plugins in self.plugins
+        ]
+        everywhere = sorted(set(self.sizes) | set(self.big_sizes))
+        for loss in (0.0, *self.losses) if "switch" in self.cases else ():
+            for size in everywhere:
+                cell = ("switch", size, least, loss)
+                if cell not in cells2:
+                    cells2.append(cell)
+        self.cells2 = cells2
+        self.cells3 = [(size, loss) for loss in (0.0, *self.losses) for size in everywhere]
+
+    def settings(self) -> TableSettings:
+        """How much every backend measures."""
+        return TableSettings(self.repeat, self.peers, self.window, self.seed)
+
+
+#: A batch of rows of any table.
+Rows = Sequence[Table1Row | Table2Row | Table3Row]
+
+
+class Backend(Protocol):
+    """Where the tables run (the simulator, real daemons): what one :func:`measure` needs
+    of it."""
+
+    @property
+    def mode(self) -> str:
+        """The ``mode`` its rows are tagged with."""
+        ...
+
+    def units(self, plan: Plan) -> int:
+        """The progress units (repetitions) :meth:`rows` will report for ``plan``."""
+        ...
+
+    def rows(self, plan: Plan, progress: Progress) -> Iterator[Rows]:
+        """The rows of ``plan``, a batch at a time: the report is saved after each."""
+        ...
+
+
+def measure(
+    plan: Plan,
+    backends: Sequence[Backend],
+    report: TablesReport,
+    progress: Progress = quiet,
+    row_done: Callable[[], None] = lambda: None,
+) -> None:
+    """Every row of ``plan`` on every backend whose mode it asks for, in the order given,
+    added to ``report``; ``row_done`` after each batch."""
+    tables: dict[type, list[Any]] = {
+        Table1Row: report.table1,
+        Table2Row: report.table2,
+        Table3Row: report.table3,
+    }
+    for backend in backends:
+        if backend.mode not in plan.modes:
+            continue
+        for batch in backend.rows(plan, progress):
+            for row in batch:
+                tables[type(row)].append(row)
+            row_done()
 
 
 _Row = TypeVar("_Row", Table1Row, Table2Row, Table3Row)

@@ -62,13 +62,14 @@ import os
 import random
 import statistics
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from actorswarm.bench.daemons import (
     LogTail,
+    deploy,
     describe_swarm,
     ground_session,
     measure_failover,
@@ -87,7 +88,9 @@ from actorswarm.bench.scripts import (
     table2_script,
 )
 from actorswarm.bench.tables import (
+    Plan,
     Progress,
+    Rows,
     Table1Row,
     Table2Row,
     Table2Sample,
@@ -107,10 +110,9 @@ if TYPE_CHECKING:
     from actorswarm.ground.station import GroundStation
 
 __all__ = [
-    "RealSettings",
+    "DaemonBackend",
     "real_table1",
     "real_table23",
-    "table1_units",
     "table23_units",
 ]
 
@@ -126,11 +128,14 @@ _FIRED_GRACE = 2.0
 
 
 @dataclass(frozen=True, slots=True)
-class RealSettings(TableSettings):
-    """How much to measure with real daemons: what both modes share, and how long to wait
-    for the daemons. Times are seconds; Table I's ``window`` is the measured daemon's CPU
-    window."""
+class DaemonBackend:
+    """The tables with real daemons (a :class:`~actorswarm.bench.tables.Backend`): how
+    much to measure, where the daemons keep their state, and how long to wait for them.
+    Times are seconds; Table I's ``window`` is the measured daemon's CPU window."""
 
+    settings: TableSettings = field(default_factory=TableSettings)
+    #: :meth:`rows` keeps the daemons' state and logs under it.
+    directory: Path = Path()
     #: Waiting for a swarm to agree (every view full, one master), for a deployment to be
     #: confirmed and started, and for a restarted daemon to be taken back.
     boot_timeout: float = 240.0
@@ -139,33 +144,52 @@ class RealSettings(TableSettings):
     #: Quiet time after a script starts, before measuring.
     settle: float = 2.0
 
+    @property
+    def mode(self) -> str:
+        return "real"
+
+    def units(self, plan: Plan) -> int:
+        """One per repetition: of Table I's plugin counts, of Table II's cases, plugin counts
+        and sizes, of Table III's failovers at each size."""
+        tables = frozenset(plan.tables)
+        units = table1_units(plan.plugins, self.settings) if "1" in tables else 0
+        return units + table23_units(plan.sizes, plan.plugins, self, tables)
+
+    def rows(self, plan: Plan, progress: Progress) -> Iterator[Rows]:
+        """Table I on one swarm, then Tables II and III on one swarm per size."""
+        if "1" in plan.tables:
+            yield real_table1(self.directory / "table1", plan.plugins, self, progress)
+        tables23 = frozenset(t for t in plan.tables if t in ("2", "3"))
+        if tables23:
+            rows2, rows3 = real_table23(
+                self.directory / "table23", plan.sizes, plan.plugins, self, tables23, progress
+            )
+            yield [*rows2, *rows3]
+
 
 def table23_units(
     sizes: Sequence[int],
     plugins: Sequence[int],
-    settings: RealSettings,
+    backend: DaemonBackend,
     tables: frozenset[str],
 ) -> int:
     """The progress units :func:`real_table23` reports: one per repetition of each case,
     plugin count and size (Table II), one per failover and size (Table III)."""
-    units = 0
-    if "2" in tables:
-        units += len(sizes) * len(plugins) * 2 * settings.repeat
-    if "3" in tables:
-        units += len(sizes) * settings.repeat
-    return units
+    repeat = backend.settings.repeat
+    units = len(sizes) * len(plugins) * 2 * repeat if "2" in tables else 0
+    return units + (len(sizes) * repeat if "3" in tables else 0)
 
 
 # --- shared steps --------------------------------------------------------------------------
 
 
-def _boot(swarm: LocalSwarm, settings: RealSettings) -> str:
+def _boot(swarm: LocalSwarm, backend: DaemonBackend) -> str:
     """Start every daemon and wait until they agree; "" or why not."""
     swarm.start_all()
-    if wait_stable(swarm, settings.boot_timeout):
+    if wait_stable(swarm, backend.boot_timeout):
         return ""
     return (
-        f"boot: the swarm of {swarm.size} did not agree within {settings.boot_timeout:.0f} s: "
+        f"boot: the swarm of {swarm.size} did not agree within {backend.boot_timeout:.0f} s: "
         f"{describe_swarm(swarm)}"
     )
 
@@ -178,64 +202,34 @@ def _not_run(samples: list[list[float]], count: int, progress: Progress, message
         progress(message, advance=1)
 
 
-async def _deploy(
-    gs: GroundSession,
-    swarm: LocalSwarm,
-    script: str,
-    name: str,
-    ready: Callable[[list[str]], bool],
-    timeout: float,
-) -> str:
-    """Deploy ``script`` to every platform and start it (a new version replaces the one
-    running); wait until every platform runs it with actors ``ready`` accepts. "" or why
-    not."""
-    everyone = list(range(1, swarm.size + 1))
-    data = script.encode()
-    (swarm.dir / f"{name}.xml").write_bytes(data)
-    sha = gs.do(lambda st, now: st.deploy(data, everyone, now))
-    if not await gs.wait_for(lambda: not gs.station.missing(sha), timeout):
-        return f"deploy {name}: not confirmed by platforms {gs.station.missing(sha)}"
-    gs.do(lambda st, now: st.start(now))
-
-    def running() -> bool:
-        statuses = [swarm.status(p) for p in everyone]
-        return all(st.get("script") == sha and ready(list(st.get("actors", []))) for st in statuses)
-
-    if await gs.wait_for(running, timeout):
-        return ""
-    statuses = {p: swarm.status(p) for p in everyone}
-    where = {p: (str(st.get("script", ""))[:12], st.get("actors")) for p, st in statuses.items()}
-    return f"start {name}: not every platform runs it (script, actors): {where}"
-
-
 # --- Table I -------------------------------------------------------------------------------
 
 
 def real_table1(
     directory: Path,
     plugins: Sequence[int],
-    settings: RealSettings,
+    backend: DaemonBackend,
     progress: Progress = quiet,
 ) -> list[Table1Row]:
     """Table I with ``peers + 1`` daemons under ``directory`` (see the module docstring):
     one row per plugin count, ``repeat`` windows each. The daemons are stopped before it
     returns."""
-    rows = [Table1Row(mode="real", plugins=n, peers=settings.peers) for n in plugins]
+    rows = [Table1Row(mode="real", plugins=n, peers=backend.settings.peers) for n in plugins]
     if not rows:
         return rows
-    size = settings.peers + 1
+    size = backend.settings.peers + 1
     measured = 2 if size >= 2 else 1
     with LocalSwarm(directory / "table1", size, swarm=f"t1x{os.getpid()}") as swarm:
         progress(f"real table I: starting {size} daemons")
-        failed = _boot(swarm, settings)
+        failed = _boot(swarm, backend)
         if failed:
             for row in rows:
                 row.errors.append(failed)
-                _not_run([row.cpu_pct, row.rss_mib], settings.repeat, progress, failed)
+                _not_run([row.cpu_pct, row.rss_mib], backend.settings.repeat, progress, failed)
             return rows
         logs = LogTail(swarm)
         for row in rows:
-            _table1_row(swarm, logs, row, measured, settings, progress)
+            _table1_row(swarm, logs, row, measured, backend, progress)
     return rows
 
 
@@ -244,7 +238,7 @@ def _table1_row(
     logs: LogTail,
     row: Table1Row,
     measured: int,
-    settings: RealSettings,
+    backend: DaemonBackend,
     progress: Progress,
 ) -> None:
     a, b, _ = actor_names(row.plugins)
@@ -254,31 +248,33 @@ def _table1_row(
     def alternating(actors: list[str]) -> bool:
         return actors in ([a], [b])
 
-    async def deploy() -> str:
+    async def start() -> str:
         async with ground_session(swarm) as gs:
-            return await _deploy(
+            return await deploy(
                 gs,
                 swarm,
                 table1_script(swarm.size, row.plugins, _PERIOD),
                 f"table1-p{row.plugins}",
                 alternating,
-                settings.boot_timeout,
+                backend.boot_timeout,
             )
 
-    failed = asyncio.run(deploy())
+    failed = asyncio.run(start())
     if failed:
         row.errors.append(failed)
-        _not_run([row.cpu_pct, row.rss_mib], settings.repeat, progress, f"{label}: not run")
+        _not_run([row.cpu_pct, row.rss_mib], backend.settings.repeat, progress, f"{label}: not run")
         return
-    time.sleep(settings.settle)  # the start's burst of work is not the steady state
+    time.sleep(backend.settle)  # the start's burst of work is not the steady state
     proc = swarm.procs[measured]
-    for r in range(settings.repeat):
-        progress(f"{label}: window {r + 1}/{settings.repeat} ({settings.window:g} s)")
+    for r in range(backend.settings.repeat):
+        progress(
+            f"{label}: window {r + 1}/{backend.settings.repeat} ({backend.settings.window:g} s)"
+        )
         logs.mark()
         problem = ""
         try:
             cpu0, t0 = read_cpu_seconds(proc.pid), clock()
-            time.sleep(settings.window)
+            time.sleep(backend.settings.window)
             cpu1, t1 = read_cpu_seconds(proc.pid), clock()
             rss_kib, _ = read_memory_kib(proc.pid)
             if proc.poll() is not None:
@@ -295,7 +291,7 @@ def _table1_row(
             if line["event"] == "switched" and isinstance(line.get("took_ms"), int | float)
         ]
         row.switch_ms += took
-        if not took and not problem and settings.window >= 1.5 * _PERIOD:
+        if not took and not problem and backend.settings.window >= 1.5 * _PERIOD:
             # A window that long always holds a switch, unless the alternation stalled.
             problem = f"platform {measured} logged no switch (the alternation stalled?)"
         if problem:
@@ -342,7 +338,7 @@ class _Table2:
     gs: GroundSession
     swarm: LocalSwarm
     logs: LogTail
-    settings: RealSettings
+    backend: DaemonBackend
     rng: random.Random
     progress: Progress
 
@@ -352,24 +348,26 @@ class _Table2:
 
     async def rows(self, switch_row: Table2Row, branch_row: Table2Row) -> None:
         """Both cases of one plugin count, on a new version of the script."""
-        size, count, settings = self.swarm.size, switch_row.plugins, self.settings
+        size, count, backend = self.swarm.size, switch_row.plugins, self.backend
         a, b, c = actor_names(count)
         label = f"real table II: N={size}, {count} plugin(s)"
         self.progress(f"{label}: deploying")
-        failed = await _deploy(
+        failed = await deploy(
             self.gs,
             self.swarm,
             table2_script(size, count),
             f"table2-p{count}",
-            _only(a),
-            settings.boot_timeout,
+            lambda actors: actors == [a],
+            backend.boot_timeout,
         )
         if failed:
             for row in (switch_row, branch_row):
                 row.errors.append(failed)
-                _not_run(sample_lists(row), settings.repeat, self.progress, f"{label}: not run")
+                _not_run(
+                    sample_lists(row), backend.settings.repeat, self.progress, f"{label}: not run"
+                )
             return
-        await asyncio.sleep(settings.settle)
+        await asyncio.sleep(backend.settle)
         await self.switch_case(switch_row, a, b)
         await self.branch_case(branch_row, a, c)
 
@@ -378,7 +376,7 @@ class _Table2:
     ) -> tuple[Table2Sample, str]:
         """Send ``event`` to ``targets`` and measure their switch to ``dst``: the sample,
         and "" or what went wrong (then some fields are NaN)."""
-        timeout = self.settings.run_timeout
+        timeout = self.backend.run_timeout
         name, key = event
         await asyncio.sleep(_GAP)
         self.logs.mark()
@@ -467,12 +465,12 @@ class _Table2:
         self.gs.do(force)
         return await self.gs.wait_for(
             lambda: all(self.swarm.status(p).get("actors") == [home] for p in self.everyone),
-            self.settings.run_timeout,
+            self.backend.run_timeout,
         )
 
     async def master(self) -> int | None:
         await self.gs.wait_for(
-            lambda: self.swarm.agreed_master() is not None, self.settings.run_timeout
+            lambda: self.swarm.agreed_master() is not None, self.backend.run_timeout
         )
         return self.swarm.agreed_master()
 
@@ -490,7 +488,7 @@ class _Table2:
         master = await self.master()
         if master is None:
             row.errors.append(f"repetition {i + 1}: no agreed master")
-            self.not_run(row, self.settings.repeat - i, label)
+            self.not_run(row, self.backend.settings.repeat - i, label)
             return None
         sample, problem = await self.transition(event, dst, targets, master)
         record_sample(row, sample)
@@ -506,12 +504,12 @@ class _Table2:
         if await self.home(home):
             return False
         row.errors.append(f"after repetition {i + 1}: {_STUCK}")
-        self.not_run(row, self.settings.repeat - i - 1, label)
+        self.not_run(row, self.backend.settings.repeat - i - 1, label)
         return True
 
     async def switch_case(self, row: Table2Row, a: str, b: str) -> None:
         label = f"real table II: N={self.swarm.size}, {row.plugins} plugin(s), switch"
-        repeat = self.settings.repeat
+        repeat = self.backend.settings.repeat
         at = a  # where every platform is
         for i in range(repeat):
             event, dst = (GO, b) if at == a else (BACK, a)
@@ -533,7 +531,7 @@ class _Table2:
 
     async def branch_case(self, row: Table2Row, a: str, c: str) -> None:
         label = f"real table II: N={self.swarm.size}, {row.plugins} plugin(s), branch"
-        repeat = self.settings.repeat
+        repeat = self.backend.settings.repeat
         if self.swarm.size < 2:
             row.errors.append("a branch needs at least two platforms")
             self.not_run(row, repeat, label)
@@ -553,25 +551,6 @@ class _Table2:
                 return
 
 
-def _only(actor: str) -> Callable[[list[str]], bool]:
-    """Accepts a platform that runs ``actor`` and nothing else."""
-    return lambda actors: actors == [actor]
-
-
-async def _table2(
-    swarm: LocalSwarm,
-    logs: LogTail,
-    rows: list[tuple[Table2Row, Table2Row]],
-    settings: RealSettings,
-    rng: random.Random,
-    progress: Progress,
-) -> None:
-    async with ground_session(swarm) as gs:
-        table = _Table2(gs, swarm, logs, settings, rng, progress)
-        for switch_row, branch_row in rows:
-            await table.rows(switch_row, branch_row)
-
-
 # --- Tables II and III ---------------------------------------------------------------------
 
 
@@ -579,7 +558,7 @@ def real_table23(
     directory: Path,
     sizes: Sequence[int],
     plugins: Sequence[int],
-    settings: RealSettings,
+    backend: DaemonBackend,
     tables: frozenset[str] = frozenset({"2", "3"}),
     progress: Progress = quiet,
 ) -> tuple[list[Table2Row], list[Table3Row]]:
@@ -602,7 +581,7 @@ def real_table23(
             else []
         )
         row3 = Table3Row(mode="real", size=size) if "3" in tables else None
-        _one_size(directory / f"n{size}", size, pairs, row3, settings, progress)
+        _one_size(directory / f"n{size}", size, pairs, row3, backend, progress)
         table2 += [row for pair in pairs for row in pair]
         if row3 is not None:
             table3.append(row3)
@@ -614,51 +593,62 @@ def _one_size(
     size: int,
     pairs: list[tuple[Table2Row, Table2Row]],
     row3: Table3Row | None,
-    settings: RealSettings,
+    backend: DaemonBackend,
     progress: Progress,
 ) -> None:
     if not pairs and row3 is None:
         return
-    rng = random.Random(f"tables-real:{settings.seed}:{size}")
+    rng = random.Random(f"tables-real:{backend.settings.seed}:{size}")
     with LocalSwarm(directory, size, swarm=f"t23x{os.getpid()}n{size}") as swarm:
         progress(f"real tables II/III: starting {size} daemons")
-        failed = _boot(swarm, settings)
+        failed = _boot(swarm, backend)
         if failed:
             for row in [r for pair in pairs for r in pair]:
                 row.errors.append(failed)
-                _not_run(sample_lists(row), settings.repeat, progress, f"N={size}: not run")
+                _not_run(sample_lists(row), backend.settings.repeat, progress, f"N={size}: not run")
             if row3 is not None:
                 row3.errors.append(failed)
-                _not_run([row3.election_ms], settings.repeat, progress, f"N={size}: not run")
+                _not_run(
+                    [row3.election_ms], backend.settings.repeat, progress, f"N={size}: not run"
+                )
             return
         logs = LogTail(swarm)
+
+        async def table2() -> None:
+            async with ground_session(swarm) as gs:
+                table = _Table2(gs, swarm, logs, backend, rng, progress)
+                for switch_row, branch_row in pairs:
+                    await table.rows(switch_row, branch_row)
+
         if pairs:
-            asyncio.run(_table2(swarm, logs, pairs, settings, rng, progress))
+            asyncio.run(table2())
         if row3 is not None:
-            _table3(swarm, logs, row3, settings, rng, progress)
+            _table3(swarm, logs, row3, backend, rng, progress)
 
 
 def _table3(
     swarm: LocalSwarm,
     logs: LogTail,
     row: Table3Row,
-    settings: RealSettings,
+    backend: DaemonBackend,
     rng: random.Random,
     progress: Progress,
 ) -> None:
     label = f"real table III: N={swarm.size}"
     if swarm.size < 2:
         row.errors.append("a failover needs at least two platforms")
-        _not_run([row.election_ms], settings.repeat, progress, f"{label}: not run")
+        _not_run([row.election_ms], backend.settings.repeat, progress, f"{label}: not run")
         return
-    for i in range(settings.repeat):
-        progress(f"{label}: master failover {i + 1}/{settings.repeat}")
-        run = measure_failover(swarm, logs, settings, rng)
+    for i in range(backend.settings.repeat):
+        progress(f"{label}: master failover {i + 1}/{backend.settings.repeat}")
+        run = measure_failover(swarm, logs, backend, rng)
         row.election_ms.append(NAN if math.isnan(run.to_all_s) else run.to_all_s * 1000)
         if run.error:
             row.errors.append(f"failover {i + 1} (platform {run.killed} killed): {run.error}")
         progress(f"{label}: failover {i + 1} done", advance=1)
         if run.error and not settled(swarm):
             row.errors.append(f"after failover {i + 1}: the swarm did not recover; stopped")
-            _not_run([row.election_ms], settings.repeat - i - 1, progress, f"{label}: not run")
+            _not_run(
+                [row.election_ms], backend.settings.repeat - i - 1, progress, f"{label}: not run"
+            )
             return

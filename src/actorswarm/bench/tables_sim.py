@@ -22,7 +22,7 @@ Table I's CPU figure and switch times are wall-clock measurements of this proces
   heartbeat phase (in a swarm in which every platform has the whole swarm in its view); the
   time until a new master has every survivor in its view and each of them reported to it.
 
-Tables II and III run the collective core with :attr:`SimSettings.membership` (the row
+Tables II and III run the collective core with :attr:`SimBackend.membership` (the row
 records it); Table I with the core's default.
 """
 
@@ -31,8 +31,8 @@ from __future__ import annotations
 import random
 import statistics
 import time
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
 
 from actorswarm.bench.core import run_failover
 from actorswarm.bench.scripts import (
@@ -45,7 +45,9 @@ from actorswarm.bench.scripts import (
     table2_script,
 )
 from actorswarm.bench.tables import (
+    Plan,
     Progress,
+    Rows,
     Table1Row,
     Table2Row,
     Table2Sample,
@@ -64,12 +66,11 @@ from actorswarm.sim.radio import LinkModel
 from actorswarm.sim.tasksim import TaskSim
 
 __all__ = [
-    "SimSettings",
+    "SimBackend",
     "radio_model",
     "sim_table1",
-    "sim_table2",
+    "sim_table2_cell",
     "sim_table3",
-    "table1_units",
 ]
 
 NAN = float("nan")
@@ -81,11 +82,12 @@ BIG = 100
 
 
 @dataclass(frozen=True, slots=True)
-class SimSettings(TableSettings):
-    """How the simulated tables run: what both modes share, and the simulated radio, the
-    membership scheme and the repetitions beyond the paper's sizes. Times are seconds
-    (virtual unless said otherwise)."""
+class SimBackend:
+    """The tables in the simulator (a :class:`~actorswarm.bench.tables.Backend`): how much
+    to measure, and the simulated radio, the membership scheme and the repetitions beyond
+    the paper's sizes. Times are seconds (virtual unless said otherwise)."""
 
+    settings: TableSettings = field(default_factory=TableSettings)
     #: Repetitions at the sizes beyond the paper's (≥ 100): a 1000-platform swarm runs at
     #: about 100 s of wall time per simulated second on a 2-core machine, so forming it
     #: and one repetition take 5–10 minutes (much longer under heavy loss).
@@ -104,16 +106,43 @@ class SimSettings(TableSettings):
     #: (members heartbeat to the master only) or "broadcast" (everyone to everyone).
     membership: MembershipKind = "star"
 
+    @property
+    def mode(self) -> str:
+        return "sim"
+
     def repeats(self, size: int) -> int:
-        return self.big_repeat if size >= BIG else self.repeat
+        return self.big_repeat if size >= BIG else self.settings.repeat
+
+    def units(self, plan: Plan) -> int:
+        """One per repetition of every row of ``plan``, in each of its membership schemes."""
+        schemes = len(plan.memberships)
+        units = table1_units(plan.plugins, self.settings) if "1" in plan.tables else 0
+        if "2" in plan.tables:
+            units += schemes * sum(self.repeats(size) for _, size, _, _ in plan.cells2)
+        if "3" in plan.tables:
+            units += schemes * sum(self.repeats(size) for size, _ in plan.cells3)
+        return units
+
+    def rows(self, plan: Plan, progress: Progress) -> Iterator[Rows]:
+        """Table I, then one cell at a time (each is seeded by itself), so the rows so far
+        are saved; the schemes of one cell run one after the other, so a run cut short has
+        pairs."""
+        if "1" in plan.tables:
+            yield sim_table1(plan.plugins, self, progress)
+        for cell in plan.cells2 if "2" in plan.tables else []:
+            for scheme in plan.memberships:
+                yield [sim_table2_cell(*cell, replace(self, membership=scheme), progress)]
+        for cell3 in plan.cells3 if "3" in plan.tables else []:
+            for scheme in plan.memberships:
+                yield sim_table3([cell3], replace(self, membership=scheme), progress)
 
 
-def radio_model(settings: SimSettings, config: CoreConfig | None = None) -> dict[str, object]:
+def radio_model(backend: SimBackend, config: CoreConfig | None = None) -> dict[str, object]:
     """What the simulated rows depend on, for the report."""
     config = config or CoreConfig()
     return {
-        "latency_ms": settings.latency * 1000,
-        "jitter_ms": settings.jitter * 1000,
+        "latency_ms": backend.latency * 1000,
+        "jitter_ms": backend.jitter * 1000,
         "loss": "independent per packet and receiver, at the row's rate",
         "heartbeat_ms": config.heartbeat_interval * 1000,
         "t_leave_ms": config.t_leave * 1000,
@@ -124,9 +153,7 @@ def radio_model(settings: SimSettings, config: CoreConfig | None = None) -> dict
     }
 
 
-def replay_command(
-    table: str, size: int, loss: float, settings: SimSettings, **only: object
-) -> str:
+def replay_command(table: str, size: int, loss: float, backend: SimBackend, **only: object) -> str:
     """The command that measures this row again, exactly (same seed, same repetitions, same
     membership scheme — named even when it is the default, so the command keeps its meaning
     if the default changes);
@@ -136,8 +163,8 @@ def replay_command(
     parts = [f"actorswarm bench {table} --mode sim --sizes {size} --big-sizes ''"]
     parts += [f"--{k} {v}" for k, v in only.items()]
     parts += [f"--loss {loss:g}" if loss else "--loss ''"]
-    parts += [f"{repeat} {settings.repeats(size)} --seed {settings.seed}"]
-    parts += [f"--membership {settings.membership}"]
+    parts += [f"{repeat} {backend.repeats(size)} --seed {backend.settings.seed}"]
+    parts += [f"--membership {backend.membership}"]
     return " ".join(parts)
 
 
@@ -167,27 +194,27 @@ def _settled(sim: TaskSim, size: int, limit: float) -> bool:
 
 
 def sim_table1(
-    plugins: Sequence[int], settings: SimSettings, progress: Progress = quiet
+    plugins: Sequence[int], backend: SimBackend, progress: Progress = quiet
 ) -> list[Table1Row]:
     rows = []
-    size = settings.peers + 1
+    size = backend.settings.peers + 1
     for count in plugins:
-        row = Table1Row(mode="sim", plugins=count, peers=settings.peers)
+        row = Table1Row(mode="sim", plugins=count, peers=backend.settings.peers)
         sim = TaskSim(
             _script(table1_script(size, count)),
-            seed=settings.seed,
-            link=LinkModel(latency=settings.latency, jitter=settings.jitter),
+            seed=backend.settings.seed,
+            link=LinkModel(latency=backend.latency, jitter=backend.jitter),
         )
         progress(f"sim table I: {size} platforms, {count} plugin(s), starting")
         sim.advance(3.0)  # boot: startup wait, joins, election
         for host in sim.hosts.values():
             host.engine.runtime.drain_switch_times()
-        for r in range(settings.repeat):
-            progress(f"sim table I: {count} plugin(s), window {r + 1}/{settings.repeat}")
+        for r in range(backend.settings.repeat):
+            progress(f"sim table I: {count} plugin(s), window {r + 1}/{backend.settings.repeat}")
             began = time.process_time()
-            sim.advance(sim.swarm.now + settings.window)
+            sim.advance(sim.swarm.now + backend.settings.window)
             used = time.process_time() - began
-            row.cpu_pct.append(100.0 * used / (size * settings.window))
+            row.cpu_pct.append(100.0 * used / (size * backend.settings.window))
             for host in sim.hosts.values():
                 row.switch_ms += [s * 1000 for s in host.engine.runtime.drain_switch_times()]
             progress(f"sim table I: {count} plugin(s), window {r + 1}", advance=1)
@@ -301,7 +328,7 @@ def sim_table2_cell(
     size: int,
     plugins: int,
     loss: float,
-    settings: SimSettings,
+    backend: SimBackend,
     progress: Progress = quiet,
 ) -> Table2Row:
     """Every repetition of one (case, size, plugins, loss) on one simulated swarm."""
@@ -311,28 +338,28 @@ def sim_table2_cell(
         size=size,
         plugins=plugins,
         loss=loss,
-        membership=settings.membership,
+        membership=backend.membership,
     )
-    repeats = settings.repeats(size)
+    repeats = backend.repeats(size)
     # The same seed in either membership scheme: the two rows differ by the scheme only.
-    seed = settings.seed * 1_000_003 + size * 101 + plugins * 7 + round(loss * 100)
-    replay = replay_command("table2", size, loss, settings, cases=case, plugins=plugins)
+    seed = backend.settings.seed * 1_000_003 + size * 101 + plugins * 7 + round(loss * 100)
+    replay = replay_command("table2", size, loss, backend, cases=case, plugins=plugins)
     label = (
-        f"sim table II {case} {settings.membership}: N={size}, {plugins} plugin(s), {loss:.0%} loss"
+        f"sim table II {case} {backend.membership}: N={size}, {plugins} plugin(s), {loss:.0%} loss"
     )
     if case == "branch" and size < 2:
         row.errors.append("branching needs two platforms")
         progress(label, advance=repeats)
         return row
     sim = TaskSim(
-        _script(table2_script(size, plugins, timeout=settings.run_timeout)),
+        _script(table2_script(size, plugins, timeout=backend.run_timeout)),
         seed=seed,
-        link=LinkModel(latency=settings.latency, jitter=settings.jitter, loss=loss),
-        config=CoreConfig(membership=settings.membership),
+        link=LinkModel(latency=backend.latency, jitter=backend.jitter, loss=loss),
+        config=CoreConfig(membership=backend.membership),
     )
     progress(f"{label}: booting")
-    if not _settled(sim, size, settings.settle_timeout):
-        why = f"the swarm did not form in {settings.settle_timeout:g} s"
+    if not _settled(sim, size, backend.settle_timeout):
+        why = f"the swarm did not form in {backend.settle_timeout:g} s"
         for _ in range(repeats):
             _record(row, None, why, replay)
         progress(label, advance=repeats)
@@ -347,14 +374,14 @@ def sim_table2_cell(
         if case == "switch":
             event = go if at == a else back
             targets = everyone
-            sample, why = _fire(sim, event, targets, settings.run_timeout)
+            sample, why = _fire(sim, event, targets, backend.run_timeout)
             at = event[2]
             sim.advance(sim.swarm.now + SETTLE)
         else:
             targets = sorted(rng.sample(everyone, 2))
-            sample, why = _fire(sim, split, targets, settings.run_timeout)
+            sample, why = _fire(sim, split, targets, backend.run_timeout)
             if sample is not None:
-                sample_back, _ = _fire(sim, rejoin, targets, settings.run_timeout)
+                sample_back, _ = _fire(sim, rejoin, targets, backend.run_timeout)
                 sim.advance(sim.swarm.now + SETTLE)
                 if sample_back is None:
                     why = "rejoin did not bring both back"
@@ -368,7 +395,7 @@ def sim_table2_cell(
         # saves minutes).
         if r + 1 == repeats:
             break
-        if (sample is None or why) and not _force(sim, targets, at, settings.run_timeout):
+        if (sample is None or why) and not _force(sim, targets, at, backend.run_timeout):
             for _ in range(r + 1, repeats):
                 _record(row, None, f"not run: platforms could not be forced to {at}", replay)
             progress(label, advance=repeats - r - 1)
@@ -376,43 +403,27 @@ def sim_table2_cell(
     return row
 
 
-def sim_table2(
-    cells: Sequence[tuple[str, int, int, float]],
-    settings: SimSettings,
-    progress: Progress = quiet,
-) -> list[Table2Row]:
-    """:func:`sim_table2_cell` for every ``(case, size, plugins, loss)``."""
-    return [
-        sim_table2_cell(case, size, plugins, loss, settings, progress)
-        for case, size, plugins, loss in cells
-    ]
-
-
-def table2_units(cells: Sequence[tuple[str, int, int, float]], settings: SimSettings) -> int:
-    return sum(settings.repeats(size) for _, size, _, _ in cells)
-
-
 # --- Table III -----------------------------------------------------------------------------
 
 
 def sim_table3(
     cells: Sequence[tuple[int, float]],
-    settings: SimSettings,
+    backend: SimBackend,
     progress: Progress = quiet,
 ) -> list[Table3Row]:
     """For every ``(size, loss)``: the master crashes; the new master is acknowledged."""
-    config = CoreConfig(membership=settings.membership)
+    config = CoreConfig(membership=backend.membership)
     rows = []
     for size, loss in cells:
-        row = Table3Row(mode="sim", size=size, loss=loss, membership=settings.membership)
-        link = LinkModel(latency=settings.latency, jitter=settings.jitter, loss=loss)
-        repeats = settings.repeats(size)
-        replay = replay_command("table3", size, loss, settings)
+        row = Table3Row(mode="sim", size=size, loss=loss, membership=backend.membership)
+        link = LinkModel(latency=backend.latency, jitter=backend.jitter, loss=loss)
+        repeats = backend.repeats(size)
+        replay = replay_command("table3", size, loss, backend)
         for r in range(repeats):
             progress(
-                f"sim table III {settings.membership}: N={size}, {loss:.0%} loss, {r + 1}/{repeats}"
+                f"sim table III {backend.membership}: N={size}, {loss:.0%} loss, {r + 1}/{repeats}"
             )
-            seed = settings.seed * 1_000_003 + size * 1000 + r
+            seed = backend.settings.seed * 1_000_003 + size * 1000 + r
             try:
                 run, _ = run_failover(size, seed, link, config)
             except RuntimeError as exc:  # a swarm that never settled
@@ -428,7 +439,3 @@ def sim_table3(
             progress(f"sim table III: N={size}", advance=1)
         rows.append(row)
     return rows
-
-
-def table3_units(cells: Sequence[tuple[int, float]], settings: SimSettings) -> int:
-    return sum(settings.repeats(size) for size, _ in cells)

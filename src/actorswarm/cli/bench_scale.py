@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import math
 import shlex
-import signal
 from dataclasses import replace
 from enum import StrEnum
 from pathlib import Path
@@ -22,7 +21,13 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from actorswarm.cli.bench_tables import Membership, memberships
+from actorswarm.cli.bench_tables import (
+    Membership,
+    interrupted,
+    memberships,
+    unwind_on_sigterm,
+    write_whole,
+)
 from actorswarm.cli.common import output_paths
 
 if TYPE_CHECKING:
@@ -243,10 +248,7 @@ def bench_scale(
         if json_out is not None:
             _save_json(replace(report, cut_short="in progress"), json_out)
 
-    def terminated(signum: int, frame: object) -> None:
-        raise SystemExit(128 + signum)
-
-    signal.signal(signal.SIGTERM, terminated)
+    unwind_on_sigterm()
     try:
         with console.status("starting") as status:
             report = run_scale(
@@ -262,10 +264,8 @@ def bench_scale(
             )
     except (KeyboardInterrupt, SystemExit) as exc:
         if saved:
-            why = "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else f"exit {exc.code}"
-            console.print(f"[yellow]interrupted ({why}): writing the rows so far[/yellow]")
             cut = saved[0]
-            cut.cut_short = f"interrupted ({why}) after {len(cut.cells)} row(s)"
+            cut.cut_short = f"{interrupted(exc, console)} after {len(cut.cells)} row(s)"
             _write(cut, out, json_out, plot)
         raise
     _write(report, out, json_out, plot)
@@ -300,13 +300,9 @@ def _line(cell: ScaleCell) -> str:
 
 
 def _save_json(report: ScaleReport, path: Path) -> None:
-    """Written whole and renamed: a reader never sees half a file."""
     from actorswarm.bench.scale import to_json
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    part = path.with_name(path.name + ".part")
-    part.write_text(json.dumps(to_json(report), indent=1, allow_nan=False) + "\n")
-    part.replace(path)
+    write_whole(path, json.dumps(to_json(report), indent=1, allow_nan=False) + "\n")
 
 
 def _write(report: ScaleReport, out: Path | None, json_out: Path | None, plot: Path | None) -> None:

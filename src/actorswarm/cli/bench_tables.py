@@ -20,7 +20,7 @@ import tempfile
 import time
 import typing
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, replace
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -32,10 +32,10 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from actorswarm.cli.common import output_paths
 
 if TYPE_CHECKING:
-    from actorswarm.bench.tables import TablesReport
+    from actorswarm.bench.tables import Plan, TablesReport
     from actorswarm.core.config import MembershipKind
 
-__all__ = ["Plan", "register"]
+__all__ = ["register"]
 
 console = Console(stderr=True)
 
@@ -62,51 +62,7 @@ def memberships(choice: Membership) -> tuple[MembershipKind, ...]:
 TABLES = {"table1": ("1",), "table2": ("2",), "table3": ("3",), "all": ("1", "2", "3")}
 
 
-@dataclass(slots=True)
-class Plan:
-    """What one run measures. ``sizes`` are the paper's (both modes); ``big_sizes`` and
-    ``losses`` are beyond it (simulator only: Table II(a) and III)."""
-
-    tables: tuple[str, ...]
-    modes: tuple[str, ...]
-    sizes: list[int]
-    big_sizes: list[int]
-    plugins: list[int]
-    losses: list[float]
-    repeat: int
-    big_repeat: int
-    peers: int
-    window: float
-    seed: int
-    #: Table II's cases: ``switch`` (II(a): also the big sizes and the loss rates) and
-    #: ``branch`` (II(b), at the paper's sizes).
-    cases: tuple[str, ...] = ("switch", "branch")
-    #: The simulated rows of Tables II and III are measured once in each of these membership
-    #: schemes (``CoreConfig.membership``); Table I and the real rows run the default.
-    memberships: tuple[MembershipKind, ...] = ("star",)
-    cells2: list[tuple[str, int, int, float]] = field(default_factory=list)
-    cells3: list[tuple[int, float]] = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        least = min(self.plugins)
-        cells2: list[tuple[str, int, int, float]] = [
-            (case, size, plugins, 0.0)
-            for case in ("switch", "branch")
-            if case in self.cases
-            for size in self.sizes
-            for plugins in self.plugins
-        ]
-        everywhere = sorted(set(self.sizes) | set(self.big_sizes))
-        for loss in (0.0, *self.losses) if "switch" in self.cases else ():
-            for size in everywhere:
-                cell = ("switch", size, least, loss)
-                if cell not in cells2:
-                    cells2.append(cell)
-        self.cells2 = cells2
-        self.cells3 = [(size, loss) for loss in (0.0, *self.losses) for size in everywhere]
-
-
-def _ints(text: str, flag: str, low: int, high: int, *, empty: bool = False) -> list[int]:
+def _ints(text: str, low: int, high: int, *, empty: bool = False) -> list[int]:
     parts = [p.strip() for p in text.split(",") if p.strip()]
     if not parts and empty:
         return []
@@ -116,7 +72,6 @@ def _ints(text: str, flag: str, low: int, high: int, *, empty: bool = False) -> 
         raise typer.BadParameter(f"expected comma-separated integers, got {text!r}") from None
     if not values or any(v < low or v > high for v in values):
         raise typer.BadParameter(f"every value must be {low}..{high}, got {text!r}")
-    del flag
     return values
 
 
@@ -215,18 +170,19 @@ def bench_tables(
         raise typer.BadParameter(
             f"--membership {membership.value}: only Tables II and III choose the scheme"
         )
+    from actorswarm.bench.tables import Plan
+
     plan = Plan(
         tables=TABLES[which],
         modes=("sim", "real") if mode is Mode.both else (mode.value,),
-        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), "--sizes", 2, 10_000),
+        sizes=_ints(sizes or ("3,5" if quick else "5,10,15,20,25,30"), 2, 10_000),
         big_sizes=_ints(
             big_sizes if big_sizes is not None else ("" if quick else "100,1000"),
-            "--big-sizes",
             2,
             10_000,
             empty=True,
         ),
-        plugins=_ints(plugins or ("1" if quick else "1,5"), "--plugins", 1, 20),
+        plugins=_ints(plugins or ("1" if quick else "1,5"), 1, 20),
         losses=_losses(loss if loss is not None else ("0.1" if quick else "0.1,0.3")),
         repeat=repeat or (2 if quick else 10),
         big_repeat=big_repeat or (1 if quick else 3),
@@ -239,11 +195,7 @@ def bench_tables(
     output_paths({"--out": out, "--json": json_out, "--dir": directory}, dirs=("--out", "--dir"))
     command = "actorswarm bench " + shlex.join(sys.argv[2:])  # '' stays visible
 
-    def terminated(signum: int, frame: object) -> None:
-        # Unwind like Ctrl-C, so the daemons started so far are killed on the way out.
-        raise SystemExit(128 + signum)
-
-    signal.signal(signal.SIGTERM, terminated)
+    unwind_on_sigterm()
     saved: list[TablesReport] = []
 
     def checkpoint(report: TablesReport) -> None:
@@ -255,11 +207,34 @@ def bench_tables(
             report = run(plan, command, directory or Path(scratch), checkpoint)
     except (KeyboardInterrupt, SystemExit) as exc:
         if saved:
-            why = "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else f"exit {exc.code}"
-            console.print(f"[yellow]interrupted ({why}): writing the rows so far[/yellow]")
-            _write(_cut(saved[0], f"interrupted ({why})"), out, json_out)
+            _write(_cut(saved[0], interrupted(exc, console)), out, json_out)
         raise
     _write(report, out, json_out)
+
+
+def unwind_on_sigterm() -> None:
+    """SIGTERM unwinds like Ctrl-C: the daemons started so far are killed on the way out,
+    and the rows so far are written."""
+
+    def terminated(signum: int, frame: object) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, terminated)
+
+
+def interrupted(exc: KeyboardInterrupt | SystemExit, console: Console) -> str:
+    """Why a run stops short ("interrupted (Ctrl-C)"), said on ``console`` first."""
+    why = "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else f"exit {exc.code}"
+    console.print(f"[yellow]interrupted ({why}): writing the rows so far[/yellow]")
+    return f"interrupted ({why})"
+
+
+def write_whole(path: Path, text: str) -> None:
+    """``text`` into ``path``, written whole and renamed: a reader never sees half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    part = path.with_name(path.name + ".part")
+    part.write_text(text)
+    part.replace(path)
 
 
 def _cases(text: str) -> tuple[str, ...]:
@@ -288,11 +263,7 @@ def _save_json(report: TablesReport, out: Path | None, json_out: Path | None, wh
         return
     data = json.dumps(to_json(_cut(report, why)), indent=1) + "\n"
     for path in targets:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        # Written whole and renamed: a reader never sees half a file.
-        part = path.with_name(path.name + ".part")
-        part.write_text(data)
-        part.replace(path)
+        write_whole(path, data)
 
 
 def run(
@@ -301,39 +272,22 @@ def run(
     directory: Path,
     checkpoint: Callable[[TablesReport], None] = lambda report: None,
 ) -> TablesReport:
-    """Every measurement of ``plan``, with a progress bar; the :class:`TablesReport`.
-    ``checkpoint`` is called with the report so far after every row."""
-    from actorswarm.bench import tables_real as real
-    from actorswarm.bench import tables_sim as sim
+    """Every measurement of ``plan`` (the simulator's first, then real daemons'), with a
+    progress bar; the :class:`TablesReport`. ``checkpoint`` is called with the report so far
+    after every row."""
     from actorswarm.bench.daemons import machine_info
-    from actorswarm.bench.tables import TablesReport
+    from actorswarm.bench.tables import Backend, TablesReport, measure
+    from actorswarm.bench.tables_real import DaemonBackend
+    from actorswarm.bench.tables_sim import SimBackend, radio_model
 
-    sim_settings = sim.SimSettings(
-        repeat=plan.repeat,
-        big_repeat=plan.big_repeat,
-        peers=plan.peers,
-        window=plan.window,
-        seed=plan.seed,
-    )
-    real_settings = real.RealSettings(
-        repeat=plan.repeat, peers=plan.peers, window=plan.window, seed=plan.seed
-    )
-    tables23 = frozenset(t for t in plan.tables if t in ("2", "3"))
-    units = 0
-    schemes = len(plan.memberships)
-    if "sim" in plan.modes:
-        units += sim.table1_units(plan.plugins, sim_settings) if "1" in plan.tables else 0
-        units += schemes * sim.table2_units(plan.cells2, sim_settings) if "2" in plan.tables else 0
-        units += schemes * sim.table3_units(plan.cells3, sim_settings) if "3" in plan.tables else 0
-    if "real" in plan.modes:
-        units += real.table1_units(plan.plugins, real_settings) if "1" in plan.tables else 0
-        if tables23:
-            units += real.table23_units(plan.sizes, plan.plugins, real_settings, tables23)
+    simulator = SimBackend(plan.settings(), big_repeat=plan.big_repeat)
+    backends: list[Backend] = [simulator, DaemonBackend(plan.settings(), directory)]
+    units = sum(b.units(plan) for b in backends if b.mode in plan.modes)
     report = TablesReport(
         command=command,
         started=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         machine=machine_info(),
-        radio=sim.radio_model(sim_settings),
+        radio=radio_model(simulator),
         settings=asdict(plan),
     )
     began = time.perf_counter()
@@ -360,40 +314,7 @@ def run(
             report.wall_s = time.perf_counter() - began
             checkpoint(report)
 
-        if "sim" in plan.modes:
-            if "1" in plan.tables:
-                report.table1 += sim.sim_table1(plan.plugins, sim_settings, progress)
-                row_done()
-            # One cell at a time (each is seeded by itself): the rows so far are saved. The
-            # schemes of one cell run one after the other, so a run cut short has pairs.
-            for cell in plan.cells2 if "2" in plan.tables else []:
-                for scheme in plan.memberships:
-                    settings = replace(sim_settings, membership=scheme)
-                    report.table2 += sim.sim_table2([cell], settings, progress)
-                    row_done()
-            for cell3 in plan.cells3 if "3" in plan.tables else []:
-                for scheme in plan.memberships:
-                    settings = replace(sim_settings, membership=scheme)
-                    report.table3 += sim.sim_table3([cell3], settings, progress)
-                    row_done()
-        if "real" in plan.modes:
-            if "1" in plan.tables:
-                report.table1 += real.real_table1(
-                    directory / "table1", plan.plugins, real_settings, progress
-                )
-                row_done()
-            if tables23:
-                rows2, rows3 = real.real_table23(
-                    directory / "table23",
-                    plan.sizes,
-                    plan.plugins,
-                    real_settings,
-                    tables23,
-                    progress,
-                )
-                report.table2 += rows2
-                report.table3 += rows3
-                row_done()
+        measure(plan, backends, report, progress, row_done)
     report.wall_s = time.perf_counter() - began
     return report
 

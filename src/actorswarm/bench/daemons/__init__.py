@@ -45,12 +45,7 @@ measurements, :mod:`.run` orchestrates them size by size, :mod:`.results` holds 
 produce (and its JSON), :mod:`.stats` and :mod:`.report` turn it into the Markdown report.
 """
 
-from actorswarm.bench.daemons.measure import (
-    measure_failover,
-    measure_resources,
-    run_switches,
-    switch_script,
-)
+from actorswarm.bench.daemons.measure import measure_failover, switch_script
 from actorswarm.bench.daemons.probe import (
     LogTail,
     machine_info,
@@ -59,23 +54,14 @@ from actorswarm.bench.daemons.probe import (
     read_interface_packets,
     read_memory_kib,
     read_sleeps,
-    read_status_kib,
 )
 from actorswarm.bench.daemons.report import markdown
-from actorswarm.bench.daemons.results import (
-    BenchResult,
-    FailoverRun,
-    ResourceRun,
-    Settings,
-    SizeResult,
-    SwitchRun,
-    from_json,
-    to_json,
-)
-from actorswarm.bench.daemons.run import bench, bench_size
-from actorswarm.bench.daemons.stats import cpu_fit, p95, switch_cpu
+from actorswarm.bench.daemons.results import Settings, SizeResult, from_json, to_json
+from actorswarm.bench.daemons.run import bench
+from actorswarm.bench.daemons.stats import switch_cpu
 from actorswarm.bench.daemons.swarm import (
     daemons_env,
+    deploy,
     describe_swarm,
     ground_session,
     settled,
@@ -83,32 +69,23 @@ from actorswarm.bench.daemons.swarm import (
 )
 
 __all__ = [
-    "BenchResult",
-    "FailoverRun",
     "LogTail",
-    "ResourceRun",
     "Settings",
     "SizeResult",
-    "SwitchRun",
     "bench",
-    "bench_size",
-    "cpu_fit",
     "daemons_env",
+    "deploy",
     "describe_swarm",
     "from_json",
     "ground_session",
     "machine_info",
     "markdown",
     "measure_failover",
-    "measure_resources",
-    "p95",
     "read_cpu_ns",
     "read_cpu_seconds",
     "read_interface_packets",
     "read_memory_kib",
     "read_sleeps",
-    "read_status_kib",
-    "run_switches",
     "settled",
     "switch_cpu",
     "switch_script",

@@ -33,7 +33,7 @@ from actorswarm.bench.daemons.results import (
     SwitchRun,
 )
 from actorswarm.bench.daemons.stats import switch_cpu
-from actorswarm.bench.daemons.swarm import ground_session, wait, wait_stable
+from actorswarm.bench.daemons.swarm import deploy, ground_session, wait, wait_stable
 from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.loop import clock
 
@@ -232,26 +232,18 @@ async def run_switches(
 
     size = swarm.size
     everyone = list(range(1, size + 1))
-    data = switch_script(size).encode()
-    (swarm.dir / "bench-switch.xml").write_bytes(data)
     async with ground_session(swarm, settings.lease) as gs:
         progress(f"N={size}: deploying the switch script")
-        sha = gs.do(lambda st, now: st.deploy(data, everyone, now))
-        if not await gs.wait_for(lambda: not gs.station.missing(sha), settings.boot_timeout):
-            result.errors.append(f"deploy: not confirmed by {gs.station.missing(sha)}")
-            return
-        gs.do(lambda st, now: st.start(now))
-
-        def in_a() -> bool:
-            return set(everyone) <= set(gs.station.outcomes("Start")) and all(
-                swarm.status(p).get("actors") == ["A"] for p in everyone
-            )
-
-        if not await gs.wait_for(in_a, settings.boot_timeout):
-            result.errors.append(
-                "start: not every platform running A: "
-                + str({p: swarm.status(p).get("actors") for p in everyone})
-            )
+        failed = await deploy(
+            gs,
+            swarm,
+            switch_script(size),
+            "bench-switch",
+            lambda actors: actors == ["A"],
+            settings.boot_timeout,
+        )
+        if failed:
+            result.errors.append(failed)
             return
         if settings.script_window:
             await asyncio.sleep(settings.settle)

@@ -117,6 +117,39 @@ def ground_session(swarm: LocalSwarm, lease: float | None = None) -> GroundSessi
     return GroundSession(swarm.swarm, zenoh, guard)
 
 
+async def deploy(
+    gs: GroundSession,
+    swarm: LocalSwarm,
+    script: str,
+    name: str,
+    ready: Callable[[list[str]], bool],
+    timeout: float,
+) -> str:
+    """Deploy ``script`` to every platform from ``gs`` and start it (a new version replaces
+    the one running; a copy is kept as ``name``.xml in the swarm's directory); wait until
+    every platform acknowledged the start and runs it with actors ``ready`` accepts. "" or
+    why not."""
+    everyone = list(range(1, swarm.size + 1))
+    data = script.encode()
+    (swarm.dir / f"{name}.xml").write_bytes(data)
+    sha = gs.do(lambda st, now: st.deploy(data, everyone, now))
+    if not await gs.wait_for(lambda: not gs.station.missing(sha), timeout):
+        return f"deploy {name}: not confirmed by platforms {gs.station.missing(sha)}"
+    gs.do(lambda st, now: st.start(now))
+
+    def running() -> bool:
+        if not set(everyone) <= set(gs.station.outcomes("Start")):
+            return False
+        statuses = [swarm.status(p) for p in everyone]
+        return all(st.get("script") == sha and ready(list(st.get("actors", []))) for st in statuses)
+
+    if await gs.wait_for(running, timeout):
+        return ""
+    statuses = {p: swarm.status(p) for p in everyone}
+    where = {p: (str(st.get("script", ""))[:12], st.get("actors")) for p, st in statuses.items()}
+    return f"start {name}: not every platform runs it (script, actors): {where}"
+
+
 def daemons_env(checkout: str | Path) -> dict[str, str]:
     """The environment that makes a daemon run the source of ``checkout`` (its ``src`` first
     on ``PYTHONPATH``); ValueError when ``checkout`` holds no actorswarm source."""
