@@ -9,39 +9,54 @@ from actorswarm.core.wire import GROUND_STATION
 from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint
 from actorswarm.daemon.state import StateDir
 from actorswarm.ground.station import GroundStation
+from actorswarm.security.guard import PacketGuard
+from actorswarm.security.pipeline import Pipeline
 
 #: Three platforms start in A and switch to B together on go_event.
 SCRIPT = Path(__file__).with_name("three.xml").read_bytes()
 
 
 class Net:
-    """Endpoints wired together: every packet reaches its destination (or everyone else)
-    after ``latency``; time advances in steps of ``dt``."""
+    """Endpoints wired together as daemons are: each behind a pipeline (an insecure guard:
+    the frame only), fed one batch per step — a platform's output sent after every packet,
+    as the daemon's loop does — then ticked, its output sent. Every packet reaches its
+    destination (or everyone else) after ``latency``; time advances in steps of ``dt``."""
 
     def __init__(self, endpoints: dict[int, Endpoint], latency: float = 0.005) -> None:
         self.endpoints = endpoints
         self.latency = latency
         self.now = 0.0
         self.in_flight: list[tuple[float, int, bytes]] = []
+        self.pipelines = {
+            src: Pipeline(endpoint, _Port(self, src), PacketGuard.insecure())
+            for src, endpoint in endpoints.items()
+        }
 
     def run(self, until: float, dt: float = 0.005) -> None:
         while self.now < until:
             self.now = round(self.now + dt, 9)
             due = [p for p in self.in_flight if p[0] <= self.now]
             self.in_flight = [p for p in self.in_flight if p[0] > self.now]
-            for _, dst, data in due:
-                if dst in self.endpoints:
-                    self.endpoints[dst].receive(data, self.now)
+            for dst, pipeline in self.pipelines.items():
+                batch = [data for _, to, data in due if to == dst]
+                pipeline.receive_all(batch, self.now, flush_each=dst != GROUND_STATION)
             for src, endpoint in self.endpoints.items():
                 endpoint.tick(self.now)
-                for out in endpoint.drain_outgoing():
-                    targets = (
-                        [out.dst]
-                        if out.dst is not None
-                        else [p for p in self.endpoints if p != src]
-                    )
-                    for dst in targets:
-                        self.in_flight.append((self.now + self.latency, dst, out.data))
+                self.pipelines[src].flush()
+
+
+class _Port:
+    """Platform ``src``'s transport on the :class:`Net`."""
+
+    def __init__(self, net: Net, src: int) -> None:
+        self.net = net
+        self.src = src
+
+    def send(self, dst: int | None, data: bytes, *, urgent: bool = False, kind: str = "") -> None:
+        net = self.net
+        targets = [dst] if dst is not None else [p for p in net.endpoints if p != self.src]
+        for to in targets:
+            net.in_flight.append((net.now + net.latency, to, data))
 
 
 def _swarm(tmp_path: Path) -> tuple[Net, dict[int, PlatformEndpoint], GroundStation]:
