@@ -16,16 +16,23 @@ on until the node has nothing more to say (``has_ready``: the engine's reaction 
 the node send or report more); it returns the packets of every round, in the order they
 were taken.
 
-The engine reacts when ``ready()`` is taken, as in the simulator, whose host takes a node's
-``ready()`` after every packet it delivers. So a host takes ``ready()`` after every packet it
-hands over and after every :meth:`~PlatformEndpoint.tick` — the daemon's loop sends it then
-(:meth:`Pipeline.receive_all <actorswarm.security.pipeline.Pipeline.receive_all>` with
-``flush_each``). The engine then reacts to each packet's events before the next packet of a
-batch reaches the node, and the packets leave in the order they were taken: a packet of the
-batch that reads the state the engine's reaction left finds it, as it always did. (Taking
-``ready()`` once per batch would let the engine react only after the whole batch, a
-different daemon; keeping the packets here until the host asked would be a second holder
-on the way out.)
+The engine reacts when ``ready()`` is taken, so a host takes it after every packet it hands
+over and after every :meth:`~PlatformEndpoint.tick` (the daemon's loop:
+:meth:`Pipeline.receive_all <actorswarm.security.pipeline.Pipeline.receive_all>` with
+``flush_each``, then a flush after the tick) — what the simulator's host does with a node.
+The engine then reacts to each packet's events before the next packet of a batch reaches
+the node, and the packets leave in the order they were made, each packet's answer as soon
+as it is made. A host that never takes ``ready()`` leaves the engine deaf to the node.
+
+Why so: an endpoint that serviced its node itself after each packet would have to keep the
+packets somewhere until the loop sent them after the batch — a second holder on the way
+out. Of the ways to keep none, taking ``ready()`` once per batch would let the engine react
+only after the whole batch (a different daemon: a packet later in the batch would find the
+node in another state); handing the endpoint the pipeline's ``send`` when it is made would
+be a second way out, and a daemon opens its transport only after its endpoint exists (it
+may check a kept script first). Taking ``ready()`` per packet keeps what the daemon does —
+the engine's reactions interleaved per packet, the order of the packets on the wire — with
+one way out.
 """
 
 from __future__ import annotations
