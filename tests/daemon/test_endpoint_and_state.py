@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from actorswarm.core.wire import GROUND_STATION
+from actorswarm.core.wire import GROUND_STATION, Packet
 from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint
 from actorswarm.daemon.state import StateDir
 from actorswarm.ground.station import GroundStation
@@ -149,3 +149,34 @@ def test_replay_windows_survive_a_restart_and_damage(tmp_path: Path) -> None:
     assert state.replay_windows() == {}, "a damaged file protects nothing, and starts"
     (state.path / "replay.json").write_text("not json")
     assert state.replay_windows() == {}
+
+
+def _carried_out_before_each_packet(batch: list[bytes], each: bool) -> tuple[list[int], list[str]]:
+    """How many commands the engine had carried out when each packet of ``batch`` reached
+    the node, handed over with ``flush_each=each``; and every command, in order."""
+    endpoint = PlatformEndpoint(1, swarm="t", incarnation=0, now=0.0)
+    seen: list[int] = []
+    receive = endpoint.node.receive_packet
+
+    def spy(packet: Packet, now: float) -> None:
+        seen.append(len(endpoint.engine.commands))
+        receive(packet, now)
+
+    endpoint.node.receive_packet = spy  # type: ignore[method-assign]
+    pipeline = Pipeline(endpoint, _Port(Net({}), 1), PacketGuard.insecure())
+    assert pipeline.receive_all(batch, 0.1, flush_each=each) == len(batch)
+    pipeline.flush()
+    return seen, [c.event for c in endpoint.engine.commands]
+
+
+def test_the_engine_reacts_to_each_packet_before_the_next() -> None:
+    """Two operator commands arrive in one batch. Taken after every packet (the daemon's
+    loop), the engine has carried out the first when the second reaches the node; taken
+    once after the batch, it would not have."""
+    station = GroundStation(swarm="t", incarnation=7)
+    station.event("first", 0.0, platforms=[1])
+    station.event("second", 0.0, platforms=[1])
+    batch = [out.data for out in station.ready().packets]
+    assert len(batch) == 2
+    assert _carried_out_before_each_packet(batch, True) == ([0, 1], ["first", "second"])
+    assert _carried_out_before_each_packet(batch, False) == ([0, 0], ["first", "second"])
