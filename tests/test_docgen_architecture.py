@@ -81,3 +81,45 @@ def test_tree_lists_every_module_and_part_folder_with_a_plain_summary(tmp_path: 
     assert lines[4].endswith("Uses Thing and x")  # roles and literals read plain, one sentence
     assert lines[5].endswith(" …") and len(lines[5].split("lines  ", 1)[1]) <= 74
     assert len(lines) == 7  # notes/ is left out
+
+
+def test_every_door_of_an_endpoint_shows(tmp_path: Path) -> None:
+    """A class with a second way in (bytes to a ``receive``) or out (``drain_outgoing``)
+    shows it; a protocol and a class that takes no packets are left out."""
+    root = tmp_path / "pkg"
+    _package(
+        root,
+        "core",
+        {
+            "__init__.py": "",
+            "node.py": (
+                "from typing import Protocol\n"
+                "class Node:\n"
+                "    def receive(self, data: bytes, now: float) -> None: ...\n"
+                "    def receive_packet(self, packet: Packet, now: float) -> None: ...\n"
+                "    def deploy(self, script: bytes) -> str: ...\n"
+                "    def ready(self) -> Ready: ...\n"
+                "    def drain_outgoing(self) -> list[Outgoing]: ...\n"
+                "    def _emit(self, packet: Packet) -> None: ...\n"
+                "class Shape(Protocol):\n"
+                "    def receive_packet(self, packet: Packet, now: float) -> None: ...\n"
+                "class Other:\n"
+                "    def ready(self) -> bool: ...\n"
+            ),
+        },
+    )
+    assert architecture.endpoint_ways(root) == {
+        "core.node:Node": (["receive", "receive_packet"], ["ready", "drain_outgoing"])
+    }
+
+
+def test_the_packets_way_in_and_out_is_read_from_the_pipeline() -> None:
+    from actorswarm.security.pipeline import Pipeline
+
+    calls = architecture.method_calls(Pipeline)
+    assert calls["receive"] == [("guard", "check"), ("endpoint", "receive_packet")]
+    assert calls["flush"] == [("endpoint", "ready"), ("self", "send")], "ready() runs first"
+    assert calls["send"] == [("guard", "seal"), ("transport", "send")]
+    block = architecture.render()
+    for endpoint in ("Node (core.node.coordinator)", "GroundStation (ground.station)"):
+        assert f"{endpoint}<br/>in: receive_packet<br/>out: ready" in block

@@ -20,7 +20,7 @@ from actorswarm.bench.scripts import table1_script, table2_script
 from actorswarm.bench.tables import Table1Row, Table2Row, Table3Row, TableSettings, table1_units
 from actorswarm.bench.tables_real import DaemonBackend, real_table1, real_table23, table23_units
 from actorswarm.core.events import AppReceived
-from actorswarm.core.node import Outgoing
+from actorswarm.core.node import Outgoing, Ready
 from actorswarm.core.wire import GROUND_STATION, Heartbeat, Packet, encode
 from actorswarm.daemon.endpoint import PlatformEndpoint
 from actorswarm.daemon.loop import Inbox, Traffic, serve
@@ -145,18 +145,21 @@ def test_the_engine_records_each_command_it_carries_out() -> None:
 
 
 def test_the_master_records_each_transition_group_it_releases() -> None:
-    """A platform alone is its own master: the barrier of ``go`` fires at once."""
+    """A platform alone is its own master: the barrier of ``go`` fires at once. (Driven as
+    a host does: its ``ready()`` taken after every tick, when the engine reacts.)"""
     endpoint = PlatformEndpoint(1, swarm="s", incarnation=0, now=0.0)
     now = 0.0
     while not endpoint.node.is_master and now < 10.0:
         now += 0.05
         endpoint.tick(now)
+        endpoint.ready()
     assert endpoint.node.is_master
     engine = endpoint.engine
     sha = engine.adopt(table2_script(2, 1).encode())
     engine.rejoin(sha, now)
     _command(endpoint, cmds.Inject(event="go"), now)
     endpoint.tick(now)
+    endpoint.ready()
     assert [(r.src, r.dst, r.event) for r in engine.transitions[-1:]] == [("A1", "B1", "go")]
     (fired,) = engine.fired
     assert (fired.t, fired.key, fired.outcome, fired.chosen) == (now, 1, "complete", (1,))
@@ -180,9 +183,6 @@ class _Echo:
         self._out: list[Outgoing] = []
         self.seen: list[int] = []
 
-    def receive(self, data: bytes, now: float) -> None:
-        raise AssertionError("the loop hands over checked packets only")
-
     def receive_packet(self, packet: Packet, now: float) -> None:
         self.seen.append(packet.seq)
         answer = _packet(1, len(self.seen))
@@ -194,9 +194,9 @@ class _Echo:
     def next_deadline(self) -> float | None:
         return None
 
-    def drain_outgoing(self) -> list[Outgoing]:
+    def ready(self) -> Ready:
         out, self._out = self._out, []
-        return out
+        return Ready(out)
 
 
 class _Wire:

@@ -1,8 +1,8 @@
 """Heartbeat slack: a heartbeat due soon rides on a wake the host makes anyway.
 
-The hosts here wake as a daemon's loop does: for a packet (receive, then tick when the
-node is :meth:`~actorswarm.core.node.Node.due`) or at the node's deadline, and count their
-wakes. A master and two members, a perfect link.
+The hosts here wake as a daemon's loop does: for a packet (through a pipeline's guard, then
+tick when the node is :meth:`~actorswarm.core.node.Node.due`) or at the node's deadline, and
+count their wakes. A master and two members, a perfect link.
 """
 
 from __future__ import annotations
@@ -16,9 +16,18 @@ import pytest
 
 from actorswarm.core.config import ConfigError, CoreConfig
 from actorswarm.core.node import Node
+from actorswarm.security.guard import PacketGuard
+from actorswarm.security.pipeline import Pipeline
 
 SWARM = "slack"
 LATENCY = 0.002
+
+
+class _Unused:
+    """The pipelines' transport: the hosts send what they take from ``ready()`` themselves."""
+
+    def send(self, dst: int | None, data: bytes, *, urgent: bool = False, kind: str = "") -> None:
+        raise AssertionError("the hosts send what they take from ready() themselves")
 
 
 class Hosts:
@@ -32,6 +41,9 @@ class Hosts:
         busy: dict[int, float] | None = None,
     ) -> None:
         self.nodes = {i: Node(i, swarm=SWARM, incarnation=1, config=config, now=0.0) for i in ids}
+        self.pipelines = {
+            i: Pipeline(n, _Unused(), PacketGuard.insecure()) for i, n in self.nodes.items()
+        }
         #: (time, order, platform, packet) — a packet of None is a wake of its own.
         self.queue: list[tuple[float, int, int, bytes | None]] = []
         self.order = itertools.count()
@@ -52,13 +64,12 @@ class Hosts:
         heapq.heappush(self.queue, (at, next(self.order), platform, None))
 
     def _send(self, nid: int, now: float) -> None:
-        for out in self.nodes[nid].drain_outgoing():
+        for out in self.nodes[nid].ready().packets:
             if out.kind == "Heartbeat":
                 self.beats.append((now, nid))
             for dst in [d for d in self.nodes if d != nid] if out.dst is None else [out.dst]:
                 delay = LATENCY + self.rng.uniform(0.0, self.jitter)
                 heapq.heappush(self.queue, (now + delay, next(self.order), dst, out.data))
-        self.nodes[nid].drain_events()
 
     def run(self, end: float) -> None:
         now = 0.0
@@ -74,7 +85,7 @@ class Hosts:
                 if data is None:
                     self._busy_wake(nid, now)
                 else:
-                    self.nodes[nid].receive(data, now)
+                    self.pipelines[nid].receive(data, now)
             if self.nodes[nid].due(now):  # as the daemon's endpoint asks
                 self.nodes[nid].tick(now)
             self.wakes[nid] += 1

@@ -2,7 +2,9 @@
 
 The network here is a list-based event loop written for these tests (no simulator): every
 outgoing packet reaches its destination(s) after a fixed latency, and each node is ticked at
-its own ``next_deadline``.
+its own ``next_deadline``. Packets come in as on a platform: through a
+:class:`~actorswarm.security.pipeline.Pipeline` whose guard (an insecure one: the frame
+only) checks the bytes before the node sees the packet.
 """
 
 from __future__ import annotations
@@ -39,14 +41,30 @@ from actorswarm.core.wire import (
     Envelope,
     Heartbeat,
     Release,
+    WireError,
     decode,
     encode,
 )
+from actorswarm.security.guard import PacketGuard
+from actorswarm.security.pipeline import Pipeline
 
 SWARM = "test-swarm"
 INCARNATION = 1
 LATENCY = 0.002
 MAX_STEPS = 200_000
+
+
+class _Unused:
+    """The pipelines' transport here: the network takes each node's ``ready()`` itself
+    (it reads the events too) and sends nothing through a pipeline."""
+
+    def send(self, dst: int | None, data: bytes, *, urgent: bool = False, kind: str = "") -> None:
+        raise AssertionError("the test network sends what it takes from ready() itself")
+
+
+def _pipeline(node: Node) -> Pipeline:
+    """``node``'s one way in: an insecure guard checks the frame, then ``receive_packet``."""
+    return Pipeline(node, _Unused(), PacketGuard.insecure(max_bytes=node.config.max_packet_bytes))
 
 
 class Net:
@@ -58,12 +76,20 @@ class Net:
             i: Node(i, swarm=SWARM, incarnation=INCARNATION, config=self.config, now=0.0)
             for i in ids
         }
+        self._pipelines: dict[int, Pipeline] = {}
         self.now = 0.0
         self._queue: list[tuple[float, int, int, bytes]] = []
         self._order = itertools.count()
         self.events: dict[int, list[tuple[float, CoreEvent]]] = {i: [] for i in ids}
         #: Every packet sent: (sender, packet).
         self.sent: list[tuple[int, Outgoing]] = []
+
+    def pipeline(self, nid: int) -> Pipeline:
+        """Node ``nid``'s way in (a new one for a node put in its place)."""
+        pipeline = self._pipelines.get(nid)
+        if pipeline is None or pipeline.endpoint is not self.nodes[nid]:
+            pipeline = self._pipelines[nid] = _pipeline(self.nodes[nid])
+        return pipeline
 
     def _collect(self, nid: int) -> None:
         ready = self.nodes[nid].ready()
@@ -91,7 +117,7 @@ class Net:
             self.now = max(self.now, t)
             if t_packet <= t_tick:
                 _, _, dst, data = heapq.heappop(self._queue)
-                self.nodes[dst].receive(data, self.now)
+                self.pipeline(dst).receive(data, self.now)
                 self._collect(dst)
             else:
                 for nid, node in sorted(self.nodes.items()):
@@ -222,19 +248,29 @@ def test_hostile_table_starts_from_a_valid_packet() -> None:
     ("data", "reason"), [(d, r) for _, d, r in HOSTILE], ids=[n for n, _, _ in HOSTILE]
 )
 def test_hostile_bytes_change_nothing_and_are_counted(data: bytes, reason: str) -> None:
+    """Each hostile packet is refused for its reason (the wire says why); on a platform's
+    way in, the guard refuses what its frame check or its decoding catches (counted as
+    malformed), and the node what is well formed but not for it (another swarm's)."""
+    with pytest.raises(WireError) as refused:
+        decode(data, swarm=SWARM, max_bytes=CoreConfig().max_packet_bytes)
+    assert refused.value.reason == reason
     net = _elected()
     for nid, node in net.nodes.items():
         before = _state(node)
+        guard = net.pipeline(nid).guard
+        malformed = guard.rejected["malformed"]
         counters = dict(node.counters)
         for _ in range(3):
-            node.receive(data, net.now)
+            assert not net.pipeline(nid).receive(data, net.now) or reason == "swarm"
         assert _state(node) == before, f"node {nid}: {reason} bytes changed its state"
         ready = node.ready()
         assert ready.packets == [], "nothing is sent in answer"
         assert ready.events == [], "nothing is reported upward"
-        assert node.counters[f"drop:{reason}"] == counters.get(f"drop:{reason}", 0) + 3, (
-            f"node {nid} counters {dict(node.counters)}"
-        )
+        if reason == "swarm":
+            assert node.counters["drop:swarm"] == counters.get("drop:swarm", 0) + 3
+        else:
+            assert guard.rejected["malformed"] == malformed + 3, dict(guard.rejected)
+            assert dict(node.counters) == counters, "the node never saw it"
         assert node.errors == []
     net.run_until(2.5)
     assert all((n.master, n.epoch) == (1, 1) for n in net.nodes.values()), "still organized"
@@ -251,7 +287,7 @@ def test_packet_from_old_incarnation_is_dropped() -> None:
         seq=1,
         body=Heartbeat(is_master=True, epoch=50, master=1),
     )
-    node.receive(stale, net.now)
+    node.receive_packet(decode(stale), net.now)
     assert node.counters["drop:old_incarnation"] == 1, dict(node.counters)
     assert _state(node) == before, "a leftover of an earlier incarnation changes nothing"
     assert node.ready().events == []
@@ -268,7 +304,7 @@ def test_own_packets_are_dropped() -> None:
         seq=1,
         body=Heartbeat(is_master=True, epoch=50, master=2),
     )
-    node.receive(echo, net.now)
+    node.receive_packet(decode(echo), net.now)
     assert node.counters["drop:own"] == 1
     assert _state(node) == before
 
@@ -424,14 +460,14 @@ def _heartbeat(seq: int) -> bytes:
 def test_three_distinct_heartbeats_join() -> None:
     node = Node(1, swarm=SWARM)
     for seq, t in ((1, 0.0), (2, 0.1), (3, 0.2)):
-        node.receive(_heartbeat(seq), t)
+        node.receive_packet(decode(_heartbeat(seq)), t)
     assert node.view == (1, 2)
 
 
 def test_duplicated_heartbeat_does_not_count_twice_for_join() -> None:
     node = Node(1, swarm=SWARM)
     for t in (0.0, 0.001, 0.002):
-        node.receive(_heartbeat(1), t)
+        node.receive_packet(decode(_heartbeat(1)), t)
     assert node.view == (1,), "one heartbeat, received three times, is still one heartbeat"
 
 
@@ -451,10 +487,11 @@ def test_batch_processes_ground_station_traffic_first() -> None:
         )
         return encode(swarm="s", sender=sender, incarnation=0, seq=1, body=body)
 
-    node.receive_batch([app(5, "swarm"), b"junk", app(0, "operator")], 0.1)
+    pipeline = _pipeline(node)
+    accepted = pipeline.receive_all([app(5, "swarm"), b"junk", app(0, "operator")], 0.1)
     topics = [e.topic for e in node.ready().events if hasattr(e, "topic")]
-    assert topics == ["operator", "swarm"]
-    assert node.counters["drop:checksum"] + node.counters["drop:malformed"] == 1
+    assert topics == ["operator", "swarm"] and accepted == 2
+    assert pipeline.guard.rejected["malformed"] == 1, "the junk stops at the guard"
 
 
 def test_every_body_type_but_heartbeats_has_one_handler() -> None:

@@ -116,7 +116,17 @@ def test_ready_takes_everything_and_a_second_call_is_empty() -> None:
     assert not node.has_ready
     again = node.ready()
     assert not again and again.packets == [] and again.events == []
-    assert node.drain_outgoing() == [] and node.drain_events() == []
+
+
+def test_the_node_has_one_way_in_and_one_way_out() -> None:
+    """Packets come in checked, through ``receive_packet`` (a pipeline's guard checked the
+    bytes); everything leaves through ``ready()``: no second door either way."""
+    node = lone_node()
+    assert callable(node.receive_packet) and callable(node.ready)
+    for second in ("receive", "receive_batch", "drain_outgoing", "drain_events"):
+        assert not hasattr(node, second), second
+    out = Collector(swarm=SWARM, sender=1)
+    assert not hasattr(out, "take_packets") and not hasattr(out, "take_events")
 
 
 def test_barrier_events_arrive_through_ready() -> None:
@@ -159,7 +169,7 @@ def test_streams_and_board_share_one_collector() -> None:
     reliable.send(2, AppMessage(topic="s", body=b""), 0.0, 1)
     board.post(AppMessage(topic="b", body=b""), {2, 3}, 0.0, 1, config.retry_base)
     reliable.send(3, AppMessage(topic="s", body=b""), 0.0, 1)
-    assert [kind for kind, _, _ in numbered(out.take_packets())] == ["Data", "Bulletin", "Data"]
+    assert [kind for kind, _, _ in numbered(out.take().packets)] == ["Data", "Bulletin", "Data"]
     board.clear("stepped_down")
     reliable.drop_destination(3, 0.1)
     assert [(f.dst, f.reason) for f in out.failures] == [

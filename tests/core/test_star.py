@@ -144,8 +144,12 @@ def ten_members() -> dict[int, int]:
     return dict.fromkeys(range(2, 12), 0)
 
 
-def packet(body: wire.Body, *, sender: int, seq: int = 1_000_000, incarnation: int = 0) -> bytes:
-    return encode(swarm=SIM_SWARM, sender=sender, incarnation=incarnation, seq=seq, body=body)
+def packet(
+    body: wire.Body, *, sender: int, seq: int = 1_000_000, incarnation: int = 0
+) -> wire.Packet:
+    """A packet as a node's pipeline hands it over (encoded, then checked and decoded)."""
+    data = encode(swarm=SIM_SWARM, sender=sender, incarnation=incarnation, seq=seq, body=body)
+    return decode(data)
 
 
 def formed(n: int, *, seed: int = 1, config: CoreConfig | None = None) -> SimSwarm:
@@ -1043,7 +1047,7 @@ MEMBER = 3
 def member_of_formed(n: int = 6) -> tuple[SimSwarm, Node]:
     swarm = formed(n)
     node = swarm.node(MEMBER)
-    node.drain_outgoing()
+    node.ready()
     return swarm, node
 
 
@@ -1069,7 +1073,7 @@ def test_roster_chunk_only_from_the_master_of_this_epoch(
         count=1,
         members=[(2, 0), (99, 0)],
     )
-    node.receive(packet(chunk, sender=sender), swarm.now)
+    node.receive_packet(packet(chunk, sender=sender), swarm.now)
     if adopted:
         assert node.roster.members == {2: 0, 99: 0}, case
         assert node.counters["drop:roster"] == drops, case
@@ -1093,15 +1097,15 @@ def test_roster_request_answered_by_the_master_of_that_epoch_only(
     """A member that answered roster requests would spread a copy the master never sent."""
     swarm = formed(6)
     node = swarm.node(to)
-    node.drain_outgoing()
+    node.ready()
     drops = node.counters["drop:roster"]
     request = RosterRequest(epoch=node.epoch + epoch_delta, version=0)
-    node.receive(packet(request, sender=4), swarm.now)
-    out: list[Outgoing] = node.drain_outgoing()
+    node.receive_packet(packet(request, sender=4), swarm.now)
+    out: list[Outgoing] = node.ready().packets
     until = swarm.now + 2 * INTERVAL  # the master serves requests with its next heartbeat
     while (deadline := node.next_deadline()) is not None and deadline <= until:
         node.tick(deadline)
-        out += node.drain_outgoing()
+        out += node.ready().packets
     chunks = [(dst, b) for dst, b in bodies(out) if isinstance(b, RosterChunk)]
     if answered:
         assert node.counters["drop:roster"] == drops, case
@@ -1135,8 +1139,8 @@ def test_master_heartbeat_whose_changes_do_not_add_up(
         changes=changes,
         succession=[2, 3, 4, 5],
     )
-    node.receive(packet(hb, sender=1), swarm.now)
-    sent = bodies(node.drain_outgoing())
+    node.receive_packet(packet(hb, sender=1), swarm.now)
+    sent = bodies(node.ready().packets)
     asked = [(dst, b) for dst, b in sent if isinstance(b, RosterRequest)]
     if consistent:
         assert 99 in node.roster.members, case
@@ -1157,9 +1161,9 @@ def test_a_platform_named_as_suspect_answers_the_prober_directly(prober: int) ->
     swarm, node = member_of_formed()
     answered = node.counters["probe_answered"]
     hb = Heartbeat(is_master=prober == 1, epoch=node.epoch, master=1, suspects=[7, MEMBER], count=0)
-    node.receive(packet(hb, sender=prober, seq=10**6), swarm.now)
-    node.receive(packet(hb, sender=prober, seq=10**6 + 1), swarm.now + 0.001)
-    out = node.drain_outgoing()
+    node.receive_packet(packet(hb, sender=prober, seq=10**6), swarm.now)
+    node.receive_packet(packet(hb, sender=prober, seq=10**6 + 1), swarm.now + 0.001)
+    out = node.ready().packets
     heartbeats = [(dst, b) for dst, b in bodies(out) if isinstance(b, Heartbeat)]
     assert node.counters["probe_answered"] == answered + 1
     assert [dst for dst, _ in heartbeats] == [prober]
@@ -1302,7 +1306,7 @@ class LonelyNode:
     def heartbeat(self, now: float) -> None:
         self._count += 1
         hb = Heartbeat(is_master=False, epoch=0, master=0, count=self._count)
-        self.node.receive(packet(hb, sender=PEER, seq=self._count), now)
+        self.node.receive_packet(packet(hb, sender=PEER, seq=self._count), now)
         self.last_heard = now
 
     def tick_punctually(self, until: float) -> list[float]:
@@ -1322,7 +1326,7 @@ class LonelyNode:
         late = deadline + 1.0
         self.heartbeat(late)
         self.node.tick(late)
-        self.node.drain_outgoing()
+        self.node.ready()
 
 
 def lonely_node_watching_a_peer() -> LonelyNode:

@@ -19,7 +19,7 @@ from typing import Any
 
 import pytest
 
-from actorswarm.core.node import Outgoing
+from actorswarm.core.node import Ready
 from actorswarm.core.wire import GROUND_STATION, Heartbeat, Packet, encode
 from actorswarm.daemon import loop as loop_module
 from actorswarm.daemon.launch import free_ports
@@ -82,9 +82,6 @@ class _Recorder:
         self.batch: list[tuple[int, int]] = []
         self.batches: list[list[tuple[int, int]]] = []
 
-    def receive(self, data: bytes, now: float) -> None:
-        raise AssertionError("the loop hands over checked packets only")
-
     def receive_packet(self, packet: Packet, now: float) -> None:
         self.batch.append((packet.sender, packet.seq))
 
@@ -94,8 +91,8 @@ class _Recorder:
     def next_deadline(self) -> float | None:
         return None
 
-    def drain_outgoing(self) -> list[Outgoing]:
-        return []
+    def ready(self) -> Ready:
+        return Ready()
 
     def on_wake(self, now: float) -> None:
         if self.batch:

@@ -5,43 +5,58 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from actorswarm.core.wire import GROUND_STATION
+from actorswarm.core.wire import GROUND_STATION, Packet
 from actorswarm.daemon.endpoint import Endpoint, PlatformEndpoint
 from actorswarm.daemon.state import StateDir
 from actorswarm.ground.station import GroundStation
+from actorswarm.security.guard import PacketGuard
+from actorswarm.security.pipeline import Pipeline
 
 #: Three platforms start in A and switch to B together on go_event.
 SCRIPT = Path(__file__).with_name("three.xml").read_bytes()
 
 
 class Net:
-    """Endpoints wired together: every packet reaches its destination (or everyone else)
-    after ``latency``; time advances in steps of ``dt``."""
+    """Endpoints wired together as daemons are: each behind a pipeline (an insecure guard:
+    the frame only), fed one batch per step — a platform's output sent after every packet,
+    as the daemon's loop does — then ticked, its output sent. Every packet reaches its
+    destination (or everyone else) after ``latency``; time advances in steps of ``dt``."""
 
     def __init__(self, endpoints: dict[int, Endpoint], latency: float = 0.005) -> None:
         self.endpoints = endpoints
         self.latency = latency
         self.now = 0.0
         self.in_flight: list[tuple[float, int, bytes]] = []
+        self.pipelines = {
+            src: Pipeline(endpoint, _Port(self, src), PacketGuard.insecure())
+            for src, endpoint in endpoints.items()
+        }
 
     def run(self, until: float, dt: float = 0.005) -> None:
         while self.now < until:
             self.now = round(self.now + dt, 9)
             due = [p for p in self.in_flight if p[0] <= self.now]
             self.in_flight = [p for p in self.in_flight if p[0] > self.now]
-            for _, dst, data in due:
-                if dst in self.endpoints:
-                    self.endpoints[dst].receive(data, self.now)
+            for dst, pipeline in self.pipelines.items():
+                batch = [data for _, to, data in due if to == dst]
+                pipeline.receive_all(batch, self.now, flush_each=dst != GROUND_STATION)
             for src, endpoint in self.endpoints.items():
                 endpoint.tick(self.now)
-                for out in endpoint.drain_outgoing():
-                    targets = (
-                        [out.dst]
-                        if out.dst is not None
-                        else [p for p in self.endpoints if p != src]
-                    )
-                    for dst in targets:
-                        self.in_flight.append((self.now + self.latency, dst, out.data))
+                self.pipelines[src].flush()
+
+
+class _Port:
+    """Platform ``src``'s transport on the :class:`Net`."""
+
+    def __init__(self, net: Net, src: int) -> None:
+        self.net = net
+        self.src = src
+
+    def send(self, dst: int | None, data: bytes, *, urgent: bool = False, kind: str = "") -> None:
+        net = self.net
+        targets = [dst] if dst is not None else [p for p in net.endpoints if p != self.src]
+        for to in targets:
+            net.in_flight.append((net.now + net.latency, to, data))
 
 
 def _swarm(tmp_path: Path) -> tuple[Net, dict[int, PlatformEndpoint], GroundStation]:
@@ -134,3 +149,34 @@ def test_replay_windows_survive_a_restart_and_damage(tmp_path: Path) -> None:
     assert state.replay_windows() == {}, "a damaged file protects nothing, and starts"
     (state.path / "replay.json").write_text("not json")
     assert state.replay_windows() == {}
+
+
+def _carried_out_before_each_packet(batch: list[bytes], each: bool) -> tuple[list[int], list[str]]:
+    """How many commands the engine had carried out when each packet of ``batch`` reached
+    the node, handed over with ``flush_each=each``; and every command, in order."""
+    endpoint = PlatformEndpoint(1, swarm="t", incarnation=0, now=0.0)
+    seen: list[int] = []
+    receive = endpoint.node.receive_packet
+
+    def spy(packet: Packet, now: float) -> None:
+        seen.append(len(endpoint.engine.commands))
+        receive(packet, now)
+
+    endpoint.node.receive_packet = spy  # type: ignore[method-assign]
+    pipeline = Pipeline(endpoint, _Port(Net({}), 1), PacketGuard.insecure())
+    assert pipeline.receive_all(batch, 0.1, flush_each=each) == len(batch)
+    pipeline.flush()
+    return seen, [c.event for c in endpoint.engine.commands]
+
+
+def test_the_engine_reacts_to_each_packet_before_the_next() -> None:
+    """Two operator commands arrive in one batch. Taken after every packet (the daemon's
+    loop), the engine has carried out the first when the second reaches the node; taken
+    once after the batch, it would not have."""
+    station = GroundStation(swarm="t", incarnation=7)
+    station.event("first", 0.0, platforms=[1])
+    station.event("second", 0.0, platforms=[1])
+    batch = [out.data for out in station.ready().packets]
+    assert len(batch) == 2
+    assert _carried_out_before_each_packet(batch, True) == ([0, 1], ["first", "second"])
+    assert _carried_out_before_each_packet(batch, False) == ([0, 0], ["first", "second"])

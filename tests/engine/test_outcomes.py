@@ -33,12 +33,12 @@ def test_a_command_nobody_acknowledges_is_retransmitted_until_its_deadline_then_
 
     station = GroundStation(swarm="t", config=CoreConfig(delivery_deadline=30.0))
     station.send(cmds.Pause(actor="A"), [4], 0.0)
-    sent = len(station.drain_outgoing())
+    sent = len(station.ready().packets)
     now = 0.0
     while now < 29.0:
         now = station.next_deadline() or now + 1.0
         station.tick(now)
-        sent += len(station.drain_outgoing())
+        sent += len(station.ready().packets)
     assert sent > 100, "retransmitted the whole time"
     assert station.unreachable == {}
     station.tick(31.0)

@@ -157,8 +157,8 @@ def test_real_node_and_ground_station_output_passes() -> None:
     gs = GroundStation(swarm=SWARM, incarnation=11)
     gs.send(cmds.Start(sha256="b" * 64), [3], 0.0)
     platform, ground, receiver = platform_guard(), ground_guard(), platform_guard()
-    outgoing = [platform.seal(o.data) for o in node.drain_outgoing()]
-    outgoing += [ground.seal(o.data) for o in gs.drain_outgoing()]
+    outgoing = [platform.seal(o.data) for o in node.ready().packets]
+    outgoing += [ground.seal(o.data) for o in gs.ready().packets]
     assert len(outgoing) >= 2
     packets = [receiver.check(data, 0.6) for data in outgoing]
     assert all(p is not None for p in packets)

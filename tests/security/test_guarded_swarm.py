@@ -60,7 +60,7 @@ class GuardedNet:
             ready = node.ready()
             self._send(i, ready.packets)
             self.events[i].extend(ready.events)
-        self._send(GROUND_STATION, self.gs.drain_outgoing())
+        self._send(GROUND_STATION, self.gs.ready().packets)
 
     def run_until(self, end: float) -> None:
         for _ in range(200_000):

@@ -2,7 +2,7 @@
 
 Every event is a frozen, slotted, keyword-only dataclass. A host takes them, with the
 packets to send, from :meth:`actorswarm.core.node.Node.ready` after each
-``receive``/``tick``/request call.
+``receive_packet``/``tick``/request call.
 """
 
 from __future__ import annotations

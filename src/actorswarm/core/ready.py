@@ -7,7 +7,9 @@ given to it at construction: the node itself (heartbeats, acknowledgements, rele
 events), its reliable streams (:mod:`.reliable`: data packets, messages given up) and its
 bulletin board (:mod:`.bulletin`: bulletins, bulletins given up). The host takes all of it
 with one call, :meth:`~actorswarm.core.node.Node.ready`, which returns a :class:`Ready` —
-the packets to send and the events to read — and leaves the collector empty.
+the packets to send and the events to read — and leaves the collector empty: the one way
+out of the core (the ground station's endpoint, which keeps a collector of its own, is
+taken the same way, :meth:`~actorswarm.ground.station.GroundStation.ready`).
 
 Packet numbering. Each packet carries the sender's next sequence number, given when it is
 encoded. The streams and the board *queue* their packets unencoded (:meth:`Collector.queue`);
@@ -134,21 +136,14 @@ class Collector:
         )
         self.packets.append(Outgoing(dst, data, kind or type(body).__name__, channel))
 
-    def take_packets(self) -> list[Outgoing]:
-        """Every packet, queued ones numbered now: urgent channel first, then in order."""
+    def take(self) -> Ready:
+        """Everything produced so far, queued packets numbered now: the packets urgent
+        channel first, then in order; the events in the order they happened. The collector
+        is empty afterwards. The only way anything leaves it."""
         if self.queued:
             self.number_queued()
-        out = self.packets
-        self.packets = []
-        if any(o.channel == URGENT for o in out):
-            out.sort(key=lambda o: o.channel)  # stable: the order within a channel is kept
-        return out
-
-    def take_events(self) -> list[CoreEvent]:
-        events = self.events
-        self.events = []
-        return events
-
-    def take(self) -> Ready:
-        """Everything produced so far; the collector is empty afterwards."""
-        return Ready(self.take_packets(), self.take_events())
+        packets, events = self.packets, self.events
+        self.packets, self.events = [], []
+        if any(o.channel == URGENT for o in packets):
+            packets.sort(key=lambda o: o.channel)  # stable: the order within a channel is kept
+        return Ready(packets, events)

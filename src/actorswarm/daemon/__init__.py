@@ -2,8 +2,9 @@
 runtime objects as the simulator, driven by the wall clock and a real transport.
 
 :class:`PlatformEndpoint` composes a platform's sans-IO pieces (core node, task engine,
-actor runtime) behind the small interface every host drives (``receive``, ``tick``,
-``next_deadline``, ``drain_outgoing``); the ground station's
+actor runtime) behind the small interface every host drives (``receive_packet`` for the
+packets its pipeline checked, ``tick``, ``next_deadline``, and ``ready()``, the one way
+out); the ground station's
 :class:`~actorswarm.ground.station.GroundStation` has the same interface. :func:`serve`
 is the asyncio loop that drives one of them over a transport. :class:`StateDir` keeps
 what a platform needs across a crash: its incarnation, the scripts deployed to it, its

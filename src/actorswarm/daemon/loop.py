@@ -5,14 +5,17 @@ network. Packets wait at the transport (Zenoh's receive channels,
 :class:`~actorswarm.transport.base.Receiver`) and an :class:`Inbox` wakes the loop once per
 burst; the loop wakes for packets or for the endpoint's next deadline, takes every packet
 that waits (at most :data:`BATCH_LIMIT`, the ground station's first) as one batch, hands
-it to the endpoint, ticks it with the current time, and sends what it produced, once per
-wake. The endpoint itself never sees a clock or a socket, which is why the same objects run
-in the simulator.
+it to the endpoint, ticks it with the current time, and sends what it produced: the
+endpoint's ``ready()``, its one way out, taken once per wake — or, for a platform, after
+every packet too (``flush_each``: its task engine reacts to each packet before the next).
+The endpoint itself never sees a clock or a socket, which is why the same objects run in
+the simulator.
 
 Packets go in and out through one :class:`~actorswarm.security.pipeline.Pipeline`, the
 same the simulator uses: sealed once on the way out, checked over the raw bytes before
-their body is decoded on the way in. With a :class:`Traffic` it counts the packets and
-bytes it hands to the transport and takes from it: what travels on the wire, sealed.
+their body is decoded on the way in (the endpoint takes checked packets only). With a
+:class:`Traffic` it counts the packets and bytes it hands to the transport and takes from
+it: what travels on the wire, sealed.
 
 The clock is :func:`time.monotonic`: timers must not jump with the wall clock's
 corrections (NTP), and the swarm never compares clocks across platforms.
@@ -176,10 +179,15 @@ async def serve(
     on_wake: Callable[[float], None] | None = None,
     guard: PacketGuard | None = None,
     traffic: Traffic | None = None,
+    flush_each: bool = False,
 ) -> None:
     """Drive ``endpoint`` until ``stop`` is set: feed it, one batch per wake, the packets
     ``inbox`` takes (from the transport's receive channels, or put there), tick it at its
-    deadlines, send what it produces.
+    deadlines, send what it produces (its ``ready()``) after the tick — and, with
+    ``flush_each``, after every packet of the batch too (a
+    :class:`~actorswarm.daemon.endpoint.PlatformEndpoint`, whose engine reacts when its
+    ``ready()`` is taken; the ground station numbers its streams' packets when taken, and is
+    taken once per wake).
     ``on_wake(now)`` runs after every wake (a daemon's status file, a command's progress).
 
     Every packet goes through one :class:`~actorswarm.security.pipeline.Pipeline`: sealed by
@@ -194,7 +202,7 @@ async def serve(
     try:
         while not stop.is_set():
             t = now()
-            pipeline.receive_all(inbox.take(), t)
+            pipeline.receive_all(inbox.take(), t, flush_each=flush_each)
             endpoint.tick(t)
             pipeline.flush()
             if on_wake is not None:
@@ -211,6 +219,6 @@ def flush(
     guard: PacketGuard | None = None,
     traffic: Traffic | None = None,
 ) -> None:
-    """Send everything ``endpoint`` has produced now, outside the loop's wakes (sealed by
-    ``guard`` when given, counted in ``traffic`` when given)."""
+    """Send everything ``endpoint`` has produced now (its ``ready()``), outside the loop's
+    wakes (sealed by ``guard`` when given, counted in ``traffic`` when given)."""
     Pipeline(endpoint, transport, guard or PacketGuard.insecure(), traffic).flush()

@@ -84,6 +84,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from actorswarm.core.config import CoreConfig
+from actorswarm.core.node import Outgoing
 from actorswarm.daemon.endpoint import PlatformEndpoint
 from actorswarm.daemon.heap import HeapTrim
 from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
@@ -91,6 +92,7 @@ from actorswarm.daemon.records import STATUS_TRANSITIONS, EngineRecords
 from actorswarm.daemon.state import StateDir, WritePacer
 from actorswarm.dsl.isolated import ScriptRefused, check_isolated, check_isolated_async
 from actorswarm.security.guard import PacketGuard
+from actorswarm.security.pipeline import Pipeline
 from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
 
 if TYPE_CHECKING:
@@ -398,8 +400,13 @@ async def _main(options: DaemonOptions) -> int:
         ros.on_wake(inbox.poke)
         ros.start()
 
+    # Sends what a wake's own work made (the engine's answer to a vehicle's events), sealed
+    # and counted as the loop's packets are.
+    out = Pipeline(endpoint, transport, guard, traffic)
+
     def on_wake(t: float) -> None:
         nonlocal raised
+        made: list[Outgoing] = []
         if ros is not None:
             ros.pump()  # the messages that came, to the plugins' readers
             for error in ros.drain_errors():
@@ -433,7 +440,11 @@ async def _main(options: DaemonOptions) -> int:
                 )
             if events or faults:
                 endpoint.tick(t)
-                inbox.poke()  # what the events made goes out at the next wake, now
+                # The engine reacts now; what it made leaves once this wake's records are
+                # written (they count the traffic before it), and the loop wakes again at
+                # once.
+                made = endpoint.ready().packets
+                inbox.poke()
         if endpoint.node.master != seen.master:
             seen.master = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
@@ -471,11 +482,21 @@ async def _main(options: DaemonOptions) -> int:
             endpoint.backup()
         files.wake(t)
         heap.wake()
+        out.send(made)
 
     try:
         with transport:
+            # A platform's output is sent after every packet: its engine reacts to each
+            # packet before the next (PlatformEndpoint).
             await serve(
-                endpoint, transport, inbox, stop, on_wake=on_wake, guard=guard, traffic=traffic
+                endpoint,
+                transport,
+                inbox,
+                stop,
+                on_wake=on_wake,
+                guard=guard,
+                traffic=traffic,
+                flush_each=True,
             )
     finally:
         # A clean stop resumes where it stopped (nothing written if the last backup says it).

@@ -12,6 +12,13 @@ Pictures between ``<!-- architecture:begin -->`` and ``<!-- architecture:end -->
   (``actorswarm.core.node``) are drawn with their length and their own parts too;
 - **the collective core's folders**: each module of ``core/`` and of its part folders, with
   its length and the first line of its docstring.
+- **a packet's way in and out**: each method of
+  :class:`~actorswarm.security.pipeline.Pipeline` and what it calls on its parts (``guard``,
+  ``endpoint``, ``transport``) or on itself, read from its source; and every class the
+  pipeline serves (a class of the package with a ``receive_packet``) with its ways in
+  (public methods that take a packet: a ``Packet``, or bytes to a ``receive…``) and its ways
+  out (public methods that return a ``Ready`` or ``Outgoing`` packets). A second door either
+  way shows in the picture.
 
 ::
 
@@ -230,6 +237,128 @@ def tree_listing(package: str = "core", root: Path = PACKAGE) -> list[str]:
     return lines
 
 
+def _self_call(func: ast.expr) -> tuple[str, str] | None:
+    """``("part", "name")`` for ``self.part.name``, ``("self", "name")`` for ``self.name``."""
+    if not isinstance(func, ast.Attribute):
+        return None
+    if _on_self(func):
+        return "self", func.attr
+    inner = func.value
+    if isinstance(inner, ast.Attribute) and _on_self(inner):
+        return inner.attr, func.attr
+    return None
+
+
+def method_calls(cls: type) -> dict[str, list[tuple[str, str]]]:
+    """Public method of ``cls`` → the calls it makes on ``self.<part>`` or on ``self``, in
+    the order they appear, once each; a call through a local alias (``check =
+    self.guard.check``) counts as the call it names."""
+    tree = ast.parse(inspect.getsource(cls))
+    klass = tree.body[0]
+    assert isinstance(klass, ast.ClassDef)
+    out: dict[str, list[tuple[str, str]]] = {}
+    for method in klass.body:
+        if not isinstance(method, ast.FunctionDef) or method.name.startswith("_"):
+            continue
+        aliases: dict[str, tuple[str, str]] = {}
+        calls: list[tuple[int, int, tuple[str, str]]] = []
+        for node in ast.walk(method):
+            if isinstance(node, ast.Assign) and len(node.targets) == 1:
+                target, ref = node.targets[0], _self_call(node.value)
+                if isinstance(target, ast.Name) and ref is not None:
+                    aliases[target.id] = ref
+        for node in ast.walk(method):
+            if not isinstance(node, ast.Call):
+                continue
+            func = node.func
+            ref = aliases.get(func.id) if isinstance(func, ast.Name) else _self_call(func)
+            if ref is not None:
+                # By where the call ends: an inner call (``self.endpoint.ready()`` in
+                # ``self.send(self.endpoint.ready().packets)``) runs first.
+                end = (node.end_lineno or node.lineno, node.end_col_offset or 0)
+                calls.append((*end, ref))
+        seen: list[tuple[str, str]] = []
+        for _, _, ref in sorted(calls):
+            if ref not in seen:
+                seen.append(ref)
+        out[method.name] = seen
+    return out
+
+
+def _annotation(node: ast.expr | None) -> str:
+    return "" if node is None else ast.unparse(node)
+
+
+def endpoint_ways(root: Path = PACKAGE) -> dict[str, tuple[list[str], list[str]]]:
+    """``"module:Class"`` → (ways in, ways out) of every class of ``root`` (protocols left
+    out) that takes packets with a ``receive_packet``: its public methods that take a
+    packet (a ``Packet`` parameter, or bytes given to a ``receive…`` method) and those that
+    return packets (a ``Ready`` or ``Outgoing``)."""
+    found: dict[str, tuple[list[str], list[str]]] = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = path.relative_to(root).parts
+        if parts[0] in LEFT_OUT:
+            continue
+        module = ".".join((*parts[:-1], path.stem)).removesuffix(".__init__")
+        for klass in ast.parse(path.read_text(encoding="utf-8")).body:
+            if not isinstance(klass, ast.ClassDef):
+                continue
+            if any("Protocol" in ast.unparse(base) for base in klass.bases):
+                continue
+            methods = [
+                m
+                for m in klass.body
+                if isinstance(m, ast.FunctionDef) and not m.name.startswith("_")
+            ]
+            if "receive_packet" not in {m.name for m in methods}:
+                continue
+            ins: list[str] = []
+            outs: list[str] = []
+            for m in methods:
+                taken = [_annotation(a.annotation) for a in m.args.args + m.args.kwonlyargs]
+                if any("Packet" in t for t in taken) or (
+                    m.name.startswith("receive") and any("bytes" in t for t in taken)
+                ):
+                    ins.append(m.name)
+                returned = _annotation(m.returns)
+                if "Ready" in returned or "Outgoing" in returned:
+                    outs.append(m.name)
+            found[f"{module}:{klass.name}"] = (ins, outs)
+    return found
+
+
+def ways_diagram(qualified: str = "actorswarm.security.pipeline:Pipeline") -> list[str]:
+    module_name, _, name = qualified.partition(":")
+    pipeline: type = getattr(importlib.import_module(module_name), name)
+    kinds = {
+        p: str(param.annotation) for p, param in inspect.signature(pipeline).parameters.items()
+    }
+    calls = method_calls(pipeline)
+    lines = ["```mermaid", "flowchart LR"]
+    lines.append(f'    subgraph {name}["{name} ({module_name.removeprefix("actorswarm.")})"]')
+    for method in calls:
+        params = list(inspect.signature(getattr(pipeline, method)).parameters.values())[1:2]
+        taken = ", ".join(f"{p.name}: {p.annotation}" for p in params)
+        lines.append(f'        {name}_{method}["{method}({taken})"]')
+    lines.append("    end")
+    parts = sorted({part for refs in calls.values() for part, _ in refs} - {"self"})
+    for part in parts:
+        lines.append(f'    {part}["{part}: {kinds.get(part, "?")}"]')
+    for method, refs in calls.items():
+        for part, called in refs:
+            if part == "self":
+                lines.append(f"    {name}_{method} --> {name}_{called}")
+            else:
+                lines.append(f'    {name}_{method} -- "{called}()" --> {part}')
+    if "endpoint" in parts:
+        for index, (where, (ins, outs)) in enumerate(sorted(endpoint_ways().items())):
+            module, _, cls = where.partition(":")
+            label = f"{cls} ({module})<br/>in: {', '.join(ins)}<br/>out: {', '.join(outs)}"
+            lines.append(f'    endpoint{index}["{label}"] -. is an .-> endpoint')
+    lines.append("```")
+    return lines
+
+
 def render() -> str:
     """The generated block, without its markers."""
     lines = [
@@ -257,6 +386,12 @@ def render() -> str:
         "per part below it:",
         "",
         *tree_listing(),
+        "",
+        "A packet's way in and out: what each method of the one packet pipeline calls on its",
+        "parts, and every endpoint it serves (each class with a `receive_packet`) with its",
+        "ways in (methods that take a packet) and out (methods that return packets):",
+        "",
+        *ways_diagram(),
     ]
     return "\n".join(lines) + "\n"
 

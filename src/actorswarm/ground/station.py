@@ -8,11 +8,12 @@ swarm, where members heartbeat to their master only, from the master's roster, w
 fetches like a member that is behind — and talks
 to each platform over the core's reliable streams on the *urgent* channel, so its commands
 are retransmitted until acknowledged and processed before swarm traffic. A host drives it
-like a :class:`~actorswarm.core.Node` — ``receive``/``receive_packet``, ``tick`` at
-``next_deadline`` — but takes packets only, with ``drain_outgoing`` (it reports no events:
-its replies are kept here). Its output goes through a core
-:class:`~actorswarm.core.ready.Collector`; unlike a node's, its streams' packets are numbered
-when drained, after the ones it made directly.
+like a :class:`~actorswarm.core.Node`: every packet comes in through the host's
+:class:`~actorswarm.security.pipeline.Pipeline` (checked by its guard, then
+``receive_packet``), ``tick`` at ``next_deadline``, and its output leaves through
+:meth:`GroundStation.ready` — packets only (it reports no events: its replies are kept
+here). Its output goes through a core :class:`~actorswarm.core.ready.Collector`; unlike a
+node's, its streams' packets are numbered when taken, after the ones it made directly.
 
 ``deploy`` sends a script in chunks to the expected platforms and records which ones confirm
 its SHA-256; ``start`` is refused (:class:`NotConfirmed`, naming the missing platforms) until
@@ -29,7 +30,7 @@ from actorswarm.core import wire
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.delivery.reliable import Reliable
 from actorswarm.core.membership.roster import RosterView
-from actorswarm.core.ready import Collector, Outgoing
+from actorswarm.core.ready import Collector, Ready
 from actorswarm.core.wire import (
     URGENT,
     Ack,
@@ -39,7 +40,6 @@ from actorswarm.core.wire import (
     Packet,
     RosterChunk,
     RosterRequest,
-    WireError,
 )
 from actorswarm.engine import commands as cmds
 
@@ -181,15 +181,8 @@ class GroundStation:
 
     # --- host interface -----------------------------------------------------------------
 
-    def receive(self, data: bytes, now: float) -> None:
-        try:
-            packet = wire.decode(data, swarm=self.swarm, max_bytes=self.config.max_packet_bytes)
-        except WireError as exc:
-            self.counters[f"drop:{exc.reason}"] = self.counters.get(f"drop:{exc.reason}", 0) + 1
-            return
-        self.receive_packet(packet, now)
-
     def receive_packet(self, packet: Packet, now: float) -> None:
+        """A packet the host's pipeline checked and decoded: the one way in."""
         body = packet.body
         sender = packet.sender
         if sender == wire.GROUND_STATION or packet.swarm != self.swarm:
@@ -266,11 +259,12 @@ class GroundStation:
     def next_deadline(self) -> float | None:
         return self.reliable.next_deadline()
 
-    def drain_outgoing(self) -> list[Outgoing]:
-        """The packets to send: those made directly (acknowledgements, roster requests)
-        first, then the streams', all on the urgent channel."""
+    def ready(self) -> Ready:
+        """What to send since the last call, taken at once (the one way out): the packets
+        made directly (acknowledgements, roster requests) first, then the streams', all on
+        the urgent channel; never events (replies are kept in :attr:`replies`)."""
         self._out.number_queued(URGENT)
-        return self._out.take_packets()
+        return self._out.take()
 
     @property
     def has_output(self) -> bool:

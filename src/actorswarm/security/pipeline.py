@@ -2,18 +2,22 @@
 
 Theory of operation
 -------------------
-Out: the endpoint (a core :class:`~actorswarm.core.node.Node`, a platform endpoint, the
-ground station) encodes each packet once, with an empty authentication slot;
-:meth:`Pipeline.flush` (or :meth:`Pipeline.send`, given the packets of a node's
-:meth:`~actorswarm.core.node.Node.ready` the host took itself) has the
-:class:`~actorswarm.security.guard.PacketGuard` put the tag in by slicing (one HMAC, one CRC)
-and hands the bytes to the transport.
+One way out: the endpoint (a core :class:`~actorswarm.core.node.Node`, a platform endpoint,
+the ground station) encodes each packet once, with an empty authentication slot, and gives
+it up only through its ``ready()``; :meth:`Pipeline.flush` takes it and sends its packets
+(:meth:`Pipeline.send` sends the packets of a ``ready()`` the host took itself, as the
+simulator does to read a node's events). The :class:`~actorswarm.security.guard.PacketGuard`
+puts the tag in by slicing (one HMAC, one CRC) and the bytes go to the transport.
 
-In: :meth:`Pipeline.receive` gives the guard the raw bytes; the frame check, the tag and the
-replay window come first, and only a packet that passed them is decoded — once — and given
-to the endpoint's ``receive_packet``. A batch (:meth:`Pipeline.receive_all`, what arrived
-while the host slept) is handed over operator traffic first: the ground station's packets
-(sender 0, read from the decoded header) before the swarm's, as the urgent channel promises.
+One way in: :meth:`Pipeline.receive` gives the guard the raw bytes; the frame check, the tag
+and the replay window come first, and only a packet that passed them is decoded — once — and
+given to the endpoint's ``receive_packet``. No endpoint takes bytes itself: every packet a
+node or the ground station reads passed a guard. A batch (:meth:`Pipeline.receive_all`, what
+arrived while the host slept) is handed over operator traffic first: the ground station's
+packets (sender 0, read from the decoded header) before the swarm's, as the urgent channel
+promises; with ``flush_each`` the endpoint's output is sent after every packet handed over,
+for an endpoint that must react to each packet before the next one comes (a platform's task
+engine, :class:`~actorswarm.daemon.endpoint.PlatformEndpoint`).
 
 The daemon's loop (:func:`actorswarm.daemon.loop.serve`) and the simulator's host
 (:class:`actorswarm.sim.swarm.SimSwarm`) both drive endpoints through a pipeline, so the
@@ -27,7 +31,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
-from actorswarm.core.node import Outgoing
+from actorswarm.core.node import Outgoing, Ready
 from actorswarm.core.wire import GROUND_STATION, URGENT, Packet
 from actorswarm.security.guard import PacketGuard
 
@@ -38,11 +42,12 @@ __all__ = ["PacketEndpoint", "Pipeline", "Traffic"]
 
 
 class PacketEndpoint(Protocol):
-    """What a pipeline serves: it takes checked packets and gives encoded ones."""
+    """What a pipeline serves: it takes checked packets (its one way in) and gives encoded
+    ones with everything else it produced, all at once (its one way out)."""
 
     def receive_packet(self, packet: Packet, now: float) -> None: ...
 
-    def drain_outgoing(self) -> list[Outgoing]: ...
+    def ready(self) -> Ready: ...
 
 
 @dataclass(slots=True)
@@ -104,9 +109,11 @@ class Pipeline:
         self.endpoint.receive_packet(packet, now)
         return True
 
-    def receive_all(self, batch: Iterable[bytes], now: float) -> int:
+    def receive_all(self, batch: Iterable[bytes], now: float, *, flush_each: bool = False) -> int:
         """Check every packet of ``batch`` and hand the accepted ones over, the ground
-        station's first (in arrival order otherwise); how many were accepted."""
+        station's first (in arrival order otherwise); how many were accepted. With
+        ``flush_each`` the endpoint's output is sent (:meth:`flush`) after every packet
+        handed over, not left for the host to send once after the batch."""
         traffic = self.traffic
         if traffic is not None:
             traffic.at_wake = traffic.counters()
@@ -123,17 +130,24 @@ class Pipeline:
         receive = self.endpoint.receive_packet
         for packet in operator:
             receive(packet, now)
+            if flush_each:
+                self.flush()
         for packet in swarm:
             receive(packet, now)
+            if flush_each:
+                self.flush()
         return len(operator) + len(swarm)
 
     def flush(self) -> int:
-        """Seal and send everything the endpoint has produced; how many packets."""
-        return self.send(self.endpoint.drain_outgoing())
+        """Take the endpoint's ``ready()`` and seal and send its packets; how many. For
+        endpoints whose ``ready()`` holds packets only (the ground station, a platform
+        endpoint, whose engine reads the node's events): a host that reads events (a
+        node's) takes ``ready()`` itself and calls :meth:`send`."""
+        return self.send(self.endpoint.ready().packets)
 
     def send(self, packets: Iterable[Outgoing]) -> int:
-        """Seal and send ``packets``, taken from the endpoint by the host (a node's
-        :meth:`~actorswarm.core.node.Node.ready`), in order; how many."""
+        """Seal and send ``packets``, taken from the endpoint by the host (the packets of a
+        node's :meth:`~actorswarm.core.node.Node.ready`), in order; how many."""
         sent = 0
         seal = self.guard.seal
         send = self.transport.send

@@ -4,12 +4,14 @@ Theory of operation
 -------------------
 A host (the simulator, the daemon) owns a :class:`Node` and does three things with it:
 
-* hands it every packet that arrives — :meth:`Node.receive` for untrusted bytes, or
-  :meth:`Node.receive_packet` for a packet already decoded once for many receivers;
+* hands it every packet that arrives, checked and decoded by the host's
+  :class:`~actorswarm.security.pipeline.Pipeline` (its guard refuses a bad frame, a bad
+  tag or a replay before the body is decoded): :meth:`Node.receive_packet`, the one way in;
 * calls :meth:`Node.tick` no later than :meth:`Node.next_deadline`;
-* after each of these (and each application call) takes :meth:`Node.ready`: a
-  :class:`~.ready.Ready` holding the packets to send (``dst`` None is a broadcast) and the
-  events to read, everything at once. :attr:`Node.has_ready` says whether there is any.
+* after each of these (and each application call) takes :meth:`Node.ready`, the one way
+  out: a :class:`~.ready.Ready` holding the packets to send (``dst`` None is a broadcast)
+  and the events to read, everything at once. :attr:`Node.has_ready` says whether there is
+  any.
 
 The application (task engine, tests) asks for coordination with :meth:`request_barrier`,
 :meth:`claim_role`, :meth:`release_role` and :meth:`send_app`. Every call takes ``now``; the
@@ -56,7 +58,6 @@ from actorswarm.core.delivery.reliable import Reliable
 from actorswarm.core.election import OnHeartbeat, on_heartbeat
 from actorswarm.core.events import (
     AppReceived,
-    CoreEvent,
     DeliveryFailed,
     MemberJoined,
     MemberLeft,
@@ -80,7 +81,6 @@ from actorswarm.core.wire import (
     Heartbeat,
     Packet,
     RoleRelease,
-    WireError,
 )
 
 #: Unexpected internal errors kept for diagnosis (:attr:`Node.errors`).
@@ -349,20 +349,11 @@ class Node:
     def has_ready(self) -> bool:
         """Whether :meth:`ready` would return anything.
 
-        A host may skip :meth:`next_deadline` after a ``receive`` that left no output: a
-        packet that makes the node send or report nothing never brings a deadline forward
-        (at 1000 platforms this saves a call per heartbeat heard).
+        A host may skip :meth:`next_deadline` after a :meth:`receive_packet` that left no
+        output: a packet that makes the node send or report nothing never brings a deadline
+        forward (at 1000 platforms this saves a call per heartbeat heard).
         """
         return self._out.pending
-
-    def drain_outgoing(self) -> list[Outgoing]:
-        """The packets of :meth:`ready` alone (the events stay for the next call): for
-        endpoints that move packets only, like a security pipeline's."""
-        return self._out.take_packets()
-
-    def drain_events(self) -> list[CoreEvent]:
-        """The events of :meth:`ready` alone (the packets stay for the next call)."""
-        return self._out.take_events()
 
     def due(self, now: float) -> bool:
         """Whether a host awake at ``now`` should :meth:`tick`: a deadline has passed, or
@@ -396,32 +387,10 @@ class Node:
         self._due = best
         return best
 
-    def receive(self, data: bytes, now: float) -> None:
-        """Accept untrusted bytes from the transport. Never raises."""
-        try:
-            packet = wire.decode(data, swarm=self.swarm, max_bytes=self.config.max_packet_bytes)
-        except WireError as exc:
-            self.counters[f"drop:{exc.reason}"] += 1
-            return
-        self.receive_packet(packet, now)
-
-    def receive_batch(self, batch: list[bytes], now: float) -> None:
-        """Accept several packets that arrived together: ground-station traffic (sender 0,
-        the operator's commands) is processed before swarm traffic (docs/design.md §3.3)."""
-        packets: list[Packet] = []
-        for data in batch:
-            try:
-                packets.append(
-                    wire.decode(data, swarm=self.swarm, max_bytes=self.config.max_packet_bytes)
-                )
-            except WireError as exc:
-                self.counters[f"drop:{exc.reason}"] += 1
-        packets.sort(key=lambda p: p.sender != wire.GROUND_STATION)  # stable: order kept
-        for packet in packets:
-            self.receive_packet(packet, now)
-
     def receive_packet(self, packet: Packet, now: float) -> None:
-        """Accept a decoded packet. Never raises; a packet that fails a check is counted."""
+        """Accept a packet the host's pipeline checked and decoded
+        (:meth:`~actorswarm.security.pipeline.Pipeline.receive`): the node's one way in.
+        Never raises; a packet that fails a check here is counted."""
         if packet.swarm != self.swarm:
             self.counters["drop:swarm"] += 1
             return
