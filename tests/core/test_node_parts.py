@@ -60,3 +60,28 @@ def test_a_master_that_steps_down_holds_the_member_duties() -> None:
     assert type(swarm.node(3)._role) is MemberDuties
     assert not swarm.node(3).is_master
     assert all(_holds_its_role(node) for node in swarm.nodes.values())
+
+
+def test_the_handshake_alone_waits_for_every_report_and_syncs_once() -> None:
+    from actorswarm.core.node.handshake import Handshake
+
+    handshake = Handshake()
+    assert handshake.deadlines() == (None, None) and not handshake.expired(99.0)
+    handshake.restart(bulletin=7)
+    handshake.open({3, 2}, deadline=5.0, sync_at=1.0)
+    assert handshake.awaited == 2 and handshake.deadlines() == (5.0, 1.0)
+    assert handshake.syncs_due(0.5) == []
+    assert handshake.syncs_due(1.0) == [2, 3]
+    assert handshake.syncs_due(2.0) == []  # once per handshake
+    assert not handshake.reported(2)  # 3 still awaited
+    assert handshake.reported(3)  # the last one: the handshake may finish
+    assert handshake.settled() and not handshake.expired(4.9) and handshake.expired(5.0)
+    assert not handshake.close()  # nobody was still awaited
+    # A member that reported, left and comes back in the same epoch is rejoining, once.
+    handshake.left(3, restarted=False)
+    assert not handshake.has_reported(3)
+    assert handshake.forget_rejoining(3) and not handshake.forget_rejoining(3)
+    # A newcomer opens a closed handshake again until its timeout.
+    handshake.wait_for(9, now=10.0, timeout=2.0)
+    assert handshake.deadlines() == (12.0, None) and handshake.awaited == 1
+    assert handshake.close()  # 9 never reported

@@ -118,7 +118,6 @@ class Node:
         # Master to every member as one broadcast (event relays, what the master runs).
         self._board = BulletinBoard(self.config, self._out)
         self._board.retry_delay = self.reliable.retry_delay
-        self._claim_bulletin = 0  # the first bulletin of the members of the claim
         self._inbox = BulletinInbox(platform)
         self.barriers = BarrierMember(platform)
         self.roles = RoleMember()
@@ -134,9 +133,6 @@ class Node:
         self.is_master = False
         self._max_epoch = 0
         self._best_claim: tuple[int, int, float] | None = None  # (epoch, sender, heard at)
-        self._handshake_waiting: set[int] = set()
-        self._handshake_deadline: float | None = None
-        self._sync_at: float | None = None
         self.handshake_complete = False
         self._lowest_peer: int | None = None
         self._awake = False
@@ -185,9 +181,6 @@ class Node:
         self._listening_since = now
         # Suspicion: when each suspect is probed next.
         self._probe_due: dict[int, float] = {}
-        # Master: who reported in this epoch, and who did and was then declared gone.
-        self._reported: set[int] = set()
-        self._rejoining: set[int] = set()
         # When the host was asked to tick next (local health, :class:`.liveness.Liveness`).
         self._due = now
         self.counters: Counter[str] = Counter()
@@ -383,8 +376,7 @@ class Node:
             min(self._presumed.values(), default=None),
             self.reliable.next_deadline(),
             *self._role.deadlines(),
-            self._handshake_deadline,
-            self._sync_at,
+            *self._lead.handshake.deadlines(),
         ):
             if t is not None and t < best:
                 best = t

@@ -53,7 +53,7 @@ class MasterDuties:
     # --- the interface both roles share ---------------------------------------------------
 
     def reports_awaited(self) -> int:
-        return len(self._node._handshake_waiting)
+        return self._node._lead.handshake.awaited
 
     def deadlines(self) -> tuple[float | None, float | None]:
         """The barrier table's and the bulletin board's next deadlines."""
@@ -64,12 +64,11 @@ class MasterDuties:
         """The handshake's Syncs and deadline, the barrier table's timers, the board's
         retransmissions."""
         node = self._node
-        if node._sync_at is not None and now >= node._sync_at:
-            node._sync_at = None
-            for peer in sorted(node._handshake_waiting):
-                sync = Sync(epoch=node.epoch, bulletin=node._claim_bulletin)
-                node.reliable.send(peer, sync, now, node.epoch)
-        if node._handshake_deadline is not None and now >= node._handshake_deadline:
+        handshake = node._lead.handshake
+        for peer in handshake.syncs_due(now):
+            sync = Sync(epoch=node.epoch, bulletin=handshake.bulletin)
+            node.reliable.send(peer, sync, now, node.epoch)
+        if handshake.expired(now):
             node._lead.finish_handshake(now)
         node._bmaster.tick(now, node.epoch)
         self.flush(now)
@@ -143,14 +142,11 @@ class MasterDuties:
     def member_left(self, change: MemberLeft, now: float) -> None:
         """A member left the view: its requests, roles, bulletins and roster entry go."""
         node = self._node
-        node._handshake_waiting.discard(change.platform)
+        node._lead.handshake.left(change.platform, restarted=change.reason == "restarted")
         node._bmaster.member_left(change.platform, now, node.epoch)
         node._rmaster.member_left(change.platform, restarted=change.reason == "restarted")
         node._board.member_left(change.platform)
         node._roster_log.left(change.platform)
-        if change.platform in node._reported and change.reason != "restarted":
-            node._rejoining.add(change.platform)
-        node._reported.discard(change.platform)
 
     def member_joined(self, change: MemberJoined, now: float, hb: Heartbeat | None) -> None:
         node = self._node
@@ -192,7 +188,7 @@ class MasterDuties:
     def view_changed(self, now: float) -> None:
         """After a change of the view: the handshake may be over, a firing may be due."""
         node = self._node
-        if node._handshake_deadline is not None and not node._handshake_waiting:
+        if node._lead.handshake.settled():
             node._lead.finish_handshake(now)
         self.flush(now)
 
@@ -221,11 +217,8 @@ class MasterDuties:
                 bm.request(sender, req, now, node.epoch)
             bm.reported(now, node.epoch)
             rm.report(sender, payload.held, payload.claims)
-            node._reported.add(sender)
-            if sender in node._handshake_waiting:
-                node._handshake_waiting.discard(sender)
-                if not node._handshake_waiting and node._handshake_deadline is not None:
-                    node._lead.finish_handshake(now)
+            if node._lead.handshake.reported(sender):
+                node._lead.finish_handshake(now)
         self.flush(now)
 
     def flush(self, now: float) -> None:

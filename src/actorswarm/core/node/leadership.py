@@ -15,6 +15,7 @@ from actorswarm.core.events import (
     MasterChanged,
     SteppedDown,
 )
+from actorswarm.core.node.handshake import Handshake
 from actorswarm.core.roles import RoleMaster
 from actorswarm.core.wire import (
     BarrierRequest,
@@ -43,6 +44,8 @@ class Leadership:
 
     def __init__(self, node: Node) -> None:
         self._node = node
+        #: The handshake of this platform's epoch as master (closed otherwise).
+        self.handshake = Handshake()
 
     def _own_report(self, now: float) -> Report:
         node = self._node
@@ -129,24 +132,22 @@ class Leadership:
         partition) must follow and report, and until it has, the master decides nothing,
         since the report may show a firing to complete."""
         node = self._node
-        if platform in node._reported:
+        handshake = self.handshake
+        if handshake.has_reported(platform):
             return
         rejoining = (
-            platform in node._rejoining
+            handshake.forget_rejoining(platform)
             and hb is not None
             and hb.epoch == node.epoch
             and hb.master == node.platform
         )
-        node._rejoining.discard(platform)
         sync = Sync(epoch=node.epoch, bulletin=node._board.next_seq)
         node.reliable.send(platform, sync, now, node.epoch)
         if rejoining:
             node.counters["rejoined"] += 1
             return
-        node._handshake_waiting.add(platform)
+        handshake.wait_for(platform, now, node.config.handshake_timeout)
         node._bmaster.topology_changed(now)
-        if node._handshake_deadline is None:
-            node._handshake_deadline = now + node.config.handshake_timeout
         node._bmaster.ready = False
         node._rmaster.ready = False
 
@@ -185,11 +186,9 @@ class Leadership:
         node._set_epoch(node._max_epoch, node.platform)
         node.master = node.platform
         node._inbox.follow(None)
-        node._claim_bulletin = node._board.next_seq
+        self.handshake.restart(node._board.next_seq)
         node._presumed.clear()
         node._probe_due.clear()
-        node._reported.clear()
-        node._rejoining.clear()
         if not node.is_master:
             # The firings it decided in an earlier term, which it would have reported to the
             # master it stepped down to: it may claim again before it reported them to anyone
@@ -238,30 +237,29 @@ class Leadership:
         node._out.events.append(BecameMaster(epoch=node.epoch))
         node._out.events.append(MasterChanged(master=node.platform, epoch=node.epoch))
         node.reliable.retarget(None, now)
-        node._handshake_waiting = set(node.members.peers)
-        node._handshake_deadline = now + node.config.handshake_timeout
+        waiting = set(node.members.peers)
         # Members follow the claim heartbeat and report on their own; a Sync goes only to
         # those who have not reported after a round trip's worth of retry delay.
         # On a shared channel the reports queue behind each other: no sync before they had
         # their airtime.
-        node._sync_at = now + max(
-            2 * node.config.retry_base, node._live.handshake_airtime(len(node._handshake_waiting))
+        self.handshake.open(
+            waiting,
+            deadline=now + node.config.handshake_timeout,
+            sync_at=now
+            + max(2 * node.config.retry_base, node._live.handshake_airtime(len(waiting))),
         )
         node._live.send_heartbeat(now)
         # The master's own state counts like any member's report.
         node._master_duties.decide(node.platform, self._own_report(now), now)
         for payload in node.reliable.take_unrouted():
             node._master_duties.decide(node.platform, payload, now)
-        if not node._handshake_waiting:
+        if not self.handshake.awaited:
             self.finish_handshake(now)
 
     def finish_handshake(self, now: float) -> None:
         node = self._node
-        node._handshake_deadline = None
-        node._sync_at = None
-        if node._handshake_waiting:
+        if self.handshake.close():
             node.counters["handshake_incomplete"] += 1
-        node._handshake_waiting.clear()
         if not node.handshake_complete:
             node.handshake_complete = True
             node._out.events.append(HandshakeComplete(epoch=node.epoch, members=len(node.members)))
@@ -277,9 +275,7 @@ class Leadership:
         node._cadence = node.config.heartbeat_interval
         node.members.cadence = node._cadence
         node.handshake_complete = False
-        node._handshake_waiting.clear()
-        node._handshake_deadline = None
-        node._sync_at = None
+        self.handshake.close()
         node._out.events.append(SteppedDown(epoch=node.epoch, to=to))
         node.master = None
         node._epoch_master = to
