@@ -62,7 +62,7 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.membership import airtime
-from actorswarm.core.membership.roster import RosterLog, RosterPool, RosterView
+from actorswarm.core.membership.roster import RosterPool, RosterView
 from actorswarm.core.membership.view import Membership
 from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
 from actorswarm.core.node.intake import _BODY_HANDLERS, Intake
@@ -162,8 +162,6 @@ class Node:
         # entries presumed alive after the master was lost (platform -> presumed until).
         self._star = self.config.membership == "star"
         self.roster = RosterView(roster_pool)
-        self._roster_log = RosterLog(self.config.succession)
-        self._roster_requests: set[int] = set()
         self._cadence = self.config.heartbeat_interval
         self._presumed: dict[int, float] = {}
         # On a shared channel: every platform heard lately, for the swarm size estimate;

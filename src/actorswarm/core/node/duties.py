@@ -116,7 +116,7 @@ class MasterDuties:
         if not (node._star and body.epoch == node.epoch):
             node.counters["drop:roster"] += 1
             return
-        node._roster_requests.add(sender)
+        node._rosters.asked(sender)
 
     def on_release_ack(self, sender: int, body: ReleaseAck) -> None:
         node = self._node
@@ -146,11 +146,11 @@ class MasterDuties:
         node._bmaster.member_left(change.platform, now, node.epoch)
         node._rmaster.member_left(change.platform, restarted=change.reason == "restarted")
         node._board.member_left(change.platform)
-        node._roster_log.left(change.platform)
+        node._rosters.log.left(change.platform)
 
     def member_joined(self, change: MemberJoined, now: float, hb: Heartbeat | None) -> None:
         node = self._node
-        node._roster_log.joined(change.platform, change.incarnation)
+        node._rosters.log.joined(change.platform, change.incarnation)
         node._lead.master_joined(change.platform, now, hb)
 
     def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
@@ -168,7 +168,7 @@ class MasterDuties:
                 suspects=suspects,
                 awaited=awaited,
             )
-        log = node._roster_log
+        log = node._rosters.log
         live = node._live
         return Heartbeat(
             is_master=True,

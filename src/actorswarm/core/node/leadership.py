@@ -229,7 +229,7 @@ class Leadership:
             hold = now + node._live.handshake_airtime(len(node.members))
             for peer in list(node.members.peers) if hold > now else ():
                 node.members.hold(peer, hold, now)
-        node._roster_log.reset(node.epoch)
+        node._rosters.log.reset(node.epoch)
         node._cadence = node._live.member_cadence()
         node.members.cadence = node._cadence
         node.handshake_complete = False
@@ -271,7 +271,7 @@ class Leadership:
         node = self._node
         node._take_role(node._member_duties)
         node._board.clear("stepped_down")
-        node._roster_requests.clear()
+        node._rosters.forget_requests()
         node._cadence = node.config.heartbeat_interval
         node.members.cadence = node._cadence
         node.handshake_complete = False

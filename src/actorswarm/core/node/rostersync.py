@@ -32,6 +32,19 @@ class RosterSync:
         self._broadcast_at = -1e9
         #: Master: the roster (epoch, version) its last heartbeat told.
         self.told = (0, 0)
+        #: Master: the roster as it keeps it (its heartbeats carry its version, changes and
+        #: succession list).
+        self.log = RosterLog(node.config.succession)
+        # Master: who asked for the whole roster since the last heartbeat.
+        self._requests: set[int] = set()
+
+    def asked(self, member: int) -> None:
+        """Master: ``member`` asked for the whole roster (served at the next heartbeat)."""
+        self._requests.add(member)
+
+    def forget_requests(self) -> None:
+        """Stepping down: the requests were for the master this platform no longer is."""
+        self._requests.clear()
 
     def on_master_heartbeat(self, sender: int, hb: Heartbeat, now: float) -> None:
         """A member's copy of its master's roster after the master's heartbeat: the changes
@@ -61,7 +74,7 @@ class RosterSync:
         hundred), so every member is behind — one broadcast of the roster serves them all,
         and saves the channel a request from each. Notes the version told."""
         node = self._node
-        log = node._roster_log
+        log = self.log
         told_epoch, told_version = self.told
         self.told = (node.epoch, log.version)
         if node.config.channel_bitrate is None or not node.members:
@@ -74,19 +87,17 @@ class RosterSync:
         shared channel, when all of them are behind (:meth:`_outrun`)."""
         node = self._node
         outrun = self._outrun()
-        if not node._roster_requests and not (outrun and now >= self._broadcast_at):
+        if not self._requests and not (outrun and now >= self._broadcast_at):
             return
-        requesters = sorted(node._roster_requests)
-        node._roster_requests.clear()
+        requesters = sorted(self._requests)
+        self._requests.clear()
         members = {p: m.incarnation for p, m in node.members.peers.items()}
-        chunks = RosterLog.chunks(
-            node.epoch, node._roster_log.version, members, node.config.roster_chunk
-        )
+        chunks = RosterLog.chunks(node.epoch, self.log.version, members, node.config.roster_chunk)
         if outrun or len(requesters) > ROSTER_BROADCAST_FROM:
             if now < self._broadcast_at:
                 # A roster that changes fast (a swarm booting) is broadcast once per t_join
                 # at most: the members ask again meanwhile, at no cost to anyone else.
-                node._roster_requests.update(requesters)
+                self._requests.update(requesters)
                 return
             self._broadcast_at = now + node.config.t_join
         targets: list[int | None] = (
