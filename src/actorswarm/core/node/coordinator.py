@@ -109,7 +109,7 @@ class Node:
         self.swarm = swarm
         self.incarnation = incarnation
         self.config = config or CoreConfig()
-        self._rng = rng if rng is not None else random.Random(platform)
+        rng = rng if rng is not None else random.Random(platform)
         self._started = now
         # Everything this platform sends and reports, whichever part produced it.
         self._out = Collector(swarm=swarm, sender=platform, incarnation=incarnation)
@@ -134,7 +134,6 @@ class Node:
         self._max_epoch = 0
         self._best_claim: tuple[int, int, float] | None = None  # (epoch, sender, heard at)
         self.handshake_complete = False
-        self._lowest_peer: int | None = None
         self._awake = False
         # When the master was last heard: a master followed before it joined the view (or
         # that left it and came back) has no leave detector of its own yet.
@@ -145,18 +144,6 @@ class Node:
         # The incarnation of the followed master that claimed (-1: not known yet): a
         # heartbeat of a newer one means the master rebooted and is master no more.
         self._master_incarnation = -1
-        interval = self.config.heartbeat_interval
-        if self.config.membership == "star":
-            # Lower IDs speak first at boot (up to one interval later for the highest ID), so
-            # a booting swarm hears its lowest IDs before the others would broadcast, and
-            # they keep quiet. The phase is drawn afresh after this first heartbeat.
-            self._next_heartbeat = now + interval * (
-                math.log2(platform) / 16 + self._rng.uniform(0.0, 0.05)
-            )
-            rephase = True
-        else:
-            self._next_heartbeat = now + self._rng.uniform(0.0, interval)
-            rephase = False
         # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
         # copy it, the member heartbeat interval the master asks for, and the succession
         # entries presumed alive after the master was lost (platform -> presumed until).
@@ -177,10 +164,6 @@ class Node:
         #: Since when this platform has elected as in broadcast mode (no master, no
         #: presumed successor): only then may a platform outside the succession list claim.
         self._listening_since = now
-        # Suspicion: when each suspect is probed next.
-        self._probe_due: dict[int, float] = {}
-        # When the host was asked to tick next (local health, :class:`.liveness.Liveness`).
-        self._due = now
         self.counters: Counter[str] = Counter()
         #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
         #: tests require it to stay empty).
@@ -198,10 +181,10 @@ class Node:
         #: their data is read by the master's ``scatter`` alone).
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master.
-        self._live = Liveness(self, now, rephase=rephase)
+        self._live = Liveness(self, now, rng)
         self._lead = Leadership(self)
         self._intake = Intake(self)
-        self._rosters = RosterSync(self)
+        self._rosters = RosterSync(self, rng)
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
         self._master_duties = MasterDuties(self)
@@ -362,15 +345,15 @@ class Node:
         deadline = self.next_deadline()
         if deadline is not None and deadline <= now + (self.config.heartbeat_slack or 0.0):
             return True
-        return now + self._live.heartbeat_window() >= self._next_heartbeat
+        return self._live.heartbeat_due(now)
 
     def next_deadline(self) -> float | None:
         """The latest time by which :meth:`tick` must be called next."""
-        best = self._next_heartbeat
+        best = self._live.next_heartbeat
         members_due = self.members.next_deadline()
         for t in (
             None if members_due is None else members_due + self.grace,
-            min(self._probe_due.values(), default=None),
+            self._live.next_probe(),
             min(self._presumed.values(), default=None),
             self.reliable.next_deadline(),
             *self._role.deadlines(),
@@ -383,7 +366,7 @@ class Node:
         if self.master is not None and not self.is_master and self.master not in self.members:
             silent_until = self._master_heard + self.members.silence() + self._channel_patience()
             best = min(best, max(silent_until, self._master_hold))
-        self._due = best
+        self._live.expect_tick(best)
         return best
 
     def receive(self, data: bytes, now: float) -> None:
@@ -436,10 +419,7 @@ class Node:
         joined_left: list[MemberJoined | MemberLeft] = []
         suspected: list[int] = []
         self.members.expire(now, joined_left, suspected, self.grace)
-        for peer in suspected:
-            self.counters["suspected"] += 1
-            if self._live.probes(peer):
-                self._probe_due[peer] = now
+        self._live.suspected(suspected, now)
         self._live.membership_changed(joined_left, now)
         self._live.probe(now)
         if self._live.master_unheard_since(now):

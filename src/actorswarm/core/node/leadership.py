@@ -153,7 +153,7 @@ class Leadership:
 
     def maybe_claim(self, now: float) -> None:
         node = self._node
-        lowest = node._lowest_peer
+        lowest = node._live.lowest_peer
         listened = now - node._started
         if node._star and node.master is None and not node.is_master:
             # A star platform also counts the lower IDs it heard but that have not joined its
@@ -188,7 +188,7 @@ class Leadership:
         node._inbox.follow(None)
         self.handshake.restart(node._board.next_seq)
         node._presumed.clear()
-        node._probe_due.clear()
+        node._live.forget_probes()
         if not node.is_master:
             # The firings it decided in an earlier term, which it would have reported to the
             # master it stepped down to: it may claim again before it reported them to anyone
@@ -220,7 +220,7 @@ class Leadership:
                 grace = node._live.handshake_airtime(len(inherited))
                 for peer, incarnation in inherited:
                     node.members.admit(peer, incarnation, now, grace=grace)
-                node._lowest_peer = min(node.members.peers, default=None)
+                node._live.recount_lowest_peer()
         else:  # a new epoch while master: everyone reports again, nothing fires meanwhile
             node._bmaster.ready = False
             node._rmaster.ready = False
@@ -307,8 +307,8 @@ class Leadership:
                 # Heartbeats wait for the report's acknowledgement (``_heartbeats_held``),
                 # but not past what an inherited member is held for, nor ``t_leave``.
                 node._heartbeats_held_until = now + max(airtime, node.config.t_leave)
-            node._lowest_peer = master if master in node.members else None
-            node._probe_due = {p: t for p, t in node._probe_due.items() if p == master}
+            node._live.recount_lowest_peer()  # the master, if in the view: nobody else is
+            node._live.forget_probes(keep=master)
         node._out.events.append(MasterChanged(master=master, epoch=epoch))
         node.reliable.retarget(master, now, epoch, MASTER_BOUND)
         node._inbox.follow(master)

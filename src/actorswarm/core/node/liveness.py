@@ -6,6 +6,8 @@ channel, :mod:`actorswarm.core.membership.airtime`).
 
 from __future__ import annotations
 
+import math
+import random
 from typing import TYPE_CHECKING
 
 from actorswarm.core import wire
@@ -34,11 +36,28 @@ class Liveness:
     It acts on the node's shared state (view, master, epoch) and keeps its own (heartbeat
     count, probe answers, local health)."""
 
-    def __init__(self, node: Node, now: float, *, rephase: bool = False) -> None:
+    def __init__(self, node: Node, now: float, rng: random.Random) -> None:
         self._node = node
+        self._rng = rng  # the node's: the phase of its heartbeats
+        interval = node.config.heartbeat_interval
+        if node.config.membership == "star":
+            # Lower IDs speak first at boot (up to one interval later for the highest ID), so
+            # a booting swarm hears its lowest IDs before the others would broadcast, and
+            # they keep quiet. The phase is drawn afresh after this first heartbeat.
+            self._next_heartbeat = now + interval * (
+                math.log2(node.platform) / 16 + rng.uniform(0.0, 0.05)
+            )
+        else:
+            self._next_heartbeat = now + rng.uniform(0.0, interval)
         # After the boot heartbeat, draw a phase of its own (star: the boot heartbeat's
         # phase follows the platform's rank).
-        self._rephase = rephase
+        self._rephase = node.config.membership == "star"
+        # Suspicion: when each suspect is probed next.
+        self._probe_due: dict[int, float] = {}
+        # The lowest ID of the view (None: nobody else), kept up to date per change.
+        self._lowest_peer: int | None = None
+        # When the host was asked to tick next (local health, :meth:`check_health`).
+        self._due = now
         #: Heartbeats sent so far (scheduled ones; probes and probe answers not counted).
         self.hb_count = 0
         #: As a star master: heartbeating twice per interval under heavy loss
@@ -52,6 +71,49 @@ class Liveness:
         self.health = 0
         self._health_decay_at = now
         self._changes: list[MemberJoined | MemberLeft] = []  # scratch, reused per heartbeat
+
+    @property
+    def next_heartbeat(self) -> float:
+        """When the next scheduled heartbeat is due."""
+        return self._next_heartbeat
+
+    def heartbeat_due(self, now: float) -> bool:
+        """Whether a host awake at ``now`` sends the scheduled heartbeat (within
+        :meth:`heartbeat_window` of its time)."""
+        return now + self.heartbeat_window() >= self._next_heartbeat
+
+    def next_probe(self) -> float | None:
+        """When the next suspect is probed (None: no suspect)."""
+        return min(self._probe_due.values(), default=None)
+
+    def expect_tick(self, at: float) -> None:
+        """The host was asked to tick by ``at``: a tick much later tells a host that was
+        not listening (:meth:`check_health`)."""
+        self._due = at
+
+    def suspected(self, peers: list[int], now: float) -> None:
+        """``peers`` became suspects at ``now``: each one this platform :meth:`probes` is
+        probed at the next :meth:`probe`."""
+        node = self._node
+        for peer in peers:
+            node.counters["suspected"] += 1
+            if self.probes(peer):
+                self._probe_due[peer] = now
+
+    def forget_probes(self, keep: int | None = None) -> None:
+        """Probe nobody (a new master's members are watched afresh) but ``keep`` (a star
+        member watches its master alone)."""
+        self._probe_due = {p: t for p, t in self._probe_due.items() if p == keep}
+
+    @property
+    def lowest_peer(self) -> int | None:
+        """The lowest ID in the view but this platform's (None: the view is empty)."""
+        return self._lowest_peer
+
+    def recount_lowest_peer(self) -> None:
+        """The view was changed wholesale (not by joins and leaves): find its lowest ID
+        again."""
+        self._lowest_peer = min(self._node.members.peers, default=None)
 
     def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
         """This platform's heartbeat (its role's: a star master's carries what its members
@@ -112,24 +174,24 @@ class Liveness:
         """Send the scheduled heartbeat if it is due (within :meth:`heartbeat_window`), and
         schedule the next one."""
         node = self._node
-        if now + self.heartbeat_window() >= node._next_heartbeat:
+        if now + self.heartbeat_window() >= self._next_heartbeat:
             self.send_heartbeat(now)
             interval = self.own_interval()
             if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
                 self._rephase = False
-                interval *= node._rng.uniform(0.5, 1.5)
-            if self._rides_master() and now >= node._next_heartbeat:
+                interval *= self._rng.uniform(0.5, 1.5)
+            if self._rides_master() and now >= self._next_heartbeat:
                 # A wake of its own: nothing it could ride on came within a slack of its
                 # time. Half a slack later next time, towards the wakes its master's
                 # heartbeats cause, until they come within the window; then it keeps that
                 # phase (below), so the rate stays one per cadence however often it wakes.
-                node._next_heartbeat += interval + (node.config.heartbeat_slack or 0.0) / 2
+                self._next_heartbeat += interval + (node.config.heartbeat_slack or 0.0) / 2
             else:
                 # Sent early, on a tick the host made anyway: keep the phase, so the rate
                 # stays one per interval.
-                node._next_heartbeat += interval
-            if node._next_heartbeat <= now:  # the host fell behind: do not burst
-                node._next_heartbeat = now + interval
+                self._next_heartbeat += interval
+            if self._next_heartbeat <= now:  # the host fell behind: do not burst
+                self._next_heartbeat = now + interval
 
     def own_interval(self) -> float:
         """How often this platform heartbeats: a star member following a master at the
@@ -263,7 +325,7 @@ class Liveness:
         listening (a starved CPU, a paused process); each one adds a heartbeat interval of
         grace to every leave decision, and every second of punctual ticks takes one away."""
         node = self._node
-        late = now - node._due
+        late = now - self._due
         if late > node.config.heartbeat_interval / 2:
             if self.health < MAX_HEALTH:
                 self.health += 1
@@ -288,21 +350,21 @@ class Liveness:
         suspicion, then every ``probe_interval`` while there are few; many suspects at once
         (a master after a mass failure) are probed by the list in the heartbeats alone."""
         node = self._node
-        if not node._probe_due:
+        if not self._probe_due:
             return
         suspects = node.members.suspects
-        for peer in [p for p in node._probe_due if p not in suspects]:
-            del node._probe_due[peer]
-        if len(node._probe_due) > wire.MAX_SUSPECTS // 4:
-            due = [p for p, t in node._probe_due.items() if t == now]  # fresh suspicions only
-            for peer in node._probe_due:
-                node._probe_due[peer] = now + node.config.heartbeat_interval
+        for peer in [p for p in self._probe_due if p not in suspects]:
+            del self._probe_due[peer]
+        if len(self._probe_due) > wire.MAX_SUSPECTS // 4:
+            due = [p for p, t in self._probe_due.items() if t == now]  # fresh suspicions only
+            for peer in self._probe_due:
+                self._probe_due[peer] = now + node.config.heartbeat_interval
         else:
-            due = [p for p, t in node._probe_due.items() if t <= now]
+            due = [p for p, t in self._probe_due.items() if t <= now]
         for peer in due:
             node.counters["probe"] += 1
             node._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
-            node._probe_due[peer] = now + node.config.probe_interval
+            self._probe_due[peer] = now + node.config.probe_interval
 
     def on_heartbeat(
         self, sender: int, incarnation: int, hb: Heartbeat, now: float, seq: int
@@ -381,9 +443,9 @@ class Liveness:
             # schedule (a new phase at each would put the next heartbeat off again and
             # again while the master's count grows), bringing it forward when faster.
             if node._cadence == node.config.heartbeat_interval:
-                node._next_heartbeat = now + node._rng.uniform(0, cadence)
+                self._next_heartbeat = now + self._rng.uniform(0, cadence)
             else:
-                node._next_heartbeat = min(node._next_heartbeat, now + cadence)
+                self._next_heartbeat = min(self._next_heartbeat, now + cadence)
             node._cadence = cadence
         node._rosters.on_master_heartbeat(sender, hb, now)
 
@@ -418,7 +480,7 @@ class Liveness:
             node._out.events.append(change)
             if isinstance(change, MemberLeft):
                 node.reliable.drop_destination(change.platform, now)
-                node._probe_due.pop(change.platform, None)
+                self._probe_due.pop(change.platform, None)
                 if change.reason == "restarted":
                     node.reliable.forget_sender(change.platform, change.incarnation)
                 node._role.member_left(change, now)
@@ -435,7 +497,7 @@ class Liveness:
         """Keep the lowest ID of the view in O(1) per join; only losing the lowest one costs
         a scan (at boot a platform sees N joins: a scan per join would be O(N²))."""
         node = self._node
-        lowest = node._lowest_peer
+        lowest = self._lowest_peer
         for change in changes:
             if isinstance(change, MemberJoined):
                 if lowest is None or change.platform < lowest:
@@ -444,4 +506,4 @@ class Liveness:
                 lowest = None if not node.members.peers else -1
         if lowest == -1:
             lowest = min(node.members.peers)
-        node._lowest_peer = lowest
+        self._lowest_peer = lowest

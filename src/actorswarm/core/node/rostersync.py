@@ -6,6 +6,7 @@ the whole roster when it falls behind (see :mod:`actorswarm.core.membership.rost
 
 from __future__ import annotations
 
+import random
 from typing import TYPE_CHECKING
 
 from actorswarm.core import wire
@@ -23,8 +24,9 @@ ROSTER_BROADCAST_FROM = 4
 class RosterSync:
     """Serving and following the roster, for one :class:`~actorswarm.core.node.Node`."""
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, rng: random.Random) -> None:
         self._node = node
+        self._rng = rng  # the node's: when a member on a shared channel asks
         # Member: when the roster was last asked for; on a shared channel, a request
         # waiting to go. Master: when the roster was last broadcast.
         self._asked = -1e9
@@ -122,7 +124,7 @@ class RosterSync:
             if now - self._asked < cfg.t_join:
                 return False
             if self._ask_at is None:
-                self._ask_at = now + cfg.t_join * node._rng.uniform(0.5, 1.5)
+                self._ask_at = now + cfg.t_join * self._rng.uniform(0.5, 1.5)
             if now < self._ask_at:
                 return False
             self._ask_at = None
