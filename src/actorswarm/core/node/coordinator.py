@@ -131,8 +131,6 @@ class Node:
         self.master: int | None = None
         self._epoch_master: int | None = None
         self.is_master = False
-        self._max_epoch = 0
-        self._best_claim: tuple[int, int, float] | None = None  # (epoch, sender, heard at)
         self.handshake_complete = False
         self._awake = False
         # When the master was last heard: a master followed before it joined the view (or
@@ -141,29 +139,16 @@ class Node:
         #: A star member on a shared channel does not give up its new master before this:
         #: the master's heartbeats queue behind the packets its claim set off.
         self._master_hold = -math.inf
-        # The incarnation of the followed master that claimed (-1: not known yet): a
-        # heartbeat of a newer one means the master rebooted and is master no more.
-        self._master_incarnation = -1
         # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
-        # copy it, the member heartbeat interval the master asks for, and the succession
-        # entries presumed alive after the master was lost (platform -> presumed until).
+        # copy it, and the member heartbeat interval the master asks for.
         self._star = self.config.membership == "star"
         self.roster = RosterView(roster_pool)
         self._cadence = self.config.heartbeat_interval
-        self._presumed: dict[int, float] = {}
         # On a shared channel: every platform heard lately, for the swarm size estimate;
         # None without a channel, where nothing needs it.
         self._heard = airtime.HeardLog(now) if self.config.channel_bitrate is not None else None
-        # On a shared channel, a star member's heartbeats to a master it just followed wait
-        # for its report's acknowledgement (the report's master-bound sequence number), at
-        # most until ``_heartbeats_held_until``.
-        self._report_seq = 0
-        self._heartbeats_held_until = -math.inf
         # A master-bound message was given up: report again at the next tick.
         self._restate = False
-        #: Since when this platform has elected as in broadcast mode (no master, no
-        #: presumed successor): only then may a platform outside the succession list claim.
-        self._listening_since = now
         self.counters: Counter[str] = Counter()
         #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
         #: tests require it to stay empty).
@@ -182,7 +167,7 @@ class Node:
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master.
         self._live = Liveness(self, now, rng)
-        self._lead = Leadership(self)
+        self._lead = Leadership(self, now)
         self._intake = Intake(self)
         self._rosters = RosterSync(self, rng)
         # The role: what this platform does as master or as member, swapped by
@@ -252,14 +237,6 @@ class Node:
             first_retry=lambda: self.reliable.timeout(None),
             retry_delay=self.reliable.retry_delay,
         )
-
-    def _set_epoch(self, epoch: int, master: int) -> None:
-        if epoch < self.epoch:
-            raise AssertionError(f"epoch would go back from {self.epoch} to {epoch}")
-        self.epoch = epoch
-        self._epoch_master = master
-        self.barriers.adopt_epoch(epoch, master)
-        self._max_epoch = max(self._max_epoch, epoch)
 
     def _decide(self, sender: int, sender_is_master: bool, sender_epoch: int) -> OnHeartbeat:
         """The election rules' answer to ``sender``'s word (a heartbeat, a Sync)."""
@@ -354,7 +331,7 @@ class Node:
         for t in (
             None if members_due is None else members_due + self.grace,
             self._live.next_probe(),
-            min(self._presumed.values(), default=None),
+            self._lead.presumed_until(),
             self.reliable.next_deadline(),
             *self._role.deadlines(),
             *self._lead.handshake.deadlines(),
@@ -424,10 +401,7 @@ class Node:
         self._live.probe(now)
         if self._live.master_unheard_since(now):
             self._lead.lose_master(now)
-        if self._presumed:
-            self._presumed = {p: t for p, t in self._presumed.items() if t > now}
-            if not self._presumed:
-                self._listening_since = now
+        self._lead.expire_presumed(now)
         self._lead.maybe_claim(now)
         self._role.tick(now)
         self.reliable.tick(now)

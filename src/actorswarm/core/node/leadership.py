@@ -42,10 +42,88 @@ class Leadership:
     docstring. It acts on the node's election state (``epoch``, ``master``,
     ``is_master``) and its handshake."""
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, now: float) -> None:
         self._node = node
+        # The highest epoch seen, and the best claim heard while the master was still
+        # trusted: (epoch, sender, heard at).
+        self._max_epoch = 0
+        self._best_claim: tuple[int, int, float] | None = None
+        # The incarnation of the followed master that claimed (-1: not known yet): a
+        # heartbeat of a newer one means the master rebooted and is master no more.
+        self._master_incarnation = -1
+        # Star: the succession entries presumed alive after the master was lost (platform ->
+        # presumed until).
+        self._presumed: dict[int, float] = {}
+        # Since when this platform has elected as in broadcast mode (no master, no presumed
+        # successor): only then may a platform outside the succession list claim.
+        self._listening_since = now
+        # On a shared channel, a star member's heartbeats to a master it just followed wait
+        # for its report's acknowledgement (the report's master-bound sequence number), at
+        # most until ``_heartbeats_held_until`` (:meth:`holds_heartbeats`).
+        self._report_seq = 0
+        self._heartbeats_held_until = -math.inf
         #: The handshake of this platform's epoch as master (closed otherwise).
         self.handshake = Handshake()
+
+    def _set_epoch(self, epoch: int, master: int) -> None:
+        node = self._node
+        if epoch < node.epoch:
+            raise AssertionError(f"epoch would go back from {node.epoch} to {epoch}")
+        node.epoch = epoch
+        node._epoch_master = master
+        node.barriers.adopt_epoch(epoch, master)
+        self._max_epoch = max(self._max_epoch, epoch)
+
+    def saw_epoch(self, epoch: int) -> None:
+        """A heartbeat or Sync told of ``epoch``: a claim of this platform's goes above it."""
+        self._max_epoch = max(self._max_epoch, epoch)
+
+    def heard_claim(self, sender: int, claims: bool, epoch: int, now: float) -> None:
+        """``sender`` claims (``claims``) ``epoch``, and the rules say to ignore it while the
+        master is trusted: kept, if above this platform's epoch and every claim heard, to
+        follow at once should the master be lost (:meth:`lose_master`)."""
+        better = self._best_claim is None or epoch > self._best_claim[0]
+        if claims and epoch > self._node.epoch and better:
+            self._best_claim = (epoch, sender, now)
+
+    def master_incarnation_heard(self, incarnation: int, claims: bool, now: float) -> None:
+        """The followed master heartbeats in ``incarnation`` (as master: ``claims``): a newer
+        one than the one that claimed means it rebooted, and is master no more."""
+        if incarnation > self._master_incarnation >= 0:
+            # The new incarnation claims nothing (a heartbeat of an older epoch would
+            # otherwise pass for a late one from before its claim).
+            self._node.counters["master_restarted"] += 1
+            self.lose_master(now)
+        elif claims:
+            self._master_incarnation = incarnation
+
+    def followed_in(self, incarnation: int) -> None:
+        """The master just followed heartbeats in ``incarnation``: known from its first
+        heartbeat, so that its reboot is noticed even if that is the last one heard."""
+        self._master_incarnation = incarnation
+
+    def presumed_until(self) -> float | None:
+        """When the first successor presumed alive is presumed no more (None: none is)."""
+        return min(self._presumed.values(), default=None)
+
+    def presumes_lower(self) -> bool:
+        """Whether a successor with a lower ID than this platform's is presumed alive."""
+        platform = self._node.platform
+        return any(p < platform for p in self._presumed)
+
+    def expire_presumed(self, now: float) -> None:
+        """Successors presumed alive until ``now`` are no more; with none left, this
+        platform elects as in broadcast mode from now on."""
+        if self._presumed:
+            self._presumed = {p: t for p, t in self._presumed.items() if t > now}
+            if not self._presumed:
+                self._listening_since = now
+
+    def holds_heartbeats(self, now: float) -> bool:
+        """On a shared channel: whether a star member's heartbeats to the master it just
+        followed still wait for its report's acknowledgement (at most until a deadline)."""
+        node = self._node
+        return now < self._heartbeats_held_until and node.reliable.master_holds(self._report_seq)
 
     def _own_report(self, now: float) -> Report:
         node = self._node
@@ -66,7 +144,7 @@ class Leadership:
             return
         # On the master-bound stream, in order with the claims and requests: a report made
         # before a claim must not reach the master after the claim's grant and erase it.
-        node._report_seq = node.reliable.send_to_master(
+        self._report_seq = node.reliable.send_to_master(
             self._own_report(now), now, node.epoch, copies=self._report_copies()
         )
 
@@ -85,17 +163,17 @@ class Leadership:
 
     def on_sync(self, sender: int, sync: Sync, now: float, incarnation: int = -1) -> None:
         node = self._node
-        node._max_epoch = max(node._max_epoch, sync.epoch)
+        self._max_epoch = max(self._max_epoch, sync.epoch)
         self._sync_bulletins(sender, sync)
         if sender == node.master and sync.epoch == node.epoch:
-            node._master_incarnation = max(node._master_incarnation, incarnation)
+            self._master_incarnation = max(self._master_incarnation, incarnation)
             self.report(now)
             return
         action = node._decide(sender, True, sync.epoch)
         if not self.apply(action, sender, sync.epoch, now):
             node.counters["drop:stale_epoch"] += 1
         if node.master == sender:
-            node._master_incarnation = incarnation
+            self._master_incarnation = incarnation
         self._sync_bulletins(sender, sync)
 
     def _sync_bulletins(self, sender: int, sync: Sync) -> None:
@@ -160,12 +238,12 @@ class Leadership:
             # view (they keep quiet only if they hear someone lower still) and the successors
             # it presumes alive. The first live successor takes over at once; anyone else
             # elects as in broadcast mode, having listened for ``startup_wait`` first.
-            lower = [p for p in node._presumed if p < node.platform]
+            lower = [p for p in self._presumed if p < node.platform]
             lower += node._live.lower_heard(now)
             if lower:
                 lowest = min(lower) if lowest is None else min(lowest, *lower)
             if node.platform not in node.roster.succession:
-                listened = min(listened, now - node._listening_since)
+                listened = min(listened, now - self._listening_since)
         if should_claim(
             self_id=node.platform,
             lowest_peer=lowest,
@@ -181,13 +259,13 @@ class Leadership:
     def _claim(self, now: float) -> None:
         """Become master in a new epoch above every epoch seen; start the handshake."""
         node = self._node
-        node._max_epoch += 1
+        self._max_epoch += 1
         predecessor = node._epoch_master
-        node._set_epoch(node._max_epoch, node.platform)
+        self._set_epoch(self._max_epoch, node.platform)
         node.master = node.platform
         node._inbox.follow(None)
         self.handshake.restart(node._board.next_seq)
-        node._presumed.clear()
+        self._presumed.clear()
         node._live.forget_probes()
         if not node.is_master:
             # The firings it decided in an earlier term, which it would have reported to the
@@ -285,11 +363,11 @@ class Leadership:
         node = self._node
         if node.is_master:
             self._step_down(master, now)
-        node._set_epoch(epoch, master)
+        self._set_epoch(epoch, master)
         node.master = master
         node._master_heard = now
-        node._best_claim = None
-        node._presumed.clear()
+        self._best_claim = None
+        self._presumed.clear()
         if node._star:
             # A star member watches its master only; the rest of the swarm it learns from
             # the master's roster (fetched anew: it is the new master's, or newer).
@@ -306,7 +384,7 @@ class Leadership:
             if node.config.channel_bitrate is not None:
                 # Heartbeats wait for the report's acknowledgement (``_heartbeats_held``),
                 # but not past what an inherited member is held for, nor ``t_leave``.
-                node._heartbeats_held_until = now + max(airtime, node.config.t_leave)
+                self._heartbeats_held_until = now + max(airtime, node.config.t_leave)
             node._live.recount_lowest_peer()  # the master, if in the view: nobody else is
             node._live.forget_probes(keep=master)
         node._out.events.append(MasterChanged(master=master, epoch=epoch))
@@ -322,8 +400,8 @@ class Leadership:
             return
         lost = node.master
         node.master = None
-        node._master_incarnation = -1
-        node._listening_since = now
+        self._master_incarnation = -1
+        self._listening_since = now
         if node._star:
             # Masterless, it watches whoever broadcasts, at the ordinary interval.
             node.members.cadence = node.config.heartbeat_interval
@@ -337,11 +415,11 @@ class Leadership:
             step = 3 * node.config.heartbeat_interval + node.config.probe_window
             for rank, peer in enumerate(p for p in node.roster.succession if p != lost):
                 if peer != node.platform:
-                    node._presumed[peer] = now + (rank + 1) * step
+                    self._presumed[peer] = now + (rank + 1) * step
         node._out.events.append(MasterChanged(master=None, epoch=node.epoch))
         node.reliable.retarget(None, now)
         node._inbox.follow(None)
-        claim = node._best_claim
+        claim = self._best_claim
         if (
             claim is not None
             and claim[0] > node.epoch

@@ -286,13 +286,13 @@ class Liveness:
         (docs/collective-core.md, "Airtime"). By then the master has counted the reports it
         received, and its heartbeat carries a cadence for them."""
         node = self._node
-        return now < node._heartbeats_held_until and node.reliable.master_holds(node._report_seq)
+        return node._lead.holds_heartbeats(now)
 
     def _quiet(self, now: float) -> bool:
         node = self._node
         if not node._star or node.is_master or node.master is not None:
             return False
-        if any(p < node.platform for p in node._presumed):
+        if node._lead.presumes_lower():
             return True
         return bool(self.lower_heard(now))
 
@@ -377,15 +377,9 @@ class Liveness:
             self._answer_probe(sender, now)
         if hb.awaited and sender == node.master and node.platform in hb.awaited:
             self._hurry(now)
-        node._max_epoch = max(node._max_epoch, hb.epoch)
+        node._lead.saw_epoch(hb.epoch)
         if sender == node.master and not node.is_master:
-            if incarnation > node._master_incarnation >= 0:
-                # My master rebooted: the new incarnation claims nothing (a heartbeat of an
-                # older epoch would otherwise pass for a late one from before its claim).
-                node.counters["master_restarted"] += 1
-                node._lead.lose_master(now)
-            elif hb.is_master:
-                node._master_incarnation = incarnation
+            node._lead.master_incarnation_heard(incarnation, hb.is_master, now)
         if sender < node.platform and node._star and node.master is None:
             # Only a lower ID that follows no master either keeps this one quiet: one that
             # follows a master this platform does not (its probe answers reach me) or is a
@@ -410,15 +404,13 @@ class Liveness:
             return  # the common case at scale: an ordinary member's heartbeat
         action = node._decide(sender, hb.is_master, hb.epoch)
         if action is OnHeartbeat.IGNORE:
-            better = node._best_claim is None or hb.epoch > node._best_claim[0]
-            if hb.is_master and hb.epoch > node.epoch and better:
-                node._best_claim = (hb.epoch, sender, now)
+            node._lead.heard_claim(sender, hb.is_master, hb.epoch, now)
             return
         if node._lead.apply(action, sender, hb.epoch, now):
             if action is OnHeartbeat.FOLLOW and node.master == sender:
                 # Known from its first heartbeat, so that its reboot is noticed even if it
                 # is the last one heard (campaign seed 951123, broadcast).
-                node._master_incarnation = incarnation
+                node._lead.followed_in(incarnation)
                 self._on_master_heartbeat(sender, hb, now)
             return
         if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any
