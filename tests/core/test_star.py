@@ -710,7 +710,7 @@ def test_on_a_shared_channel_the_boot_is_counted_and_the_first_claim_paces_every
         beats = [t for t, src, dst, kind in sent if src == p and dst == 1 and kind == "Heartbeat"]
         assert beats and beats[0] > acked, f"platform {p} heartbeat before its report's ack"
     assert swarm.formed(30)
-    assert swarm.node(30)._cadence == pytest.approx(expected)
+    assert swarm.node(30)._live.cadence == pytest.approx(expected)
     assert swarm.finish() == []
 
 

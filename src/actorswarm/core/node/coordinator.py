@@ -36,7 +36,6 @@ platform nor change its state.
 
 from __future__ import annotations
 
-import math
 import random
 from collections import Counter
 from collections.abc import Iterable
@@ -133,17 +132,10 @@ class Node:
         self.is_master = False
         self.handshake_complete = False
         self._awake = False
-        # When the master was last heard: a master followed before it joined the view (or
-        # that left it and came back) has no leave detector of its own yet.
-        self._master_heard = now
-        #: A star member on a shared channel does not give up its new master before this:
-        #: the master's heartbeats queue behind the packets its claim set off.
-        self._master_hold = -math.inf
         # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
-        # copy it, and the member heartbeat interval the master asks for.
+        # copy it.
         self._star = self.config.membership == "star"
         self.roster = RosterView(roster_pool)
-        self._cadence = self.config.heartbeat_interval
         # On a shared channel: every platform heard lately, for the swarm size estimate;
         # None without a channel, where nothing needs it.
         self._heard = airtime.HeardLog(now) if self.config.channel_bitrate is not None else None
@@ -166,7 +158,7 @@ class Node:
         #: their data is read by the master's ``scatter`` alone).
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master.
-        self._live = Liveness(self, now, rng)
+        self._live = Liveness(self, now, rng, self._heard)
         self._lead = Leadership(self, now)
         self._intake = Intake(self)
         self._rosters = RosterSync(self, rng)
@@ -340,9 +332,9 @@ class Node:
                 best = t
         if not self._awake:
             best = min(best, self._started + self.config.startup_wait)
-        if self.master is not None and not self.is_master and self.master not in self.members:
-            silent_until = self._master_heard + self.members.silence() + self._channel_patience()
-            best = min(best, max(silent_until, self._master_hold))
+        master_due = self._live.master_deadline()
+        if master_due is not None:
+            best = min(best, master_due)
         self._live.expect_tick(best)
         return best
 

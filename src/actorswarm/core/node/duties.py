@@ -180,7 +180,7 @@ class MasterDuties:
             size=len(node.members),
             changes=list(log.changes),
             succession=log.succession(node.members.peers),
-            cadence=0.0 if node._cadence == node.config.heartbeat_interval else node._cadence,
+            cadence=0.0 if live.cadence == node.config.heartbeat_interval else live.cadence,
             awaited=awaited,
             interval_ms=round(live.own_interval() * 1000) if live.fast else 0,
         )
@@ -343,8 +343,8 @@ class MemberDuties:
         """Its master joined the view while a shared channel holds its heartbeats back: the
         hold applies to the new detector too."""
         node = self._node
-        if change.platform == node.master and node._master_hold > now:
-            node.members.hold(change.platform, node._master_hold, now)
+        if change.platform == node.master:
+            node._live.rehold_master(change.platform, now)
 
     def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
         """A member's heartbeat: whom it follows, in which epoch, whom it suspects."""

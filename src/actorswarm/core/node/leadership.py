@@ -308,8 +308,7 @@ class Leadership:
             for peer in list(node.members.peers) if hold > now else ():
                 node.members.hold(peer, hold, now)
         node._rosters.log.reset(node.epoch)
-        node._cadence = node._live.member_cadence()
-        node.members.cadence = node._cadence
+        node._live.set_cadence(node._live.member_cadence())
         node.handshake_complete = False
         node._bmaster.topology_changed(now)
         node._out.events.append(BecameMaster(epoch=node.epoch))
@@ -350,8 +349,7 @@ class Leadership:
         node._take_role(node._member_duties)
         node._board.clear("stepped_down")
         node._rosters.forget_requests()
-        node._cadence = node.config.heartbeat_interval
-        node.members.cadence = node._cadence
+        node._live.set_cadence(node.config.heartbeat_interval)
         node.handshake_complete = False
         self.handshake.close()
         node._out.events.append(SteppedDown(epoch=node.epoch, to=to))
@@ -365,7 +363,7 @@ class Leadership:
             self._step_down(master, now)
         self._set_epoch(epoch, master)
         node.master = master
-        node._master_heard = now
+        node._live.master_heard(now)
         self._best_claim = None
         self._presumed.clear()
         if node._star:
@@ -379,8 +377,7 @@ class Leadership:
             # claim sets off (``handshake_airtime``): not given up before they had theirs.
             airtime = node._live.handshake_airtime(node._live.swarm_size() - 1)
             if airtime > 0.0:
-                node._master_hold = now + airtime
-                node.members.hold(master, node._master_hold, now)
+                node._live.hold_master(master, now + airtime, now)
             if node.config.channel_bitrate is not None:
                 # Heartbeats wait for the report's acknowledgement (``_heartbeats_held``),
                 # but not past what an inherited member is held for, nor ``t_leave``.

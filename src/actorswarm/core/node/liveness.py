@@ -36,9 +36,13 @@ class Liveness:
     It acts on the node's shared state (view, master, epoch) and keeps its own (heartbeat
     count, probe answers, local health)."""
 
-    def __init__(self, node: Node, now: float, rng: random.Random) -> None:
+    def __init__(
+        self, node: Node, now: float, rng: random.Random, heard: airtime.HeardLog | None
+    ) -> None:
         self._node = node
         self._rng = rng  # the node's: the phase of its heartbeats
+        # The node's log of every platform heard lately (on a shared channel; else None).
+        self._heard = heard
         interval = node.config.heartbeat_interval
         if node.config.membership == "star":
             # Lower IDs speak first at boot (up to one interval later for the highest ID), so
@@ -58,6 +62,15 @@ class Liveness:
         self._lowest_peer: int | None = None
         # When the host was asked to tick next (local health, :meth:`check_health`).
         self._due = now
+        # When the followed master was last heard: a master followed before it joined the
+        # view (or that left it and came back) has no leave detector of its own yet.
+        self._master_heard = now
+        # A star member on a shared channel does not give up its new master before this:
+        # the master's heartbeats queue behind the packets its claim set off.
+        self._master_hold = -math.inf
+        # The member heartbeat interval: the one a star master asks for (its own members'),
+        # or its master asked for (a star member's own), else ``heartbeat_interval``.
+        self._cadence = node.config.heartbeat_interval
         #: Heartbeats sent so far (scheduled ones; probes and probe answers not counted).
         self.hb_count = 0
         #: As a star master: heartbeating twice per interval under heavy loss
@@ -106,6 +119,43 @@ class Liveness:
         self._probe_due = {p: t for p, t in self._probe_due.items() if p == keep}
 
     @property
+    def cadence(self) -> float:
+        """The member heartbeat interval: as a star master, the one it asks its members for;
+        as a star member, the one its master asked for; else ``heartbeat_interval``."""
+        return self._cadence
+
+    def set_cadence(self, cadence: float) -> None:
+        """This platform's members heartbeat at ``cadence`` (a master's own, or the ordinary
+        interval after stepping down): ask for it and judge their silence by it."""
+        self._cadence = cadence
+        self._node.members.cadence = cadence
+
+    def master_heard(self, now: float) -> None:
+        """The followed master (just followed, or heard) was heard at ``now``."""
+        self._master_heard = now
+
+    def hold_master(self, master: int, until: float, now: float) -> None:
+        """On a shared channel: the master just followed is not given up before ``until``
+        (its heartbeats queue behind the reports its claim sets off)."""
+        self._master_hold = until
+        self._node.members.hold(master, until, now)
+
+    def rehold_master(self, master: int, now: float) -> None:
+        """The followed master joined the view while a shared channel holds its heartbeats
+        back: the hold applies to the new detector too."""
+        if self._master_hold > now:
+            self._node.members.hold(master, self._master_hold, now)
+
+    def master_deadline(self) -> float | None:
+        """By when a followed master outside the view must be heard again, or is lost
+        (:meth:`master_unheard_since`); None when there is no such master."""
+        node = self._node
+        if node.master is None or node.is_master or node.master in node.members:
+            return None
+        silent_until = self._master_heard + node.members.silence() + node._channel_patience()
+        return max(silent_until, self._master_hold)
+
+    @property
     def lowest_peer(self) -> int | None:
         """The lowest ID in the view but this platform's (None: the view is empty)."""
         return self._lowest_peer
@@ -141,9 +191,9 @@ class Liveness:
         at boot every platform broadcasts a heartbeat once — and a boot paced by the view
         alone would start a swarm of hundreds at 10 Hz on a channel that carries a tenth."""
         node = self._node
-        size = max(len(node.members), len(node.roster.members), len(node._heard or ()))
+        size = max(len(node.members), len(node.roster.members), len(self._heard or ()))
         if not node.is_master:  # a master's own cadence follows from this: it must not feed it
-            size = max(size, airtime.implied_size(node.config, node._cadence))
+            size = max(size, airtime.implied_size(node.config, self._cadence))
         return size + 1
 
     def handshake_airtime(self, members: int) -> float:
@@ -199,7 +249,7 @@ class Liveness:
         is fast (:meth:`_update_fast`); anyone else at ``heartbeat_interval``."""
         node = self._node
         if node._following_star():
-            return node._cadence
+            return self._cadence
         if self.fast:
             return node.config.heartbeat_interval / 2
         return node.config.heartbeat_interval
@@ -242,8 +292,8 @@ class Liveness:
         what keeps a thousand platforms from all broadcasting at once."""
         node = self._node
         self.hb_count += 1
-        if node._heard is not None:
-            node._heard.sweep(now)
+        if self._heard is not None:
+            self._heard.sweep(now)
         # On a shared channel the roster of a new epoch is broadcast unasked
         # (:meth:`.RosterSync._outrun`), after the claim's heartbeat: a member takes a roster
         # only from the master it follows.
@@ -252,8 +302,7 @@ class Liveness:
         )
         self._update_fast()
         if node.is_master and node._star:
-            node._cadence = self.member_cadence()
-            node.members.cadence = node._cadence
+            self.set_cadence(self.member_cadence())
             if not roster_after:
                 node._rosters.serve_requests(now)
         if node.config.channel_bitrate is not None:
@@ -268,7 +317,7 @@ class Liveness:
                 node.counters["heartbeat_held"] += 1
             else:
                 node._emit(node.master, hb, NORMAL)
-        elif self._quiet(now) and not (self.hb_count == 1 and node._heard is not None):
+        elif self._quiet(now) and not (self.hb_count == 1 and self._heard is not None):
             # On a shared channel the first heartbeat goes out all the same: one packet per
             # platform, and every platform hears how many there are (:meth:`swarm_size`)
             # before the first claim asks all of them to report at once.
@@ -316,8 +365,8 @@ class Liveness:
             node.master is not None
             and not node.is_master
             and node.master not in node.members
-            and now - node._master_heard >= node.members.silence() + node._channel_patience()
-            and now >= node._master_hold
+            and now - self._master_heard >= node.members.silence() + node._channel_patience()
+            and now >= self._master_hold
         )
 
     def check_health(self, now: float) -> None:
@@ -397,7 +446,7 @@ class Liveness:
                 self._changes = []
                 self.membership_changed(changes, now, hb)
         if sender == node.master:
-            node._master_heard = now
+            self._master_heard = now
             if hb.is_master and hb.epoch == node.epoch and not node.is_master:
                 self._on_master_heartbeat(sender, hb, now)
         if not (hb.is_master or node.is_master or sender == node._epoch_master):
@@ -428,17 +477,17 @@ class Liveness:
         # judged in those heartbeats (loss-aware leave time, suspicion).
         node.members.cadence = hb.interval_ms / 1000 or node.config.heartbeat_interval
         cadence = hb.cadence if hb.cadence > 0 else node.config.heartbeat_interval
-        if cadence != node._cadence:
+        if cadence != self._cadence:
             # Every member hears a master's first slow cadence in the same heartbeat: each
             # takes a phase of its own for it within one interval, or they would all
             # heartbeat in the same instant on a shared channel. Later changes keep the
             # schedule (a new phase at each would put the next heartbeat off again and
             # again while the master's count grows), bringing it forward when faster.
-            if node._cadence == node.config.heartbeat_interval:
+            if self._cadence == node.config.heartbeat_interval:
                 self._next_heartbeat = now + self._rng.uniform(0, cadence)
             else:
                 self._next_heartbeat = min(self._next_heartbeat, now + cadence)
-            node._cadence = cadence
+            self._cadence = cadence
         node._rosters.on_master_heartbeat(sender, hb, now)
 
     def _hurry(self, now: float) -> None:
