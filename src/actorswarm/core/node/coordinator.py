@@ -52,7 +52,6 @@ from actorswarm.core.barrier import (
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.delivery.reliable import Reliable
-from actorswarm.core.election import OnHeartbeat, on_heartbeat
 from actorswarm.core.events import (
     AppReceived,
     CoreEvent,
@@ -124,11 +123,11 @@ class Node:
         self._outbox = MasterOutbox()
         self._bmaster = self._new_barrier_master()
         self._rmaster = RoleMaster(self._outbox)
-        # Election state: ``_epoch_master`` claimed ``epoch``; ``master`` is whom we follow
-        # now (None while we have lost it).
+        # Election state: ``epoch`` is the one this platform is in (who claimed it:
+        # :attr:`.leadership.Leadership.epoch_master`); ``master`` is whom we follow now (None
+        # while we have lost it).
         self.epoch = 0
         self.master: int | None = None
-        self._epoch_master: int | None = None
         self.is_master = False
         self.handshake_complete = False
         self._awake = False
@@ -228,20 +227,6 @@ class Node:
             live=lambda p: p == self.platform or p in self.members,
             first_retry=lambda: self.reliable.timeout(None),
             retry_delay=self.reliable.retry_delay,
-        )
-
-    def _decide(self, sender: int, sender_is_master: bool, sender_epoch: int) -> OnHeartbeat:
-        """The election rules' answer to ``sender``'s word (a heartbeat, a Sync)."""
-        return on_heartbeat(
-            self_id=self.platform,
-            is_master=self.is_master,
-            epoch=self.epoch,
-            master=self._epoch_master,
-            master_alive=self.master is not None,
-            sender=sender,
-            sender_is_master=sender_is_master,
-            sender_epoch=sender_epoch,
-            master_suspected=self.master is not None and self.master in self.members.suspects,
         )
 
     def _report_failures(self) -> None:
@@ -437,7 +422,7 @@ class Node:
             timeout=timeout,
             epoch=self.epoch,
             occasion=occasion,
-            master=self._epoch_master or 0,
+            master=self._lead.epoch_master or 0,
             renew=renew,
         )
         self._role.to_master(req, now)

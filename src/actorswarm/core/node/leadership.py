@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from actorswarm.core.election import OnHeartbeat, should_claim
+from actorswarm.core.election import OnHeartbeat, on_heartbeat, should_claim
 from actorswarm.core.events import (
     BecameMaster,
     HandshakeComplete,
@@ -44,6 +44,8 @@ class Leadership:
 
     def __init__(self, node: Node, now: float) -> None:
         self._node = node
+        # Who claimed the node's epoch (None: nobody yet; kept after the master is lost).
+        self._epoch_master: int | None = None
         # The highest epoch seen, and the best claim heard while the master was still
         # trusted: (epoch, sender, heard at).
         self._max_epoch = 0
@@ -65,12 +67,41 @@ class Leadership:
         #: The handshake of this platform's epoch as master (closed otherwise).
         self.handshake = Handshake()
 
+    @property
+    def epoch_master(self) -> int | None:
+        """Who claimed the epoch this platform is in (None: nobody yet). Unlike
+        ``Node.master`` it stays known after the master is lost."""
+        return self._epoch_master
+
+    def decide(self, sender: int, sender_is_master: bool, sender_epoch: int) -> OnHeartbeat:
+        """The election rules' answer to ``sender``'s word (a heartbeat, a Sync)."""
+        node = self._node
+        return on_heartbeat(
+            self_id=node.platform,
+            is_master=node.is_master,
+            epoch=node.epoch,
+            master=self._epoch_master,
+            master_alive=node.master is not None,
+            sender=sender,
+            sender_is_master=sender_is_master,
+            sender_epoch=sender_epoch,
+            master_suspected=node.master is not None and node.master in node.members.suspects,
+        )
+
+    def demoted(self, sender: int, its_master: int, now: float) -> None:
+        """My master ``sender`` gave up, and follows ``its_master`` (0: none): the master is
+        lost, and the epoch's master is the one it follows, if any."""
+        node = self._node
+        self.lose_master(now)
+        if its_master not in (0, node.platform, sender):
+            self._epoch_master = its_master
+
     def _set_epoch(self, epoch: int, master: int) -> None:
         node = self._node
         if epoch < node.epoch:
             raise AssertionError(f"epoch would go back from {node.epoch} to {epoch}")
         node.epoch = epoch
-        node._epoch_master = master
+        self._epoch_master = master
         node.barriers.adopt_epoch(epoch, master)
         self._max_epoch = max(self._max_epoch, epoch)
 
@@ -169,7 +200,7 @@ class Leadership:
             self._master_incarnation = max(self._master_incarnation, incarnation)
             self.report(now)
             return
-        action = node._decide(sender, True, sync.epoch)
+        action = self.decide(sender, True, sync.epoch)
         if not self.apply(action, sender, sync.epoch, now):
             node.counters["drop:stale_epoch"] += 1
         if node.master == sender:
@@ -260,7 +291,7 @@ class Leadership:
         """Become master in a new epoch above every epoch seen; start the handshake."""
         node = self._node
         self._max_epoch += 1
-        predecessor = node._epoch_master
+        predecessor = self._epoch_master
         self._set_epoch(self._max_epoch, node.platform)
         node.master = node.platform
         node._inbox.follow(None)
@@ -354,7 +385,7 @@ class Leadership:
         self.handshake.close()
         node._out.events.append(SteppedDown(epoch=node.epoch, to=to))
         node.master = None
-        node._epoch_master = to
+        self._epoch_master = to
         node._out.events.append(MasterChanged(master=None, epoch=node.epoch))
 
     def _follow(self, master: int, epoch: int, now: float) -> None:

@@ -449,9 +449,9 @@ class Liveness:
             self._master_heard = now
             if hb.is_master and hb.epoch == node.epoch and not node.is_master:
                 self._on_master_heartbeat(sender, hb, now)
-        if not (hb.is_master or node.is_master or sender == node._epoch_master):
+        if not (hb.is_master or node.is_master or sender == node._lead.epoch_master):
             return  # the common case at scale: an ordinary member's heartbeat
-        action = node._decide(sender, hb.is_master, hb.epoch)
+        action = node._lead.decide(sender, hb.is_master, hb.epoch)
         if action is OnHeartbeat.IGNORE:
             node._lead.heard_claim(sender, hb.is_master, hb.epoch, now)
             return
@@ -463,9 +463,7 @@ class Liveness:
                 self._on_master_heartbeat(sender, hb, now)
             return
         if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any
-            node._lead.lose_master(now)
-            if hb.master not in (0, node.platform, sender):
-                node._epoch_master = hb.master
+            node._lead.demoted(sender, hb.master, now)
 
     def _on_master_heartbeat(self, sender: int, hb: Heartbeat, now: float) -> None:
         """What a member takes from its master's heartbeat: the cadence it asks for, the
