@@ -157,14 +157,14 @@ class Node:
         #: their data is read by the master's ``scatter`` alone).
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master.
-        self._live = Liveness(self, now, rng, self._heard)
-        self._lead = Leadership(self, now)
-        self._intake = Intake(self)
-        self._rosters = RosterSync(self, rng)
+        self._live = Liveness(self, self._out, now, rng, self._heard)
+        self._lead = Leadership(self, self._out, now)
+        self._intake = Intake(self, self._out)
+        self._rosters = RosterSync(self, self._out, rng)
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
-        self._master_duties = MasterDuties(self)
-        self._member_duties = MemberDuties(self)
+        self._master_duties = MasterDuties(self, self._out)
+        self._member_duties = MemberDuties(self, self._out)
         self._role: Duties = self._member_duties
 
     @property
@@ -252,14 +252,6 @@ class Node:
                 DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
             )
         out.failures.clear()
-
-    def _emit(
-        self, dst: int | None, body: wire.Body, channel: int, kind: str | None = None
-    ) -> None:
-        """Send ``body``, numbered after what the streams and the board queued before it
-        (:meth:`~actorswarm.core.ready.Collector.send`; ``kind`` labels it otherwise than
-        by its type)."""
-        self._out.send(dst, body, channel, kind)
 
     def _take_role(self, role: Duties) -> None:
         """Become master (:class:`~.duties.MasterDuties`) or member

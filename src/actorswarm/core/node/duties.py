@@ -36,6 +36,7 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.ready import Collector
     from actorswarm.core.wire import ReleaseRecord
 
 _NO_DEADLINES: Final = (None, None)
@@ -47,8 +48,9 @@ class MasterDuties:
 
     is_master: Final = True
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, out: Collector) -> None:
         self._node = node
+        self._out = out  # the node's collector: what this part sends and reports
 
     # --- the interface both roles share ---------------------------------------------------
 
@@ -83,7 +85,7 @@ class MasterDuties:
 
     def app_to_master(self, msg: AppMessage, now: float) -> None:
         node = self._node
-        node._out.events.append(AppReceived(sender=node.platform, topic=msg.topic, body=msg.body))
+        self._out.events.append(AppReceived(sender=node.platform, topic=msg.topic, body=msg.body))
 
     def post_bulletin(self, msg: AppMessage, now: float, skip: tuple[int, ...]) -> None:
         node = self._node
@@ -235,7 +237,7 @@ class MasterDuties:
             elif isinstance(decision, ToMember):
                 self.to_member(decision.platform, decision.payload, now)
             else:
-                node._out.events.append(decision)
+                self._out.events.append(decision)
 
     def _send_release(self, rel: Release) -> None:
         """Broadcast a release (or send it to its one candidate); pass this platform's own
@@ -244,11 +246,11 @@ class MasterDuties:
         if any(e.platform == node.platform for e in rel.entries):
             event, _ = node.barriers.on_release(rel)
             if event is not None:
-                node._out.events.append(event)
+                self._out.events.append(event)
             node._bmaster.on_ack(node.platform, rel.key, rel.generation)
             if all(e.platform == node.platform for e in rel.entries):
                 return
-        node._emit(addressee(rel, node.platform), rel, NORMAL)
+        self._out.send(addressee(rel, node.platform), rel, NORMAL)
 
     def to_member(self, platform: int, payload: Payload, now: float) -> None:
         node = self._node
@@ -264,8 +266,9 @@ class MemberDuties:
 
     is_master: Final = False
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, out: Collector) -> None:
         self._node = node
+        self._out = out  # the node's collector: what this part sends and reports
 
     def reports_awaited(self) -> int:
         return 0
@@ -328,9 +331,9 @@ class MemberDuties:
             return
         event, ack = node.barriers.on_release(rel)
         if event is not None:
-            node._out.events.append(event)
+            self._out.events.append(event)
         if ack:
-            node._emit(
+            self._out.send(
                 sender,
                 ReleaseAck(dst=sender, epoch=rel.epoch, key=rel.key, generation=rel.generation),
                 NORMAL,
@@ -370,11 +373,11 @@ class MemberDuties:
         if isinstance(payload, BarrierStale):
             notice = node.barriers.on_stale(payload)
             if notice is not None:
-                node._out.events.append(notice)
+                self._out.events.append(notice)
         elif isinstance(payload, RoleGrant | RoleDeny | RoleRevoke):
             event = node.roles.on_reply(payload)
             if event is not None:
-                node._out.events.append(event)
+                self._out.events.append(event)
 
 
 #: Either role: the interface the node calls without asking which one it holds.

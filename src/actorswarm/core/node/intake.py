@@ -32,18 +32,19 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.ready import Collector
 
 
 class Intake:
     """The packet handlers of one :class:`~actorswarm.core.node.coordinator.Node`."""
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, out: Collector) -> None:
         self._node = node
+        self._out = out  # the node's collector: what this part sends and reports
 
     def deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
-        node = self._node
         for item in items:
-            node._out.events.append(
+            self._out.events.append(
                 AppReceived(
                     sender=sender,
                     topic=item.message.topic,
@@ -106,7 +107,7 @@ class Intake:
         if ack is None:
             node.counters["drop:bulletin"] += 1
             return
-        node._emit(sender, ack, NORMAL)
+        self._out.send(sender, ack, NORMAL)
         self.deliver_bulletins(sender, incarnation, delivered)
 
     def _on_data(self, sender: int, incarnation: int, data: Data, now: float) -> None:
@@ -116,7 +117,7 @@ class Intake:
             return
         delivered, ack = node.reliable.on_data(sender, incarnation, data)
         if ack is not None:
-            node._emit(sender, ack, URGENT if data.channel == URGENT else NORMAL)
+            self._out.send(sender, ack, URGENT if data.channel == URGENT else NORMAL)
         first = ack.seq - len(delivered) + 1 if ack is not None else 0
         for i, (epoch, payload) in enumerate(delivered):
             self._on_payload(sender, epoch, payload, now, (incarnation, data.channel, first + i))
@@ -132,7 +133,7 @@ class Intake:
         """One message delivered in order, exactly once, from ``sender``'s stream."""
         node = self._node
         if isinstance(payload, AppMessage):
-            node._out.events.append(
+            self._out.events.append(
                 AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
             )
         elif isinstance(payload, Sync):

@@ -28,6 +28,7 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.ready import Collector
 
 #: Master-bound messages: sent to the master over its stream (or handled in place by it).
 MASTER_BOUND = (BarrierRequest, RoleClaim, RoleRelease, Report)
@@ -42,8 +43,9 @@ class Leadership:
     docstring. It acts on the node's election state (``epoch``, ``master``,
     ``is_master``) and its handshake."""
 
-    def __init__(self, node: Node, now: float) -> None:
+    def __init__(self, node: Node, out: Collector, now: float) -> None:
         self._node = node
+        self._out = out  # the node's collector: what this part sends and reports
         # Who claimed the node's epoch (None: nobody yet; kept after the master is lost).
         self._epoch_master: int | None = None
         # The highest epoch seen, and the best claim heard while the master was still
@@ -342,8 +344,8 @@ class Leadership:
         node._live.set_cadence(node._live.member_cadence())
         node.handshake_complete = False
         node._bmaster.topology_changed(now)
-        node._out.events.append(BecameMaster(epoch=node.epoch))
-        node._out.events.append(MasterChanged(master=node.platform, epoch=node.epoch))
+        self._out.events.append(BecameMaster(epoch=node.epoch))
+        self._out.events.append(MasterChanged(master=node.platform, epoch=node.epoch))
         node.reliable.retarget(None, now)
         waiting = set(node.members.peers)
         # Members follow the claim heartbeat and report on their own; a Sync goes only to
@@ -370,7 +372,7 @@ class Leadership:
             node.counters["handshake_incomplete"] += 1
         if not node.handshake_complete:
             node.handshake_complete = True
-            node._out.events.append(HandshakeComplete(epoch=node.epoch, members=len(node.members)))
+            self._out.events.append(HandshakeComplete(epoch=node.epoch, members=len(node.members)))
         node._bmaster.become_ready(now, node.epoch)
         node._rmaster.become_ready()
         node._master_duties.flush(now)
@@ -383,10 +385,10 @@ class Leadership:
         node._live.set_cadence(node.config.heartbeat_interval)
         node.handshake_complete = False
         self.handshake.close()
-        node._out.events.append(SteppedDown(epoch=node.epoch, to=to))
+        self._out.events.append(SteppedDown(epoch=node.epoch, to=to))
         node.master = None
         self._epoch_master = to
-        node._out.events.append(MasterChanged(master=None, epoch=node.epoch))
+        self._out.events.append(MasterChanged(master=None, epoch=node.epoch))
 
     def _follow(self, master: int, epoch: int, now: float) -> None:
         node = self._node
@@ -415,7 +417,7 @@ class Leadership:
                 self._heartbeats_held_until = now + max(airtime, node.config.t_leave)
             node._live.recount_lowest_peer()  # the master, if in the view: nobody else is
             node._live.forget_probes(keep=master)
-        node._out.events.append(MasterChanged(master=master, epoch=epoch))
+        self._out.events.append(MasterChanged(master=master, epoch=epoch))
         node.reliable.retarget(master, now, epoch, MASTER_BOUND)
         node._inbox.follow(master)
         # Always report: requests and claims made while no master was followed were not sent
@@ -444,7 +446,7 @@ class Leadership:
             for rank, peer in enumerate(p for p in node.roster.succession if p != lost):
                 if peer != node.platform:
                     self._presumed[peer] = now + (rank + 1) * step
-        node._out.events.append(MasterChanged(master=None, epoch=node.epoch))
+        self._out.events.append(MasterChanged(master=None, epoch=node.epoch))
         node.reliable.retarget(None, now)
         node._inbox.follow(None)
         claim = self._best_claim

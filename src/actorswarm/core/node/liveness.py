@@ -17,7 +17,7 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.membership import airtime
-from actorswarm.core.ready import PROBE
+from actorswarm.core.ready import PROBE, Collector
 from actorswarm.core.wire import (
     NORMAL,
     Heartbeat,
@@ -37,9 +37,15 @@ class Liveness:
     count, probe answers, local health)."""
 
     def __init__(
-        self, node: Node, now: float, rng: random.Random, heard: airtime.HeardLog | None
+        self,
+        node: Node,
+        out: Collector,
+        now: float,
+        rng: random.Random,
+        heard: airtime.HeardLog | None,
     ) -> None:
         self._node = node
+        self._out = out  # the node's collector: what this part sends and reports
         self._rng = rng  # the node's: the phase of its heartbeats
         # The node's log of every platform heard lately (on a shared channel; else None).
         self._heard = heard
@@ -316,14 +322,14 @@ class Liveness:
             if self._heartbeats_held(now):
                 node.counters["heartbeat_held"] += 1
             else:
-                node._emit(node.master, hb, NORMAL)
+                self._out.send(node.master, hb, NORMAL)
         elif self._quiet(now) and not (self.hb_count == 1 and self._heard is not None):
             # On a shared channel the first heartbeat goes out all the same: one packet per
             # platform, and every platform hears how many there are (:meth:`swarm_size`)
             # before the first claim asks all of them to report at once.
             node.counters["heartbeat_quiet"] += 1
         else:
-            node._emit(None, hb, NORMAL)
+            self._out.send(None, hb, NORMAL)
         if roster_after and node.is_master and node._star:
             node._rosters.serve_requests(now)
 
@@ -412,7 +418,7 @@ class Liveness:
             due = [p for p, t in self._probe_due.items() if t <= now]
         for peer in due:
             node.counters["probe"] += 1
-            node._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
+            self._out.send(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
             self._probe_due[peer] = now + node.config.probe_interval
 
     def on_heartbeat(
@@ -507,7 +513,7 @@ class Liveness:
             self._answered = {p: t for p, t in self._answered.items() if t >= horizon}
         self._answered[prober] = now
         node.counters["probe_answered"] += 1
-        node._emit(prober, self._heartbeat(now), NORMAL, PROBE)
+        self._out.send(prober, self._heartbeat(now), NORMAL, PROBE)
 
     def membership_changed(
         self, changes: list[MemberJoined | MemberLeft], now: float, hb: Heartbeat | None = None
@@ -516,7 +522,7 @@ class Liveness:
         if not changes:
             return
         for change in changes:
-            node._out.events.append(change)
+            self._out.events.append(change)
             if isinstance(change, MemberLeft):
                 node.reliable.drop_destination(change.platform, now)
                 self._probe_due.pop(change.platform, None)

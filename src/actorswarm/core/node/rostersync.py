@@ -15,6 +15,7 @@ from actorswarm.core.wire import NORMAL, Heartbeat, RosterChunk, RosterRequest
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.ready import Collector
 
 #: A master that has more members asking for the whole roster than this at one heartbeat
 #: broadcasts it once instead of sending it to each.
@@ -24,8 +25,9 @@ ROSTER_BROADCAST_FROM = 4
 class RosterSync:
     """Serving and following the roster, for one :class:`~actorswarm.core.node.Node`."""
 
-    def __init__(self, node: Node, rng: random.Random) -> None:
+    def __init__(self, node: Node, out: Collector, rng: random.Random) -> None:
         self._node = node
+        self._out = out  # the node's collector: what this part sends and reports
         self._rng = rng  # the node's: when a member on a shared channel asks
         # Member: when the roster was last asked for; on a shared channel, a request
         # waiting to go. Master: when the roster was last broadcast.
@@ -61,7 +63,7 @@ class RosterSync:
             self._ask_at = None
         elif self._ask_due(now):
             node.counters["roster_request"] += 1
-            node._emit(
+            self._out.send(
                 sender,
                 RosterRequest(
                     epoch=hb.epoch,
@@ -107,7 +109,7 @@ class RosterSync:
         )
         for dst in targets:
             for chunk in chunks:
-                node._emit(dst, chunk, NORMAL)
+                self._out.send(dst, chunk, NORMAL)
 
     def _ask_due(self, now: float) -> bool:
         """A member behind its master's roster asks for it now: at once and at most every
