@@ -85,3 +85,30 @@ def test_the_handshake_alone_waits_for_every_report_and_syncs_once() -> None:
     handshake.wait_for(9, now=10.0, timeout=2.0)
     assert handshake.deadlines() == (12.0, None) and handshake.awaited == 1
     assert handshake.close()  # 9 never reported
+
+
+def test_the_master_tables_alone_start_a_term_empty_but_for_the_firings_decided() -> None:
+    from actorswarm.core.barrier import BarrierMaster
+    from actorswarm.core.config import CoreConfig
+    from actorswarm.core.node.outbox import MasterOutbox
+    from actorswarm.core.node.tables import MasterTables
+    from actorswarm.core.wire import BarrierRequest
+
+    def new_barriers(outbox: MasterOutbox) -> BarrierMaster:
+        return BarrierMaster(CoreConfig(), outbox, resolve_need=lambda k, p, n: n, platform=1)
+
+    tables = MasterTables(1, new_barriers)
+    tables.hold()
+    assert not tables.roles.ready
+    tables.become_ready(0.0, 2)
+    assert tables.roles.ready
+    for key in (9, 10):
+        request = BarrierRequest(key=key, generation=0, need={0: 1}, bid=0.0, epoch=2)
+        tables.barriers.request(1, request, 0.0, 2)
+    decided = tables.barriers.decided(1)
+    assert [record.key for record in decided] == [9, 10]
+    before = tables.barriers
+    tables.new_term()  # the two firings were decided but never routed
+    assert tables.barriers is not before and not tables.roles.ready
+    assert tables.outbox.take() == []  # what was never routed goes with the old tables
+    assert tables.barriers.decided(1) == decided  # what was decided is kept

@@ -68,8 +68,9 @@ from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.node.liveness import Liveness
 from actorswarm.core.node.outbox import MasterOutbox
 from actorswarm.core.node.rostersync import RosterSync
+from actorswarm.core.node.tables import MasterTables
 from actorswarm.core.ready import Collector, Outgoing, Ready
-from actorswarm.core.roles import RoleMaster, RoleMember
+from actorswarm.core.roles import RoleMember
 from actorswarm.core.wire import (
     NEED_ALL,
     NORMAL,
@@ -119,10 +120,8 @@ class Node:
         self._inbox = BulletinInbox(platform)
         self.barriers = BarrierMember(platform)
         self.roles = RoleMember()
-        # What the master's tables decide, until the master's duties route it.
-        self._outbox = MasterOutbox()
-        self._bmaster = self._new_barrier_master()
-        self._rmaster = RoleMaster(self._outbox)
+        # The master's barrier and role tables (kept across roles).
+        self._tables = MasterTables(platform, self._new_barrier_master)
         # Election state: ``epoch`` is the one this platform is in (who claimed it:
         # :attr:`.leadership.Leadership.epoch_master`); ``master`` is whom we follow now (None
         # while we have lost it).
@@ -158,13 +157,13 @@ class Node:
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master.
         self._live = Liveness(self, self._out, now, rng, self._heard)
-        self._lead = Leadership(self, self._out, now)
+        self._lead = Leadership(self, self._out, self._tables, now)
         self._intake = Intake(self, self._out)
         self._rosters = RosterSync(self, self._out, rng)
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
-        self._master_duties = MasterDuties(self, self._out)
-        self._member_duties = MemberDuties(self, self._out)
+        self._master_duties = MasterDuties(self, self._out, self._tables)
+        self._member_duties = MemberDuties(self, self._out, self._tables)
         self._role: Duties = self._member_duties
 
     @property
@@ -215,11 +214,11 @@ class Node:
     def _default_need(self, key: int, part: int, count: int) -> int:
         return len(self.members) + 1 if count == NEED_ALL else count
 
-    def _new_barrier_master(self) -> BarrierMaster:
+    def _new_barrier_master(self, outbox: MasterOutbox) -> BarrierMaster:
         # Late-bound, so the engine may replace its hooks after construction.
         return BarrierMaster(
             self.config,
-            self._outbox,
+            outbox,
             resolve_need=lambda k, p, n: self.resolve_need(k, p, n),  # noqa: PLW0108
             platform=self.platform,
             scatter=lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {},
@@ -471,7 +470,7 @@ class Node:
 
     def role_holders(self, role: str) -> tuple[int, ...]:
         """Master only: who holds ``role`` according to the master's table."""
-        return self._rmaster.holders(role)
+        return self._tables.roles.holders(role)
 
     def _dispatch(self, packet: Packet, now: float) -> None:
         body = packet.body

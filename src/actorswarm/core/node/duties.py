@@ -36,6 +36,7 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.tables import MasterTables
     from actorswarm.core.ready import Collector
     from actorswarm.core.wire import ReleaseRecord
 
@@ -48,8 +49,9 @@ class MasterDuties:
 
     is_master: Final = True
 
-    def __init__(self, node: Node, out: Collector) -> None:
+    def __init__(self, node: Node, out: Collector, tables: MasterTables) -> None:
         self._node = node
+        self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
 
     # --- the interface both roles share ---------------------------------------------------
@@ -60,7 +62,7 @@ class MasterDuties:
     def deadlines(self) -> tuple[float | None, float | None]:
         """The barrier table's and the bulletin board's next deadlines."""
         node = self._node
-        return node._bmaster.next_deadline(), node._board.next_deadline()
+        return self._tables.barriers.next_deadline(), node._board.next_deadline()
 
     def tick(self, now: float) -> None:
         """The handshake's Syncs and deadline, the barrier table's timers, the board's
@@ -72,7 +74,7 @@ class MasterDuties:
             node.reliable.send(peer, sync, now, node.epoch)
         if handshake.expired(now):
             node._lead.finish_handshake(now)
-        node._bmaster.tick(now, node.epoch)
+        self._tables.barriers.tick(now, node.epoch)
         self.flush(now)
         node._board.tick(now, node.epoch, node.reliable.timeout(None))
 
@@ -100,14 +102,14 @@ class MasterDuties:
 
     def needs_changed(self, now: float, keys: Iterable[int] | None) -> None:
         node = self._node
-        node._bmaster.needs_changed(now, node.epoch, keys)
+        self._tables.barriers.needs_changed(now, node.epoch, keys)
         self.flush(now)
 
     def waiting_occasions(self, key: int) -> tuple[str, ...]:
-        return self._node._bmaster.waiting_occasions(key)
+        return self._tables.barriers.waiting_occasions(key)
 
     def hold_barrier(self, key: int, until: float) -> None:
-        self._node._bmaster.hold(key, until)
+        self._tables.barriers.hold(key, until)
 
     def own_releases(self) -> list[ReleaseRecord]:
         """Firings of an earlier term to report: a master reports to nobody."""
@@ -125,7 +127,7 @@ class MasterDuties:
         if body.dst != node.platform or body.epoch != node.epoch:
             node.counters["drop:stale_epoch"] += 1
             return
-        node._bmaster.on_ack(sender, body.key, body.generation)
+        self._tables.barriers.on_ack(sender, body.key, body.generation)
 
     def on_master_bound(self, sender: int, epoch: int, payload: Payload, now: float) -> None:
         node = self._node
@@ -145,8 +147,8 @@ class MasterDuties:
         """A member left the view: its requests, roles, bulletins and roster entry go."""
         node = self._node
         node._lead.handshake.left(change.platform, restarted=change.reason == "restarted")
-        node._bmaster.member_left(change.platform, now, node.epoch)
-        node._rmaster.member_left(change.platform, restarted=change.reason == "restarted")
+        self._tables.barriers.member_left(change.platform, now, node.epoch)
+        self._tables.roles.member_left(change.platform, restarted=change.reason == "restarted")
         node._board.member_left(change.platform)
         node._rosters.log.left(change.platform)
 
@@ -160,7 +162,7 @@ class MasterDuties:
         master's also carries the roster's version and changes, the succession list, the
         cadence it asks its members for and its own interval while fast."""
         node = self._node
-        awaited = node._bmaster.awaited(now, lambda: {*node.members.peers, node.platform})
+        awaited = self._tables.barriers.awaited(now, lambda: {*node.members.peers, node.platform})
         if not node._star:
             return Heartbeat(
                 is_master=True,
@@ -200,7 +202,7 @@ class MasterDuties:
         """A master-bound message of ``sender`` (itself included): a barrier request, a
         role claim or release, a report; then what the tables decided goes out."""
         node = self._node
-        bm, rm = node._bmaster, node._rmaster
+        bm, rm = self._tables.barriers, self._tables.roles
         if isinstance(payload, BarrierRequest):
             bm.request(sender, payload, now, node.epoch)
         elif isinstance(payload, RoleClaim):
@@ -230,8 +232,7 @@ class MasterDuties:
         why it waits there): it is routed here, to this platform or over a stream, and
         their firings are reported here, after the view changes of the same step that set
         them off."""
-        node = self._node
-        for decision in node._outbox.take():
+        for decision in self._tables.outbox.take():
             if isinstance(decision, Release):
                 self._send_release(decision)
             elif isinstance(decision, ToMember):
@@ -247,7 +248,7 @@ class MasterDuties:
             event, _ = node.barriers.on_release(rel)
             if event is not None:
                 self._out.events.append(event)
-            node._bmaster.on_ack(node.platform, rel.key, rel.generation)
+            self._tables.barriers.on_ack(node.platform, rel.key, rel.generation)
             if all(e.platform == node.platform for e in rel.entries):
                 return
         self._out.send(addressee(rel, node.platform), rel, NORMAL)
@@ -266,8 +267,9 @@ class MemberDuties:
 
     is_master: Final = False
 
-    def __init__(self, node: Node, out: Collector) -> None:
+    def __init__(self, node: Node, out: Collector, tables: MasterTables) -> None:
         self._node = node
+        self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
 
     def reports_awaited(self) -> int:
@@ -313,7 +315,7 @@ class MemberDuties:
         """The firings it decided as master in an earlier term (its barrier table is kept
         until it claims again)."""
         node = self._node
-        return node._bmaster.decided(node.platform)
+        return self._tables.barriers.decided(node.platform)
 
     def on_roster_request(self, sender: int, body: RosterRequest) -> None:
         self._node.counters["drop:roster"] += 1

@@ -16,7 +16,6 @@ from actorswarm.core.events import (
     SteppedDown,
 )
 from actorswarm.core.node.handshake import Handshake
-from actorswarm.core.roles import RoleMaster
 from actorswarm.core.wire import (
     BarrierRequest,
     Heartbeat,
@@ -28,6 +27,7 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.tables import MasterTables
     from actorswarm.core.ready import Collector
 
 #: Master-bound messages: sent to the master over its stream (or handled in place by it).
@@ -43,8 +43,9 @@ class Leadership:
     docstring. It acts on the node's election state (``epoch``, ``master``,
     ``is_master``) and its handshake."""
 
-    def __init__(self, node: Node, out: Collector, now: float) -> None:
+    def __init__(self, node: Node, out: Collector, tables: MasterTables, now: float) -> None:
         self._node = node
+        self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
         # Who claimed the node's epoch (None: nobody yet; kept after the master is lost).
         self._epoch_master: int | None = None
@@ -258,9 +259,8 @@ class Leadership:
             node.counters["rejoined"] += 1
             return
         handshake.wait_for(platform, now, node.config.handshake_timeout)
-        node._bmaster.topology_changed(now)
-        node._bmaster.ready = False
-        node._rmaster.ready = False
+        self._tables.barriers.topology_changed(now)
+        self._tables.hold()
 
     def maybe_claim(self, now: float) -> None:
         node = self._node
@@ -301,19 +301,10 @@ class Leadership:
         self._presumed.clear()
         node._live.forget_probes()
         if not node.is_master:
-            # The firings it decided in an earlier term, which it would have reported to the
-            # master it stepped down to: it may claim again before it reported them to anyone
-            # (two masters settling after a heal), and a candidate of one whose release was
-            # lost could then never be completed (campaign seed 7765517).
-            decided = node._bmaster.decided(node.platform)
             node._take_role(node._master_duties)
-            # What the tables of an earlier term decided and never routed (it stepped down
-            # before its next flush) goes with them: this term's tables start empty.
-            node._outbox.take()
-            node._bmaster = node._new_barrier_master()
-            for record in decided:
-                node._bmaster.record_released(node.platform, record)
-            node._rmaster = RoleMaster(node._outbox)
+            # This term's tables start empty, but for the firings it decided in an earlier
+            # one (:meth:`~.tables.MasterTables.new_term` says why).
+            self._tables.new_term()
             if node._star:
                 # The predecessor's roster: those platforms were members a moment ago. They
                 # are watched from now on and waited for in the handshake, and those that do
@@ -333,8 +324,7 @@ class Leadership:
                     node.members.admit(peer, incarnation, now, grace=grace)
                 node._live.recount_lowest_peer()
         else:  # a new epoch while master: everyone reports again, nothing fires meanwhile
-            node._bmaster.ready = False
-            node._rmaster.ready = False
+            self._tables.hold()
             # On a shared channel the members' heartbeats now queue behind their reports
             # (and wait for their acknowledgement) as after any claim.
             hold = now + node._live.handshake_airtime(len(node.members))
@@ -343,7 +333,7 @@ class Leadership:
         node._rosters.log.reset(node.epoch)
         node._live.set_cadence(node._live.member_cadence())
         node.handshake_complete = False
-        node._bmaster.topology_changed(now)
+        self._tables.barriers.topology_changed(now)
         self._out.events.append(BecameMaster(epoch=node.epoch))
         self._out.events.append(MasterChanged(master=node.platform, epoch=node.epoch))
         node.reliable.retarget(None, now)
@@ -373,8 +363,7 @@ class Leadership:
         if not node.handshake_complete:
             node.handshake_complete = True
             self._out.events.append(HandshakeComplete(epoch=node.epoch, members=len(node.members)))
-        node._bmaster.become_ready(now, node.epoch)
-        node._rmaster.become_ready()
+        self._tables.become_ready(now, node.epoch)
         node._master_duties.flush(now)
 
     def _step_down(self, to: int, now: float) -> None:
