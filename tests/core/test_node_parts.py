@@ -97,14 +97,19 @@ def test_the_master_tables_alone_start_a_term_empty_but_for_the_firings_decided(
     def new_barriers(outbox: MasterOutbox) -> BarrierMaster:
         return BarrierMaster(CoreConfig(), outbox, resolve_need=lambda k, p, n: n, platform=1)
 
-    tables = MasterTables(1, new_barriers)
-    tables.hold()
-    assert not tables.roles.ready
-    tables.become_ready(0.0, 2)
-    assert tables.roles.ready
-    for key in (9, 10):
-        request = BarrierRequest(key=key, generation=0, need={0: 1}, bid=0.0, epoch=2)
-        tables.barriers.request(1, request, 0.0, 2)
+    def fired_twice() -> MasterTables:
+        tables = MasterTables(1, new_barriers)
+        tables.hold()
+        assert not tables.roles.ready
+        tables.become_ready(0.0, 2)
+        assert tables.roles.ready
+        for key in (9, 10):
+            request = BarrierRequest(key=key, generation=0, need={0: 1}, bid=0.0, epoch=2)
+            tables.barriers.request(1, request, 0.0, 2)
+        return tables
+
+    assert fired_twice().outbox.take(), "the firings wait in the outbox until routed"
+    tables = fired_twice()
     decided = tables.barriers.decided(1)
     assert [record.key for record in decided] == [9, 10]
     before = tables.barriers
