@@ -157,12 +157,12 @@ class Node:
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master.
         self._live = Liveness(self, self._out, now, rng, self._heard)
-        self._lead = Leadership(self, self._out, self._tables, now)
-        self._intake = Intake(self, self._out)
+        self._lead = Leadership(self, self._out, self._tables, self._board, self._inbox, now)
+        self._intake = Intake(self, self._out, self._board, self._inbox)
         self._rosters = RosterSync(self, self._out, rng)
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
-        self._master_duties = MasterDuties(self, self._out, self._tables)
+        self._master_duties = MasterDuties(self, self._out, self._tables, self._board)
         self._member_duties = MemberDuties(self, self._out, self._tables)
         self._role: Duties = self._member_duties
 

@@ -35,6 +35,7 @@ from actorswarm.core.wire import (
 )
 
 if TYPE_CHECKING:
+    from actorswarm.core.delivery.bulletin import BulletinBoard
     from actorswarm.core.node.coordinator import Node
     from actorswarm.core.node.tables import MasterTables
     from actorswarm.core.ready import Collector
@@ -49,8 +50,11 @@ class MasterDuties:
 
     is_master: Final = True
 
-    def __init__(self, node: Node, out: Collector, tables: MasterTables) -> None:
+    def __init__(
+        self, node: Node, out: Collector, tables: MasterTables, board: BulletinBoard
+    ) -> None:
         self._node = node
+        self._board = board  # the node's bulletin board (master to every member)
         self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
 
@@ -61,8 +65,7 @@ class MasterDuties:
 
     def deadlines(self) -> tuple[float | None, float | None]:
         """The barrier table's and the bulletin board's next deadlines."""
-        node = self._node
-        return self._tables.barriers.next_deadline(), node._board.next_deadline()
+        return self._tables.barriers.next_deadline(), self._board.next_deadline()
 
     def tick(self, now: float) -> None:
         """The handshake's Syncs and deadline, the barrier table's timers, the board's
@@ -76,7 +79,7 @@ class MasterDuties:
             node._lead.finish_handshake(now)
         self._tables.barriers.tick(now, node.epoch)
         self.flush(now)
-        node._board.tick(now, node.epoch, node.reliable.timeout(None))
+        self._board.tick(now, node.epoch, node.reliable.timeout(None))
 
     def restate(self, now: float) -> None:
         """A master-bound message was given up: a master has nobody to report to."""
@@ -91,7 +94,7 @@ class MasterDuties:
 
     def post_bulletin(self, msg: AppMessage, now: float, skip: tuple[int, ...]) -> None:
         node = self._node
-        node._board.post(
+        self._board.post(
             msg,
             set(node.members.peers),
             now,
@@ -149,7 +152,7 @@ class MasterDuties:
         node._lead.handshake.left(change.platform, restarted=change.reason == "restarted")
         self._tables.barriers.member_left(change.platform, now, node.epoch)
         self._tables.roles.member_left(change.platform, restarted=change.reason == "restarted")
-        node._board.member_left(change.platform)
+        self._board.member_left(change.platform)
         node._rosters.log.left(change.platform)
 
     def member_joined(self, change: MemberJoined, now: float, hb: Heartbeat | None) -> None:

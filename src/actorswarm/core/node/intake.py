@@ -31,6 +31,7 @@ from actorswarm.core.wire import (
 )
 
 if TYPE_CHECKING:
+    from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
     from actorswarm.core.node.coordinator import Node
     from actorswarm.core.ready import Collector
 
@@ -38,8 +39,12 @@ if TYPE_CHECKING:
 class Intake:
     """The packet handlers of one :class:`~actorswarm.core.node.coordinator.Node`."""
 
-    def __init__(self, node: Node, out: Collector) -> None:
+    def __init__(
+        self, node: Node, out: Collector, board: BulletinBoard, inbox: BulletinInbox
+    ) -> None:
         self._node = node
+        self._board = board  # the node's bulletin board (master to every member)
+        self._inbox = inbox  # the node's bulletin inbox (from the master it follows)
         self._out = out  # the node's collector: what this part sends and reports
 
     def deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
@@ -93,7 +98,7 @@ class Intake:
         if body.dst != node.platform or body.dst_incarnation != node.incarnation:
             node.counters["drop:not_for_me"] += 1
             return
-        node._board.on_ack(packet.sender, body)
+        self._board.on_ack(packet.sender, body)
 
     def _packet_release_ack(self, packet: Packet, now: float) -> None:
         node = self._node
@@ -103,7 +108,7 @@ class Intake:
 
     def _on_bulletin(self, sender: int, incarnation: int, bulletin: Bulletin, now: float) -> None:
         node = self._node
-        delivered, ack = node._inbox.on_bulletin(sender, incarnation, bulletin)
+        delivered, ack = self._inbox.on_bulletin(sender, incarnation, bulletin)
         if ack is None:
             node.counters["drop:bulletin"] += 1
             return

@@ -26,6 +26,7 @@ from actorswarm.core.wire import (
 )
 
 if TYPE_CHECKING:
+    from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
     from actorswarm.core.node.coordinator import Node
     from actorswarm.core.node.tables import MasterTables
     from actorswarm.core.ready import Collector
@@ -43,8 +44,19 @@ class Leadership:
     docstring. It acts on the node's election state (``epoch``, ``master``,
     ``is_master``) and its handshake."""
 
-    def __init__(self, node: Node, out: Collector, tables: MasterTables, now: float) -> None:
+    def __init__(
+        self,
+        node: Node,
+        out: Collector,
+        tables: MasterTables,
+        board: BulletinBoard,
+        inbox: BulletinInbox,
+        now: float,
+    ) -> None:
         self._node = node
+        self._board = board  # the node's bulletin board (master to every member)
+        self._inbox = inbox  # the node's bulletin inbox (from the master it follows)
+        self._started = now  # when the node started: it listens a while before it claims
         self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
         # Who claimed the node's epoch (None: nobody yet; kept after the master is lost).
@@ -216,7 +228,7 @@ class Leadership:
         if sender != node.master or not sync.bulletin:
             return
         node._intake.deliver_bulletins(
-            sender, node._inbox.incarnation, node._inbox.start(sync.bulletin)
+            sender, self._inbox.incarnation, self._inbox.start(sync.bulletin)
         )
 
     def apply(self, action: OnHeartbeat, sender: int, epoch: int, now: float) -> bool:
@@ -253,7 +265,7 @@ class Leadership:
             and hb.epoch == node.epoch
             and hb.master == node.platform
         )
-        sync = Sync(epoch=node.epoch, bulletin=node._board.next_seq)
+        sync = Sync(epoch=node.epoch, bulletin=self._board.next_seq)
         node.reliable.send(platform, sync, now, node.epoch)
         if rejoining:
             node.counters["rejoined"] += 1
@@ -265,7 +277,7 @@ class Leadership:
     def maybe_claim(self, now: float) -> None:
         node = self._node
         lowest = node._live.lowest_peer
-        listened = now - node._started
+        listened = now - self._started
         if node._star and node.master is None and not node.is_master:
             # A star platform also counts the lower IDs it heard but that have not joined its
             # view (they keep quiet only if they hear someone lower still) and the successors
@@ -296,8 +308,8 @@ class Leadership:
         predecessor = self._epoch_master
         self._set_epoch(self._max_epoch, node.platform)
         node.master = node.platform
-        node._inbox.follow(None)
-        self.handshake.restart(node._board.next_seq)
+        self._inbox.follow(None)
+        self.handshake.restart(self._board.next_seq)
         self._presumed.clear()
         node._live.forget_probes()
         if not node.is_master:
@@ -369,7 +381,7 @@ class Leadership:
     def _step_down(self, to: int, now: float) -> None:
         node = self._node
         node._take_role(node._member_duties)
-        node._board.clear("stepped_down")
+        self._board.clear("stepped_down")
         node._rosters.forget_requests()
         node._live.set_cadence(node.config.heartbeat_interval)
         node.handshake_complete = False
@@ -408,7 +420,7 @@ class Leadership:
             node._live.forget_probes(keep=master)
         self._out.events.append(MasterChanged(master=master, epoch=epoch))
         node.reliable.retarget(master, now, epoch, MASTER_BOUND)
-        node._inbox.follow(master)
+        self._inbox.follow(master)
         # Always report: requests and claims made while no master was followed were not sent
         # (the report states them), and a resumed master may have dropped us meanwhile.
         self.report(now)
@@ -437,7 +449,7 @@ class Leadership:
                     self._presumed[peer] = now + (rank + 1) * step
         self._out.events.append(MasterChanged(master=None, epoch=node.epoch))
         node.reliable.retarget(None, now)
-        node._inbox.follow(None)
+        self._inbox.follow(None)
         claim = self._best_claim
         if (
             claim is not None
