@@ -54,6 +54,7 @@ class MasterDuties:
         self, node: Node, out: Collector, tables: MasterTables, board: BulletinBoard
     ) -> None:
         self._node = node
+        self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._board = board  # the node's bulletin board (master to every member)
         self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
@@ -120,7 +121,7 @@ class MasterDuties:
 
     def on_roster_request(self, sender: int, body: RosterRequest) -> None:
         node = self._node
-        if not (node._star and body.epoch == node.epoch):
+        if not (self._star and body.epoch == node.epoch):
             node.counters["drop:roster"] += 1
             return
         node._rosters.asked(sender)
@@ -166,7 +167,7 @@ class MasterDuties:
         cadence it asks its members for and its own interval while fast."""
         node = self._node
         awaited = self._tables.barriers.awaited(now, lambda: {*node.members.peers, node.platform})
-        if not node._star:
+        if not self._star:
             return Heartbeat(
                 is_master=True,
                 epoch=node.epoch,

@@ -54,6 +54,7 @@ class Leadership:
         now: float,
     ) -> None:
         self._node = node
+        self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._board = board  # the node's bulletin board (master to every member)
         self._inbox = inbox  # the node's bulletin inbox (from the master it follows)
         self._started = now  # when the node started: it listens a while before it claims
@@ -278,7 +279,7 @@ class Leadership:
         node = self._node
         lowest = node._live.lowest_peer
         listened = now - self._started
-        if node._star and node.master is None and not node.is_master:
+        if self._star and node.master is None and not node.is_master:
             # A star platform also counts the lower IDs it heard but that have not joined its
             # view (they keep quiet only if they hear someone lower still) and the successors
             # it presumes alive. The first live successor takes over at once; anyone else
@@ -317,7 +318,7 @@ class Leadership:
             # This term's tables start empty, but for the firings it decided in an earlier
             # one (:meth:`~.tables.MasterTables.new_term` says why).
             self._tables.new_term()
-            if node._star:
+            if self._star:
                 # The predecessor's roster: those platforms were members a moment ago. They
                 # are watched from now on and waited for in the handshake, and those that do
                 # not answer leave like any silent member — at the cadence they will be
@@ -400,7 +401,7 @@ class Leadership:
         node._live.master_heard(now)
         self._best_claim = None
         self._presumed.clear()
-        if node._star:
+        if self._star:
             # A star member watches its master only; the rest of the swarm it learns from
             # the master's roster (fetched anew: it is the new master's, or newer).
             for peer in [p for p in node.members.peers if p != master]:
@@ -433,10 +434,10 @@ class Leadership:
         node.master = None
         self._master_incarnation = -1
         self._listening_since = now
-        if node._star:
+        if self._star:
             # Masterless, it watches whoever broadcasts, at the ordinary interval.
             node.members.cadence = node.config.heartbeat_interval
-        if node._star:
+        if self._star:
             # The master's succession list says who takes over: each successor is presumed
             # alive for a while per rank, so the first live one claims without a round of
             # broadcasts, and the others keep quiet meanwhile. The while covers how much
@@ -455,7 +456,7 @@ class Leadership:
             claim is not None
             and claim[0] > node.epoch
             and now - claim[2] <= node.config.t_leave
-            and (claim[1] in node.members or node._star)
+            and (claim[1] in node.members or self._star)
         ):
             # Someone already claimed while we still trusted the old master: follow at once.
             self._follow(claim[1], claim[0], now)

@@ -45,12 +45,13 @@ class Liveness:
         heard: airtime.HeardLog | None,
     ) -> None:
         self._node = node
+        self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._out = out  # the node's collector: what this part sends and reports
         self._rng = rng  # the node's: the phase of its heartbeats
         # The node's log of every platform heard lately (on a shared channel; else None).
         self._heard = heard
         interval = node.config.heartbeat_interval
-        if node.config.membership == "star":
+        if self._star:
             # Lower IDs speak first at boot (up to one interval later for the highest ID), so
             # a booting swarm hears its lowest IDs before the others would broadcast, and
             # they keep quiet. The phase is drawn afresh after this first heartbeat.
@@ -61,7 +62,7 @@ class Liveness:
             self._next_heartbeat = now + rng.uniform(0.0, interval)
         # After the boot heartbeat, draw a phase of its own (star: the boot heartbeat's
         # phase follows the platform's rank).
-        self._rephase = node.config.membership == "star"
+        self._rephase = self._star
         # Suspicion: when each suspect is probed next.
         self._probe_due: dict[int, float] = {}
         # The lowest ID of the view (None: nobody else), kept up to date per change.
@@ -184,7 +185,7 @@ class Liveness:
         (:func:`~actorswarm.core.membership.airtime.member_cadence`) for ``members`` (default: every
         other platform of :meth:`swarm_size`)."""
         node = self._node
-        if not node._star:
+        if not self._star:
             return node.config.heartbeat_interval
         others = self.swarm_size() - 1 if members is None else members
         return airtime.member_cadence(node.config, others)
@@ -272,7 +273,7 @@ class Liveness:
         if (
             threshold is None
             or cfg.channel_bitrate is not None
-            or not (node._star and node.is_master)
+            or not (self._star and node.is_master)
         ):
             self.fast = False
             return
@@ -307,7 +308,7 @@ class Liveness:
             node.config.channel_bitrate is not None and node._rosters.told[0] != node.epoch
         )
         self._update_fast()
-        if node.is_master and node._star:
+        if node.is_master and self._star:
             self.set_cadence(self.member_cadence())
             if not roster_after:
                 node._rosters.serve_requests(now)
@@ -330,7 +331,7 @@ class Liveness:
             node.counters["heartbeat_quiet"] += 1
         else:
             self._out.send(None, hb, NORMAL)
-        if roster_after and node.is_master and node._star:
+        if roster_after and node.is_master and self._star:
             node._rosters.serve_requests(now)
 
     def _heartbeats_held(self, now: float) -> bool:
@@ -345,7 +346,7 @@ class Liveness:
 
     def _quiet(self, now: float) -> bool:
         node = self._node
-        if not node._star or node.is_master or node.master is not None:
+        if not self._star or node.is_master or node.master is not None:
             return False
         if node._lead.presumes_lower():
             return True
@@ -435,7 +436,7 @@ class Liveness:
         node._lead.saw_epoch(hb.epoch)
         if sender == node.master and not node.is_master:
             node._lead.master_incarnation_heard(incarnation, hb.is_master, now)
-        if sender < node.platform and node._star and node.master is None:
+        if sender < node.platform and self._star and node.master is None:
             # Only a lower ID that follows no master either keeps this one quiet: one that
             # follows a master this platform does not (its probe answers reach me) or is a
             # master itself cannot stand in for me in an election.
@@ -475,7 +476,7 @@ class Liveness:
         """What a member takes from its master's heartbeat: the cadence it asks for, the
         succession list, and the roster (asking for all of it when behind)."""
         node = self._node
-        if not node._star:
+        if not self._star:
             return
         # The one peer this member watches heartbeats at this interval: its silence is
         # judged in those heartbeats (loss-aware leave time, suspicion).

@@ -27,6 +27,7 @@ class RosterSync:
 
     def __init__(self, node: Node, out: Collector, rng: random.Random) -> None:
         self._node = node
+        self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._out = out  # the node's collector: what this part sends and reports
         self._rng = rng  # the node's: when a member on a shared channel asks
         # Member: when the roster was last asked for; on a shared channel, a request
@@ -138,7 +139,7 @@ class RosterSync:
         follows, in its epoch."""
         node = self._node
         if not (
-            node._star
+            self._star
             and sender == node.master
             and not node.is_master
             and chunk.epoch == node.epoch
