@@ -132,7 +132,6 @@ class Node:
         self._awake = False
         # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
         # copy it.
-        self._star = self.config.membership == "star"
         self.roster = RosterView(roster_pool)
         # On a shared channel: every platform heard lately, for the swarm size estimate;
         # None without a channel, where nothing needs it.
@@ -180,36 +179,24 @@ class Node:
         A star member that follows a master sees the swarm through its master: the master's
         roster (as far as this member has it), the master and itself.
         """
-        if self._following_star():
+        if self._live.following_star():
             return tuple(sorted({*self.roster.members, self.master or 0, self.platform} - {0}))
         return tuple(sorted((*self.members.peers, self.platform)))
 
     @property
     def view_size(self) -> int:
         """``len(self.view)``, without building the view (O(1))."""
-        if self._following_star():
+        if self._live.following_star():
             roster = self.roster.members
             extra = {self.platform, self.master or 0} - {0}
             return len(roster) + sum(1 for p in extra if p not in roster)
         return len(self.members) + 1
 
-    def _following_star(self) -> bool:
-        """A star member that follows a live remote master (heartbeats to it only)."""
-        return self._star and self.master is not None and not self.is_master
-
     @property
     def grace(self) -> float:
         """Extra patience of every leave decision: while this host ticks late, and for a
-        star member on a shared channel (:meth:`_channel_patience`)."""
-        return self._live.health * self.config.heartbeat_interval + self._channel_patience()
-
-    def _channel_patience(self) -> float:
-        """On a shared channel, how much longer a star member waits for its master's
-        heartbeats: twice the time the swarm takes to put a packet each on the air (0
-        otherwise). They queue behind the swarm's bursts — a barrier of all puts a request,
-        its acknowledgement and a release acknowledgement of every member on the air at
-        once — and a member that gives its master up for that starts a needless failover."""
-        return 2 * self.reliable.channel_time if self._following_star() else 0.0
+        star member on a shared channel (:attr:`.liveness.Liveness.grace`)."""
+        return self._live.grace
 
     def _default_need(self, key: int, part: int, count: int) -> int:
         return len(self.members) + 1 if count == NEED_ALL else count

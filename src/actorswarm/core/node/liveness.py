@@ -125,6 +125,25 @@ class Liveness:
         member watches its master alone)."""
         self._probe_due = {p: t for p, t in self._probe_due.items() if p == keep}
 
+    def following_star(self) -> bool:
+        """A star member that follows a live remote master (heartbeats to it only)."""
+        node = self._node
+        return self._star and node.master is not None and not node.is_master
+
+    @property
+    def grace(self) -> float:
+        """Extra patience of every leave decision: while this host ticks late (local
+        health), and for a star member on a shared channel (:meth:`channel_patience`)."""
+        return self.health * self._node.config.heartbeat_interval + self.channel_patience()
+
+    def channel_patience(self) -> float:
+        """On a shared channel, how much longer a star member waits for its master's
+        heartbeats: twice the time the swarm takes to put a packet each on the air (0
+        otherwise). They queue behind the swarm's bursts — a barrier of all puts a request,
+        its acknowledgement and a release acknowledgement of every member on the air at
+        once — and a member that gives its master up for that starts a needless failover."""
+        return 2 * self._node.reliable.channel_time if self.following_star() else 0.0
+
     @property
     def cadence(self) -> float:
         """The member heartbeat interval: as a star master, the one it asks its members for;
@@ -159,7 +178,7 @@ class Liveness:
         node = self._node
         if node.master is None or node.is_master or node.master in node.members:
             return None
-        silent_until = self._master_heard + node.members.silence() + node._channel_patience()
+        silent_until = self._master_heard + node.members.silence() + self.channel_patience()
         return max(silent_until, self._master_hold)
 
     @property
@@ -213,7 +232,7 @@ class Liveness:
         """Whether this platform's heartbeats ride on its master's: a star member following
         a live master, with a heartbeat slack (a daemon)."""
         node = self._node
-        return bool(node.config.heartbeat_slack) and node._following_star()
+        return bool(node.config.heartbeat_slack) and self.following_star()
 
     def heartbeat_window(self) -> float:
         """How long before its time a heartbeat goes out on a wake the host makes anyway:
@@ -255,7 +274,7 @@ class Liveness:
         cadence its master asks for; a star master at half ``heartbeat_interval`` while it
         is fast (:meth:`_update_fast`); anyone else at ``heartbeat_interval``."""
         node = self._node
-        if node._following_star():
+        if self.following_star():
             return self._cadence
         if self.fast:
             return node.config.heartbeat_interval / 2
@@ -319,7 +338,7 @@ class Liveness:
             node.reliable.channel_time = airtime.channel_time(node.config, size)
             node.reliable.channel_size = size
         hb = self._heartbeat(now)
-        if node._following_star():
+        if self.following_star():
             if self._heartbeats_held(now):
                 node.counters["heartbeat_held"] += 1
             else:
@@ -372,7 +391,7 @@ class Liveness:
             node.master is not None
             and not node.is_master
             and node.master not in node.members
-            and now - self._master_heard >= node.members.silence() + node._channel_patience()
+            and now - self._master_heard >= node.members.silence() + self.channel_patience()
             and now >= self._master_hold
         )
 
@@ -397,7 +416,7 @@ class Liveness:
         the ones who act on its loss (the others wait for the claim), and every member of a
         swarm of hundreds probing at once would delay that claim on the air."""
         node = self._node
-        if node.config.channel_bitrate is None or not node._following_star():
+        if node.config.channel_bitrate is None or not self.following_star():
             return True
         return suspect != node.master or node.platform in node.roster.succession
 
@@ -446,7 +465,7 @@ class Liveness:
                 self._heard_lower[sender] = now
         # A star member that follows a master watches that master only: other platforms'
         # heartbeats matter to it for the election alone (a master, or its own master's).
-        if not node._following_star() or sender == node.master:
+        if not self.following_star() or sender == node.master:
             changes = self._changes  # reused: this runs for every heartbeat heard
             node.members.heartbeat(sender, incarnation, now, changes, seq, hb.count)
             if changes:
