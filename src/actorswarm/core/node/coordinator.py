@@ -21,13 +21,16 @@ Inside, the node composes membership (:mod:`actorswarm.core.membership.view`), e
 bulletins (:mod:`actorswarm.core.delivery.bulletin`), barriers (:mod:`actorswarm.core.barrier`) and
 roles (:mod:`actorswarm.core.roles`). Each part writes what it sends and reports into the
 node's one collector (:mod:`actorswarm.core.ready`). The node keeps the state its parts
-share (whom it follows, in which epoch) and hands the work to them as objects:
+share (whom it follows, in which epoch) and hands the work to them as objects, each
+keeping the state that only it uses and handed the collaborators it needs (the collector,
+the master's tables, the bulletin board and inbox) when it is made:
 :class:`~.liveness.Liveness` (who is alive: heartbeats, probes, view changes),
 :class:`~.rostersync.RosterSync` (a star swarm's roster, served and followed),
-:class:`~.leadership.Leadership` (who is master: claims, following, stepping down, the
-handshake, reports), :class:`~.intake.Intake` (what a received packet's body is handed
-to) and its role, :class:`~.duties.MasterDuties` or :class:`~.duties.MemberDuties`,
-swapped when it claims or steps down.
+:class:`~.leadership.Leadership` (who is master: claims, following, stepping down,
+reports; the :class:`~.handshake.Handshake`), :class:`~.intake.Intake` (what a received
+packet's body is handed to) and its role, :class:`~.duties.MasterDuties` or
+:class:`~.duties.MemberDuties`, swapped when it claims or steps down, both acting on the
+master's barrier and role tables (:class:`~.tables.MasterTables`).
 Master-bound messages are sent to the current master — or handled in place when this platform
 is the master — and wait, in order, while there is none. Packets that fail any check are
 dropped and counted in :attr:`Node.counters`, never raised: untrusted bytes cannot crash a

@@ -3,8 +3,9 @@
 swaps it when it claims or steps down (:meth:`Node._take_role
 <actorswarm.core.node.coordinator.Node._take_role>`), as raft swaps its step function on
 becoming leader, instead of asking ``is_master`` at every step. Neither keeps state of its
-own: both act on the node's (its barrier and role tables, its handshake), which outlives a
-change of role.
+own: what outlives a change of role is handed to both at construction — the node's
+collector, its master tables (:class:`~.tables.MasterTables`) and, to the master, its
+bulletin board — and the handshake is the leadership's (:class:`~.handshake.Handshake`).
 """
 
 from __future__ import annotations

@@ -42,7 +42,11 @@ MAX_REPORT_COPIES = 3
 class Leadership:
     """Who is master, for one :class:`~actorswarm.core.node.Node`: see the module
     docstring. It acts on the node's election state (``epoch``, ``master``,
-    ``is_master``) and its handshake."""
+    ``is_master``) and keeps its own: who claimed the epoch, the highest epoch seen, the
+    best claim heard, the followed master's incarnation, the successors presumed alive,
+    the held heartbeats and, as master, the :class:`~.handshake.Handshake`. The node asks
+    it (:meth:`decide`, :meth:`presumed_until`, :attr:`epoch_master`) rather than reading
+    that state."""
 
     def __init__(
         self,

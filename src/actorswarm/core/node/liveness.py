@@ -33,8 +33,11 @@ MAX_HEALTH = 8
 
 class Liveness:
     """Who is alive, for one :class:`~actorswarm.core.node.Node`: see the module docstring.
-    It acts on the node's shared state (view, master, epoch) and keeps its own (heartbeat
-    count, probe answers, local health)."""
+    It acts on the node's shared state (view, master, epoch) and keeps its own: the
+    heartbeat schedule and count, the member cadence, the probes and their answers, the
+    lowest peer, the watch on the followed master, and local health. The node asks it
+    (:attr:`next_heartbeat`, :meth:`next_probe`, :meth:`master_deadline`, :attr:`grace`)
+    rather than reading that state."""
 
     def __init__(
         self,

@@ -23,7 +23,8 @@ ROSTER_BROADCAST_FROM = 4
 
 
 class RosterSync:
-    """Serving and following the roster, for one :class:`~actorswarm.core.node.Node`."""
+    """Serving and following the roster, for one :class:`~actorswarm.core.node.Node`: it
+    keeps the master's roster (:attr:`log`) and the requests for it."""
 
     def __init__(self, node: Node, out: Collector, rng: random.Random) -> None:
         self._node = node
