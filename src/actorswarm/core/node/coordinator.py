@@ -157,15 +157,42 @@ class Node:
         #: participant's request data to all (default: yes; the engine's transitions say no,
         #: their data is read by the master's ``scatter`` alone).
         self.gathers: Gathers = lambda key: True
-        # The parts that act on this state: who is alive, and who is master.
+        # The parts that act on this state: who is alive, and who is master (each handed
+        # the parts made before it that it calls).
         self._live = Liveness(self, self._out, now, rng, self._heard)
-        self._lead = Leadership(self, self._out, self._tables, self._board, self._inbox, now)
-        self._intake = Intake(self, self._out, self._board, self._inbox)
         self._rosters = RosterSync(self, self._out, rng)
+        self._lead = Leadership(
+            self,
+            self._out,
+            self._tables,
+            self._board,
+            self._inbox,
+            now,
+            live=self._live,
+            rosters=self._rosters,
+        )
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
-        self._master_duties = MasterDuties(self, self._out, self._tables, self._board)
-        self._member_duties = MemberDuties(self, self._out, self._tables)
+        self._member_duties = MemberDuties(self, self._out, self._tables, lead=self._lead)
+        self._master_duties = MasterDuties(
+            self,
+            self._out,
+            self._tables,
+            self._board,
+            lead=self._lead,
+            live=self._live,
+            rosters=self._rosters,
+            member=self._member_duties,
+        )
+        self._intake = Intake(
+            self,
+            self._out,
+            self._board,
+            self._inbox,
+            lead=self._lead,
+            rosters=self._rosters,
+            member=self._member_duties,
+        )
         self._role: Duties = self._member_duties
 
     @property

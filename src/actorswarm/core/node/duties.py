@@ -38,6 +38,9 @@ from actorswarm.core.wire import (
 if TYPE_CHECKING:
     from actorswarm.core.delivery.bulletin import BulletinBoard
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.leadership import Leadership
+    from actorswarm.core.node.liveness import Liveness
+    from actorswarm.core.node.rostersync import RosterSync
     from actorswarm.core.node.tables import MasterTables
     from actorswarm.core.ready import Collector
     from actorswarm.core.wire import ReleaseRecord
@@ -52,9 +55,24 @@ class MasterDuties:
     is_master: Final = True
 
     def __init__(
-        self, node: Node, out: Collector, tables: MasterTables, board: BulletinBoard
+        self,
+        node: Node,
+        out: Collector,
+        tables: MasterTables,
+        board: BulletinBoard,
+        *,
+        lead: Leadership,
+        live: Liveness,
+        rosters: RosterSync,
+        member: MemberDuties,
     ) -> None:
         self._node = node
+        # The parts it calls: who is master (the handshake), who is alive, the roster, and
+        # the member's side (its own replies, taken in place).
+        self._lead = lead
+        self._live = live
+        self._rosters = rosters
+        self._member = member
         self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._board = board  # the node's bulletin board (master to every member)
         self._tables = tables  # the master's tables (the node's, kept across roles)
@@ -63,7 +81,7 @@ class MasterDuties:
     # --- the interface both roles share ---------------------------------------------------
 
     def reports_awaited(self) -> int:
-        return self._node._lead.handshake.awaited
+        return self._lead.handshake.awaited
 
     def deadlines(self) -> tuple[float | None, float | None]:
         """The barrier table's and the bulletin board's next deadlines."""
@@ -73,12 +91,12 @@ class MasterDuties:
         """The handshake's Syncs and deadline, the barrier table's timers, the board's
         retransmissions."""
         node = self._node
-        handshake = node._lead.handshake
+        handshake = self._lead.handshake
         for peer in handshake.syncs_due(now):
             sync = Sync(epoch=node.epoch, bulletin=handshake.bulletin)
             node.reliable.send(peer, sync, now, node.epoch)
         if handshake.expired(now):
-            node._lead.finish_handshake(now)
+            self._lead.finish_handshake(now)
         self._tables.barriers.tick(now, node.epoch)
         self.flush(now)
         self._board.tick(now, node.epoch, node.reliable.timeout(None))
@@ -125,7 +143,7 @@ class MasterDuties:
         if not (self._star and body.epoch == node.epoch):
             node.counters["drop:roster"] += 1
             return
-        node._rosters.asked(sender)
+        self._rosters.asked(sender)
 
     def on_release_ack(self, sender: int, body: ReleaseAck) -> None:
         node = self._node
@@ -151,16 +169,15 @@ class MasterDuties:
     def member_left(self, change: MemberLeft, now: float) -> None:
         """A member left the view: its requests, roles, bulletins and roster entry go."""
         node = self._node
-        node._lead.handshake.left(change.platform, restarted=change.reason == "restarted")
+        self._lead.handshake.left(change.platform, restarted=change.reason == "restarted")
         self._tables.barriers.member_left(change.platform, now, node.epoch)
         self._tables.roles.member_left(change.platform, restarted=change.reason == "restarted")
         self._board.member_left(change.platform)
-        node._rosters.log.left(change.platform)
+        self._rosters.log.left(change.platform)
 
     def member_joined(self, change: MemberJoined, now: float, hb: Heartbeat | None) -> None:
-        node = self._node
-        node._rosters.log.joined(change.platform, change.incarnation)
-        node._lead.master_joined(change.platform, now, hb)
+        self._rosters.log.joined(change.platform, change.incarnation)
+        self._lead.master_joined(change.platform, now, hb)
 
     def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
         """The master's heartbeat names the members a barrier of all awaits; a star
@@ -177,8 +194,8 @@ class MasterDuties:
                 suspects=suspects,
                 awaited=awaited,
             )
-        log = node._rosters.log
-        live = node._live
+        log = self._rosters.log
+        live = self._live
         return Heartbeat(
             is_master=True,
             epoch=node.epoch,
@@ -196,9 +213,8 @@ class MasterDuties:
 
     def view_changed(self, now: float) -> None:
         """After a change of the view: the handshake may be over, a firing may be due."""
-        node = self._node
-        if node._lead.handshake.settled():
-            node._lead.finish_handshake(now)
+        if self._lead.handshake.settled():
+            self._lead.finish_handshake(now)
         self.flush(now)
 
     # --- the master's own -----------------------------------------------------------------
@@ -226,8 +242,8 @@ class MasterDuties:
                 bm.request(sender, req, now, node.epoch)
             bm.reported(now, node.epoch)
             rm.report(sender, payload.held, payload.claims)
-            if node._lead.handshake.reported(sender):
-                node._lead.finish_handshake(now)
+            if self._lead.handshake.reported(sender):
+                self._lead.finish_handshake(now)
         self.flush(now)
 
     def flush(self, now: float) -> None:
@@ -261,7 +277,7 @@ class MasterDuties:
     def to_member(self, platform: int, payload: Payload, now: float) -> None:
         node = self._node
         if platform == node.platform:
-            node._member_duties.take(payload, now)
+            self._member.take(payload, now)
         else:
             node.reliable.send(platform, payload, now, node.epoch)
 
@@ -272,8 +288,11 @@ class MemberDuties:
 
     is_master: Final = False
 
-    def __init__(self, node: Node, out: Collector, tables: MasterTables) -> None:
+    def __init__(
+        self, node: Node, out: Collector, tables: MasterTables, *, lead: Leadership
+    ) -> None:
         self._node = node
+        self._lead = lead  # who is master: a member reports to it
         self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
 
@@ -291,7 +310,7 @@ class MemberDuties:
         node = self._node
         if node.master is not None:
             node.counters["restated"] += 1
-            node._lead.report(now)
+            self._lead.report(now)
 
     def to_master(self, payload: Payload, now: float) -> None:
         """Without a master nothing is queued: the report sent on following the next master

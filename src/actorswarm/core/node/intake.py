@@ -11,7 +11,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Final
 
 from actorswarm.core.events import AppReceived
-from actorswarm.core.node.leadership import MASTER_BOUND
+from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.wire import (
     BULLETIN_STREAM,
     NORMAL,
@@ -33,6 +33,8 @@ from actorswarm.core.wire import (
 if TYPE_CHECKING:
     from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.duties import MemberDuties
+    from actorswarm.core.node.rostersync import RosterSync
     from actorswarm.core.ready import Collector
 
 
@@ -40,9 +42,22 @@ class Intake:
     """The packet handlers of one :class:`~actorswarm.core.node.coordinator.Node`."""
 
     def __init__(
-        self, node: Node, out: Collector, board: BulletinBoard, inbox: BulletinInbox
+        self,
+        node: Node,
+        out: Collector,
+        board: BulletinBoard,
+        inbox: BulletinInbox,
+        *,
+        lead: Leadership,
+        rosters: RosterSync,
+        member: MemberDuties,
     ) -> None:
         self._node = node
+        # Where a body goes besides the node's role: a Sync to the leadership, a roster
+        # chunk to the roster sync, the master's replies to the member's side.
+        self._lead = lead
+        self._rosters = rosters
+        self._member = member
         self._board = board  # the node's bulletin board (master to every member)
         self._inbox = inbox  # the node's bulletin inbox (from the master it follows)
         self._out = out  # the node's collector: what this part sends and reports
@@ -83,9 +98,8 @@ class Intake:
         node._role.on_roster_request(packet.sender, body)
 
     def _packet_roster_chunk(self, packet: Packet, now: float) -> None:
-        node = self._node
         assert isinstance(packet.body, RosterChunk)
-        node._rosters.on_chunk(packet.sender, packet.body, now)
+        self._rosters.on_chunk(packet.sender, packet.body, now)
 
     def _packet_bulletin(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, Bulletin)
@@ -142,13 +156,13 @@ class Intake:
                 AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
             )
         elif isinstance(payload, Sync):
-            node._lead.on_sync(sender, payload, now, -1 if stream is None else stream[0])
+            self._lead.on_sync(sender, payload, now, -1 if stream is None else stream[0])
         elif isinstance(payload, MASTER_BOUND):
             node._role.on_master_bound(sender, epoch, payload, now)
         elif sender != node.master or epoch != node.epoch:
             node.counters["drop:stale_epoch"] += 1
         else:
-            node._member_duties.take(payload, now)
+            self._member.take(payload, now)
 
 
 #: What a received packet's body is handed to (heartbeats are taken first, in

@@ -28,6 +28,8 @@ from actorswarm.core.wire import (
 if TYPE_CHECKING:
     from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.liveness import Liveness
+    from actorswarm.core.node.rostersync import RosterSync
     from actorswarm.core.node.tables import MasterTables
     from actorswarm.core.ready import Collector
 
@@ -56,8 +58,13 @@ class Leadership:
         board: BulletinBoard,
         inbox: BulletinInbox,
         now: float,
+        *,
+        live: Liveness,
+        rosters: RosterSync,
     ) -> None:
         self._node = node
+        self._live = live  # the node's liveness: heartbeats, probes, cadence, airtime
+        self._rosters = rosters  # the star roster: reset on a claim, requests dropped
         self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._board = board  # the node's bulletin board (master to every member)
         self._inbox = inbox  # the node's bulletin inbox (from the master it follows)
@@ -281,7 +288,7 @@ class Leadership:
 
     def maybe_claim(self, now: float) -> None:
         node = self._node
-        lowest = node._live.lowest_peer
+        lowest = self._live.lowest_peer
         listened = now - self._started
         if self._star and node.master is None and not node.is_master:
             # A star platform also counts the lower IDs it heard but that have not joined its
@@ -289,7 +296,7 @@ class Leadership:
             # it presumes alive. The first live successor takes over at once; anyone else
             # elects as in broadcast mode, having listened for ``startup_wait`` first.
             lower = [p for p in self._presumed if p < node.platform]
-            lower += node._live.lower_heard(now)
+            lower += self._live.lower_heard(now)
             if lower:
                 lowest = min(lower) if lowest is None else min(lowest, *lower)
             if node.platform not in node.roster.succession:
@@ -316,7 +323,7 @@ class Leadership:
         self._inbox.follow(None)
         self.handshake.restart(self._board.next_seq)
         self._presumed.clear()
-        node._live.forget_probes()
+        self._live.forget_probes()
         if not node.is_master:
             node._take_role(node._master_duties)
             # This term's tables start empty, but for the firings it decided in an earlier
@@ -333,22 +340,22 @@ class Leadership:
                     for p, i in node.roster.members.items()
                     if p not in (predecessor, node.platform)
                 ]
-                node.members.cadence = node._live.member_cadence(
-                    max(len(inherited), node._live.swarm_size() - 1)
+                node.members.cadence = self._live.member_cadence(
+                    max(len(inherited), self._live.swarm_size() - 1)
                 )
-                grace = node._live.handshake_airtime(len(inherited))
+                grace = self._live.handshake_airtime(len(inherited))
                 for peer, incarnation in inherited:
                     node.members.admit(peer, incarnation, now, grace=grace)
-                node._live.recount_lowest_peer()
+                self._live.recount_lowest_peer()
         else:  # a new epoch while master: everyone reports again, nothing fires meanwhile
             self._tables.hold()
             # On a shared channel the members' heartbeats now queue behind their reports
             # (and wait for their acknowledgement) as after any claim.
-            hold = now + node._live.handshake_airtime(len(node.members))
+            hold = now + self._live.handshake_airtime(len(node.members))
             for peer in list(node.members.peers) if hold > now else ():
                 node.members.hold(peer, hold, now)
-        node._rosters.log.reset(node.epoch)
-        node._live.set_cadence(node._live.member_cadence())
+        self._rosters.log.reset(node.epoch)
+        self._live.set_cadence(self._live.member_cadence())
         node.handshake_complete = False
         self._tables.barriers.topology_changed(now)
         self._out.events.append(BecameMaster(epoch=node.epoch))
@@ -363,9 +370,9 @@ class Leadership:
             waiting,
             deadline=now + node.config.handshake_timeout,
             sync_at=now
-            + max(2 * node.config.retry_base, node._live.handshake_airtime(len(waiting))),
+            + max(2 * node.config.retry_base, self._live.handshake_airtime(len(waiting))),
         )
-        node._live.send_heartbeat(now)
+        self._live.send_heartbeat(now)
         # The master's own state counts like any member's report.
         node._master_duties.decide(node.platform, self._own_report(now), now)
         for payload in node.reliable.take_unrouted():
@@ -387,8 +394,8 @@ class Leadership:
         node = self._node
         node._take_role(node._member_duties)
         self._board.clear("stepped_down")
-        node._rosters.forget_requests()
-        node._live.set_cadence(node.config.heartbeat_interval)
+        self._rosters.forget_requests()
+        self._live.set_cadence(node.config.heartbeat_interval)
         node.handshake_complete = False
         self.handshake.close()
         self._out.events.append(SteppedDown(epoch=node.epoch, to=to))
@@ -402,7 +409,7 @@ class Leadership:
             self._step_down(master, now)
         self._set_epoch(epoch, master)
         node.master = master
-        node._live.master_heard(now)
+        self._live.master_heard(now)
         self._best_claim = None
         self._presumed.clear()
         if self._star:
@@ -414,15 +421,15 @@ class Leadership:
             node.members.cadence = node.config.heartbeat_interval
             # On a shared channel the master's heartbeats queue behind the reports its
             # claim sets off (``handshake_airtime``): not given up before they had theirs.
-            airtime = node._live.handshake_airtime(node._live.swarm_size() - 1)
+            airtime = self._live.handshake_airtime(self._live.swarm_size() - 1)
             if airtime > 0.0:
-                node._live.hold_master(master, now + airtime, now)
+                self._live.hold_master(master, now + airtime, now)
             if node.config.channel_bitrate is not None:
                 # Heartbeats wait for the report's acknowledgement (``_heartbeats_held``),
                 # but not past what an inherited member is held for, nor ``t_leave``.
                 self._heartbeats_held_until = now + max(airtime, node.config.t_leave)
-            node._live.recount_lowest_peer()  # the master, if in the view: nobody else is
-            node._live.forget_probes(keep=master)
+            self._live.recount_lowest_peer()  # the master, if in the view: nobody else is
+            self._live.forget_probes(keep=master)
         self._out.events.append(MasterChanged(master=master, epoch=epoch))
         node.reliable.retarget(master, now, epoch, MASTER_BOUND)
         self._inbox.follow(master)
