@@ -159,8 +159,8 @@ class Node:
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master (each handed
         # the parts made before it that it calls).
-        self._live = Liveness(self, self._out, now, rng, self._heard)
         self._rosters = RosterSync(self, self._out, rng)
+        self._live = Liveness(self, self._out, now, rng, self._heard, rosters=self._rosters)
         self._lead = Leadership(
             self,
             self._out,
@@ -173,7 +173,9 @@ class Node:
         )
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
-        self._member_duties = MemberDuties(self, self._out, self._tables, lead=self._lead)
+        self._member_duties = MemberDuties(
+            self, self._out, self._tables, lead=self._lead, live=self._live
+        )
         self._master_duties = MasterDuties(
             self,
             self._out,

@@ -289,10 +289,17 @@ class MemberDuties:
     is_master: Final = False
 
     def __init__(
-        self, node: Node, out: Collector, tables: MasterTables, *, lead: Leadership
+        self,
+        node: Node,
+        out: Collector,
+        tables: MasterTables,
+        *,
+        lead: Leadership,
+        live: Liveness,
     ) -> None:
         self._node = node
         self._lead = lead  # who is master: a member reports to it
+        self._live = live  # who is alive: the watch on its master
         self._tables = tables  # the master's tables (the node's, kept across roles)
         self._out = out  # the node's collector: what this part sends and reports
 
@@ -373,7 +380,7 @@ class MemberDuties:
         hold applies to the new detector too."""
         node = self._node
         if change.platform == node.master:
-            node._live.rehold_master(change.platform, now)
+            self._live.rehold_master(change.platform, now)
 
     def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
         """A member's heartbeat: whom it follows, in which epoch, whom it suspects."""

@@ -25,6 +25,7 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.rostersync import RosterSync
 
 #: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
 #: ticks late.
@@ -46,8 +47,11 @@ class Liveness:
         now: float,
         rng: random.Random,
         heard: airtime.HeardLog | None,
+        *,
+        rosters: RosterSync,
     ) -> None:
         self._node = node
+        self._rosters = rosters  # the star roster: served with a master's heartbeats
         self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._out = out  # the node's collector: what this part sends and reports
         self._rng = rng  # the node's: the phase of its heartbeats
@@ -327,13 +331,13 @@ class Liveness:
         # (:meth:`.RosterSync._outrun`), after the claim's heartbeat: a member takes a roster
         # only from the master it follows.
         roster_after = (
-            node.config.channel_bitrate is not None and node._rosters.told[0] != node.epoch
+            node.config.channel_bitrate is not None and self._rosters.told[0] != node.epoch
         )
         self._update_fast()
         if node.is_master and self._star:
             self.set_cadence(self.member_cadence())
             if not roster_after:
-                node._rosters.serve_requests(now)
+                self._rosters.serve_requests(now)
         if node.config.channel_bitrate is not None:
             # What the swarm needs to put one packet each on the shared channel: reliable
             # delivery waits at least that long for an acknowledgement.
@@ -354,7 +358,7 @@ class Liveness:
         else:
             self._out.send(None, hb, NORMAL)
         if roster_after and node.is_master and self._star:
-            node._rosters.serve_requests(now)
+            self._rosters.serve_requests(now)
 
     def _heartbeats_held(self, now: float) -> bool:
         """On a shared channel, a star member heartbeats to a master it just followed only
@@ -515,7 +519,7 @@ class Liveness:
             else:
                 self._next_heartbeat = min(self._next_heartbeat, now + cadence)
             self._cadence = cadence
-        node._rosters.on_master_heartbeat(sender, hb, now)
+        self._rosters.on_master_heartbeat(sender, hb, now)
 
     def _hurry(self, now: float) -> None:
         """My master names me as awaited by a barrier of all: what it has not acknowledged
