@@ -117,3 +117,25 @@ def test_the_master_tables_alone_start_a_term_empty_but_for_the_firings_decided(
     assert tables.barriers is not before and not tables.roles.ready
     assert tables.outbox.take() == []  # what was never routed goes with the old tables
     assert tables.barriers.decided(1) == decided  # what was decided is kept
+
+
+def test_the_failures_alone_become_events_and_a_lost_master_bound_message_restates() -> None:
+    from actorswarm.core.config import CoreConfig
+    from actorswarm.core.events import DeliveryFailed
+    from actorswarm.core.node.failures import Failures
+    from actorswarm.core.ready import Collector, DeliveryFailure
+    from actorswarm.core.wire import AppMessage, RoleRelease
+
+    out = Collector()
+    failures = Failures(out, CoreConfig())
+    failures.report()  # nothing given up: nothing told
+    assert out.events == [] and not failures.take_restate()
+    out.failures.append(DeliveryFailure(5, AppMessage(topic="t", body=b""), "left"))
+    failures.report()
+    assert out.events == [
+        DeliveryFailed(dst=5, kind="AppMessage", reason="the destination left the swarm")
+    ]
+    assert out.failures == [] and not failures.take_restate()
+    out.failures.append(DeliveryFailure(None, RoleRelease(role="r")))  # master-bound, deadline
+    failures.report()
+    assert failures.take_restate() and not failures.take_restate()  # taken once

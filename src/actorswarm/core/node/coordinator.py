@@ -58,7 +58,6 @@ from actorswarm.core.delivery.reliable import Reliable
 from actorswarm.core.events import (
     AppReceived,
     CoreEvent,
-    DeliveryFailed,
     MemberJoined,
     MemberLeft,
 )
@@ -66,8 +65,9 @@ from actorswarm.core.membership import airtime
 from actorswarm.core.membership.roster import RosterPool, RosterView
 from actorswarm.core.membership.view import Membership
 from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
+from actorswarm.core.node.failures import Failures
 from actorswarm.core.node.intake import _BODY_HANDLERS, Intake
-from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
+from actorswarm.core.node.leadership import Leadership
 from actorswarm.core.node.liveness import Liveness
 from actorswarm.core.node.outbox import MasterOutbox
 from actorswarm.core.node.rostersync import RosterSync
@@ -139,8 +139,8 @@ class Node:
         # On a shared channel: every platform heard lately, for the swarm size estimate;
         # None without a channel, where nothing needs it.
         self._heard = airtime.HeardLog(now) if self.config.channel_bitrate is not None else None
-        # A master-bound message was given up: report again at the next tick.
-        self._restate = False
+        # What the streams and the board gave up on, told as events.
+        self._failures = Failures(self._out, self.config)
         self.counters: Counter[str] = Counter()
         #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
         #: tests require it to stay empty).
@@ -159,8 +159,10 @@ class Node:
         self.gathers: Gathers = lambda key: True
         # The parts that act on this state: who is alive, and who is master (each handed
         # the parts made before it that it calls).
-        self._rosters = RosterSync(self, self._out, rng)
-        self._live = Liveness(self, self._out, now, rng, self._heard, rosters=self._rosters)
+        self._rosters = RosterSync(self, self._out, rng, failures=self._failures)
+        self._live = Liveness(
+            self, self._out, now, rng, self._heard, rosters=self._rosters, failures=self._failures
+        )
         self._lead = Leadership(
             self,
             self._out,
@@ -246,30 +248,6 @@ class Node:
             first_retry=lambda: self.reliable.timeout(None),
             retry_delay=self.reliable.retry_delay,
         )
-
-    def _report_failures(self) -> None:
-        """Every message the reliable streams or the bulletin board gave up on becomes a
-        DeliveryFailed event, in the order they gave up. Called at fixed points of a step
-        (after the retransmission timers, after a view change), so each failure's event comes
-        after the events of the step that caused it."""
-        out = self._out
-        if not out.failures:
-            return
-        for failure in out.failures:
-            if failure.reason == "deadline" and isinstance(failure.payload, MASTER_BOUND):
-                # A request or claim the master never acknowledged (on a lossy shared
-                # channel a few retries span the whole deadline) would otherwise wait
-                # unsent until the next master: the next tick reports again, and the
-                # report restates everything still pending.
-                self._restate = True
-            reason = {
-                "left": "the destination left the swarm",
-                "stepped_down": "this platform stepped down as master before it was delivered",
-            }.get(failure.reason, f"not acknowledged within {self.config.delivery_deadline} s")
-            out.events.append(
-                DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
-            )
-        out.failures.clear()
 
     def _take_role(self, role: Duties) -> None:
         """Become master (:class:`~.duties.MasterDuties`) or member
@@ -392,9 +370,8 @@ class Node:
         self._lead.maybe_claim(now)
         self._role.tick(now)
         self.reliable.tick(now)
-        self._report_failures()
-        if self._restate:
-            self._restate = False
+        self._failures.report()
+        if self._failures.take_restate():
             self._role.restate(now)
         self._live.heartbeat_tick(now)
 

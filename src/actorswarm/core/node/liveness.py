@@ -25,6 +25,7 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.failures import Failures
     from actorswarm.core.node.rostersync import RosterSync
 
 #: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
@@ -49,8 +50,10 @@ class Liveness:
         heard: airtime.HeardLog | None,
         *,
         rosters: RosterSync,
+        failures: Failures,
     ) -> None:
         self._node = node
+        self._failures = failures  # told after a view change: messages to those who left
         self._rosters = rosters  # the star roster: served with a master's heartbeats
         self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._out = out  # the node's collector: what this part sends and reports
@@ -561,7 +564,7 @@ class Liveness:
             else:
                 node._role.member_joined(change, now, hb)
         self._update_lowest_peer(changes)
-        node._report_failures()
+        self._failures.report()
         node._role.view_changed(now)
         node._lead.maybe_claim(now)
 

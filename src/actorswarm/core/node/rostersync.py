@@ -15,6 +15,7 @@ from actorswarm.core.wire import NORMAL, Heartbeat, RosterChunk, RosterRequest
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.failures import Failures
     from actorswarm.core.ready import Collector
 
 #: A master that has more members asking for the whole roster than this at one heartbeat
@@ -26,8 +27,11 @@ class RosterSync:
     """Serving and following the roster, for one :class:`~actorswarm.core.node.Node`: it
     keeps the master's roster (:attr:`log`) and the requests for it."""
 
-    def __init__(self, node: Node, out: Collector, rng: random.Random) -> None:
+    def __init__(
+        self, node: Node, out: Collector, rng: random.Random, *, failures: Failures
+    ) -> None:
         self._node = node
+        self._failures = failures  # told when the master's roster drops a platform
         self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
         self._out = out  # the node's collector: what this part sends and reports
         self._rng = rng  # the node's: when a member on a shared channel asks
@@ -163,4 +167,4 @@ class RosterSync:
             if platform != node.master:
                 node.reliable.drop_destination(platform, now)
         node.roster.removed.clear()
-        node._report_failures()
+        self._failures.report()
