@@ -23,7 +23,8 @@ roles (:mod:`actorswarm.core.roles`). Each part writes what it sends and reports
 node's one collector (:mod:`actorswarm.core.ready`). The node keeps the state its parts
 share (whom it follows, in which epoch) and hands the work to them as objects, each
 keeping the state that only it uses and handed the collaborators it needs (the collector,
-the master's tables, the bulletin board and inbox) when it is made:
+the master's tables, the bulletin board and inbox, the :class:`~.failures.Failures` it
+reports into, the parts made before it) when it is made:
 :class:`~.liveness.Liveness` (who is alive: heartbeats, probes, view changes),
 :class:`~.rostersync.RosterSync` (a star swarm's roster, served and followed),
 :class:`~.leadership.Leadership` (who is master: claims, following, stepping down,
@@ -133,8 +134,8 @@ class Node:
         self.is_master = False
         self.handshake_complete = False
         self._awake = False
-        # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
-        # copy it.
+        # Star topology (docs/design.md §3.1): the roster as members copy it (the master's
+        # own is :attr:`.rostersync.RosterSync.log`).
         self.roster = RosterView(roster_pool)
         # On a shared channel: every platform heard lately, for the swarm size estimate;
         # None without a channel, where nothing needs it.
