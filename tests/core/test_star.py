@@ -40,7 +40,7 @@ from actorswarm.core.events import (
 from actorswarm.core.membership import airtime
 from actorswarm.core.membership.roster import RosterLog, RosterPool, RosterView
 from actorswarm.core.membership.view import Membership, leave_silence
-from actorswarm.core.node import Node, Outgoing, Ready, coordinator
+from actorswarm.core.node import Node, Outgoing, Ready, leadership
 from actorswarm.core.ready import PROBE
 from actorswarm.core.wire import (
     MAX_CHANGES,
@@ -714,7 +714,7 @@ def test_on_a_shared_channel_the_boot_is_counted_and_the_first_claim_paces_every
         beats = [t for t, src, dst, kind in sent if src == p and dst == 1 and kind == "Heartbeat"]
         assert beats and beats[0] > acked, f"platform {p} heartbeat before its report's ack"
     assert swarm.formed(30)
-    assert swarm.node(30)._cadence == pytest.approx(expected)
+    assert swarm.node(30)._live.cadence == pytest.approx(expected)
     assert swarm.finish() == []
 
 
@@ -975,12 +975,12 @@ def test_under_loss_a_member_that_suspects_its_master_follows_the_claim_at_once(
     assert tail <= 0.2, f"the last survivor followed {tail:.3f} s after the claim"
     assert handshake <= 0.3, f"handshake {handshake:.3f} s"
 
-    unsuspecting = coordinator.on_heartbeat
+    unsuspecting = leadership.on_heartbeat
 
     def never_suspects(**hearing: Any) -> OnHeartbeat:
         return unsuspecting(**{**hearing, "master_suspected": False})
 
-    monkeypatch.setattr(coordinator, "on_heartbeat", never_suspects)
+    monkeypatch.setattr(leadership, "on_heartbeat", never_suspects)
     control, _ = _follow_tail(settled())
     assert control > 0.2, f"control: {control:.3f} s"
 

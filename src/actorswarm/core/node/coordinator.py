@@ -23,13 +23,17 @@ Inside, the node composes membership (:mod:`actorswarm.core.membership.view`), e
 bulletins (:mod:`actorswarm.core.delivery.bulletin`), barriers (:mod:`actorswarm.core.barrier`) and
 roles (:mod:`actorswarm.core.roles`). Each part writes what it sends and reports into the
 node's one collector (:mod:`actorswarm.core.ready`). The node keeps the state its parts
-share (whom it follows, in which epoch) and hands the work to them as objects:
+share (whom it follows, in which epoch) and hands the work to them as objects, each
+keeping the state that only it uses and handed the collaborators it needs (the collector,
+the master's tables, the bulletin board and inbox, the :class:`~.failures.Failures` it
+reports into, the parts made before it) when it is made:
 :class:`~.liveness.Liveness` (who is alive: heartbeats, probes, view changes),
 :class:`~.rostersync.RosterSync` (a star swarm's roster, served and followed),
-:class:`~.leadership.Leadership` (who is master: claims, following, stepping down, the
-handshake, reports), :class:`~.intake.Intake` (what a received packet's body is handed
-to) and its role, :class:`~.duties.MasterDuties` or :class:`~.duties.MemberDuties`,
-swapped when it claims or steps down.
+:class:`~.leadership.Leadership` (who is master: claims, following, stepping down,
+reports; the :class:`~.handshake.Handshake`), :class:`~.intake.Intake` (what a received
+packet's body is handed to) and its role, :class:`~.duties.MasterDuties` or
+:class:`~.duties.MemberDuties`, swapped when it claims or steps down, both acting on the
+master's barrier and role tables (:class:`~.tables.MasterTables`).
 Master-bound messages are sent to the current master — or handled in place when this platform
 is the master — and wait, in order, while there is none. Packets that fail any check are
 dropped and counted in :attr:`Node.counters`, never raised: untrusted bytes cannot crash a
@@ -38,7 +42,6 @@ platform nor change its state.
 
 from __future__ import annotations
 
-import math
 import random
 from collections import Counter
 from collections.abc import Iterable
@@ -55,24 +58,24 @@ from actorswarm.core.barrier import (
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
 from actorswarm.core.delivery.reliable import Reliable
-from actorswarm.core.election import OnHeartbeat, on_heartbeat
 from actorswarm.core.events import (
     AppReceived,
-    DeliveryFailed,
     MemberJoined,
     MemberLeft,
 )
 from actorswarm.core.membership import airtime
-from actorswarm.core.membership.roster import RosterLog, RosterPool, RosterView
+from actorswarm.core.membership.roster import RosterPool, RosterView
 from actorswarm.core.membership.view import Membership
 from actorswarm.core.node.duties import Duties, MasterDuties, MemberDuties
+from actorswarm.core.node.failures import Failures
 from actorswarm.core.node.intake import _BODY_HANDLERS, Intake
-from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
+from actorswarm.core.node.leadership import Leadership
 from actorswarm.core.node.liveness import Liveness
 from actorswarm.core.node.outbox import MasterOutbox
 from actorswarm.core.node.rostersync import RosterSync
+from actorswarm.core.node.tables import MasterTables
 from actorswarm.core.ready import Collector, Outgoing, Ready
-from actorswarm.core.roles import RoleMaster, RoleMember
+from actorswarm.core.roles import RoleMember
 from actorswarm.core.wire import (
     NEED_ALL,
     NORMAL,
@@ -109,7 +112,7 @@ class Node:
         self.swarm = swarm
         self.incarnation = incarnation
         self.config = config or CoreConfig()
-        self._rng = rng if rng is not None else random.Random(platform)
+        rng = rng if rng is not None else random.Random(platform)
         self._started = now
         # Everything this platform sends and reports, whichever part produced it.
         self._out = Collector(swarm=swarm, sender=platform, incarnation=incarnation)
@@ -118,78 +121,27 @@ class Node:
         # Master to every member as one broadcast (event relays, what the master runs).
         self._board = BulletinBoard(self.config, self._out)
         self._board.retry_delay = self.reliable.retry_delay
-        self._claim_bulletin = 0  # the first bulletin of the members of the claim
         self._inbox = BulletinInbox(platform)
         self.barriers = BarrierMember(platform)
         self.roles = RoleMember()
-        # What the master's tables decide, until the master's duties route it.
-        self._outbox = MasterOutbox()
-        self._bmaster = self._new_barrier_master()
-        self._rmaster = RoleMaster(self._outbox)
-        # Election state: ``_epoch_master`` claimed ``epoch``; ``master`` is whom we follow
-        # now (None while we have lost it).
+        # The master's barrier and role tables (kept across roles).
+        self._tables = MasterTables(platform, self._new_barrier_master)
+        # Election state: ``epoch`` is the one this platform is in (who claimed it:
+        # :attr:`.leadership.Leadership.epoch_master`); ``master`` is whom we follow now (None
+        # while we have lost it).
         self.epoch = 0
         self.master: int | None = None
-        self._epoch_master: int | None = None
         self.is_master = False
-        self._max_epoch = 0
-        self._best_claim: tuple[int, int, float] | None = None  # (epoch, sender, heard at)
-        self._handshake_waiting: set[int] = set()
-        self._handshake_deadline: float | None = None
-        self._sync_at: float | None = None
         self.handshake_complete = False
-        self._lowest_peer: int | None = None
         self._awake = False
-        # When the master was last heard: a master followed before it joined the view (or
-        # that left it and came back) has no leave detector of its own yet.
-        self._master_heard = now
-        #: A star member on a shared channel does not give up its new master before this:
-        #: the master's heartbeats queue behind the packets its claim set off.
-        self._master_hold = -math.inf
-        # The incarnation of the followed master that claimed (-1: not known yet): a
-        # heartbeat of a newer one means the master rebooted and is master no more.
-        self._master_incarnation = -1
-        interval = self.config.heartbeat_interval
-        if self.config.membership == "star":
-            # Lower IDs speak first at boot (up to one interval later for the highest ID), so
-            # a booting swarm hears its lowest IDs before the others would broadcast, and
-            # they keep quiet. The phase is drawn afresh after this first heartbeat.
-            self._next_heartbeat = now + interval * (
-                math.log2(platform) / 16 + self._rng.uniform(0.0, 0.05)
-            )
-            rephase = True
-        else:
-            self._next_heartbeat = now + self._rng.uniform(0.0, interval)
-            rephase = False
-        # Star topology (docs/design.md §3.1): the roster as the master keeps it and as members
-        # copy it, the member heartbeat interval the master asks for, and the succession
-        # entries presumed alive after the master was lost (platform -> presumed until).
-        self._star = self.config.membership == "star"
+        # Star topology (docs/design.md §3.1): the roster as members copy it (the master's
+        # own is :attr:`.rostersync.RosterSync.log`).
         self.roster = RosterView(roster_pool)
-        self._roster_log = RosterLog(self.config.succession)
-        self._roster_requests: set[int] = set()
-        self._cadence = self.config.heartbeat_interval
-        self._presumed: dict[int, float] = {}
         # On a shared channel: every platform heard lately, for the swarm size estimate;
         # None without a channel, where nothing needs it.
         self._heard = airtime.HeardLog(now) if self.config.channel_bitrate is not None else None
-        # On a shared channel, a star member's heartbeats to a master it just followed wait
-        # for its report's acknowledgement (the report's master-bound sequence number), at
-        # most until ``_heartbeats_held_until``.
-        self._report_seq = 0
-        self._heartbeats_held_until = -math.inf
-        # A master-bound message was given up: report again at the next tick.
-        self._restate = False
-        #: Since when this platform has elected as in broadcast mode (no master, no
-        #: presumed successor): only then may a platform outside the succession list claim.
-        self._listening_since = now
-        # Suspicion: when each suspect is probed next.
-        self._probe_due: dict[int, float] = {}
-        # Master: who reported in this epoch, and who did and was then declared gone.
-        self._reported: set[int] = set()
-        self._rejoining: set[int] = set()
-        # When the host was asked to tick next (local health, :class:`.liveness.Liveness`).
-        self._due = now
+        # What the streams and the board gave up on, told as events.
+        self._failures = Failures(self._out, self.config)
         self.counters: Counter[str] = Counter()
         #: Unexpected internal errors caught at the packet boundary (kept for diagnosis;
         #: tests require it to stay empty).
@@ -206,15 +158,46 @@ class Node:
         #: participant's request data to all (default: yes; the engine's transitions say no,
         #: their data is read by the master's ``scatter`` alone).
         self.gathers: Gathers = lambda key: True
-        # The parts that act on this state: who is alive, and who is master.
-        self._live = Liveness(self, now, rephase=rephase)
-        self._lead = Leadership(self)
-        self._intake = Intake(self)
-        self._rosters = RosterSync(self)
+        # The parts that act on this state: who is alive, and who is master (each handed
+        # the parts made before it that it calls).
+        self._rosters = RosterSync(self, self._out, rng, failures=self._failures)
+        self._live = Liveness(
+            self, self._out, now, rng, self._heard, rosters=self._rosters, failures=self._failures
+        )
+        self._lead = Leadership(
+            self,
+            self._out,
+            self._tables,
+            self._board,
+            self._inbox,
+            now,
+            live=self._live,
+            rosters=self._rosters,
+        )
         # The role: what this platform does as master or as member, swapped by
         # :meth:`_take_role` (``is_master`` says which one it holds).
-        self._master_duties = MasterDuties(self)
-        self._member_duties = MemberDuties(self)
+        self._member_duties = MemberDuties(
+            self, self._out, self._tables, lead=self._lead, live=self._live
+        )
+        self._master_duties = MasterDuties(
+            self,
+            self._out,
+            self._tables,
+            self._board,
+            lead=self._lead,
+            live=self._live,
+            rosters=self._rosters,
+            member=self._member_duties,
+        )
+        self._intake = Intake(
+            self,
+            self._out,
+            self._board,
+            self._inbox,
+            lead=self._lead,
+            rosters=self._rosters,
+            member=self._member_duties,
+        )
         self._role: Duties = self._member_duties
 
     @property
@@ -231,45 +214,33 @@ class Node:
         A star member that follows a master sees the swarm through its master: the master's
         roster (as far as this member has it), the master and itself.
         """
-        if self._following_star():
+        if self._live.following_star():
             return tuple(sorted({*self.roster.members, self.master or 0, self.platform} - {0}))
         return tuple(sorted((*self.members.peers, self.platform)))
 
     @property
     def view_size(self) -> int:
         """``len(self.view)``, without building the view (O(1))."""
-        if self._following_star():
+        if self._live.following_star():
             roster = self.roster.members
             extra = {self.platform, self.master or 0} - {0}
             return len(roster) + sum(1 for p in extra if p not in roster)
         return len(self.members) + 1
 
-    def _following_star(self) -> bool:
-        """A star member that follows a live remote master (heartbeats to it only)."""
-        return self._star and self.master is not None and not self.is_master
-
     @property
     def grace(self) -> float:
         """Extra patience of every leave decision: while this host ticks late, and for a
-        star member on a shared channel (:meth:`_channel_patience`)."""
-        return self._live.health * self.config.heartbeat_interval + self._channel_patience()
-
-    def _channel_patience(self) -> float:
-        """On a shared channel, how much longer a star member waits for its master's
-        heartbeats: twice the time the swarm takes to put a packet each on the air (0
-        otherwise). They queue behind the swarm's bursts — a barrier of all puts a request,
-        its acknowledgement and a release acknowledgement of every member on the air at
-        once — and a member that gives its master up for that starts a needless failover."""
-        return 2 * self.reliable.channel_time if self._following_star() else 0.0
+        star member on a shared channel (:attr:`.liveness.Liveness.grace`)."""
+        return self._live.grace
 
     def _default_need(self, key: int, part: int, count: int) -> int:
         return len(self.members) + 1 if count == NEED_ALL else count
 
-    def _new_barrier_master(self) -> BarrierMaster:
+    def _new_barrier_master(self, outbox: MasterOutbox) -> BarrierMaster:
         # Late-bound, so the engine may replace its hooks after construction.
         return BarrierMaster(
             self.config,
-            self._outbox,
+            outbox,
             resolve_need=lambda k, p, n: self.resolve_need(k, p, n),  # noqa: PLW0108
             platform=self.platform,
             scatter=lambda k, g, chosen: self.scatter(k, g, chosen) if self.scatter else {},
@@ -278,60 +249,6 @@ class Node:
             first_retry=lambda: self.reliable.timeout(None),
             retry_delay=self.reliable.retry_delay,
         )
-
-    def _set_epoch(self, epoch: int, master: int) -> None:
-        if epoch < self.epoch:
-            raise AssertionError(f"epoch would go back from {self.epoch} to {epoch}")
-        self.epoch = epoch
-        self._epoch_master = master
-        self.barriers.adopt_epoch(epoch, master)
-        self._max_epoch = max(self._max_epoch, epoch)
-
-    def _decide(self, sender: int, sender_is_master: bool, sender_epoch: int) -> OnHeartbeat:
-        """The election rules' answer to ``sender``'s word (a heartbeat, a Sync)."""
-        return on_heartbeat(
-            self_id=self.platform,
-            is_master=self.is_master,
-            epoch=self.epoch,
-            master=self._epoch_master,
-            master_alive=self.master is not None,
-            sender=sender,
-            sender_is_master=sender_is_master,
-            sender_epoch=sender_epoch,
-            master_suspected=self.master is not None and self.master in self.members.suspects,
-        )
-
-    def _report_failures(self) -> None:
-        """Every message the reliable streams or the bulletin board gave up on becomes a
-        DeliveryFailed event, in the order they gave up. Called at fixed points of a step
-        (after the retransmission timers, after a view change), so each failure's event comes
-        after the events of the step that caused it."""
-        out = self._out
-        if not out.failures:
-            return
-        for failure in out.failures:
-            if failure.reason == "deadline" and isinstance(failure.payload, MASTER_BOUND):
-                # A request or claim the master never acknowledged (on a lossy shared
-                # channel a few retries span the whole deadline) would otherwise wait
-                # unsent until the next master: the next tick reports again, and the
-                # report restates everything still pending.
-                self._restate = True
-            reason = {
-                "left": "the destination left the swarm",
-                "stepped_down": "this platform stepped down as master before it was delivered",
-            }.get(failure.reason, f"not acknowledged within {self.config.delivery_deadline} s")
-            out.events.append(
-                DeliveryFailed(dst=failure.dst, kind=type(failure.payload).__name__, reason=reason)
-            )
-        out.failures.clear()
-
-    def _emit(
-        self, dst: int | None, body: wire.Body, channel: int, kind: str | None = None
-    ) -> None:
-        """Send ``body``, numbered after what the streams and the board queued before it
-        (:meth:`~actorswarm.core.ready.Collector.send`; ``kind`` labels it otherwise than
-        by its type)."""
-        self._out.send(dst, body, channel, kind)
 
     def _take_role(self, role: Duties) -> None:
         """Become master (:class:`~.duties.MasterDuties`) or member
@@ -362,29 +279,28 @@ class Node:
         deadline = self.next_deadline()
         if deadline is not None and deadline <= now + (self.config.heartbeat_slack or 0.0):
             return True
-        return now + self._live.heartbeat_window() >= self._next_heartbeat
+        return self._live.heartbeat_due(now)
 
     def next_deadline(self) -> float | None:
         """The latest time by which :meth:`tick` must be called next."""
-        best = self._next_heartbeat
+        best = self._live.next_heartbeat
         members_due = self.members.next_deadline()
         for t in (
             None if members_due is None else members_due + self.grace,
-            min(self._probe_due.values(), default=None),
-            min(self._presumed.values(), default=None),
+            self._live.next_probe(),
+            self._lead.presumed_until(),
             self.reliable.next_deadline(),
             *self._role.deadlines(),
-            self._handshake_deadline,
-            self._sync_at,
+            *self._lead.handshake.deadlines(),
         ):
             if t is not None and t < best:
                 best = t
         if not self._awake:
             best = min(best, self._started + self.config.startup_wait)
-        if self.master is not None and not self.is_master and self.master not in self.members:
-            silent_until = self._master_heard + self.members.silence() + self._channel_patience()
-            best = min(best, max(silent_until, self._master_hold))
-        self._due = best
+        master_due = self._live.master_deadline()
+        if master_due is not None:
+            best = min(best, master_due)
+        self._live.expect_tick(best)
         return best
 
     def receive_packet(self, packet: Packet, now: float) -> None:
@@ -415,24 +331,17 @@ class Node:
         joined_left: list[MemberJoined | MemberLeft] = []
         suspected: list[int] = []
         self.members.expire(now, joined_left, suspected, self.grace)
-        for peer in suspected:
-            self.counters["suspected"] += 1
-            if self._live.probes(peer):
-                self._probe_due[peer] = now
+        self._live.suspected(suspected, now)
         self._live.membership_changed(joined_left, now)
         self._live.probe(now)
         if self._live.master_unheard_since(now):
             self._lead.lose_master(now)
-        if self._presumed:
-            self._presumed = {p: t for p, t in self._presumed.items() if t > now}
-            if not self._presumed:
-                self._listening_since = now
+        self._lead.expire_presumed(now)
         self._lead.maybe_claim(now)
         self._role.tick(now)
         self.reliable.tick(now)
-        self._report_failures()
-        if self._restate:
-            self._restate = False
+        self._failures.report()
+        if self._failures.take_restate():
             self._role.restate(now)
         self._live.heartbeat_tick(now)
 
@@ -470,7 +379,7 @@ class Node:
             timeout=timeout,
             epoch=self.epoch,
             occasion=occasion,
-            master=self._epoch_master or 0,
+            master=self._lead.epoch_master or 0,
             renew=renew,
         )
         self._role.to_master(req, now)
@@ -527,7 +436,7 @@ class Node:
 
     def role_holders(self, role: str) -> tuple[int, ...]:
         """Master only: who holds ``role`` according to the master's table."""
-        return self._rmaster.holders(role)
+        return self._tables.roles.holders(role)
 
     def _dispatch(self, packet: Packet, now: float) -> None:
         body = packet.body

@@ -3,8 +3,9 @@
 swaps it when it claims or steps down (:meth:`Node._take_role
 <actorswarm.core.node.coordinator.Node._take_role>`), as raft swaps its step function on
 becoming leader, instead of asking ``is_master`` at every step. Neither keeps state of its
-own: both act on the node's (its barrier and role tables, its handshake), which outlives a
-change of role.
+own: what outlives a change of role is handed to both at construction — the node's
+collector, its master tables (:class:`~.tables.MasterTables`) and, to the master, its
+bulletin board — and the handshake is the leadership's (:class:`~.handshake.Handshake`).
 """
 
 from __future__ import annotations
@@ -35,7 +36,13 @@ from actorswarm.core.wire import (
 )
 
 if TYPE_CHECKING:
+    from actorswarm.core.delivery.bulletin import BulletinBoard
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.leadership import Leadership
+    from actorswarm.core.node.liveness import Liveness
+    from actorswarm.core.node.rostersync import RosterSync
+    from actorswarm.core.node.tables import MasterTables
+    from actorswarm.core.ready import Collector
     from actorswarm.core.wire import ReleaseRecord
 
 _NO_DEADLINES: Final = (None, None)
@@ -47,33 +54,52 @@ class MasterDuties:
 
     is_master: Final = True
 
-    def __init__(self, node: Node) -> None:
+    def __init__(
+        self,
+        node: Node,
+        out: Collector,
+        tables: MasterTables,
+        board: BulletinBoard,
+        *,
+        lead: Leadership,
+        live: Liveness,
+        rosters: RosterSync,
+        member: MemberDuties,
+    ) -> None:
         self._node = node
+        # The parts it calls: who is master (the handshake), who is alive, the roster, and
+        # the member's side (its own replies, taken in place).
+        self._lead = lead
+        self._live = live
+        self._rosters = rosters
+        self._member = member
+        self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
+        self._board = board  # the node's bulletin board (master to every member)
+        self._tables = tables  # the master's tables (the node's, kept across roles)
+        self._out = out  # the node's collector: what this part sends and reports
 
     # --- the interface both roles share ---------------------------------------------------
 
     def reports_awaited(self) -> int:
-        return len(self._node._handshake_waiting)
+        return self._lead.handshake.awaited
 
     def deadlines(self) -> tuple[float | None, float | None]:
         """The barrier table's and the bulletin board's next deadlines."""
-        node = self._node
-        return node._bmaster.next_deadline(), node._board.next_deadline()
+        return self._tables.barriers.next_deadline(), self._board.next_deadline()
 
     def tick(self, now: float) -> None:
         """The handshake's Syncs and deadline, the barrier table's timers, the board's
         retransmissions."""
         node = self._node
-        if node._sync_at is not None and now >= node._sync_at:
-            node._sync_at = None
-            for peer in sorted(node._handshake_waiting):
-                sync = Sync(epoch=node.epoch, bulletin=node._claim_bulletin)
-                node.reliable.send(peer, sync, now, node.epoch)
-        if node._handshake_deadline is not None and now >= node._handshake_deadline:
-            node._lead.finish_handshake(now)
-        node._bmaster.tick(now, node.epoch)
+        handshake = self._lead.handshake
+        for peer in handshake.syncs_due(now):
+            sync = Sync(epoch=node.epoch, bulletin=handshake.bulletin)
+            node.reliable.send(peer, sync, now, node.epoch)
+        if handshake.expired(now):
+            self._lead.finish_handshake(now)
+        self._tables.barriers.tick(now, node.epoch)
         self.flush(now)
-        node._board.tick(now, node.epoch, node.reliable.timeout(None))
+        self._board.tick(now, node.epoch, node.reliable.timeout(None))
 
     def restate(self, now: float) -> None:
         """A master-bound message was given up: a master has nobody to report to."""
@@ -84,11 +110,11 @@ class MasterDuties:
 
     def app_to_master(self, msg: AppMessage, now: float) -> None:
         node = self._node
-        node._out.events.append(AppReceived(sender=node.platform, topic=msg.topic, body=msg.body))
+        self._out.events.append(AppReceived(sender=node.platform, topic=msg.topic, body=msg.body))
 
     def post_bulletin(self, msg: AppMessage, now: float, skip: tuple[int, ...]) -> None:
         node = self._node
-        node._board.post(
+        self._board.post(
             msg,
             set(node.members.peers),
             now,
@@ -99,14 +125,14 @@ class MasterDuties:
 
     def needs_changed(self, now: float, keys: Iterable[int] | None) -> None:
         node = self._node
-        node._bmaster.needs_changed(now, node.epoch, keys)
+        self._tables.barriers.needs_changed(now, node.epoch, keys)
         self.flush(now)
 
     def waiting_occasions(self, key: int) -> tuple[str, ...]:
-        return self._node._bmaster.waiting_occasions(key)
+        return self._tables.barriers.waiting_occasions(key)
 
     def hold_barrier(self, key: int, until: float) -> None:
-        self._node._bmaster.hold(key, until)
+        self._tables.barriers.hold(key, until)
 
     def own_releases(self) -> list[ReleaseRecord]:
         """Firings of an earlier term to report: a master reports to nobody."""
@@ -114,17 +140,17 @@ class MasterDuties:
 
     def on_roster_request(self, sender: int, body: RosterRequest) -> None:
         node = self._node
-        if not (node._star and body.epoch == node.epoch):
+        if not (self._star and body.epoch == node.epoch):
             node.counters["drop:roster"] += 1
             return
-        node._roster_requests.add(sender)
+        self._rosters.asked(sender)
 
     def on_release_ack(self, sender: int, body: ReleaseAck) -> None:
         node = self._node
         if body.dst != node.platform or body.epoch != node.epoch:
             node.counters["drop:stale_epoch"] += 1
             return
-        node._bmaster.on_ack(sender, body.key, body.generation)
+        self._tables.barriers.on_ack(sender, body.key, body.generation)
 
     def on_master_bound(self, sender: int, epoch: int, payload: Payload, now: float) -> None:
         node = self._node
@@ -143,27 +169,23 @@ class MasterDuties:
     def member_left(self, change: MemberLeft, now: float) -> None:
         """A member left the view: its requests, roles, bulletins and roster entry go."""
         node = self._node
-        node._handshake_waiting.discard(change.platform)
-        node._bmaster.member_left(change.platform, now, node.epoch)
-        node._rmaster.member_left(change.platform, restarted=change.reason == "restarted")
-        node._board.member_left(change.platform)
-        node._roster_log.left(change.platform)
-        if change.platform in node._reported and change.reason != "restarted":
-            node._rejoining.add(change.platform)
-        node._reported.discard(change.platform)
+        self._lead.handshake.left(change.platform, restarted=change.reason == "restarted")
+        self._tables.barriers.member_left(change.platform, now, node.epoch)
+        self._tables.roles.member_left(change.platform, restarted=change.reason == "restarted")
+        self._board.member_left(change.platform)
+        self._rosters.log.left(change.platform)
 
     def member_joined(self, change: MemberJoined, now: float, hb: Heartbeat | None) -> None:
-        node = self._node
-        node._roster_log.joined(change.platform, change.incarnation)
-        node._lead.master_joined(change.platform, now, hb)
+        self._rosters.log.joined(change.platform, change.incarnation)
+        self._lead.master_joined(change.platform, now, hb)
 
     def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
         """The master's heartbeat names the members a barrier of all awaits; a star
         master's also carries the roster's version and changes, the succession list, the
         cadence it asks its members for and its own interval while fast."""
         node = self._node
-        awaited = node._bmaster.awaited(now, lambda: {*node.members.peers, node.platform})
-        if not node._star:
+        awaited = self._tables.barriers.awaited(now, lambda: {*node.members.peers, node.platform})
+        if not self._star:
             return Heartbeat(
                 is_master=True,
                 epoch=node.epoch,
@@ -172,8 +194,8 @@ class MasterDuties:
                 suspects=suspects,
                 awaited=awaited,
             )
-        log = node._roster_log
-        live = node._live
+        log = self._rosters.log
+        live = self._live
         return Heartbeat(
             is_master=True,
             epoch=node.epoch,
@@ -184,16 +206,15 @@ class MasterDuties:
             size=len(node.members),
             changes=list(log.changes),
             succession=log.succession(node.members.peers),
-            cadence=0.0 if node._cadence == node.config.heartbeat_interval else node._cadence,
+            cadence=0.0 if live.cadence == node.config.heartbeat_interval else live.cadence,
             awaited=awaited,
             interval_ms=round(live.own_interval() * 1000) if live.fast else 0,
         )
 
     def view_changed(self, now: float) -> None:
         """After a change of the view: the handshake may be over, a firing may be due."""
-        node = self._node
-        if node._handshake_deadline is not None and not node._handshake_waiting:
-            node._lead.finish_handshake(now)
+        if self._lead.handshake.settled():
+            self._lead.finish_handshake(now)
         self.flush(now)
 
     # --- the master's own -----------------------------------------------------------------
@@ -202,7 +223,7 @@ class MasterDuties:
         """A master-bound message of ``sender`` (itself included): a barrier request, a
         role claim or release, a report; then what the tables decided goes out."""
         node = self._node
-        bm, rm = node._bmaster, node._rmaster
+        bm, rm = self._tables.barriers, self._tables.roles
         if isinstance(payload, BarrierRequest):
             bm.request(sender, payload, now, node.epoch)
         elif isinstance(payload, RoleClaim):
@@ -221,11 +242,8 @@ class MasterDuties:
                 bm.request(sender, req, now, node.epoch)
             bm.reported(now, node.epoch)
             rm.report(sender, payload.held, payload.claims)
-            node._reported.add(sender)
-            if sender in node._handshake_waiting:
-                node._handshake_waiting.discard(sender)
-                if not node._handshake_waiting and node._handshake_deadline is not None:
-                    node._lead.finish_handshake(now)
+            if self._lead.handshake.reported(sender):
+                self._lead.finish_handshake(now)
         self.flush(now)
 
     def flush(self, now: float) -> None:
@@ -235,14 +253,13 @@ class MasterDuties:
         why it waits there): it is routed here, to this platform or over a stream, and
         their firings are reported here, after the view changes of the same step that set
         them off."""
-        node = self._node
-        for decision in node._outbox.take():
+        for decision in self._tables.outbox.take():
             if isinstance(decision, Release):
                 self._send_release(decision)
             elif isinstance(decision, ToMember):
                 self.to_member(decision.platform, decision.payload, now)
             else:
-                node._out.events.append(decision)
+                self._out.events.append(decision)
 
     def _send_release(self, rel: Release) -> None:
         """Broadcast a release (or send it to its one candidate); pass this platform's own
@@ -251,16 +268,16 @@ class MasterDuties:
         if any(e.platform == node.platform for e in rel.entries):
             event, _ = node.barriers.on_release(rel)
             if event is not None:
-                node._out.events.append(event)
-            node._bmaster.on_ack(node.platform, rel.key, rel.generation)
+                self._out.events.append(event)
+            self._tables.barriers.on_ack(node.platform, rel.key, rel.generation)
             if all(e.platform == node.platform for e in rel.entries):
                 return
-        node._emit(addressee(rel, node.platform), rel, NORMAL)
+        self._out.send(addressee(rel, node.platform), rel, NORMAL)
 
     def to_member(self, platform: int, payload: Payload, now: float) -> None:
         node = self._node
         if platform == node.platform:
-            node._member_duties.take(payload, now)
+            self._member.take(payload, now)
         else:
             node.reliable.send(platform, payload, now, node.epoch)
 
@@ -271,8 +288,20 @@ class MemberDuties:
 
     is_master: Final = False
 
-    def __init__(self, node: Node) -> None:
+    def __init__(
+        self,
+        node: Node,
+        out: Collector,
+        tables: MasterTables,
+        *,
+        lead: Leadership,
+        live: Liveness,
+    ) -> None:
         self._node = node
+        self._lead = lead  # who is master: a member reports to it
+        self._live = live  # who is alive: the watch on its master
+        self._tables = tables  # the master's tables (the node's, kept across roles)
+        self._out = out  # the node's collector: what this part sends and reports
 
     def reports_awaited(self) -> int:
         return 0
@@ -288,7 +317,7 @@ class MemberDuties:
         node = self._node
         if node.master is not None:
             node.counters["restated"] += 1
-            node._lead.report(now)
+            self._lead.report(now)
 
     def to_master(self, payload: Payload, now: float) -> None:
         """Without a master nothing is queued: the report sent on following the next master
@@ -317,7 +346,7 @@ class MemberDuties:
         """The firings it decided as master in an earlier term (its barrier table is kept
         until it claims again)."""
         node = self._node
-        return node._bmaster.decided(node.platform)
+        return self._tables.barriers.decided(node.platform)
 
     def on_roster_request(self, sender: int, body: RosterRequest) -> None:
         self._node.counters["drop:roster"] += 1
@@ -335,9 +364,9 @@ class MemberDuties:
             return
         event, ack = node.barriers.on_release(rel)
         if event is not None:
-            node._out.events.append(event)
+            self._out.events.append(event)
         if ack:
-            node._emit(
+            self._out.send(
                 sender,
                 ReleaseAck(dst=sender, epoch=rel.epoch, key=rel.key, generation=rel.generation),
                 NORMAL,
@@ -350,8 +379,8 @@ class MemberDuties:
         """Its master joined the view while a shared channel holds its heartbeats back: the
         hold applies to the new detector too."""
         node = self._node
-        if change.platform == node.master and node._master_hold > now:
-            node.members.hold(change.platform, node._master_hold, now)
+        if change.platform == node.master:
+            self._live.rehold_master(change.platform, now)
 
     def heartbeat(self, now: float, count: int, suspects: list[int]) -> Heartbeat:
         """A member's heartbeat: whom it follows, in which epoch, whom it suspects."""
@@ -377,11 +406,11 @@ class MemberDuties:
         if isinstance(payload, BarrierStale):
             notice = node.barriers.on_stale(payload)
             if notice is not None:
-                node._out.events.append(notice)
+                self._out.events.append(notice)
         elif isinstance(payload, RoleGrant | RoleDeny | RoleRevoke):
             event = node.roles.on_reply(payload)
             if event is not None:
-                node._out.events.append(event)
+                self._out.events.append(event)
 
 
 #: Either role: the interface the node calls without asking which one it holds.

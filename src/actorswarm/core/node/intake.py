@@ -11,7 +11,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Final
 
 from actorswarm.core.events import AppReceived
-from actorswarm.core.node.leadership import MASTER_BOUND
+from actorswarm.core.node.leadership import MASTER_BOUND, Leadership
 from actorswarm.core.wire import (
     BULLETIN_STREAM,
     NORMAL,
@@ -31,19 +31,40 @@ from actorswarm.core.wire import (
 )
 
 if TYPE_CHECKING:
+    from actorswarm.core.delivery.bulletin import BulletinBoard, BulletinInbox
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.duties import MemberDuties
+    from actorswarm.core.node.rostersync import RosterSync
+    from actorswarm.core.ready import Collector
 
 
 class Intake:
     """The packet handlers of one :class:`~actorswarm.core.node.coordinator.Node`."""
 
-    def __init__(self, node: Node) -> None:
+    def __init__(
+        self,
+        node: Node,
+        out: Collector,
+        board: BulletinBoard,
+        inbox: BulletinInbox,
+        *,
+        lead: Leadership,
+        rosters: RosterSync,
+        member: MemberDuties,
+    ) -> None:
         self._node = node
+        # Where a body goes besides the node's role: a Sync to the leadership, a roster
+        # chunk to the roster sync, the master's replies to the member's side.
+        self._lead = lead
+        self._rosters = rosters
+        self._member = member
+        self._board = board  # the node's bulletin board (master to every member)
+        self._inbox = inbox  # the node's bulletin inbox (from the master it follows)
+        self._out = out  # the node's collector: what this part sends and reports
 
     def deliver_bulletins(self, sender: int, incarnation: int, items: list[Bulletin]) -> None:
-        node = self._node
         for item in items:
-            node._out.events.append(
+            self._out.events.append(
                 AppReceived(
                     sender=sender,
                     topic=item.message.topic,
@@ -77,9 +98,8 @@ class Intake:
         node._role.on_roster_request(packet.sender, body)
 
     def _packet_roster_chunk(self, packet: Packet, now: float) -> None:
-        node = self._node
         assert isinstance(packet.body, RosterChunk)
-        node._rosters.on_chunk(packet.sender, packet.body, now)
+        self._rosters.on_chunk(packet.sender, packet.body, now)
 
     def _packet_bulletin(self, packet: Packet, now: float) -> None:
         assert isinstance(packet.body, Bulletin)
@@ -92,7 +112,7 @@ class Intake:
         if body.dst != node.platform or body.dst_incarnation != node.incarnation:
             node.counters["drop:not_for_me"] += 1
             return
-        node._board.on_ack(packet.sender, body)
+        self._board.on_ack(packet.sender, body)
 
     def _packet_release_ack(self, packet: Packet, now: float) -> None:
         node = self._node
@@ -102,11 +122,11 @@ class Intake:
 
     def _on_bulletin(self, sender: int, incarnation: int, bulletin: Bulletin, now: float) -> None:
         node = self._node
-        delivered, ack = node._inbox.on_bulletin(sender, incarnation, bulletin)
+        delivered, ack = self._inbox.on_bulletin(sender, incarnation, bulletin)
         if ack is None:
             node.counters["drop:bulletin"] += 1
             return
-        node._emit(sender, ack, NORMAL)
+        self._out.send(sender, ack, NORMAL)
         self.deliver_bulletins(sender, incarnation, delivered)
 
     def _on_data(self, sender: int, incarnation: int, data: Data, now: float) -> None:
@@ -116,7 +136,7 @@ class Intake:
             return
         delivered, ack = node.reliable.on_data(sender, incarnation, data)
         if ack is not None:
-            node._emit(sender, ack, URGENT if data.channel == URGENT else NORMAL)
+            self._out.send(sender, ack, URGENT if data.channel == URGENT else NORMAL)
         first = ack.seq - len(delivered) + 1 if ack is not None else 0
         for i, (epoch, payload) in enumerate(delivered):
             self._on_payload(sender, epoch, payload, now, (incarnation, data.channel, first + i))
@@ -132,17 +152,17 @@ class Intake:
         """One message delivered in order, exactly once, from ``sender``'s stream."""
         node = self._node
         if isinstance(payload, AppMessage):
-            node._out.events.append(
+            self._out.events.append(
                 AppReceived(sender=sender, topic=payload.topic, body=payload.body, stream=stream)
             )
         elif isinstance(payload, Sync):
-            node._lead.on_sync(sender, payload, now, -1 if stream is None else stream[0])
+            self._lead.on_sync(sender, payload, now, -1 if stream is None else stream[0])
         elif isinstance(payload, MASTER_BOUND):
             node._role.on_master_bound(sender, epoch, payload, now)
         elif sender != node.master or epoch != node.epoch:
             node.counters["drop:stale_epoch"] += 1
         else:
-            node._member_duties.take(payload, now)
+            self._member.take(payload, now)
 
 
 #: What a received packet's body is handed to (heartbeats are taken first, in

@@ -6,6 +6,8 @@ channel, :mod:`actorswarm.core.membership.airtime`).
 
 from __future__ import annotations
 
+import math
+import random
 from typing import TYPE_CHECKING
 
 from actorswarm.core import wire
@@ -15,7 +17,7 @@ from actorswarm.core.events import (
     MemberLeft,
 )
 from actorswarm.core.membership import airtime
-from actorswarm.core.ready import PROBE
+from actorswarm.core.ready import PROBE, Collector
 from actorswarm.core.wire import (
     NORMAL,
     Heartbeat,
@@ -23,6 +25,8 @@ from actorswarm.core.wire import (
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.failures import Failures
+    from actorswarm.core.node.rostersync import RosterSync
 
 #: Local health (Lifeguard): at most this many heartbeat intervals of grace for a host that
 #: ticks late.
@@ -31,14 +35,59 @@ MAX_HEALTH = 8
 
 class Liveness:
     """Who is alive, for one :class:`~actorswarm.core.node.Node`: see the module docstring.
-    It acts on the node's shared state (view, master, epoch) and keeps its own (heartbeat
-    count, probe answers, local health)."""
+    It acts on the node's shared state (view, master, epoch) and keeps its own: the
+    heartbeat schedule and count, the member cadence, the probes and their answers, the
+    lowest peer, the watch on the followed master, and local health. The node asks it
+    (:attr:`next_heartbeat`, :meth:`next_probe`, :meth:`master_deadline`, :attr:`grace`)
+    rather than reading that state."""
 
-    def __init__(self, node: Node, now: float, *, rephase: bool = False) -> None:
+    def __init__(
+        self,
+        node: Node,
+        out: Collector,
+        now: float,
+        rng: random.Random,
+        heard: airtime.HeardLog | None,
+        *,
+        rosters: RosterSync,
+        failures: Failures,
+    ) -> None:
         self._node = node
+        self._failures = failures  # told after a view change: messages to those who left
+        self._rosters = rosters  # the star roster: served with a master's heartbeats
+        self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
+        self._out = out  # the node's collector: what this part sends and reports
+        self._rng = rng  # the node's: the phase of its heartbeats
+        # The node's log of every platform heard lately (on a shared channel; else None).
+        self._heard = heard
+        interval = node.config.heartbeat_interval
+        if self._star:
+            # Lower IDs speak first at boot (up to one interval later for the highest ID), so
+            # a booting swarm hears its lowest IDs before the others would broadcast, and
+            # they keep quiet. The phase is drawn afresh after this first heartbeat.
+            self._next_heartbeat = now + interval * (
+                math.log2(node.platform) / 16 + rng.uniform(0.0, 0.05)
+            )
+        else:
+            self._next_heartbeat = now + rng.uniform(0.0, interval)
         # After the boot heartbeat, draw a phase of its own (star: the boot heartbeat's
         # phase follows the platform's rank).
-        self._rephase = rephase
+        self._rephase = self._star
+        # Suspicion: when each suspect is probed next.
+        self._probe_due: dict[int, float] = {}
+        # The lowest ID of the view (None: nobody else), kept up to date per change.
+        self._lowest_peer: int | None = None
+        # When the host was asked to tick next (local health, :meth:`check_health`).
+        self._due = now
+        # When the followed master was last heard: a master followed before it joined the
+        # view (or that left it and came back) has no leave detector of its own yet.
+        self._master_heard = now
+        # A star member on a shared channel does not give up its new master before this:
+        # the master's heartbeats queue behind the packets its claim set off.
+        self._master_hold = -math.inf
+        # The member heartbeat interval: the one a star master asks for (its own members'),
+        # or its master asked for (a star member's own), else ``heartbeat_interval``.
+        self._cadence = node.config.heartbeat_interval
         #: Heartbeats sent so far (scheduled ones; probes and probe answers not counted).
         self.hb_count = 0
         #: As a star master: heartbeating twice per interval under heavy loss
@@ -53,6 +102,105 @@ class Liveness:
         self._health_decay_at = now
         self._changes: list[MemberJoined | MemberLeft] = []  # scratch, reused per heartbeat
 
+    @property
+    def next_heartbeat(self) -> float:
+        """When the next scheduled heartbeat is due."""
+        return self._next_heartbeat
+
+    def heartbeat_due(self, now: float) -> bool:
+        """Whether a host awake at ``now`` sends the scheduled heartbeat (within
+        :meth:`heartbeat_window` of its time)."""
+        return now + self.heartbeat_window() >= self._next_heartbeat
+
+    def next_probe(self) -> float | None:
+        """When the next suspect is probed (None: no suspect)."""
+        return min(self._probe_due.values(), default=None)
+
+    def expect_tick(self, at: float) -> None:
+        """The host was asked to tick by ``at``: a tick much later tells a host that was
+        not listening (:meth:`check_health`)."""
+        self._due = at
+
+    def suspected(self, peers: list[int], now: float) -> None:
+        """``peers`` became suspects at ``now``: each one this platform :meth:`probes` is
+        probed at the next :meth:`probe`."""
+        node = self._node
+        for peer in peers:
+            node.counters["suspected"] += 1
+            if self.probes(peer):
+                self._probe_due[peer] = now
+
+    def forget_probes(self, keep: int | None = None) -> None:
+        """Probe nobody (a new master's members are watched afresh) but ``keep`` (a star
+        member watches its master alone)."""
+        self._probe_due = {p: t for p, t in self._probe_due.items() if p == keep}
+
+    def following_star(self) -> bool:
+        """A star member that follows a live remote master (heartbeats to it only)."""
+        node = self._node
+        return self._star and node.master is not None and not node.is_master
+
+    @property
+    def grace(self) -> float:
+        """Extra patience of every leave decision: while this host ticks late (local
+        health), and for a star member on a shared channel (:meth:`channel_patience`)."""
+        return self.health * self._node.config.heartbeat_interval + self.channel_patience()
+
+    def channel_patience(self) -> float:
+        """On a shared channel, how much longer a star member waits for its master's
+        heartbeats: twice the time the swarm takes to put a packet each on the air (0
+        otherwise). They queue behind the swarm's bursts — a barrier of all puts a request,
+        its acknowledgement and a release acknowledgement of every member on the air at
+        once — and a member that gives its master up for that starts a needless failover."""
+        return 2 * self._node.reliable.channel_time if self.following_star() else 0.0
+
+    @property
+    def cadence(self) -> float:
+        """The member heartbeat interval: as a star master, the one it asks its members for;
+        as a star member, the one its master asked for; else ``heartbeat_interval``."""
+        return self._cadence
+
+    def set_cadence(self, cadence: float) -> None:
+        """This platform's members heartbeat at ``cadence`` (a master's own, or the ordinary
+        interval after stepping down): ask for it and judge their silence by it."""
+        self._cadence = cadence
+        self._node.members.cadence = cadence
+
+    def master_heard(self, now: float) -> None:
+        """The followed master (just followed, or heard) was heard at ``now``."""
+        self._master_heard = now
+
+    def hold_master(self, master: int, until: float, now: float) -> None:
+        """On a shared channel: the master just followed is not given up before ``until``
+        (its heartbeats queue behind the reports its claim sets off)."""
+        self._master_hold = until
+        self._node.members.hold(master, until, now)
+
+    def rehold_master(self, master: int, now: float) -> None:
+        """The followed master joined the view while a shared channel holds its heartbeats
+        back: the hold applies to the new detector too."""
+        if self._master_hold > now:
+            self._node.members.hold(master, self._master_hold, now)
+
+    def master_deadline(self) -> float | None:
+        """By when a followed master outside the view must be heard again, or is lost
+        (:meth:`master_unheard_since`); None when there is no such master."""
+        node = self._node
+        if node.master is None or node.is_master or node.master in node.members:
+            return None
+        silent_until = self._master_heard + node.members.silence() + self.channel_patience()
+        return max(silent_until, self._master_hold)
+
+    @property
+    def lowest_peer(self) -> int | None:
+        """The lowest ID in the view but this platform's (None: the view is empty)."""
+        return self._lowest_peer
+
+    def recount_lowest_peer(self) -> None:
+        """The view was changed wholesale (not by joins and leaves): find its lowest ID
+        again."""
+        self._lowest_peer = min(self._node.members.peers, default=None)
+
     def _heartbeat(self, now: float, *, suspects: list[int] | None = None) -> Heartbeat:
         """This platform's heartbeat (its role's: a star master's carries what its members
         need), naming ``suspects`` (default: its suspects, rotating through many)."""
@@ -66,7 +214,7 @@ class Liveness:
         (:func:`~actorswarm.core.membership.airtime.member_cadence`) for ``members`` (default: every
         other platform of :meth:`swarm_size`)."""
         node = self._node
-        if not node._star:
+        if not self._star:
             return node.config.heartbeat_interval
         others = self.swarm_size() - 1 if members is None else members
         return airtime.member_cadence(node.config, others)
@@ -79,9 +227,9 @@ class Liveness:
         at boot every platform broadcasts a heartbeat once — and a boot paced by the view
         alone would start a swarm of hundreds at 10 Hz on a channel that carries a tenth."""
         node = self._node
-        size = max(len(node.members), len(node.roster.members), len(node._heard or ()))
+        size = max(len(node.members), len(node.roster.members), len(self._heard or ()))
         if not node.is_master:  # a master's own cadence follows from this: it must not feed it
-            size = max(size, airtime.implied_size(node.config, node._cadence))
+            size = max(size, airtime.implied_size(node.config, self._cadence))
         return size + 1
 
     def handshake_airtime(self, members: int) -> float:
@@ -94,7 +242,7 @@ class Liveness:
         """Whether this platform's heartbeats ride on its master's: a star member following
         a live master, with a heartbeat slack (a daemon)."""
         node = self._node
-        return bool(node.config.heartbeat_slack) and node._following_star()
+        return bool(node.config.heartbeat_slack) and self.following_star()
 
     def heartbeat_window(self) -> float:
         """How long before its time a heartbeat goes out on a wake the host makes anyway:
@@ -112,32 +260,32 @@ class Liveness:
         """Send the scheduled heartbeat if it is due (within :meth:`heartbeat_window`), and
         schedule the next one."""
         node = self._node
-        if now + self.heartbeat_window() >= node._next_heartbeat:
+        if now + self.heartbeat_window() >= self._next_heartbeat:
             self.send_heartbeat(now)
             interval = self.own_interval()
             if self._rephase:  # after the boot heartbeat: a phase of its own, not its rank's
                 self._rephase = False
-                interval *= node._rng.uniform(0.5, 1.5)
-            if self._rides_master() and now >= node._next_heartbeat:
+                interval *= self._rng.uniform(0.5, 1.5)
+            if self._rides_master() and now >= self._next_heartbeat:
                 # A wake of its own: nothing it could ride on came within a slack of its
                 # time. Half a slack later next time, towards the wakes its master's
                 # heartbeats cause, until they come within the window; then it keeps that
                 # phase (below), so the rate stays one per cadence however often it wakes.
-                node._next_heartbeat += interval + (node.config.heartbeat_slack or 0.0) / 2
+                self._next_heartbeat += interval + (node.config.heartbeat_slack or 0.0) / 2
             else:
                 # Sent early, on a tick the host made anyway: keep the phase, so the rate
                 # stays one per interval.
-                node._next_heartbeat += interval
-            if node._next_heartbeat <= now:  # the host fell behind: do not burst
-                node._next_heartbeat = now + interval
+                self._next_heartbeat += interval
+            if self._next_heartbeat <= now:  # the host fell behind: do not burst
+                self._next_heartbeat = now + interval
 
     def own_interval(self) -> float:
         """How often this platform heartbeats: a star member following a master at the
         cadence its master asks for; a star master at half ``heartbeat_interval`` while it
         is fast (:meth:`_update_fast`); anyone else at ``heartbeat_interval``."""
         node = self._node
-        if node._following_star():
-            return node._cadence
+        if self.following_star():
+            return self._cadence
         if self.fast:
             return node.config.heartbeat_interval / 2
         return node.config.heartbeat_interval
@@ -154,7 +302,7 @@ class Liveness:
         if (
             threshold is None
             or cfg.channel_bitrate is not None
-            or not (node._star and node.is_master)
+            or not (self._star and node.is_master)
         ):
             self.fast = False
             return
@@ -180,20 +328,19 @@ class Liveness:
         what keeps a thousand platforms from all broadcasting at once."""
         node = self._node
         self.hb_count += 1
-        if node._heard is not None:
-            node._heard.sweep(now)
+        if self._heard is not None:
+            self._heard.sweep(now)
         # On a shared channel the roster of a new epoch is broadcast unasked
         # (:meth:`.RosterSync._outrun`), after the claim's heartbeat: a member takes a roster
         # only from the master it follows.
         roster_after = (
-            node.config.channel_bitrate is not None and node._rosters.told[0] != node.epoch
+            node.config.channel_bitrate is not None and self._rosters.told[0] != node.epoch
         )
         self._update_fast()
-        if node.is_master and node._star:
-            node._cadence = self.member_cadence()
-            node.members.cadence = node._cadence
+        if node.is_master and self._star:
+            self.set_cadence(self.member_cadence())
             if not roster_after:
-                node._rosters.serve_requests(now)
+                self._rosters.serve_requests(now)
         if node.config.channel_bitrate is not None:
             # What the swarm needs to put one packet each on the shared channel: reliable
             # delivery waits at least that long for an acknowledgement.
@@ -201,20 +348,20 @@ class Liveness:
             node.reliable.channel_time = airtime.channel_time(node.config, size)
             node.reliable.channel_size = size
         hb = self._heartbeat(now)
-        if node._following_star():
+        if self.following_star():
             if self._heartbeats_held(now):
                 node.counters["heartbeat_held"] += 1
             else:
-                node._emit(node.master, hb, NORMAL)
-        elif self._quiet(now) and not (self.hb_count == 1 and node._heard is not None):
+                self._out.send(node.master, hb, NORMAL)
+        elif self._quiet(now) and not (self.hb_count == 1 and self._heard is not None):
             # On a shared channel the first heartbeat goes out all the same: one packet per
             # platform, and every platform hears how many there are (:meth:`swarm_size`)
             # before the first claim asks all of them to report at once.
             node.counters["heartbeat_quiet"] += 1
         else:
-            node._emit(None, hb, NORMAL)
-        if roster_after and node.is_master and node._star:
-            node._rosters.serve_requests(now)
+            self._out.send(None, hb, NORMAL)
+        if roster_after and node.is_master and self._star:
+            self._rosters.serve_requests(now)
 
     def _heartbeats_held(self, now: float) -> bool:
         """On a shared channel, a star member heartbeats to a master it just followed only
@@ -224,13 +371,13 @@ class Liveness:
         (docs/collective-core.md, "Airtime"). By then the master has counted the reports it
         received, and its heartbeat carries a cadence for them."""
         node = self._node
-        return now < node._heartbeats_held_until and node.reliable.master_holds(node._report_seq)
+        return node._lead.holds_heartbeats(now)
 
     def _quiet(self, now: float) -> bool:
         node = self._node
-        if not node._star or node.is_master or node.master is not None:
+        if not self._star or node.is_master or node.master is not None:
             return False
-        if any(p < node.platform for p in node._presumed):
+        if node._lead.presumes_lower():
             return True
         return bool(self.lower_heard(now))
 
@@ -254,8 +401,8 @@ class Liveness:
             node.master is not None
             and not node.is_master
             and node.master not in node.members
-            and now - node._master_heard >= node.members.silence() + node._channel_patience()
-            and now >= node._master_hold
+            and now - self._master_heard >= node.members.silence() + self.channel_patience()
+            and now >= self._master_hold
         )
 
     def check_health(self, now: float) -> None:
@@ -263,7 +410,7 @@ class Liveness:
         listening (a starved CPU, a paused process); each one adds a heartbeat interval of
         grace to every leave decision, and every second of punctual ticks takes one away."""
         node = self._node
-        late = now - node._due
+        late = now - self._due
         if late > node.config.heartbeat_interval / 2:
             if self.health < MAX_HEALTH:
                 self.health += 1
@@ -279,7 +426,7 @@ class Liveness:
         the ones who act on its loss (the others wait for the claim), and every member of a
         swarm of hundreds probing at once would delay that claim on the air."""
         node = self._node
-        if node.config.channel_bitrate is None or not node._following_star():
+        if node.config.channel_bitrate is None or not self.following_star():
             return True
         return suspect != node.master or node.platform in node.roster.succession
 
@@ -288,21 +435,21 @@ class Liveness:
         suspicion, then every ``probe_interval`` while there are few; many suspects at once
         (a master after a mass failure) are probed by the list in the heartbeats alone."""
         node = self._node
-        if not node._probe_due:
+        if not self._probe_due:
             return
         suspects = node.members.suspects
-        for peer in [p for p in node._probe_due if p not in suspects]:
-            del node._probe_due[peer]
-        if len(node._probe_due) > wire.MAX_SUSPECTS // 4:
-            due = [p for p, t in node._probe_due.items() if t == now]  # fresh suspicions only
-            for peer in node._probe_due:
-                node._probe_due[peer] = now + node.config.heartbeat_interval
+        for peer in [p for p in self._probe_due if p not in suspects]:
+            del self._probe_due[peer]
+        if len(self._probe_due) > wire.MAX_SUSPECTS // 4:
+            due = [p for p, t in self._probe_due.items() if t == now]  # fresh suspicions only
+            for peer in self._probe_due:
+                self._probe_due[peer] = now + node.config.heartbeat_interval
         else:
-            due = [p for p, t in node._probe_due.items() if t <= now]
+            due = [p for p, t in self._probe_due.items() if t <= now]
         for peer in due:
             node.counters["probe"] += 1
-            node._emit(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
-            node._probe_due[peer] = now + node.config.probe_interval
+            self._out.send(peer, self._heartbeat(now, suspects=[peer]), NORMAL, PROBE)
+            self._probe_due[peer] = now + node.config.probe_interval
 
     def on_heartbeat(
         self, sender: int, incarnation: int, hb: Heartbeat, now: float, seq: int
@@ -315,16 +462,10 @@ class Liveness:
             self._answer_probe(sender, now)
         if hb.awaited and sender == node.master and node.platform in hb.awaited:
             self._hurry(now)
-        node._max_epoch = max(node._max_epoch, hb.epoch)
+        node._lead.saw_epoch(hb.epoch)
         if sender == node.master and not node.is_master:
-            if incarnation > node._master_incarnation >= 0:
-                # My master rebooted: the new incarnation claims nothing (a heartbeat of an
-                # older epoch would otherwise pass for a late one from before its claim).
-                node.counters["master_restarted"] += 1
-                node._lead.lose_master(now)
-            elif hb.is_master:
-                node._master_incarnation = incarnation
-        if sender < node.platform and node._star and node.master is None:
+            node._lead.master_incarnation_heard(incarnation, hb.is_master, now)
+        if sender < node.platform and self._star and node.master is None:
             # Only a lower ID that follows no master either keeps this one quiet: one that
             # follows a master this platform does not (its probe answers reach me) or is a
             # master itself cannot stand in for me in an election.
@@ -334,58 +475,54 @@ class Liveness:
                 self._heard_lower[sender] = now
         # A star member that follows a master watches that master only: other platforms'
         # heartbeats matter to it for the election alone (a master, or its own master's).
-        if not node._following_star() or sender == node.master:
+        if not self.following_star() or sender == node.master:
             changes = self._changes  # reused: this runs for every heartbeat heard
             node.members.heartbeat(sender, incarnation, now, changes, seq, hb.count)
             if changes:
                 self._changes = []
                 self.membership_changed(changes, now, hb)
         if sender == node.master:
-            node._master_heard = now
+            self._master_heard = now
             if hb.is_master and hb.epoch == node.epoch and not node.is_master:
                 self._on_master_heartbeat(sender, hb, now)
-        if not (hb.is_master or node.is_master or sender == node._epoch_master):
+        if not (hb.is_master or node.is_master or sender == node._lead.epoch_master):
             return  # the common case at scale: an ordinary member's heartbeat
-        action = node._decide(sender, hb.is_master, hb.epoch)
+        action = node._lead.decide(sender, hb.is_master, hb.epoch)
         if action is OnHeartbeat.IGNORE:
-            better = node._best_claim is None or hb.epoch > node._best_claim[0]
-            if hb.is_master and hb.epoch > node.epoch and better:
-                node._best_claim = (hb.epoch, sender, now)
+            node._lead.heard_claim(sender, hb.is_master, hb.epoch, now)
             return
         if node._lead.apply(action, sender, hb.epoch, now):
             if action is OnHeartbeat.FOLLOW and node.master == sender:
                 # Known from its first heartbeat, so that its reboot is noticed even if it
                 # is the last one heard (campaign seed 951123, broadcast).
-                node._master_incarnation = incarnation
+                node._lead.followed_in(incarnation)
                 self._on_master_heartbeat(sender, hb, now)
             return
         if action is OnHeartbeat.DEMOTED:  # my master gave up; follow whom it follows, if any
-            node._lead.lose_master(now)
-            if hb.master not in (0, node.platform, sender):
-                node._epoch_master = hb.master
+            node._lead.demoted(sender, hb.master, now)
 
     def _on_master_heartbeat(self, sender: int, hb: Heartbeat, now: float) -> None:
         """What a member takes from its master's heartbeat: the cadence it asks for, the
         succession list, and the roster (asking for all of it when behind)."""
         node = self._node
-        if not node._star:
+        if not self._star:
             return
         # The one peer this member watches heartbeats at this interval: its silence is
         # judged in those heartbeats (loss-aware leave time, suspicion).
         node.members.cadence = hb.interval_ms / 1000 or node.config.heartbeat_interval
         cadence = hb.cadence if hb.cadence > 0 else node.config.heartbeat_interval
-        if cadence != node._cadence:
+        if cadence != self._cadence:
             # Every member hears a master's first slow cadence in the same heartbeat: each
             # takes a phase of its own for it within one interval, or they would all
             # heartbeat in the same instant on a shared channel. Later changes keep the
             # schedule (a new phase at each would put the next heartbeat off again and
             # again while the master's count grows), bringing it forward when faster.
-            if node._cadence == node.config.heartbeat_interval:
-                node._next_heartbeat = now + node._rng.uniform(0, cadence)
+            if self._cadence == node.config.heartbeat_interval:
+                self._next_heartbeat = now + self._rng.uniform(0, cadence)
             else:
-                node._next_heartbeat = min(node._next_heartbeat, now + cadence)
-            node._cadence = cadence
-        node._rosters.on_master_heartbeat(sender, hb, now)
+                self._next_heartbeat = min(self._next_heartbeat, now + cadence)
+            self._cadence = cadence
+        self._rosters.on_master_heartbeat(sender, hb, now)
 
     def _hurry(self, now: float) -> None:
         """My master names me as awaited by a barrier of all: what it has not acknowledged
@@ -406,7 +543,7 @@ class Liveness:
             self._answered = {p: t for p, t in self._answered.items() if t >= horizon}
         self._answered[prober] = now
         node.counters["probe_answered"] += 1
-        node._emit(prober, self._heartbeat(now), NORMAL, PROBE)
+        self._out.send(prober, self._heartbeat(now), NORMAL, PROBE)
 
     def membership_changed(
         self, changes: list[MemberJoined | MemberLeft], now: float, hb: Heartbeat | None = None
@@ -415,10 +552,10 @@ class Liveness:
         if not changes:
             return
         for change in changes:
-            node._out.events.append(change)
+            self._out.events.append(change)
             if isinstance(change, MemberLeft):
                 node.reliable.drop_destination(change.platform, now)
-                node._probe_due.pop(change.platform, None)
+                self._probe_due.pop(change.platform, None)
                 if change.reason == "restarted":
                     node.reliable.forget_sender(change.platform, change.incarnation)
                 node._role.member_left(change, now)
@@ -427,7 +564,7 @@ class Liveness:
             else:
                 node._role.member_joined(change, now, hb)
         self._update_lowest_peer(changes)
-        node._report_failures()
+        self._failures.report()
         node._role.view_changed(now)
         node._lead.maybe_claim(now)
 
@@ -435,7 +572,7 @@ class Liveness:
         """Keep the lowest ID of the view in O(1) per join; only losing the lowest one costs
         a scan (at boot a platform sees N joins: a scan per join would be O(N²))."""
         node = self._node
-        lowest = node._lowest_peer
+        lowest = self._lowest_peer
         for change in changes:
             if isinstance(change, MemberJoined):
                 if lowest is None or change.platform < lowest:
@@ -444,4 +581,4 @@ class Liveness:
                 lowest = None if not node.members.peers else -1
         if lowest == -1:
             lowest = min(node.members.peers)
-        node._lowest_peer = lowest
+        self._lowest_peer = lowest

@@ -6,6 +6,7 @@ the whole roster when it falls behind (see :mod:`actorswarm.core.membership.rost
 
 from __future__ import annotations
 
+import random
 from typing import TYPE_CHECKING
 
 from actorswarm.core import wire
@@ -14,6 +15,8 @@ from actorswarm.core.wire import NORMAL, Heartbeat, RosterChunk, RosterRequest
 
 if TYPE_CHECKING:
     from actorswarm.core.node.coordinator import Node
+    from actorswarm.core.node.failures import Failures
+    from actorswarm.core.ready import Collector
 
 #: A master that has more members asking for the whole roster than this at one heartbeat
 #: broadcasts it once instead of sending it to each.
@@ -21,10 +24,17 @@ ROSTER_BROADCAST_FROM = 4
 
 
 class RosterSync:
-    """Serving and following the roster, for one :class:`~actorswarm.core.node.Node`."""
+    """Serving and following the roster, for one :class:`~actorswarm.core.node.Node`: it
+    keeps the master's roster (:attr:`log`) and the requests for it."""
 
-    def __init__(self, node: Node) -> None:
+    def __init__(
+        self, node: Node, out: Collector, rng: random.Random, *, failures: Failures
+    ) -> None:
         self._node = node
+        self._failures = failures  # told when the master's roster drops a platform
+        self._star = node.config.membership == "star"  # a star swarm (docs/design.md §3.1)
+        self._out = out  # the node's collector: what this part sends and reports
+        self._rng = rng  # the node's: when a member on a shared channel asks
         # Member: when the roster was last asked for; on a shared channel, a request
         # waiting to go. Master: when the roster was last broadcast.
         self._asked = -1e9
@@ -32,6 +42,19 @@ class RosterSync:
         self._broadcast_at = -1e9
         #: Master: the roster (epoch, version) its last heartbeat told.
         self.told = (0, 0)
+        #: Master: the roster as it keeps it (its heartbeats carry its version, changes and
+        #: succession list).
+        self.log = RosterLog(node.config.succession)
+        # Master: who asked for the whole roster since the last heartbeat.
+        self._requests: set[int] = set()
+
+    def asked(self, member: int) -> None:
+        """Master: ``member`` asked for the whole roster (served at the next heartbeat)."""
+        self._requests.add(member)
+
+    def forget_requests(self) -> None:
+        """Stepping down: the requests were for the master this platform no longer is."""
+        self._requests.clear()
 
     def on_master_heartbeat(self, sender: int, hb: Heartbeat, now: float) -> None:
         """A member's copy of its master's roster after the master's heartbeat: the changes
@@ -46,7 +69,7 @@ class RosterSync:
             self._ask_at = None
         elif self._ask_due(now):
             node.counters["roster_request"] += 1
-            node._emit(
+            self._out.send(
                 sender,
                 RosterRequest(
                     epoch=hb.epoch,
@@ -61,7 +84,7 @@ class RosterSync:
         hundred), so every member is behind — one broadcast of the roster serves them all,
         and saves the channel a request from each. Notes the version told."""
         node = self._node
-        log = node._roster_log
+        log = self.log
         told_epoch, told_version = self.told
         self.told = (node.epoch, log.version)
         if node.config.channel_bitrate is None or not node.members:
@@ -74,19 +97,17 @@ class RosterSync:
         shared channel, when all of them are behind (:meth:`_outrun`)."""
         node = self._node
         outrun = self._outrun()
-        if not node._roster_requests and not (outrun and now >= self._broadcast_at):
+        if not self._requests and not (outrun and now >= self._broadcast_at):
             return
-        requesters = sorted(node._roster_requests)
-        node._roster_requests.clear()
+        requesters = sorted(self._requests)
+        self._requests.clear()
         members = {p: m.incarnation for p, m in node.members.peers.items()}
-        chunks = RosterLog.chunks(
-            node.epoch, node._roster_log.version, members, node.config.roster_chunk
-        )
+        chunks = RosterLog.chunks(node.epoch, self.log.version, members, node.config.roster_chunk)
         if outrun or len(requesters) > ROSTER_BROADCAST_FROM:
             if now < self._broadcast_at:
                 # A roster that changes fast (a swarm booting) is broadcast once per t_join
                 # at most: the members ask again meanwhile, at no cost to anyone else.
-                node._roster_requests.update(requesters)
+                self._requests.update(requesters)
                 return
             self._broadcast_at = now + node.config.t_join
         targets: list[int | None] = (
@@ -94,7 +115,7 @@ class RosterSync:
         )
         for dst in targets:
             for chunk in chunks:
-                node._emit(dst, chunk, NORMAL)
+                self._out.send(dst, chunk, NORMAL)
 
     def _ask_due(self, now: float) -> bool:
         """A member behind its master's roster asks for it now: at once and at most every
@@ -111,7 +132,7 @@ class RosterSync:
             if now - self._asked < cfg.t_join:
                 return False
             if self._ask_at is None:
-                self._ask_at = now + cfg.t_join * node._rng.uniform(0.5, 1.5)
+                self._ask_at = now + cfg.t_join * self._rng.uniform(0.5, 1.5)
             if now < self._ask_at:
                 return False
             self._ask_at = None
@@ -123,7 +144,7 @@ class RosterSync:
         follows, in its epoch."""
         node = self._node
         if not (
-            node._star
+            self._star
             and sender == node.master
             and not node.is_master
             and chunk.epoch == node.epoch
@@ -146,4 +167,4 @@ class RosterSync:
             if platform != node.master:
                 node.reliable.drop_destination(platform, now)
         node.roster.removed.clear()
-        node._report_failures()
+        self._failures.report()
