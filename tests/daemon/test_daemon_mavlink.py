@@ -108,24 +108,12 @@ def test_a_daemon_flies_the_autopilot_and_handles_a_lost_link(
 ) -> None:
     sim, stop, port = autopilot
     with LocalSwarm(tmp_path, 1) as swarm:
-        swarm.start(
-            1, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
-            "--mavlink-sysid", "3", "--origin", ORIGIN,
-        )  # fmt: skip
-        swarm.wait(
-            "the autopilot heard",
-            lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
-            timeout=20,
-        )
+        _start_one(swarm, f"udpout:127.0.0.1:{port}", sysid=3, timeout=20)
         status = swarm.status(1)
         assert status["vehicle"]["autopilot"] == "ardupilot"
         assert status["vehicle"]["system"] == 3
         assert swarm.events(1, "started")[0]["vehicle"] == "mavlink"
-        state = ["--state", str(tmp_path / "gs.json")]
-        script = str(Path(__file__).with_name("lost.xml"))
-        deployed = swarm.gs("deploy", script, "--expect", "1", *state)
-        assert deployed.returncode == 0, deployed.stdout + deployed.stderr
-        assert swarm.gs("start", *state).returncode == 0
+        _deploy_and_start(swarm, tmp_path, "lost.xml")
         swarm.wait(
             "up at 5 m and hovering",
             lambda: swarm.status(1).get("actors") == ["Hover"],
@@ -307,19 +295,8 @@ def test_a_script_started_at_once_waits_for_a_booting_autopilot_and_says_why(
     )  # fmt: skip
     try:
         with LocalSwarm(tmp_path, 1) as swarm:
-            swarm.start(
-                1, "--vehicle", "mavlink", "--mavlink", f"tcp:127.0.0.1:{port}",
-                "--mavlink-sysid", "4", "--origin", ORIGIN,
-            )  # fmt: skip
-            swarm.wait(
-                "the autopilot heard",
-                lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
-                timeout=30,
-            )
-            state = ["--state", str(tmp_path / "gs.json")]
-            script = str(Path(__file__).with_name("lost.xml"))
-            assert swarm.gs("deploy", script, "--expect", "1", *state).returncode == 0
-            assert swarm.gs("start", *state).returncode == 0
+            _start_one(swarm, f"tcp:127.0.0.1:{port}", sysid=4, timeout=30)
+            _deploy_and_start(swarm, tmp_path, "lost.xml")
             shown = ""
 
             def waiting() -> bool:
@@ -357,19 +334,8 @@ def test_px4_flies_on_across_a_switch_between_two_moving_actors(tmp_path: Path) 
     thread.start()
     try:
         with LocalSwarm(tmp_path, 1) as swarm:
-            swarm.start(
-                1, "--vehicle", "mavlink", "--mavlink", f"udpout:127.0.0.1:{port}",
-                "--mavlink-sysid", "5", "--origin", ORIGIN,
-            )  # fmt: skip
-            swarm.wait(
-                "the autopilot heard",
-                lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
-                timeout=20,
-            )
-            state = ["--state", str(tmp_path / "gs.json")]
-            script = str(Path(__file__).with_name("handover.xml"))
-            assert swarm.gs("deploy", script, "--expect", "1", *state).returncode == 0
-            assert swarm.gs("start", *state).returncode == 0
+            _start_one(swarm, f"udpout:127.0.0.1:{port}", sysid=5, timeout=20)
+            _deploy_and_start(swarm, tmp_path, "handover.xml")
             swarm.wait("Home", lambda: swarm.status(1).get("actors") == ["Home"], timeout=40)
             assert sim.position()[0] > 4.5  # Go got there
             swarm.wait(
@@ -466,3 +432,26 @@ def _start_linked(
     )
     state = ["--state", str(tmp_path / "gs.json")]
     return state, str(Path(__file__).parents[2] / "examples" / "mavlink_two.xml")
+
+
+def _start_one(swarm: LocalSwarm, link: str, *, sysid: int, timeout: float) -> None:
+    """Start platform 1 on the autopilot at ``link`` (system ID ``sysid``) and wait until
+    its daemon hears it."""
+    swarm.start(
+        1, "--vehicle", "mavlink", "--mavlink", link,
+        "--mavlink-sysid", str(sysid), "--origin", ORIGIN,
+    )  # fmt: skip
+    swarm.wait(
+        "the autopilot heard",
+        lambda: swarm.status(1).get("vehicle", {}).get("link") == "up",
+        timeout=timeout,
+    )
+
+
+def _deploy_and_start(swarm: LocalSwarm, tmp_path: Path, script: str) -> None:
+    """Deploy the script ``script`` (next to this file) to the one platform and start it."""
+    state = ["--state", str(tmp_path / "gs.json")]
+    path = str(Path(__file__).with_name(script))
+    deployed = swarm.gs("deploy", path, "--expect", "1", *state)
+    assert deployed.returncode == 0, deployed.stdout + deployed.stderr
+    assert swarm.gs("start", *state).returncode == 0

@@ -10,35 +10,13 @@ import re
 import signal
 import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 
 import pytest
+from tests.launch.output import LauncherOutput
 
 from actorswarm.daemon.launch import free_ports
 from actorswarm.launch import LaunchError, load_launch
-
-
-class _Output:
-    """The launcher's output, read as it comes."""
-
-    def __init__(self, proc: subprocess.Popen[str]) -> None:
-        self.lines: list[str] = []
-        assert proc.stdout is not None
-        stream = proc.stdout
-        threading.Thread(target=lambda: self.lines.extend(stream), daemon=True).start()
-
-    def wait_for(self, pattern: str, timeout: float = 30.0, count: int = 1) -> re.Match[str]:
-        """The last line matching ``pattern``, once ``count`` lines match."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            found = [m for line in list(self.lines) if (m := re.search(pattern, line))]
-            if len(found) >= count:
-                return found[-1]
-            time.sleep(0.1)
-        raise AssertionError(f"no {pattern!r} in the launcher's output:\n{''.join(self.lines)}")
-
 
 ORIGIN = "47.397742,8.545594,488"
 COMMAND = (
@@ -123,7 +101,7 @@ def test_launch_starts_an_autopilot_per_platform_restarts_a_dead_one_and_stops_t
         [sys.executable, "-m", "actorswarm", "launch", str(path), "--interval", "0.3"],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
-    out = _Output(launcher)
+    out = LauncherOutput(launcher)
     pilots: set[int] = set()
     try:
         for p in (1, 2):

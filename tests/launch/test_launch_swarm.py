@@ -9,35 +9,16 @@ import re
 import signal
 import subprocess
 import sys
-import threading
 import time
 import urllib.request
 from pathlib import Path
+
+from tests.launch.output import LauncherOutput
 
 from actorswarm.daemon.launch import LocalSwarm, free_ports
 from actorswarm.security import init_keys
 
 SCRIPT = Path(__file__).resolve().parents[1] / "daemon" / "three.xml"
-
-
-class _Output:
-    """The launcher's output, read as it comes."""
-
-    def __init__(self, proc: subprocess.Popen[str]) -> None:
-        self.lines: list[str] = []
-        assert proc.stdout is not None
-        stream = proc.stdout
-        threading.Thread(target=lambda: self.lines.extend(stream), daemon=True).start()
-
-    def wait_for(self, pattern: str, timeout: float = 30.0, count: int = 1) -> re.Match[str]:
-        """The first line matching ``pattern``, once ``count`` lines match."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            found = [m for line in list(self.lines) if (m := re.search(pattern, line))]
-            if len(found) >= count:
-                return found[0]
-            time.sleep(0.1)
-        raise AssertionError(f"no {pattern!r} in the launcher's output:\n{''.join(self.lines)}")
 
 
 def _get(url: str, timeout: float = 20.0) -> str:
@@ -72,7 +53,7 @@ def test_a_launch_file_starts_a_swarm_the_ground_station_drives_and_sigint_stops
         stderr=subprocess.STDOUT,
         text=True,
     )
-    out = _Output(launcher)
+    out = LauncherOutput(launcher)
     try:
         pids = {int(out.wait_for(rf"platform {p}: pid (\d+)").group(1)) for p in (1, 2, 3)}
         out.wait_for(r"3 of 3 up, master \d")

@@ -13,6 +13,7 @@ from typing import Any, Literal
 
 import pytest
 from pymavlink import mavutil
+from tests.vehicles.helpers import free_port
 
 from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
 from actorswarm.vehicles.mavlink.boot import DEFAULT_READY_AFTER, Boot, chunks
@@ -21,13 +22,6 @@ from actorswarm.vehicles.mavlink.frame import MissionFrame
 
 HOME = MissionFrame(47.397742, 8.545594, 488.0)
 ARM = mav.MAV_CMD_COMPONENT_ARM_DISARM
-
-
-def free_port(kind: int = socket.SOCK_DGRAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 class Bench:

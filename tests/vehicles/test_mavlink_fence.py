@@ -4,13 +4,11 @@ autopilot that never answers)."""
 
 from __future__ import annotations
 
-import socket
 import threading
-import time
-from collections.abc import Callable
 from typing import Any, Literal
 
 import pytest
+from tests.vehicles.helpers import free_port, wait_for
 
 from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
 from actorswarm.vehicles.mavlink.dialect import mav
@@ -25,20 +23,6 @@ from actorswarm.vehicles.mavlink.vehicle import Fence, MavlinkSettings, MavlinkV
 
 ORIGIN = MissionFrame(47.397742, 8.545594, 488.0)
 BOX = Fence(-100.0, -50.0, 200.0, 150.0, 60.0)
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
-def wait_for(what: str, condition: Callable[[], bool], seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < end, f"not within {seconds} s: {what}"
-        time.sleep(0.05)
 
 
 @pytest.mark.parametrize("kind", ["ardupilot", "px4"])

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import contextlib
 import math
-import socket
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import Literal
 
 import pytest
+from tests.vehicles.helpers import free_port, wait_for
 
 from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
 from actorswarm.vehicles.mavlink.frame import MissionFrame
@@ -20,20 +20,6 @@ from actorswarm.vehicles.mavlink.vehicle import MavlinkSettings, MavlinkVehicle
 ORIGIN = MissionFrame(47.397742, 8.545594, 488.0)
 #: The autopilot stands 20 m east and 10 m south of the mission origin.
 HOME = (20.0, -10.0, 0.0)
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
-def wait_for(what: str, condition: Callable[[], bool], seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < end, f"not within {seconds} s: {what}"
-        time.sleep(0.05)
 
 
 Flight = tuple[MavlinkVehicle, SimAutopilot]

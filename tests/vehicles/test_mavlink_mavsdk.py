@@ -5,7 +5,6 @@ encoding and the parameter encoding against our own simulated autopilot."""
 
 from __future__ import annotations
 
-import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -17,25 +16,12 @@ from mavsdk import ComponentType, Configuration, Mavsdk
 from mavsdk.plugins.action_server import ActionServer, AllowableFlightModes, FlightMode
 from mavsdk.plugins.param_server import ParamServer
 from mavsdk.plugins.telemetry_server import Heading, Position, TelemetryServer, VelocityNed
+from tests.vehicles.helpers import free_port, wait_for
 
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.vehicle import MavlinkSettings, MavlinkVehicle
 
 ORIGIN = MissionFrame(47.397742, 8.545594, 488.0)
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
-def wait_for(what: str, condition: Callable[[], bool], seconds: float = 5.0) -> None:
-    end = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < end, f"not within {seconds} s: {what}"
-        time.sleep(0.02)
 
 
 @dataclass

@@ -4,13 +4,13 @@ strings. Time is the test's: ``service(now)`` with made-up clocks, the sockets a
 
 from __future__ import annotations
 
-import socket
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
 from pymavlink import mavutil
+from tests.vehicles.helpers import free_port
 
 from actorswarm.runtime.context import Vehicle
 from actorswarm.vehicles.mavlink import MavlinkError
@@ -26,13 +26,6 @@ from actorswarm.vehicles.mavlink.vehicle import (
 )
 
 ORIGIN = MissionFrame(47.397742, 8.545594, 488.0)
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 class Autopilot:

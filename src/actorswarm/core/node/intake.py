@@ -77,14 +77,20 @@ class Intake:
         assert isinstance(packet.body, Data)
         self._on_data(packet.sender, packet.incarnation, packet.body, now)
 
-    def _packet_ack(self, packet: Packet, now: float) -> None:
+    def _for_me(self, body: Ack | BulletinAck) -> bool:
+        """Whether an acknowledgement is addressed to this incarnation of this platform
+        (one that is not is counted as ``drop:not_for_me``)."""
         node = self._node
-        body = packet.body
-        assert isinstance(body, Ack)
         if body.dst != node.platform or body.dst_incarnation != node.incarnation:
             node.counters["drop:not_for_me"] += 1
-            return
-        node.reliable.on_ack(packet.sender, body, now)
+            return False
+        return True
+
+    def _packet_ack(self, packet: Packet, now: float) -> None:
+        body = packet.body
+        assert isinstance(body, Ack)
+        if self._for_me(body):
+            self._node.reliable.on_ack(packet.sender, body, now)
 
     def _packet_release(self, packet: Packet, now: float) -> None:
         node = self._node
@@ -106,13 +112,10 @@ class Intake:
         self._on_bulletin(packet.sender, packet.incarnation, packet.body, now)
 
     def _packet_bulletin_ack(self, packet: Packet, now: float) -> None:
-        node = self._node
         body = packet.body
         assert isinstance(body, BulletinAck)
-        if body.dst != node.platform or body.dst_incarnation != node.incarnation:
-            node.counters["drop:not_for_me"] += 1
-            return
-        self._board.on_ack(packet.sender, body)
+        if self._for_me(body):
+            self._board.on_ack(packet.sender, body)
 
     def _packet_release_ack(self, packet: Packet, now: float) -> None:
         node = self._node
