@@ -45,6 +45,14 @@ class Bench:
         self.gcs.mav.heartbeat_send(kind, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         return self._run(100.0 + t)
 
+    def ask(self, intervals: dict[int, float]) -> None:
+        """Ask for messages at these intervals (seconds), as a ground station must of
+        ArduPilot's first serial port."""
+        for message_id, interval in intervals.items():
+            self.gcs.mav.command_long_send(
+                1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, message_id, interval * 1e6, 0, 0, 0, 0, 0
+            )
+
     def arm(self, t: float) -> tuple[int, list[Any]]:
         self.gcs.mav.command_long_send(1, 1, ARM, 0, 1, 0, 0, 0, 0, 0, 0)
         heard = self._run(100.0 + t)
@@ -109,6 +117,14 @@ def test_px4_splits_long_texts_into_chunks() -> None:
 def test_ardupilot_refuses_until_ready_with_its_reasons(bench: Bench) -> None:
     heard = bench.at(0.1)
     assert "ArduPilot Ready" in texts(heard)
+    bench.ask(
+        {
+            mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 0.25,
+            mav.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
+            mav.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+            mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
+        }
+    )
     result, heard = bench.arm(0.15)
     assert result == mav.MAV_RESULT_FAILED
     assert {"Arm: Accels inconsistent", "Arm: AHRS: waiting for home"} <= set(texts(heard))

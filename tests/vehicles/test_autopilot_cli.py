@@ -31,6 +31,10 @@ SRC = str(Path(__file__).resolve().parents[2] / "src")
             "autopilot 1: cannot open MAVLink connection 'flight.tlog'",
         ),
         (["--home", "47.4,8.5,3", "--ready-after", "-1"], "--ready-after"),
+        (
+            ["--home", "47.4,8.5,3", "--withhold", "EKF_STATUS"],
+            "--withhold EKF_STATUS: not a MAVLink message name",
+        ),
     ],
 )
 def test_bad_options(args: list[str], message: str) -> None:

@@ -57,12 +57,36 @@ def autopilot(
             "On tcpin: its clock starts when the first client connects.",
         ),
     ] = None,
+    withhold: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="A message it never sends, even when asked for (a MAVLink name, e.g. "
+            "EKF_STATUS_REPORT); repeat for more. To see what a vehicle does without it.",
+        ),
+    ] = None,
+    ignore_message_interval: Annotated[
+        bool,
+        typer.Option(
+            "--ignore-message-interval",
+            help="ACK MAV_CMD_SET_MESSAGE_INTERVAL and do nothing (ArduPlane does so before "
+            "its first HEARTBEAT).",
+        ),
+    ] = False,
+    mavlink1: Annotated[
+        bool,
+        typer.Option("--mavlink1", help="Speak MAVLink 1 only (a link that drops MAVLink 2)."),
+    ] = False,
 ) -> None:
-    """Run a simulated MAVLink autopilot (quadrotor) for one vehicle until SIGTERM/SIGINT."""
+    """Run a simulated MAVLink autopilot (quadrotor) for one vehicle until SIGTERM/SIGINT.
+
+    It links as the firmware does: as ArduCopter's first serial port, it sends HEARTBEAT and
+    little else until asked (SET_MESSAGE_INTERVAL, REQUEST_DATA_STREAM); as PX4's onboard
+    link, it streams its default set unasked."""
     from actorswarm.vehicles.mavlink import MavlinkError
     from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
     from actorswarm.vehicles.mavlink.frame import parse_origin
 
+    withheld = _message_ids(withhold or [])
     busy = _udp_port_taken(listen)
     if busy:
         typer.echo(f"autopilot: --listen {listen}: {busy}; choose another port", err=True)
@@ -77,6 +101,9 @@ def autopilot(
             battery=battery,
             endurance=endurance,
             ready_after=ready_after,
+            withheld=withheld,
+            interval_ignored=ignore_message_interval,
+            mavlink1=mavlink1,
         )
         sim = SimAutopilot(options)
     except (ValueError, MavlinkError) as exc:
@@ -118,3 +145,21 @@ def _udp_port_taken(url: str) -> str:
             return ""  # pymavlink says what is wrong with the name
         return f"{exc.strerror or exc} (another autopilot or program holds it)"
     return ""
+
+
+def _message_ids(names: list[str]) -> frozenset[int]:
+    """The MAVLink message IDs of ``names`` (exit 2 naming one that is not a message)."""
+    from actorswarm.vehicles.mavlink.dialect import mav
+
+    out: set[int] = set()
+    for name in names:
+        message_id = getattr(mav, f"MAVLINK_MSG_ID_{name.strip().upper()}", None)
+        if not isinstance(message_id, int):
+            typer.echo(
+                f"autopilot: --withhold {name}: not a MAVLink message name "
+                "(write it as MAVLink does, e.g. EKF_STATUS_REPORT)",
+                err=True,
+            )
+            raise typer.Exit(2)
+        out.add(message_id)
+    return frozenset(out)

@@ -5,7 +5,8 @@ scalar entries of the vehicle adapter's own status: a MAVLink vehicle's ``link``
 lost), ``autopilot`` and ``mode``, ``armed``, ``battery`` (a fraction, None when not
 reported), the operator's ``override``, or ``error`` when the adapter's status failed;
 ``ready`` (None before the autopilot is heard), ``waiting`` (seconds a take-off has waited
-for it), ``reason`` (why it is not ready: the autopilot's own words when it said any) and
+for it), ``reason`` (why it is not ready: the autopilot's own words when it said any; when ready,
+the messages it does not send although asked) and
 ``refused`` (the last command it refused). A
 simulated vehicle says nothing of itself (an empty ``vehicle``). :func:`describe` is the one
 wording of it, for ``actorswarm gs status`` and the web ground station alike.
@@ -42,6 +43,8 @@ def describe(vehicle: Mapping[str, object]) -> str:
         parts.append(f"not ready {waiting:.0f} s" + (f" — {reason}" if reason else ""))
     elif vehicle.get("ready") is False:
         parts.append("not ready" + (f" — {reason}" if reason else ""))
+    elif reason:
+        parts.append(str(reason))  # ready, yet something it reads does not come
     return ", ".join(parts)
 
 

@@ -7,11 +7,19 @@ autopilot) runs on a laptop and in the tests.
 
 What it models
 --------------
-* Streams: ``HEARTBEAT`` (1 Hz: type, autopilot, armed flag, custom mode),
-  ``GLOBAL_POSITION_INT`` (4 Hz), ``SYS_STATUS`` (battery, 1 Hz), ``HOME_POSITION``
-  (every 5 s); ``MAV_CMD_SET_MESSAGE_INTERVAL`` changes any of these rates.
+* Its link as the firmware's (:mod:`~.linkstreams`, :mod:`~.firmware`): ArduPilot sends
+  unasked only ``HEARTBEAT`` (1 Hz: type, autopilot, armed flag, custom mode) and
+  ``TIMESYNC``, one ``HOME_POSITION`` and one ``GPS_GLOBAL_ORIGIN`` once its EKF has an
+  origin, and streams ``GLOBAL_POSITION_INT``, ``SYS_STATUS`` (battery, sensors, pre-arm),
+  ``GPS_RAW_INT``, ``EKF_STATUS_REPORT`` and ``HOME_POSITION`` only once the link asks
+  (``MAV_CMD_SET_MESSAGE_INTERVAL``, or ``REQUEST_DATA_STREAM``'s EXTENDED_STATUS, POSITION,
+  EXTRA3); PX4 streams its onboard set at the measured rates from the start (the messages it
+  does not model filled with zeros). A reboot (:meth:`SimAutopilot.reboot`) forgets every
+  rate asked for. Its faults, on request: messages withheld even when asked for,
+  ``SET_MESSAGE_INTERVAL`` ACKed and ignored, a MAVLink 1 only link.
 * ``COMMAND_LONG`` answered with ``COMMAND_ACK``: ``DO_SET_MODE``, ``COMPONENT_ARM_DISARM``,
-  ``NAV_TAKEOFF``, ``NAV_LAND``, ``DO_CHANGE_SPEED``, ``SET_MESSAGE_INTERVAL``; anything else
+  ``NAV_TAKEOFF``, ``NAV_LAND``, ``DO_CHANGE_SPEED``, ``SET_MESSAGE_INTERVAL`` (FAILED for a
+  message it cannot send: ArduPilot's answer; PX4 answers DENIED); anything else
   ``UNSUPPORTED``. A repeated command (same command, ``confirmation`` > 0) is answered
   again, as a lost ack must be repaired.
 * ArduPilot: modes STABILIZE, GUIDED, LOITER, LAND (custom modes 0, 4, 5, 9). Arming needs
@@ -25,7 +33,8 @@ What it models
 * The boot (:mod:`~actorswarm.vehicles.mavlink.boot`): arming refused with the real
   autopilot's words until ``ready_after``, positions zero (ArduPilot) or absent (PX4) until
   the estimator has one, ``GPS_RAW_INT``, ``EKF_STATUS_REPORT`` (ArduPilot), the pre-arm bit
-  of ``SYS_STATUS``; STATUSTEXT (PX4: only after a GCS-type HEARTBEAT, chunked).
+  of ``SYS_STATUS``; STATUSTEXT (ArduPilot: only to a link that sent something; PX4: only
+  after a GCS-type HEARTBEAT, chunked).
 * Both: landing ends disarmed; an empty battery drops the vehicle (the physics' ``dead``)
   and disarms it. The failsafe parameters the pre-flight check reads answer
   ``PARAM_REQUEST_READ`` (1, or 0 with ``failsafes=False``) and take ``PARAM_SET``.
@@ -53,24 +62,29 @@ from typing import Any, Final, Literal
 from actorswarm.vehicles.mavlink.boot import DEFAULT_READY_AFTER, Boot, chunks
 from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.fence import FenceReceiver, fence_params
+from actorswarm.vehicles.mavlink.firmware import PX4_ONBOARD
 from actorswarm.vehicles.mavlink.flavours import ARDUPILOT_MODES, PX4_MAIN, PX4_SUB, px4_custom_mode
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import open_connection, read_available
+from actorswarm.vehicles.mavlink.linkstreams import LinkStreams
 from actorswarm.vehicles.mavlink.vehicle import FAILSAFE_PARAMS
 from actorswarm.world.config import QuadrotorParams, VehicleSpec
 from actorswarm.world.vehicles import Fleet
 
 __all__ = ["AutopilotOptions", "SimAutopilot"]
 
-#: Default intervals (seconds) of the streams, by message ID.
-_DEFAULT_STREAMS: Final = {
-    mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
-    mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 0.25,
-    mav.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
-    mav.MAVLINK_MSG_ID_HOME_POSITION: 5.0,
-    mav.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
-    mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
-}
+#: The messages it fills with its state (the rest of PX4's onboard set goes out as zeros).
+_MODELLED: Final = frozenset(
+    (
+        mav.MAVLINK_MSG_ID_HEARTBEAT,
+        mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
+        mav.MAVLINK_MSG_ID_SYS_STATUS,
+        mav.MAVLINK_MSG_ID_HOME_POSITION,
+        mav.MAVLINK_MSG_ID_GPS_RAW_INT,
+        mav.MAVLINK_MSG_ID_TIMESYNC,
+        mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
+    )
+)
 #: The sensor bits SYS_STATUS reports: the GPS and the pre-arm check.
 _SENSORS: Final = mav.MAV_SYS_STATUS_SENSOR_GPS | mav.MAV_SYS_STATUS_PREARM_CHECK
 #: The physics step, seconds.
@@ -104,6 +118,12 @@ class AutopilotOptions:
     endurance: float = 1200.0
     offboard_timeout: float = 1.0
     ready_after: float | None = None
+    #: Message IDs it never sends, even when asked for.
+    withheld: frozenset[int] = frozenset()
+    #: ACK ``SET_MESSAGE_INTERVAL`` and ignore it.
+    interval_ignored: bool = False
+    #: Speak MAVLink 1 only (MAVLink 2 frames it receives are lost, as on such a link).
+    mavlink1: bool = False
 
     def __post_init__(self) -> None:
         if self.ready_after is not None and not self.ready_after >= 0:
@@ -131,6 +151,7 @@ class SimAutopilot:
             source_system=options.system,
             source_component=mav.MAV_COMP_ID_AUTOPILOT1,
         )
+        self._conn.mavlink1_only = options.mavlink1
         params = QuadrotorParams(endurance=options.endurance)
         spec = VehicleSpec(
             platform=1,
@@ -156,8 +177,17 @@ class SimAutopilot:
         # The geofence: its parameters take PARAM_SET, its polygon the mission protocol.
         self._params.update(fence_params(options.kind, 100.0))
         self.fence = FenceReceiver(options.system)
-        self._intervals = dict(_DEFAULT_STREAMS)
-        self._sent: dict[int, float] = {}
+        producible = set(_MODELLED)
+        if self._px4:
+            producible |= set(PX4_ONBOARD)
+        else:
+            producible.add(mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT)
+        self.streams = LinkStreams(
+            options.kind,
+            producible,
+            withheld=options.withheld,
+            interval_ignored=options.interval_ignored,
+        )
         self._physics_at = self._started = clock()
         self._closed = False
         ready_after = options.ready_after
@@ -168,10 +198,7 @@ class SimAutopilot:
         self._booted: float | None = None if options.url.startswith("tcpin:") else self._started
         self._said = -1.0  # the boot texts said up to this boot time
         self._nagged: float | None = None
-        self._gcs = False  # a GCS-type HEARTBEAT heard (PX4 sends STATUSTEXT only then)
         self._text_id = 0
-        if self._px4:
-            self._intervals[mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT] = math.inf
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -227,10 +254,20 @@ class SimAutopilot:
         """Seconds since its clock started (0 before)."""
         return 0.0 if self._booted is None else now - self._booted
 
+    def reboot(self, now: float) -> None:
+        """Restart: the boot from the beginning, disarmed where it stands (on the ground),
+        and every stream rate a link asked for forgotten."""
+        self.armed = False
+        self._booted = now
+        self._said = -1.0
+        self._nagged = None
+        self.streams.forget()
+
     def say(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
-        """A STATUSTEXT. PX4: only once a GCS-type HEARTBEAT was heard on the link, and a
-        text over 50 characters in chunks (one id, rising ``chunk_seq``)."""
-        if self._px4 and not self._gcs:
+        """A STATUSTEXT, to a link that may receive one (ArduPilot: one that sent anything;
+        PX4: one that sent a GCS-type HEARTBEAT); PX4 sends a text over 50 characters in
+        chunks (one id, rising ``chunk_seq``)."""
+        if not self.streams.texts_allowed:
             return
         self._text_id = self._text_id % 65535 + 1
         for piece, ident, seq in chunks(text, self._text_id):
@@ -255,9 +292,12 @@ class SimAutopilot:
         # Messages addressed to another system (0: to all) are not ours to answer.
         if getattr(message, "target_system", 0) not in (0, self.options.system):
             return
-        if kind == "HEARTBEAT" and message.type == mav.MAV_TYPE_GCS:
-            self._gcs = True
-        if kind == "COMMAND_LONG":
+        self.streams.heard(kind, message.type if kind == "HEARTBEAT" else None)
+        if kind == "REQUEST_DATA_STREAM":
+            self.streams.request_stream(
+                message.req_stream_id, message.req_message_rate, bool(message.start_stop)
+            )
+        elif kind == "COMMAND_LONG":
             result = self._command(message, now)
             self._conn.mav.command_ack_send(
                 message.command, result, 0, 0, message.get_srcSystem(), message.get_srcComponent()
@@ -287,18 +327,7 @@ class SimAutopilot:
     def _command(self, m: Any, now: float) -> int:
         c = m.command
         if c == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
-            message_id, interval = int(m.param1), m.param2
-            if message_id not in _DEFAULT_STREAMS or (
-                self._px4 and message_id == mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT
-            ):
-                return _UNSUPPORTED
-            if interval == 0:
-                self._intervals[message_id] = _DEFAULT_STREAMS[message_id]
-            elif interval < 0:
-                self._intervals[message_id] = math.inf
-            else:
-                self._intervals[message_id] = interval / 1e6
-            return _ACCEPTED
+            return self.streams.set_interval(int(m.param1), float(m.param2))
         if c == mav.MAV_CMD_DO_SET_MODE:
             return self._set_mode(m, now)
         if c == mav.MAV_CMD_COMPONENT_ARM_DISARM:
@@ -450,12 +479,17 @@ class SimAutopilot:
                 self.say("Offboard setpoints lost: holding")
 
     def _streams(self, now: float) -> None:
-        for message_id, interval in self._intervals.items():
-            last = self._sent.get(message_id)
-            if interval == math.inf or (last is not None and now - last < interval):
-                continue
-            if self._send_stream(message_id, now):
-                self._sent[message_id] = now
+        for message_id in self.streams.due(now):
+            if not self._send_stream(message_id, now):
+                self.streams.unsent(message_id)
+        if self.boot.at(self.boot_time(now)).home:
+            # ArduPilot: one of each, unasked, once its EKF has an origin.
+            for message_id in (
+                mav.MAVLINK_MSG_ID_HOME_POSITION,
+                mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
+            ):
+                if self.streams.take_once(message_id):
+                    self._send_stream(message_id, now)
 
     def _custom_mode(self) -> int:
         if isinstance(self._mode, tuple):
@@ -530,6 +564,12 @@ class SimAutopilot:
             flags = self.boot.at(self.boot_time(now)).ekf_flags
             good = 0.1 if flags & mav.EKF_POS_HORIZ_ABS else 1.0
             mav_.ekf_status_report_send(flags, good, good, good, 0.1, 0.0)
+        elif message_id == mav.MAVLINK_MSG_ID_TIMESYNC:
+            mav_.timesync_send(0, int((now - self._started) * 1e9))
+        elif message_id == mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN:
+            mav_.gps_global_origin_send(
+                round(home.lat * 1e7), round(home.lon * 1e7), round(home.alt * 1000)
+            )
         elif message_id == mav.MAVLINK_MSG_ID_HOME_POSITION:
             if not self.boot.at(self.boot_time(now)).home:
                 return False
@@ -545,4 +585,23 @@ class SimAutopilot:
                 0,
                 0,
             )
+        else:
+            mav_.send(zero_message(message_id))
         return True
+
+
+def zero_message(message_id: int) -> Any:
+    """A message of ``message_id`` with every field zero (PX4's onboard messages the
+    autopilot does not model: their rate is what a vehicle meets, not their content)."""
+    cls = mav.mavlink_map[message_id]
+    lengths = dict(zip(cls.ordered_fieldnames, cls.array_lengths, strict=True))
+    args: list[Any] = []
+    for name, kind in zip(cls.fieldnames, cls.fieldtypes, strict=True):
+        length = lengths[name]
+        if kind == "char":
+            args.append(b"")
+        elif length:
+            args.append([0] * length)
+        else:
+            args.append(0)
+    return cls(*args)

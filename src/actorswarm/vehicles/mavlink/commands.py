@@ -10,9 +10,13 @@ deadline fails.
 A :class:`Command` marked ``persist`` (arming) is one the autopilot refuses while it is not
 ready yet: any refusal (``FAILED``, ``DENIED``, ``TEMPORARILY_REJECTED``...) is asked again
 after a back-off (1 s, doubling up to 4 s) until the step's deadline, and each refusal is
-reported to ``on_refused``. A step's ``deadline`` may count from the start of the whole plan
-(``from_plan``): the readiness wait and the arming retries then share one deadline (the
-vehicle's ``arm_timeout``). ``explain`` adds the autopilot's own words to a failure.
+reported to ``on_refused``. A persisting command may have a ``gate`` (the autopilot's
+readiness signals): while the gate says "not yet" the command is still sent, but only every
+``probe`` seconds, and at once when the gate opens — advice that paces the asking, never a
+lock, so a signal that never comes cannot keep the autopilot from being asked. A step's
+``deadline`` may count from the start of the whole plan (``from_plan``): the arming
+retries then end at the vehicle's ``arm_timeout`` of the take-off. ``explain`` adds the
+autopilot's own words to a failure.
 
 One plan of the vehicle (take off: set the mode, check the failsafes, arm, take off) is a
 :class:`Sequence` of steps run in order — a :class:`Command`, a :class:`Check` that waits for
@@ -52,6 +56,10 @@ class Command:
     #: Seconds (None: the sender's), counted from the plan's start with ``from_plan``.
     deadline: float | None = None
     from_plan: bool = False
+    #: A persisting command: True when it is worth asking now; otherwise it is asked only
+    #: every ``probe`` seconds (None: no gate).
+    gate: Callable[[], bool | None] | None = None
+    probe: float = 10.0
 
     @property
     def name(self) -> str:
@@ -94,6 +102,7 @@ class _Running:
     backoff: float = 0.0  # a persisting command: seconds to wait before asking again
     refused: str | None = None  # a persisting command: the last refusal
     answered: bool = False  # a persisting command: the last try was answered
+    gated: bool = False  # a gated command: its gate was closed at the last look
     done: list[str] = field(default_factory=list)
 
 
@@ -206,7 +215,8 @@ class CommandSender:
             since = run.began if not isinstance(step, Do) and step.from_plan else run.started
             if now - since > limit:
                 what = step.name if isinstance(step, Command) else f"waiting for {step.name}"
-                tries = f" ({run.tries} tries)" if isinstance(step, Command) else ""
+                plural = "try" if run.tries == 1 else "tries"
+                tries = f" ({run.tries} {plural})" if isinstance(step, Command) else ""
                 if run.refused is not None:
                     tries += f", last refused: {run.refused}"
                 elif run.rejected:
@@ -232,6 +242,13 @@ class CommandSender:
                     return
             else:
                 wait = run.backoff if run.backoff else self.retry
+                if step.gate is not None:
+                    opened = step.gate() is True
+                    if not opened:
+                        wait = max(wait, step.probe)
+                    elif run.gated:
+                        wait = 0.0  # the gate just opened: ask at once
+                    run.gated = not opened
                 if not run.working and (run.sent is None or now - run.sent >= wait):
                     self._send_command(run, step, now)
                 return
@@ -254,7 +271,7 @@ class CommandSender:
         run.done.append(step.name)
         run.started, run.sent, run.tries = now, None, 0
         run.working = run.rejected = False
-        run.backoff, run.refused = 0.0, None
+        run.backoff, run.refused, run.gated = 0.0, None, False
         if not run.steps:
             self._finish(run)
 

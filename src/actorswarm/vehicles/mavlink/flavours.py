@@ -122,13 +122,18 @@ class Controls(Protocol):
         ...
 
     def ready(self) -> bool | None:
-        """Whether the autopilot says it can fly (its readiness signals together): True, or
-        None (not yet)."""
+        """Whether the autopilot's readiness signals together say it is worth asking to
+        arm: True, or None (not yet)."""
         ...
 
     @property
     def arm_timeout(self) -> float:
         """Seconds a take-off may wait for the autopilot to be ready and to accept arming."""
+        ...
+
+    @property
+    def arm_probe(self) -> float:
+        """Seconds between two asks to arm while the readiness signals say "not yet"."""
         ...
 
 
@@ -169,16 +174,18 @@ def _before_arming(v: Controls) -> list[Step]:
 
 
 def _ready_and_arm(v: Controls) -> list[Step]:
-    """Wait until the autopilot says it can fly, then arm, asking again after each refusal;
-    both within ``arm_timeout`` of the plan's start."""
+    """Arm, asking again after each refusal, within ``arm_timeout`` of the plan's start;
+    while the autopilot's readiness signals say "not yet", only every ``arm_probe``
+    seconds (the signals are advice: the autopilot's answer decides)."""
     return [
-        Check("the autopilot ready to arm", v.ready, deadline=v.arm_timeout, from_plan=True),
         Command(
             mav.MAV_CMD_COMPONENT_ARM_DISARM,
             (1, 0, 0, 0, 0, 0, 0),
             persist=True,
             deadline=v.arm_timeout,
             from_plan=True,
+            gate=v.ready,
+            probe=v.arm_probe,
         ),
     ]
 

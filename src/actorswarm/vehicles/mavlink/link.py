@@ -59,6 +59,8 @@ _CHUNK: Final = 4096
 REOPEN_EVERY: Final = 1.0
 #: Seconds one TCP connection attempt may take (an unreachable host would take minutes).
 _CONNECT_TIMEOUT: Final = 0.5
+#: The first byte of a MAVLink 2 frame.
+_MAVLINK2_MAGIC: Final = b"\xfd"
 #: pymavlink's lines kept at most until drained (the oldest go first).
 _LINES_KEPT: Final = 200
 
@@ -270,14 +272,25 @@ class _Serial:
             self._port.close()
 
 
+class _Mavlink(mav.MAVLink):  # type: ignore[misc]  # pymavlink's generated class is untyped
+    """pymavlink's ``MAVLink``, packing MAVLink 1 frames while its connection speaks only
+    MAVLink 1."""
+
+    def send(self, mavmsg: Any, force_mavlink1: bool = False) -> None:
+        super().send(mavmsg, force_mavlink1=force_mavlink1 or self.file.mavlink1_only)
+
+
 class Connection:
     """MAVLink 2 over one port: :attr:`mav` packs and sends (pymavlink's generated
     ``MAVLink``, which writes through :meth:`write`), :meth:`recv_match` hands out the
-    messages parsed from what arrived, one at a time, never blocking (None: nothing)."""
+    messages parsed from what arrived, one at a time, never blocking (None: nothing).
+    :attr:`mavlink1_only`: speak MAVLink 1 and lose the MAVLink 2 frames that arrive, as a
+    link that carries only MAVLink 1 does (the simulated autopilot's fault)."""
 
     def __init__(self, port: _Port, source_system: int, source_component: int) -> None:
         self._port = port
-        self.mav = mav.MAVLink(self, srcSystem=source_system, srcComponent=source_component)
+        self.mavlink1_only = False
+        self.mav = _Mavlink(self, srcSystem=source_system, srcComponent=source_component)
         self.mav.robust_parsing = True  # bytes that do not parse come out as BAD_DATA
         self._queue: deque[Any] = deque()
 
@@ -296,6 +309,8 @@ class Connection:
             if not data:
                 return None
             parsed = self.mav.parse_buffer(data)
+            if parsed and self.mavlink1_only:
+                parsed = [m for m in parsed if bytes(m.get_msgbuf() or b"")[:1] != _MAVLINK2_MAGIC]
             if parsed:
                 self._queue.extend(parsed)
         return self._queue.popleft()
@@ -397,6 +412,8 @@ class Link:
         self._ids = (source_system, source_component)
         self.reopen_every = reopen_every
         self.down: str | None = None
+        #: Send MAVLink 1 frames (the autopilot was heard speaking MAVLink 1 only).
+        self.mavlink1 = False
         #: Reasons the link broke and reopened, in order, for the log: ``(what, reason)``.
         self.changes: list[tuple[str, str]] = []
         self._tried: float | None = None
@@ -436,7 +453,7 @@ class Link:
         if conn is None:
             return
         try:
-            conn.mav.send(message)
+            conn.mav.send(message, force_mavlink1=self.mavlink1)
         except LinkDown as exc:
             self._broke(str(exc))
         except OSError:
@@ -493,8 +510,12 @@ class MessageFilter:
     def accept(self, message: Any) -> bool:
         """Whether ``message`` comes from this vehicle's autopilot."""
         kind = message.get_type()
-        if kind in ("BAD_DATA", "UNKNOWN") or kind.startswith("UNKNOWN_"):
+        if kind in ("BAD_DATA", "UNKNOWN"):
             self.dropped["malformed"] += 1
+            return False
+        if kind.startswith("UNKNOWN_"):
+            # A message our dialect does not define (PX4's CURRENT_MODE, its events).
+            self.dropped["unknown message"] += 1
             return False
         source, component = message.get_srcSystem(), message.get_srcComponent()
         if self.system is None:

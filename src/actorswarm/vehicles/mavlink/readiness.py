@@ -15,7 +15,10 @@ PX4
     ``SYS_STATUS`` reports it; a 3D fix when ``GPS_RAW_INT`` is sent.
 
 Ready here means "worth asking": the autopilot may still refuse the arm, which the vehicle
-asks again with back-off until its deadline.
+asks again with back-off until its deadline. It is advice, never a lock: a signal whose
+message the autopilot does not send although asked (:mod:`~.streams`) is left out, and
+while the signals say "not yet" the vehicle still asks to arm now and then
+(:mod:`~.commands`, a gated command): the autopilot's answer decides.
 
 :class:`Texts` keeps the autopilot's ``STATUSTEXT`` (PX4's chunks reassembled by id and
 ``chunk_seq``, its trailing tab dropped); its latest warning while not armed is the reason
@@ -25,6 +28,7 @@ the operator sees (``PreArm: Need Position Estimate``).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Collection
 from typing import Any, Final
 
 from actorswarm.vehicles.mavlink.dialect import mav
@@ -101,23 +105,28 @@ class Readiness:
         elif kind == "HOME_POSITION":
             self.home = True
 
-    def missing(self, kind: str) -> list[str]:
-        """What the autopilot of ``kind`` has not said yet (empty: ready to ask)."""
+    def missing(self, kind: str, unsent: Collection[str] = ()) -> list[str]:
+        """What the autopilot of ``kind`` has not said yet (empty: ready to ask), leaving out
+        the signals whose message is in ``unsent`` (asked for, never sent: no reason to
+        hold arming back — the autopilot's answer decides)."""
         out: list[str] = []
         if kind == "ardupilot":
             flags = self.ekf_flags
             if flags is None:
-                out.append("an EKF status")
+                if "EKF_STATUS_REPORT" not in unsent:
+                    out.append("an EKF status")
             elif flags & _EKF_NEEDED != _EKF_NEEDED or flags & mav.EKF_CONST_POS_MODE:
                 out.append("an EKF position estimate")
-        if not self.position:
+        if not self.position and "GLOBAL_POSITION_INT" not in unsent:
             out.append("a position")
-        if not self.home:
+        if not self.home and "HOME_POSITION" not in unsent:
             out.append("a home position")
-        if (self.gps_fix is None and kind == "ardupilot") or (
+        if (self.gps_fix is None and kind == "ardupilot" and "GPS_RAW_INT" not in unsent) or (
             self.gps_fix is not None and self.gps_fix < 3
         ):
             out.append("a 3D GPS fix")
-        if self.prearm is False or (self.prearm is None and kind == "ardupilot"):
+        if self.prearm is False or (
+            self.prearm is None and kind == "ardupilot" and "SYS_STATUS" not in unsent
+        ):
             out.append("the pre-arm checks passed")
         return out

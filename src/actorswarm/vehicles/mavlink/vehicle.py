@@ -28,8 +28,13 @@ Safety:
 * Every goal is bounded by the :class:`Fence`: one outside is moved onto its edge, and the
   move is reported as an error.
 
-Stream rates are asked for with ``MAV_CMD_SET_MESSAGE_INTERVAL`` once the autopilot is
-heard: positions at 10 Hz, battery and home each second.
+Ask for what you read: every message the vehicle reads is asked for on the link
+(:mod:`~.streams`) once the autopilot is heard and again whenever the link comes back, and
+watched until it comes; one the autopilot does not send although asked is named in the
+waiting reason and no longer holds arming back. Readiness is advice: while its signals say
+"not yet", a take-off still asks to arm every ten seconds, and the autopilot's answer decides
+(``arm_timeout`` is the only deadline). A link on which the autopilot speaks MAVLink 1 only
+is answered in MAVLink 1.
 """
 
 from __future__ import annotations
@@ -56,6 +61,7 @@ from actorswarm.vehicles.mavlink.flavours import (
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import Link, MessageFilter, drain_library_lines
 from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
+from actorswarm.vehicles.mavlink.streams import StreamWatch
 
 __all__ = [
     "FAILSAFE_PARAMS",
@@ -88,12 +94,8 @@ FAILSAFE_PARAMS: Final[dict[Kind, dict[str, str]]] = {
     "px4": {"NAV_DLL_ACT": "link-loss failsafe", "COM_LOW_BAT_ACT": "low-battery failsafe"},
 }
 
-#: Message -> interval asked for, microseconds.
-_STREAMS: Final = {
-    mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 100_000,
-    mav.MAVLINK_MSG_ID_SYS_STATUS: 1_000_000,
-    mav.MAVLINK_MSG_ID_HOME_POSITION: 1_000_000,
-}
+#: The first byte of a MAVLink 1 frame.
+_MAVLINK1_MAGIC: Final = 0xFE
 _INT_TYPES: Final = frozenset(
     (
         mav.MAV_PARAM_TYPE_UINT8,
@@ -157,8 +159,11 @@ class MavlinkSettings:
     ``link_timeout``: seconds of heartbeat silence that count as a lost link;
     ``retry``/``deadline``: seconds between two sendings of a command, and before one
     fails; ``arm_timeout``: seconds a take-off waits for the autopilot to be ready and to
-    accept arming (refusals asked again with back-off) before it fails; ``force``: take
-    off even when the failsafe check refuses; ``name``: how messages name the vehicle.
+    accept arming (refusals asked again with back-off) before it fails; ``arm_probe``:
+    seconds between two asks to arm while the readiness signals say "not yet" (they are
+    advice: the autopilot's answer decides); ``stream_grace``: seconds a message asked for
+    may take to arrive before it is asked again (:mod:`~.streams`); ``force``: take off even
+    when the failsafe check refuses; ``name``: how messages name the vehicle.
     """
 
     url: str
@@ -172,12 +177,24 @@ class MavlinkSettings:
     retry: float = 0.5
     deadline: float = 5.0
     arm_timeout: float = 120.0
+    arm_probe: float = 10.0
+    stream_grace: float = 3.0
     force: bool = False
     fence: Fence = field(default_factory=Fence)
     name: str = "mavlink"
     #: Also push ``fence`` to the autopilot's own geofence once it is heard
     #: (:mod:`~actorswarm.vehicles.mavlink.fence`).
     push_fence: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("link_timeout", "retry", "deadline", "arm_timeout", "arm_probe"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and value > 0):
+                raise ValueError(f"mavlink settings: {name} must be > 0 s, not {value!r}")
+        if not self.stream_grace > 0:
+            raise ValueError(
+                f"mavlink settings: stream_grace must be > 0 s, not {self.stream_grace!r}"
+            )
 
 
 @dataclass(slots=True)
@@ -222,7 +239,7 @@ class MavlinkVehicle:
         self._state = _State()
         self._started = clock()
         self._plan: CommandSender | None = None
-        self._setup: CommandSender | None = None
+        self._streams: StreamWatch | None = None
         self._flavour: Flavour | None = None
         self._target: Target | None = None
         self._target_since = 0.0
@@ -281,6 +298,7 @@ class MavlinkVehicle:
             for message in self._link.read():
                 if self._filter.accept(message):
                     self._on_message(message, now)
+                    self._note_version(message)
             self._link_changes()
             if self._beat is None or now - self._beat >= _BEAT:
                 self._beat = now
@@ -305,13 +323,15 @@ class MavlinkVehicle:
                     for message in self._fence.service(self._state.kind, target, now):
                         self._send(message)
                     self._errors += self._fence.drain_error()
-            for sender in (self._setup, self._plan):
-                if sender is not None:
-                    sender.tick(now)
-                    failed = sender.drain_errors()
-                    self._errors += failed
-                    if sender is self._plan:
-                        self._faults += failed
+            if self._streams is not None:
+                for request in self._streams.tick(now):
+                    self._send(request)
+                self._stream_changes()
+            if self._plan is not None:
+                self._plan.tick(now)
+                failed = self._plan.drain_errors()
+                self._errors += failed
+                self._faults += failed
             self._stream(now)
             self._watch_readiness(now)
 
@@ -353,10 +373,12 @@ class MavlinkVehicle:
         """The link, the autopilot's kind, mode and arming, the battery (None: not
         reported), the plan in progress, whether the autopilot is ready to fly (None: not
         heard yet), the seconds a take-off has been waiting for it (None: none waits), the
-        reason it is not ready (its own words when it said any), the last command it refused,
+        reason it is not ready or a take-off still waits (its own words when it said any), the
+        last command it refused, the messages it does not send although asked (``unsent``),
         the failsafe parameters read, and the messages dropped by reason."""
         with self._lock:
             s = self._state
+            ready, waiting = self._is_ready(), self._waiting(self._clock())
             return {
                 "link": s.link,
                 "autopilot": s.kind,
@@ -366,10 +388,11 @@ class MavlinkVehicle:
                 "battery": s.battery,
                 "override": self._override,
                 "plan": None if self._plan is None else self._plan.busy,
-                "ready": self._is_ready(),
-                "waiting": self._waiting(self._clock()),
-                "reason": None if self._is_ready() else self._why(),
+                "ready": ready,
+                "waiting": waiting,
+                "reason": self._why() if not ready or waiting is not None else self._sends_no(),
                 "refused": self._refused,
+                "unsent": self._unsent(),
                 "failsafes": dict(s.params),
                 "dropped": dict(self._filter.dropped),
             }
@@ -520,6 +543,10 @@ class MavlinkVehicle:
     def arm_timeout(self) -> float:
         return self.settings.arm_timeout
 
+    @property
+    def arm_probe(self) -> float:
+        return self.settings.arm_probe
+
     def failsafes(self) -> bool | str | None:
         kind = self._state.kind
         if kind is None:
@@ -570,6 +597,8 @@ class MavlinkVehicle:
     def _on_message(self, message: Any, now: float) -> None:
         kind = message.get_type()
         s = self._state
+        if self._streams is not None:
+            self._streams.heard(message.get_msgId(), now)
         if self._fence is not None:
             for answer in self._fence.on_message(message, now):
                 self._send(answer)
@@ -618,15 +647,16 @@ class MavlinkVehicle:
             ):
                 # We only ever ask to arm: it is armed now, not at the next HEARTBEAT.
                 s.armed = True
-            for sender in (self._setup, self._plan):
-                if sender is not None:
-                    sender.on_ack(message, now)
+            if self._plan is not None:
+                self._plan.on_ack(message, now)
 
     def _on_heartbeat(self, message: Any, now: float) -> None:
         s = self._state
         s.heard = now
         if s.link == "lost":
             self._events.append(LINK_RESTORED)
+            if self._streams is not None:
+                self._streams.restart()  # it may have rebooted and forgotten what we asked
         s.link = "up"
         s.armed = bool(message.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
         if s.kind is None:
@@ -648,18 +678,7 @@ class MavlinkVehicle:
                 explain=self._why,
                 on_refused=self._on_refused,
             )
-            self._setup = CommandSender(
-                self.name,
-                self._send,
-                target,
-                retry=self.settings.retry,
-                deadline=self.settings.deadline,
-            )
-            intervals: list[Step] = [
-                Command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, (message_id, interval, 0, 0, 0, 0, 0))
-                for message_id, interval in _STREAMS.items()
-            ]
-            self._setup.start("stream rates", intervals, now)
+            self._streams = StreamWatch(chosen, target, grace=self.settings.stream_grace)
         s.mode = mode_name(s.kind, message.base_mode, message.custom_mode)
         if self._mode_asked is not None and self._mode_asked[0] == s.mode:
             self._mode_asked = None  # carried out
@@ -676,7 +695,11 @@ class MavlinkVehicle:
         kind = self._state.kind
         if kind is None:
             return None
-        return self._state.armed or not self._readiness.missing(kind)
+        return self._state.armed or not self._readiness.missing(kind, self._unsent())
+
+    def _unsent(self) -> list[str]:
+        """The messages the autopilot does not send although asked."""
+        return [] if self._streams is None else self._streams.unsent()
 
     def _why(self) -> str | None:
         """Why the autopilot is not ready or refused: its own latest warning, else what it
@@ -684,11 +707,19 @@ class MavlinkVehicle:
         kind = self._state.kind
         if kind is None:
             return f"no HEARTBEAT from the autopilot on {self.settings.url}"
-        text = self._texts.latest_warning()
-        if text is not None:
-            return text
-        missing = self._readiness.missing(kind)
-        return "waiting for " + ", ".join(missing) if missing else None
+        why = self._texts.latest_warning()
+        if why is None:
+            missing = self._readiness.missing(kind, self._unsent())
+            why = "waiting for " + ", ".join(missing) if missing else None
+        sends_no = self._sends_no()
+        if sends_no is not None:
+            why = sends_no if why is None else f"{why} ({sends_no})"
+        return why
+
+    def _sends_no(self) -> str | None:
+        """``the autopilot sends no EKF_STATUS_REPORT though asked`` (None: it sends all)."""
+        unsent = self._unsent()
+        return f"the autopilot sends no {', '.join(unsent)} though asked" if unsent else None
 
     def _waiting(self, now: float) -> float | None:
         """Seconds the plan in progress has been waiting for the autopilot to be ready or
@@ -733,6 +764,34 @@ class MavlinkVehicle:
             waiting = self._waiting(now)
             self._log.append(
                 ("vehicle-waiting", {"vehicle": self.name, "reason": said[1], "waiting": waiting})
+            )
+
+    def _stream_changes(self) -> None:
+        streams = self._streams
+        if streams is None or not streams.changes:
+            return
+        for name, what in streams.changes:
+            text = "not sent though asked" if what == "unsent" else "arrived"
+            self._log.append(
+                ("vehicle-stream", {"vehicle": self.name, "message": name, "what": text})
+            )
+        streams.changes.clear()
+
+    def _note_version(self, message: Any) -> None:
+        """Speak MAVLink 1 to an autopilot heard speaking it (a link that carries MAVLink 1
+        only would drop our MAVLink 2 frames), and 2 again once it does."""
+        one = bytes(message.get_msgbuf() or b"")[:1] == bytes((_MAVLINK1_MAGIC,))
+        if one != self._link.mavlink1:
+            self._link.mavlink1 = one
+            self._log.append(
+                (
+                    "vehicle-link",
+                    {
+                        "vehicle": self.name,
+                        "what": "MAVLink 1" if one else "MAVLink 2",
+                        "why": "the autopilot speaks it: answering in it",
+                    },
+                )
             )
 
     def _link_changes(self) -> None:
