@@ -60,6 +60,7 @@ def autopilot(
     withhold: Annotated[
         list[str] | None,
         typer.Option(
+            metavar="MESSAGE",
             help="A message it never sends, even when asked for (a MAVLink name, e.g. "
             "EKF_STATUS_REPORT); repeat for more. To see what a vehicle does without it.",
         ),

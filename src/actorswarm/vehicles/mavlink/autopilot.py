@@ -18,8 +18,8 @@ What it models
   rate asked for. Its faults, on request: messages withheld even when asked for,
   ``SET_MESSAGE_INTERVAL`` ACKed and ignored, a MAVLink 1 only link.
 * ``COMMAND_LONG`` answered with ``COMMAND_ACK``: ``DO_SET_MODE``, ``COMPONENT_ARM_DISARM``,
-  ``NAV_TAKEOFF``, ``NAV_LAND``, ``DO_CHANGE_SPEED``, ``SET_MESSAGE_INTERVAL`` (FAILED for a
-  message it cannot send: ArduPilot's answer; PX4 answers DENIED); anything else
+  ``NAV_TAKEOFF``, ``NAV_LAND``, ``DO_CHANGE_SPEED``, ``SET_MESSAGE_INTERVAL`` (DENIED for a
+  message it cannot send, as ArduCopter answers one it has none of); anything else
   ``UNSUPPORTED``. A repeated command (same command, ``confirmation`` > 0) is answered
   again, as a lost ack must be repaired.
 * ArduPilot: modes STABILIZE, GUIDED, LOITER, LAND (custom modes 0, 4, 5, 9). Arming needs

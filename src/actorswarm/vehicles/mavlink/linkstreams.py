@@ -35,7 +35,6 @@ from actorswarm.vehicles.mavlink.firmware import (
 __all__ = ["LinkStreams"]
 
 _ACCEPTED: Final[int] = mav.MAV_RESULT_ACCEPTED
-_FAILED: Final[int] = mav.MAV_RESULT_FAILED
 _DENIED: Final[int] = mav.MAV_RESULT_DENIED
 
 
@@ -97,8 +96,8 @@ class LinkStreams:
         """``MAV_CMD_SET_MESSAGE_INTERVAL``: its MAV_RESULT. 0 µs: the firmware's default;
         −1: stop it."""
         if message_id not in self.producible:
-            # ArduPilot: FAILED for a message it cannot send; PX4: DENIED.
-            return _FAILED if self.kind == "ardupilot" else _DENIED
+            # ArduCopter 4.5.7 answers DENIED ("No ap_message for mavlink id").
+            return _DENIED
         if self.interval_ignored:
             return _ACCEPTED
         if interval_us == 0:
