@@ -212,6 +212,12 @@ def test_two_daemons_fly_take_off_formation_return_and_land(tmp_path: Path) -> N
                 assert math.hypot(x, y) < 3.0 and z == pytest.approx(0.0, abs=0.05), platform
                 errors = swarm.events(platform, "vehicle-error")
                 assert errors == [], errors
+                # The formation's plugins and the slot assignment's solver were loaded off
+                # the loop at deploy; loaded in the loop when the master released the
+                # formation (SciPy: up to seconds), they silenced it past T_leave and the
+                # member elected itself and released again with slots of its own.
+                loaded = [e["loaded"] for e in swarm.events(platform, "prefetched")]
+                assert loaded and "slot assignment" in loaded[-1], loaded
     finally:
         stop.set()
         for thread in threads:

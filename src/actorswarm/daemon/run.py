@@ -88,6 +88,7 @@ from actorswarm.core.node import Outgoing
 from actorswarm.daemon.endpoint import PlatformEndpoint
 from actorswarm.daemon.heap import HeapTrim
 from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
+from actorswarm.daemon.prefetch import prefetch
 from actorswarm.daemon.records import STATUS_TRANSITIONS, EngineRecords
 from actorswarm.daemon.state import StateDir, WritePacer
 from actorswarm.dsl.isolated import ScriptRefused, check_isolated, check_isolated_async
@@ -521,6 +522,11 @@ def _check_later(engine: TaskEngine, inbox: Inbox) -> Callable[[str, str], None]
             verdict = await check_isolated_async(text, f"deploy:{sha[:12]}")
         except ScriptRefused as exc:
             verdict = exc
+        if not isinstance(verdict, ScriptRefused):
+            # Its plugins (and the slot assignment's solver) are loaded now, in a thread,
+            # not in the loop when its actors start or its groups are released.
+            loaded = await asyncio.to_thread(prefetch, verdict)
+            _log("prefetched", script=sha[:12], loaded=loaded)
         engine.checked(sha, verdict, clock())
         inbox.poke()
 

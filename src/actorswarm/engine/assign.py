@@ -33,7 +33,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-__all__ = ["assign_slots"]
+__all__ = ["assign_slots", "warm_up"]
+
+
+def warm_up() -> None:
+    """Import what :func:`assign_slots` needs (NumPy and SciPy's solver, up to seconds on a
+    busy host), so that its first call does not: a real daemon calls it from a worker
+    thread once a script that hands out slots is deployed (:mod:`actorswarm.daemon.prefetch`),
+    never on its loop."""
+    import numpy  # noqa: F401
+    from scipy.optimize import linear_sum_assignment  # noqa: F401
 
 
 def assign_slots(

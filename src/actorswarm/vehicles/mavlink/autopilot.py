@@ -89,6 +89,8 @@ _MODELLED: Final = frozenset(
 _SENSORS: Final = mav.MAV_SYS_STATUS_SENSOR_GPS | mav.MAV_SYS_STATUS_PREARM_CHECK
 #: The physics step, seconds.
 _DT: Final = 0.02
+#: Seconds armed on the ground without a take-off before both autopilots disarm.
+_IDLE_DISARM: Final = 10.0
 #: PX4's MIS_TAKEOFF_ALT: the take-off altitude when NAV_TAKEOFF gives none.
 _PX4_TAKEOFF_ALT: Final = 2.5
 _ACCEPTED: Final[int] = mav.MAV_RESULT_ACCEPTED
@@ -165,6 +167,8 @@ class SimAutopilot:
         self._vehicle = self._fleet.vehicle(1)
         self._px4 = options.kind == "px4"
         self.armed = False
+        self._armed_at: float | None = None
+        self._flew = False  # armed and off the ground at the last physics step
         # ArduPilot: the custom mode number; PX4: (main mode, sub-mode).
         self._mode: int | tuple[int, int] = (
             (PX4_MAIN["AUTO"], PX4_SUB["LOITER"]) if self._px4 else ARDUPILOT_MODES["STABILIZE"]
@@ -409,6 +413,7 @@ class SimAutopilot:
         if not self._px4 and self._mode == ARDUPILOT_MODES["LAND"]:
             return _DENIED
         self.armed = True
+        self._armed_at = now
         return _ACCEPTED
 
     def _takeoff(self, altitude_param: float) -> int:
@@ -463,8 +468,13 @@ class SimAutopilot:
 
     def _after_step(self, now: float) -> None:
         mode = self._vehicle.mode
-        if mode in ("landed", "dead") and self.armed:
-            self.armed = False  # both autopilots disarm on touchdown; an empty battery too
+        # Both autopilots disarm on touchdown, and on the ground after a few seconds armed
+        # without a take-off (ArduCopter's DISARM_DELAY, PX4's COM_DISARM_PRFLT, 10 s by
+        # default) — not at once: a take-off follows the arm. An empty battery disarms too.
+        idle = self._armed_at is not None and now - self._armed_at >= _IDLE_DISARM
+        if self.armed and (mode == "dead" or (mode == "landed" and (self._flew or idle))):
+            self.armed = False
+        self._flew = self.armed and mode != "landed"
         if self._px4:
             if self._mode == (PX4_MAIN["AUTO"], PX4_SUB["TAKEOFF"]) and mode == "flying":
                 self._mode = (PX4_MAIN["AUTO"], PX4_SUB["LOITER"])
