@@ -125,6 +125,11 @@ def test_arducopter_streams_what_a_link_asks_for_at_the_rate_asked(copter: Clien
     for name in wanted.values():
         assert 6 <= counts[name] <= 9, f"{name}: {counts[name]} in 8 s at 1 Hz"
     assert "GLOBAL_POSITION_INT" not in counts  # not asked, not sent
+    copter.ask(9999, 1.0)  # a message it has none of
+    time.sleep(0.05)
+    copter.run(0.5)
+    last = [m for m in copter.heard if m.get_type() == "COMMAND_ACK"][-1]
+    assert last.result == mav.MAV_RESULT_DENIED  # ArduCopter 4.5.7's answer
 
 
 def test_arducopter_takes_the_legacy_stream_request(copter: Client) -> None:
@@ -171,6 +176,10 @@ def test_px4_streams_its_onboard_set_unasked_at_the_measured_rates() -> None:
             assert abs(measured - rate) <= max(0.1 * rate, 0.1), f"{name}: {measured}/s"
         # No position before the estimator has one (~35 s): asking does not help.
         assert "GLOBAL_POSITION_INT" not in counts
+        # PX4 has no EKF_STATUS_REPORT: asked for it, 1.15.4 answers FAILED.
+        assert sim.streams.set_interval(mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT, 1e6) == (
+            mav.MAV_RESULT_FAILED
+        )
     finally:
         conn.close()
         sim.close()

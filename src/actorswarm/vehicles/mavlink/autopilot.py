@@ -19,7 +19,7 @@ What it models
   ``SET_MESSAGE_INTERVAL`` ACKed and ignored, a MAVLink 1 only link.
 * ``COMMAND_LONG`` answered with ``COMMAND_ACK``: ``DO_SET_MODE``, ``COMPONENT_ARM_DISARM``,
   ``NAV_TAKEOFF``, ``NAV_LAND``, ``DO_CHANGE_SPEED``, ``SET_MESSAGE_INTERVAL`` (DENIED for a
-  message it cannot send, as ArduCopter answers one it has none of); anything else
+  message it cannot send: DENIED as ArduCopter answers, FAILED as PX4 does); anything else
   ``UNSUPPORTED``. A repeated command (same command, ``confirmation`` > 0) is answered
   again, as a lost ack must be repaired.
 * ArduPilot: modes STABILIZE, GUIDED, LOITER, LAND (custom modes 0, 4, 5, 9). Arming needs
@@ -366,7 +366,9 @@ class SimAutopilot:
                     now - self._setpoint_at <= self.options.offboard_timeout
                 )
                 if not fresh:
-                    return _DENIED  # PX4 enters OFFBOARD only while setpoints stream
+                    # PX4 enters OFFBOARD only while setpoints stream; 1.15.4 answers
+                    # TEMPORARILY_REJECTED ("try again once they do").
+                    return mav.MAV_RESULT_TEMPORARILY_REJECTED  # type: ignore[no-any-return]
                 self._mode = (main, 0)
                 return _ACCEPTED
             if main == PX4_MAIN["POSCTL"]:

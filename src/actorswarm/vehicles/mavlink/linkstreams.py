@@ -36,6 +36,7 @@ __all__ = ["LinkStreams"]
 
 _ACCEPTED: Final[int] = mav.MAV_RESULT_ACCEPTED
 _DENIED: Final[int] = mav.MAV_RESULT_DENIED
+_FAILED: Final[int] = mav.MAV_RESULT_FAILED
 
 
 def _initial(kind: Literal["ardupilot", "px4"]) -> dict[int, float]:
@@ -96,8 +97,9 @@ class LinkStreams:
         """``MAV_CMD_SET_MESSAGE_INTERVAL``: its MAV_RESULT. 0 µs: the firmware's default;
         −1: stop it."""
         if message_id not in self.producible:
-            # ArduCopter 4.5.7 answers DENIED ("No ap_message for mavlink id").
-            return _DENIED
+            # As measured: ArduCopter 4.5.7 answers DENIED ("No ap_message for mavlink
+            # id"), PX4 1.15.4 FAILED.
+            return _DENIED if self.kind == "ardupilot" else _FAILED
         if self.interval_ignored:
             return _ACCEPTED
         if interval_us == 0:
