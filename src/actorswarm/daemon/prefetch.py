@@ -5,10 +5,11 @@ for ``T_leave`` (0.5 s) is replaced. Two things a script needs were loaded lazil
 the loop, at the worst moments: a plugin's module when its actor first starts (the
 formations import NumPy: 0.2–0.5 s), and SciPy when a master releases a group whose actor
 hands out slots (:mod:`actorswarm.engine.assign`, through :mod:`scipy.optimize`: 0.6 s
-idle, up to 2 s on a busy 2-core host). Flying ten ArduCopter SITL from one launch file, the master went silent right after
-it released the formation; the members elected the next platform, which released again,
-imported SciPy and went silent in turn, and so on — each transient master handed out its
-own slots, and two copters sent to one slot passed 0.25 m apart.
+idle, up to 2 s on a busy 2-core host). Flying ten ArduCopter SITL from one launch file,
+the master went silent right after it released the formation; the members elected the
+next platform, which released again, imported SciPy and went silent in turn, and so on —
+each transient master handed out its own slots, and two copters sent to one slot passed
+0.25 m apart.
 
 So when a deployed script has passed its check, :func:`prefetch` loads, in a worker
 thread, every plugin class the script names and, when one of them gives its members places

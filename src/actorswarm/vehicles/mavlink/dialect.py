@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-__all__ = ["command_name", "mav", "result_name"]
+__all__ = ["command_name", "mav", "message_name", "result_name"]
 
 
 def command_name(command: int) -> str:
@@ -24,3 +24,9 @@ def result_name(result: int) -> str:
     """``MAV_RESULT_DENIED`` for 2 (the number itself when unknown)."""
     entry = mav.enums["MAV_RESULT"].get(result)
     return entry.name if entry is not None else f"result {result}"
+
+
+def message_name(message_id: int) -> str:
+    """``EKF_STATUS_REPORT`` for 193 (``message 999`` when the dialect does not know it)."""
+    cls = mav.mavlink_map.get(message_id)
+    return str(cls.msgname) if cls is not None else f"message {message_id}"

@@ -45,6 +45,7 @@ __all__ = [
     "LinkDown",
     "MessageFilter",
     "drain_library_lines",
+    "is_mavlink1",
     "open_connection",
     "read_available",
 ]
@@ -59,8 +60,8 @@ _CHUNK: Final = 4096
 REOPEN_EVERY: Final = 1.0
 #: Seconds one TCP connection attempt may take (an unreachable host would take minutes).
 _CONNECT_TIMEOUT: Final = 0.5
-#: The first byte of a MAVLink 2 frame.
-_MAVLINK2_MAGIC: Final = b"\xfd"
+#: The first byte of a MAVLink 1 frame (MAVLink 2's is 0xFD).
+_MAVLINK1_MAGIC: Final = 0xFE
 #: pymavlink's lines kept at most until drained (the oldest go first).
 _LINES_KEPT: Final = 200
 
@@ -310,13 +311,19 @@ class Connection:
                 return None
             parsed = self.mav.parse_buffer(data)
             if parsed and self.mavlink1_only:
-                parsed = [m for m in parsed if bytes(m.get_msgbuf() or b"")[:1] != _MAVLINK2_MAGIC]
+                parsed = [m for m in parsed if is_mavlink1(m)]
             if parsed:
                 self._queue.extend(parsed)
         return self._queue.popleft()
 
     def close(self) -> None:
         self._port.close()
+
+
+def is_mavlink1(message: Any) -> bool:
+    """Whether ``message`` arrived as a MAVLink 1 frame."""
+    buf = message.get_msgbuf()
+    return bool(buf) and buf[0] == _MAVLINK1_MAGIC
 
 
 def _check_url(url: str, who: str, source_system: int, source_component: int) -> None:

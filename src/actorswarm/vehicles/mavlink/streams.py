@@ -40,11 +40,11 @@ import math
 from dataclasses import dataclass
 from typing import Any, Final
 
-from actorswarm.vehicles.mavlink.dialect import mav
+from actorswarm.vehicles.mavlink.dialect import mav, message_name
 from actorswarm.vehicles.mavlink.firmware import ARDUPILOT_DATA_STREAMS
 from actorswarm.vehicles.mavlink.flavours import Kind
 
-__all__ = ["GIVE_UP_AFTER", "GRACE", "LONGEST", "WANTED", "StreamWatch", "Wanted", "message_name"]
+__all__ = ["GIVE_UP_AFTER", "GRACE", "LONGEST", "WANTED", "StreamWatch", "Wanted"]
 
 #: Seconds a message asked for may take to arrive before it is asked again.
 GRACE: Final = 3.0
@@ -89,12 +89,6 @@ WANTED: Final[dict[Kind, tuple[Wanted, ...]]] = {
         Wanted(mav.MAVLINK_MSG_ID_HOME_POSITION, 1.0, conditional=True),
     ),
 }
-
-
-def message_name(message_id: int) -> str:
-    """``EKF_STATUS_REPORT`` for 193 (``message 999`` when the dialect does not know it)."""
-    cls = mav.mavlink_map.get(message_id)
-    return str(cls.msgname) if cls is not None else f"message {message_id}"
 
 
 @dataclass(slots=True)

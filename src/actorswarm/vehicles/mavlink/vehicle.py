@@ -59,7 +59,12 @@ from actorswarm.vehicles.mavlink.flavours import (
     px4_custom_mode,
 )
 from actorswarm.vehicles.mavlink.frame import MissionFrame
-from actorswarm.vehicles.mavlink.link import Link, MessageFilter, drain_library_lines
+from actorswarm.vehicles.mavlink.link import (
+    Link,
+    MessageFilter,
+    drain_library_lines,
+    is_mavlink1,
+)
 from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
 from actorswarm.vehicles.mavlink.streams import StreamWatch
 
@@ -94,8 +99,6 @@ FAILSAFE_PARAMS: Final[dict[Kind, dict[str, str]]] = {
     "px4": {"NAV_DLL_ACT": "link-loss failsafe", "COM_LOW_BAT_ACT": "low-battery failsafe"},
 }
 
-#: The first byte of a MAVLink 1 frame.
-_MAVLINK1_MAGIC: Final = 0xFE
 _INT_TYPES: Final = frozenset(
     (
         mav.MAV_PARAM_TYPE_UINT8,
@@ -780,7 +783,7 @@ class MavlinkVehicle:
     def _note_version(self, message: Any) -> None:
         """Speak MAVLink 1 to an autopilot heard speaking it (a link that carries MAVLink 1
         only would drop our MAVLink 2 frames), and 2 again once it does."""
-        one = bytes(message.get_msgbuf() or b"")[:1] == bytes((_MAVLINK1_MAGIC,))
+        one = is_mavlink1(message)
         if one != self._link.mavlink1:
             self._link.mavlink1 = one
             self._log.append(
