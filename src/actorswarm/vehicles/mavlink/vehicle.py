@@ -257,6 +257,7 @@ class MavlinkVehicle:
         self._readiness = Readiness()
         self._texts = Texts()
         self._refused: str | None = None  # the last command refused, and how
+        self._refusals: list[tuple[str, str]] = []  # refused in this batch, to log after it
         self._said: tuple[bool | None, str | None] = (None, None)  # readiness last logged
         self._override: Literal["land", "hold"] | None = None
         self._ignored = False
@@ -302,6 +303,7 @@ class MavlinkVehicle:
                 if self._filter.accept(message):
                     self._on_message(message, now)
                     self._note_version(message)
+            self._log_refusals()
             self._link_changes()
             if self._beat is None or now - self._beat >= _BEAT:
                 self._beat = now
@@ -737,17 +739,24 @@ class MavlinkVehicle:
 
     def _on_refused(self, name: str, result: int) -> None:
         self._refused = f"{name}: {result_name(result)}"
-        self._log.append(
-            (
-                "vehicle-refused",
-                {
-                    "vehicle": self.name,
-                    "command": name,
-                    "result": result_name(result),
-                    "reason": self._why(),
-                },
+        # Logged once the whole batch is read: the autopilot's texts saying why follow its
+        # COMMAND_ACK (ArduCopter's ``Arm: …``), and the record should carry them.
+        self._refusals.append((name, result_name(result)))
+
+    def _log_refusals(self) -> None:
+        for name, result in self._refusals:
+            self._log.append(
+                (
+                    "vehicle-refused",
+                    {
+                        "vehicle": self.name,
+                        "command": name,
+                        "result": result,
+                        "reason": self._why(),
+                    },
+                )
             )
-        )
+        self._refusals.clear()
 
     def _watch_readiness(self, now: float) -> None:
         """Log when the autopilot becomes ready, or its reason for not being so changes."""
