@@ -77,6 +77,7 @@ figures of the shipped missions).
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -329,27 +330,44 @@ class VirtualLeader:
         self.speed = float(speed)
         self.start_time = float(start_time)
         self.loop = loop and len(points) > 1
-        self._ends = np.cumsum([0.0] + [math.dist(a, b) for a, b in itertools.pairwise(points)])
+        # Plain floats (the same sums numpy's running sum gives): a member asks where the
+        # leader is several times per step, and bisect on a tuple is many times faster
+        # than numpy's searchsorted on an array of a few elements.
+        self._ends: tuple[float, ...] = tuple(
+            np.cumsum([0.0] + [math.dist(a, b) for a, b in itertools.pairwise(points)]).tolist()
+        )
+        # The last question and its answer: a step asks _locate for the same t up to four
+        # times (slot point, heading, moving, heading again).
+        self._located: tuple[float, int, float] | None = None
 
     @property
     def length(self) -> float:
         """The route's length, metres (one lap, when looping)."""
-        return float(self._ends[-1])
+        return self._ends[-1]
 
     def _locate(self, t: float) -> tuple[int, float]:
         """The segment the leader is on at ``t`` and how far along it (metres); segment
         ``-1`` for a route of one point."""
+        located = self._located
+        if located is not None and located[0] == t:
+            return located[1], located[2]
         if len(self.route) < 2:
             return -1, 0.0
+        ends = self._ends
         travelled = max(0.0, t - self.start_time) * self.speed
         if self.loop:
-            travelled %= self.length
-        elif travelled >= self.length:
+            travelled %= ends[-1]
+        elif travelled >= ends[-1]:
             last = len(self.route) - 2
-            return last, float(self._ends[-1] - self._ends[-2])
-        segment = int(np.searchsorted(self._ends, travelled, side="right")) - 1
+            along = ends[-1] - ends[-2]
+            self._located = (t, last, along)
+            return last, along
+        # bisect_right is searchsorted(side="right"): the same segment, ties included.
+        segment = bisect.bisect_right(ends, travelled) - 1
         segment = min(max(segment, 0), len(self.route) - 2)
-        return segment, travelled - float(self._ends[segment])
+        along = travelled - ends[segment]
+        self._located = (t, segment, along)
+        return segment, along
 
     def position(self, t: float) -> Point:
         """Where the leader is at ``t`` seconds."""
@@ -357,7 +375,7 @@ class VirtualLeader:
         if segment < 0:
             return self.route[0]
         a, b = self.route[segment], self.route[segment + 1]
-        f = along / float(self._ends[segment + 1] - self._ends[segment])
+        f = along / (self._ends[segment + 1] - self._ends[segment])
         return (a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f)
 
     def heading(self, t: float) -> float:
@@ -552,6 +570,8 @@ class Formation(Plugin):
         self._start: float | None = None
         self._leader: VirtualLeader | None = None
         self._offset: FloatArray = np.zeros(2)
+        #: The offset rotated by each heading the leader has had (slot_point), by heading.
+        self._rotated: dict[float, tuple[float, float]] = {}
         self._altitude = 0.0
         self._speed = 0.0
         self._slot = 0
@@ -613,6 +633,7 @@ class Formation(Plugin):
         self._leader = VirtualLeader(route, self._speed, start, loop=bool(params["loop"]))
         forward, left = (float(v) for v in str(params["offset"]).split())
         self._offset = slots(self.shape, size, spacing)[slot - 1] + np.array([forward, left])
+        self._rotated = {}
         self._slot = slot
         self._start = start
         self._sent = None
@@ -626,8 +647,15 @@ class Formation(Plugin):
         if self._leader is None:
             raise RuntimeError(f"{self.entry_name()}: the formation is not set up (start it first)")
         x, y, _ = self._leader.position(t)
-        wx, wy = to_world(self._offset, (x, y), self._leader.heading(t)).tolist()
-        return (float(wx), float(wy), self._altitude)
+        heading = self._leader.heading(t)
+        rotated = self._rotated.get(heading)
+        if rotated is None:
+            # The leader's heading is one per segment of its route, so the rotated offset
+            # is too: computed once by to_world's own product (the same bits as before)
+            # and then only moved to the leader, which is to_world's final addition.
+            rx, ry = to_world(self._offset, (0.0, 0.0), heading).tolist()
+            rotated = self._rotated[heading] = (float(rx), float(ry))
+        return (rotated[0] + x, rotated[1] + y, self._altitude)
 
     def _command(self, ctx: PluginContext, *, force: bool) -> None:
         assert self._leader is not None
