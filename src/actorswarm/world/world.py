@@ -123,9 +123,12 @@ class World:
             ]
         ] = []
         self._record_stride = 0
-        # The radio model over the current positions, as (step count, loss, latency) lists:
-        # positions change only on a step, and the simulated radio asks once per packet.
-        self._links: tuple[int, list[list[float]], list[list[float]]] | None = None
+        # The radio model over the current positions, as (step count, each sender's (loss
+        # row, latency row) by platform): positions change only on a step, and the simulated
+        # radio asks once per packet and receiver.
+        self._links: tuple[int, dict[int, tuple[list[float], list[float]]]] | None = None
+        # Each platform's row (the fleet's, which never changes), read without a call.
+        self._rows: dict[int, int] = {p: row for row, p in enumerate(self.fleet.platforms)}
         if record_every is not None:
             if not (math.isfinite(record_every) and record_every > 0):
                 raise ValueError(
@@ -222,9 +225,16 @@ class World:
         links = self._links
         if links is None or links[0] != self._steps:
             loss, latency = radio_model.link_matrix(self.fleet.positions, self.config.radio)
-            links = self._links = (self._steps, loss.tolist(), latency.tolist())
-        i, j = self.fleet.index(a), self.fleet.index(b)
-        return links[1][i][j], links[2][i][j]
+            rows = zip(loss.tolist(), latency.tolist(), strict=True)
+            links = self._links = (self._steps, dict(zip(self.fleet.platforms, rows, strict=True)))
+        try:
+            loss_row, latency_row = links[1][a]
+            j = self._rows[b]
+        except KeyError:
+            self.fleet.index(a)  # the fleet's KeyError, which names the platforms it has
+            self.fleet.index(b)
+            raise
+        return loss_row[j], latency_row[j]
 
     def link_matrix(self) -> tuple[FloatArray, FloatArray]:
         """``(loss, latency)`` between every pair of platforms now, ``(n, n)`` in
