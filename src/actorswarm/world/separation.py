@@ -241,9 +241,11 @@ class SeparationMonitor:
         nearest, which = tree.query(pts, k=2)
         k = int(np.argmin(nearest[:, 1]))
         i, j = int(rows[k]), int(rows[int(which[k, 1])])
-        here = self._encounter(i, j, positions, t)
-        if self._closest is None or here.distance < self._closest.distance:
-            self._closest = here
+        # The distance as _encounter measures it; the encounter is built only for a new
+        # closest (rarely, after the first seconds of a run).
+        d = float(np.linalg.norm(positions[i] - positions[j]))
+        if self._closest is None or d < self._closest.distance:
+            self._closest = self._encounter(i, j, positions, t, d)
         pairs = tree.query_pairs(self._watch, output_type="ndarray")
         started: list[Breach] = []
         in_breach: set[tuple[int, int]] = set()
