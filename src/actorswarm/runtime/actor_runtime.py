@@ -135,6 +135,8 @@ class _Loaded:
     plugins: list[tuple[_PluginDef, Plugin, dict[str, Any]]]  # definition, instance, params
     blackboard: dict[str, Any] = field(default_factory=dict)
     next_step: float = 0.0
+    #: ``plugins`` in step order (:meth:`ActorRuntime._ooda`), once asked for.
+    ooda: list[tuple[_PluginDef, Plugin, dict[str, Any]]] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,6 +164,9 @@ class SwitchTiming:
 #: Switch timings a runtime keeps until its host drains them; older ones are dropped, so a
 #: host that never asks costs a bounded amount of memory.
 SWITCH_TIMINGS_KEPT = 256
+
+# The OODA position of each bus (a plugin on a bus not listed steps last).
+_BUS_ORDER: dict[str, int] = {bus: i for i, bus in enumerate(BUSES)}
 
 
 class ActorRuntime:
@@ -465,9 +470,15 @@ class ActorRuntime:
     @staticmethod
     def _ooda(entry: _Loaded) -> list[tuple[_PluginDef, Plugin, dict[str, Any]]]:
         """The actor's plugins in step order: observe, orient, decide, act (each bus in the
-        order the script lists its plugins)."""
-        order: dict[str, int] = {bus: i for i, bus in enumerate(BUSES)}
-        return sorted(entry.plugins, key=lambda item: order.get(item[0].bus, len(order)))
+        order the script lists its plugins). Sorted once per loaded actor (an actor's
+        plugins never change once loaded), not at every step."""
+        ooda = entry.ooda
+        if ooda is None:
+            order = _BUS_ORDER
+            ooda = entry.ooda = sorted(
+                entry.plugins, key=lambda item: order.get(item[0].bus, len(order))
+            )
+        return ooda
 
     def next_deadline(self) -> float | None:
         """The latest time :meth:`step` must be called next (a running actor's step is
