@@ -339,6 +339,8 @@ class VirtualLeader:
         # The last question and its answer: a step asks _locate for the same t up to four
         # times (slot point, heading, moving, heading again).
         self._located: tuple[float, int, float] | None = None
+        # Each segment's heading, once asked for (the route never changes).
+        self._headings: dict[int, float] = {}
 
     @property
     def length(self) -> float:
@@ -383,6 +385,12 @@ class VirtualLeader:
         segment it is on (of the last one once stopped; 0 for a route of one point). A
         vertical segment keeps the heading of the segment before it."""
         segment, _ = self._locate(t)
+        heading = self._headings.get(segment)
+        if heading is None:
+            heading = self._headings[segment] = self._segment_heading(segment)
+        return heading
+
+    def _segment_heading(self, segment: int) -> float:
         for k in range(segment, -1, -1):
             a, b = self.route[k], self.route[k + 1]
             if a[0] != b[0] or a[1] != b[1]:
