@@ -845,6 +845,12 @@ class SimRadio(Generic[P]):
             # Everyone at the same time (only losses differ between receivers): one event.
             sched.call_at(arrival, self._deliver, tx, [dst for _, dst in arrivals])
             return
+        if len(arrivals) == 1:
+            # One receiver (a unicast, most of a star swarm's packets): the chain's one
+            # event is the delivery itself.
+            t, dst = arrivals[0]
+            sched.call_at(t, self._deliver, tx, (dst,))
+            return
         # Different times: one chain of events that walks the arrivals in time order, so the
         # heap holds one entry per packet in flight rather than one per receiver.
         arrivals.sort()
