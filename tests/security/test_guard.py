@@ -39,6 +39,7 @@ from actorswarm.core.wire import (
 from actorswarm.engine import commands as cmds
 from actorswarm.ground.station import GroundStation
 from actorswarm.security import DEFAULT_WINDOW, REASONS, PacketGuard, init_keys, load_keys
+from actorswarm.security.guard import VerdictMemo
 
 SWARM = "alpha"
 KEY = bytes(range(32))
@@ -317,6 +318,38 @@ def test_forgeries_are_refused_under_their_reason(make: object, reason: str) -> 
     refused(guard, data, reason)
     assert guard.rejected == Counter({reason: 1})
     assert reason in REASONS
+
+
+@pytest.mark.parametrize(
+    ("make", "reason"), [(f[1], f[2]) for f in FORGERIES], ids=[f[0] for f in FORGERIES]
+)
+def test_guards_sharing_a_verdict_memo_refuse_as_guards_without(make: object, reason: str) -> None:
+    """Receivers of one broadcast that share a memo (a simulated swarm's) each count the
+    same refusal a guard of their own counts, and the memo never lets bytes through."""
+    memo = VerdictMemo()
+    data = make()  # type: ignore[operator]
+    first, second = (PacketGuard(KEY, GS_PUBLIC, memo=memo) for _ in range(2))
+    for guard in (first, second):
+        refused(guard, data, reason)
+        assert guard.rejected == Counter({reason: 1})
+
+
+def test_guards_sharing_a_verdict_memo_accept_once_each_and_keep_their_windows() -> None:
+    memo = VerdictMemo(size=2)
+    packets = [sealed(seq=seq) for seq in (1, 2, 3)]  # three: the memo forgets the first
+    guards = [PacketGuard(KEY, GS_PUBLIC, memo=memo) for _ in range(3)]
+    for guard in guards:
+        for data in packets:
+            packet = guard.check(data, 1.0)
+            assert packet is not None and packet == decode(data)
+        for data in packets:
+            assert guard.check(data, 2.0) is None  # each guard's own replay window
+        assert guard.accepted == 3 and guard.rejected == Counter({"replay": 3})
+    data = sealed(seq=4)
+    one, other = (guard.check(data, 3.0) for guard in guards[:2])
+    assert one is not None and one == other and one is not other  # each receiver's own
+    with pytest.raises(ValueError, match="at least one"):
+        VerdictMemo(size=0)
 
 
 @pytest.mark.parametrize(

@@ -165,6 +165,39 @@ class _Window:
         return (1 << self.size) - 1
 
 
+class VerdictMemo:
+    """The frame and authentication verdicts of the last ``size`` packets checked, shared
+    by guards that hold the same keys and size limit (a simulated swarm's, where every
+    receiver of a broadcast checks the very same bytes).
+
+    What it keeps is a pure function of the bytes and the keys — the envelope, or the
+    reason the tag or signature failed — so a guard that finds the bytes here skips the
+    CRC, the header decode, the HMAC and any signature check and ends with the same result
+    it would have computed. The replay window and the body decode stay each guard's own.
+    A daemon's guard has none: it never checks the same bytes twice.
+    """
+
+    __slots__ = ("_size", "_verdicts")
+
+    def __init__(self, size: int = 1024) -> None:
+        if size < 1:
+            raise ValueError(f"a verdict memo keeps at least one verdict, not {size}")
+        self._size = size
+        self._verdicts: dict[bytes, tuple[wire.Envelope, str | None]] = {}
+
+    def get(self, data: bytes) -> tuple[wire.Envelope, str | None] | None:
+        """The verdict kept for ``data``: its envelope and the authentication failure
+        (None: authentic), or None when none is kept."""
+        return self._verdicts.get(data)
+
+    def put(self, data: bytes, env: wire.Envelope, reason: str | None) -> None:
+        """Keep the verdict on ``data``, forgetting the oldest beyond ``size``."""
+        verdicts = self._verdicts
+        if len(verdicts) >= self._size:
+            del verdicts[next(iter(verdicts))]
+        verdicts[data] = (env, reason)
+
+
 class PacketGuard:
     """Seals outgoing packets and checks incoming ones for swarm ``swarm_key``.
 
@@ -176,8 +209,10 @@ class PacketGuard:
     (``role="ground"``) also holds ``gs_private_key`` (the one matching ``gs_public_key``)
     and signs its packets; a platform's guard must not hold it. ``window`` is the number of
     sequence numbers remembered per sender; ``max_bytes`` the largest packet accepted (the
-    core config's ``max_packet_bytes``). See the module documentation for the checks and
-    the threat model; :meth:`insecure` makes a guard that checks nothing.
+    core config's ``max_packet_bytes``). ``memo``: a :class:`VerdictMemo` shared with
+    guards of the same keys and ``max_bytes`` (a simulator's), or None. See the module
+    documentation for the checks and the threat model; :meth:`insecure` makes a guard that
+    checks nothing.
     """
 
     def __init__(
@@ -189,6 +224,7 @@ class PacketGuard:
         role: Role = "platform",
         window: int = DEFAULT_WINDOW,
         max_bytes: int = wire.DEFAULT_MAX_BYTES,
+        memo: VerdictMemo | None = None,
     ) -> None:
         if len(swarm_key) < _MIN_KEY_BYTES:
             raise ValueError(
@@ -221,6 +257,7 @@ class PacketGuard:
         self._key_fingerprint = fingerprint(bytes(swarm_key))
         self._public: PublicKey | None = PublicKey.of(gs_public_key)
         self._private = gs_private_key
+        self._memo = memo
 
     def _init(self, *, role: Role, window: int, max_bytes: int) -> None:
         self.role: Role = role
@@ -269,6 +306,7 @@ class PacketGuard:
         guard._key_fingerprint = ""
         guard._public = None
         guard._private = None
+        guard._memo = None
         return guard
 
     @property
@@ -320,14 +358,21 @@ class PacketGuard:
         has its body decoded, once. ``now`` is the host's clock, kept as when each sender
         was last accepted (:meth:`last_heard`). Never raises on any bytes.
         """
-        try:
-            env = wire.open_frame(data, max_bytes=self.max_bytes)
-        except WireError:
-            self.rejected["malformed"] += 1
-            return None
-        if self._mac is None:
-            return self._decode(env)
-        reason = self._authenticate(env, data)
+        memo = self._memo if type(data) is bytes else None  # a memo's keys are bytes
+        verdict = None if memo is None else memo.get(data)
+        if verdict is not None:
+            env, reason = verdict
+        else:
+            try:
+                env = wire.open_frame(data, max_bytes=self.max_bytes)
+            except WireError:
+                self.rejected["malformed"] += 1
+                return None
+            if self._mac is None:
+                return self._decode(env)
+            reason = self._authenticate(env, data)
+            if memo is not None:
+                memo.put(data, env, reason)
         if reason is not None:
             self.rejected[reason] += 1
             named = self.refused_from.setdefault(reason, set())
@@ -410,4 +455,12 @@ class PacketGuard:
             self._senders[sender] = restored
 
 
-__all__ = ["DEFAULT_WINDOW", "REASONS", "SIGNATURE_BYTES", "TAG_BYTES", "PacketGuard", "Role"]
+__all__ = [
+    "DEFAULT_WINDOW",
+    "REASONS",
+    "SIGNATURE_BYTES",
+    "TAG_BYTES",
+    "PacketGuard",
+    "Role",
+    "VerdictMemo",
+]

@@ -5,7 +5,10 @@
 derived from the run's seed (a run replays, packet for packet, tag for tag). A simulated
 host puts a :class:`~actorswarm.security.pipeline.Pipeline` between each endpoint and its
 port, with a guard made by :meth:`SimKeys.guard`, so every simulated packet costs what a
-real one does: one HMAC to seal it, a frame check, one HMAC and one body decode to take it.
+real one does: one HMAC to seal it, a frame check, one HMAC and one body decode to take it
+— except that the receivers of one broadcast share the frame check and the HMAC
+(:class:`~actorswarm.security.guard.VerdictMemo`): they would compute the same verdict on
+the same bytes.
 
 ``security="insecure"`` makes guards that check only the frame (the cost of a swarm run
 with ``--insecure``).
@@ -18,7 +21,7 @@ from typing import Any, Literal
 
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 
-from actorswarm.security.guard import PacketGuard, Role
+from actorswarm.security.guard import PacketGuard, Role, VerdictMemo
 
 __all__ = ["RadioPort", "Security", "SimKeys"]
 
@@ -45,7 +48,7 @@ class SimKeys:
     """The simulated swarm's keys, from ``seed``: a swarm key and the ground station's
     Ed25519 pair (``security="keys"``), or none (``"insecure"``)."""
 
-    __slots__ = ("_private", "_swarm_key", "security")
+    __slots__ = ("_memos", "_private", "_swarm_key", "security")
 
     def __init__(self, seed: int, security: Security = "keys") -> None:
         if security not in ("keys", "insecure"):
@@ -55,6 +58,10 @@ class SimKeys:
         self._private = Ed25519PrivateKey.from_private_bytes(
             hashlib.sha256(f"actorswarm sim {seed}: ground station".encode()).digest()
         )
+        # One verdict memo per size limit, shared by every guard made here: the receivers
+        # of a broadcast check the same bytes with the same keys, so the frame check and
+        # the HMAC are done once per packet instead of once per receiver.
+        self._memos: dict[int, VerdictMemo] = {}
 
     def guard(self, role: Role = "platform", *, max_bytes: int) -> PacketGuard:
         """A new guard (its own replay windows) for one platform or the ground station."""
@@ -66,4 +73,5 @@ class SimKeys:
             gs_private_key=self._private if role == "ground" else None,
             role=role,
             max_bytes=max_bytes,
+            memo=self._memos.setdefault(max_bytes, VerdictMemo()),
         )
