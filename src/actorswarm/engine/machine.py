@@ -534,9 +534,13 @@ class ActorMachine:
     def _report_whereabouts(self, now: float) -> None:
         """Tell the master (the master: every member) where I am and the roles I hold,
         when :class:`~actorswarm.engine.promotion.Whereabouts` says a report is due."""
-        body = self._whereabouts.due(
+        whereabouts = self._whereabouts
+        watched = whereabouts.watching(self.plan, self.runtime.running())
+        if watched and whereabouts.waiting(now):
+            return  # no report before the interval is over: the vehicle need not be read
+        body = whereabouts.due(
             now,
-            watched=self._whereabouts.watching(self.plan, self.runtime.running()),
+            watched=watched,
             position=self.runtime.position(),
             roles=self.node.roles.held,
         )

@@ -190,7 +190,7 @@ class Whereabouts:
             # Whatever it runs next, it reports afresh when that is watched again.
             self.reset()
             return None
-        if now < max(self._sent_at, self._checked_at) + REPORT_INTERVAL:
+        if self.waiting(now):
             return None
         self._checked_at = now
         at = _point(position)
@@ -203,6 +203,12 @@ class Whereabouts:
                 return None
         self._sent, self._sent_at = report, now
         return _ENCODE.encode(report)
+
+    def waiting(self, now: float) -> bool:
+        """Whether :meth:`due` would answer None at ``now`` for a watched actor whatever
+        the position and roles, for want of time (:data:`REPORT_INTERVAL` not over): a
+        host may then skip reading its vehicle's position."""
+        return now < max(self._sent_at, self._checked_at) + REPORT_INTERVAL
 
     def next_check(self, *, watched: bool) -> float | None:
         """When to ask :meth:`due` again (None: not while nothing watched runs): every
