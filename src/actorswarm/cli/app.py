@@ -61,7 +61,8 @@ app = typer.Typer(
 swarm_app = typer.Typer(help="Simulated swarms of the collective core.", no_args_is_help=True)
 bench_app = typer.Typer(help="Benchmarks (docs/design.md §8).", no_args_is_help=True)
 task_app = typer.Typer(
-    help="Task scripts (docs/design.md §4): check them, draw their Actor state machine.",
+    help="Task scripts (docs/design.md §4): check them, draw their Actor state machine, "
+    "verify them under seeded faults.",
     no_args_is_help=True,
 )
 app.add_typer(swarm_app, name="swarm")
@@ -99,6 +100,9 @@ def _register_real_swarm() -> None:
     from actorswarm.ros2.gs_cmd import register as register_ros2
 
     register_ros2(gs_app)
+    from actorswarm.cli.verify_cmd import register as register_verify
+
+    register_verify(task_app)
     app.add_typer(gs_app, name="gs")
     app.add_typer(keys_app, name="keys")
     app.add_typer(record_app, name="record")
@@ -590,11 +594,19 @@ def sim(
         ),
     ] = None,
     kill: Annotated[
-        list[str] | None, typer.Option(metavar="IDS@T", help="Crash platforms IDS at T seconds.")
+        list[str] | None,
+        typer.Option(
+            metavar="IDS@T",
+            help="Crash platforms IDS at T seconds (master@T: whichever is master then).",
+        ),
     ] = None,
     restart: Annotated[
         list[str] | None,
-        typer.Option(metavar="IDS@T", help="Reboot platforms IDS at T seconds."),
+        typer.Option(
+            metavar="IDS@T",
+            help="Reboot platforms IDS at T seconds (master@T: those the last --kill "
+            "master@T crashed).",
+        ),
     ] = None,
     partition: Annotated[
         list[str] | None,
@@ -605,6 +617,29 @@ def sim(
     ] = None,
     heal: Annotated[
         list[str] | None, typer.Option(metavar="@T", help="End every partition at T seconds.")
+    ] = None,
+    late_ready: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="IDS@T",
+            help="The autopilots of IDS are not ready to take off before T seconds (a "
+            "take-off asked earlier waits).",
+        ),
+    ] = None,
+    refuse_takeoff: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="IDS",
+            help="The autopilots of IDS never arm: each take-off fails for good after 120 s "
+            "with vehicle_fault_event.",
+        ),
+    ] = None,
+    drain: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="IDS:FACTOR",
+            help="The batteries of IDS drain FACTOR times faster than the world says.",
+        ),
     ] = None,
     world: Annotated[Path | None, typer.Option(help="World description (TOML).")] = None,
     no_world: Annotated[
@@ -665,6 +700,7 @@ def sim(
     from actorswarm.sim.radio import Airtime, LinkModel
     from actorswarm.sim.record import sample_world
     from actorswarm.sim.tasksim import TaskSim, parse_event, parse_fault, summary
+    from actorswarm.sim.vehicle_faults import parse_vehicle_fault
     from actorswarm.sim.verdict import EXIT_USAGE, schedule_problems, verdict
     from actorswarm.world.config import WorldConfig, WorldError, load_world
 
@@ -692,14 +728,23 @@ def sim(
         faults += [parse_fault("restart", r) for r in restart or []]
         faults += [parse_fault("partition", p) for p in partition or []]
         faults += [parse_fault("heal", h) for h in heal or []]
+        vehicle_faults = [parse_vehicle_fault("late", v) for v in late_ready or []]
+        vehicle_faults += [parse_vehicle_fault("refuse", v) for v in refuse_takeoff or []]
+        vehicle_faults += [parse_vehicle_fault("drain", v) for v in drain or []]
     except ValueError as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
+    if vehicle_faults and world_config is None:
+        typer.echo(
+            "--late-ready, --refuse-takeoff and --drain need vehicles: leave out --no-world",
+            err=True,
+        )
+        raise typer.Exit(2)
     if record is not None:
         output_file(record, "--record")
     if json_out not in (None, "-"):
         output_file(Path(json_out), "--json")
-    problems = schedule_problems(script, duration, events, faults)
+    problems = schedule_problems(script, duration, events, faults, vehicle_faults)
     for problem in problems:
         typer.echo(problem, err=True)
     if problems:
@@ -723,6 +768,7 @@ def sim(
             world_config=world_config,
             airtime=airtime,
             min_separation=min_separation,
+            vehicle_faults=tuple(vehicle_faults),
         )
         if serve:
             from actorswarm.cli.web_cmd import serve_sim

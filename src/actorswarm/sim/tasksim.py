@@ -33,6 +33,7 @@ from actorswarm.sim.port import RadioPort
 from actorswarm.sim.radio import Airtime, LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
 from actorswarm.sim.swarm import SimSwarm
+from actorswarm.sim.vehicle_faults import VEHICLE_FAULT_EVENT, FaultyVehicle, VehicleFault
 from actorswarm.world.config import WorldConfig
 from actorswarm.world.separation import (
     SeparationBreachError,
@@ -55,11 +56,24 @@ class GroundEvent:
 
 @dataclass(frozen=True, slots=True)
 class Fault:
-    """``--kill ID@T``, ``--restart ID@T``, ``--partition IDS@T``, ``--heal @T``."""
+    """``--kill ID@T``, ``--restart ID@T``, ``--partition IDS@T``, ``--heal @T``.
+
+    ``master``: a kill of whichever platform is master at ``t`` (``--kill master@T``: every
+    master, while a partition has several; nobody when there is none), or the restart of the
+    platforms the latest such kill took (``--restart master@T``); ``ids`` is then empty.
+    """
 
     kind: str
     t: float
     ids: frozenset[int] = frozenset()
+    master: bool = False
+
+    def option(self) -> list[str]:
+        """The ``actorswarm sim`` options that give this fault."""
+        ids = "master" if self.master else ",".join(str(i) for i in sorted(self.ids))
+        if self.kind == "heal":
+            return ["--heal", f"@{self.t:.12g}"]
+        return [f"--{self.kind}", f"{ids}@{self.t:.12g}"]
 
 
 @dataclass(slots=True)
@@ -89,6 +103,9 @@ class TaskSim:
     #: world's per-kind separation), and a breach stops the run (``--min-separation``).
     #: None: the world's separations, fatal only with its ``[safety] fatal_separation``.
     min_separation: float | None = None
+    #: Autopilots that are ready late, refuse to take off or drain their battery faster
+    #: (:mod:`actorswarm.sim.vehicle_faults`); ignored without a world.
+    vehicle_faults: tuple[VehicleFault, ...] = ()
     world: World | None = field(default=None, init=False)
     #: How close the airborne vehicles come (:mod:`actorswarm.world.separation`), measured
     #: after every physics step; None without a world.
@@ -113,6 +130,9 @@ class TaskSim:
     wrecks: list[dict[str, Any]] = field(default_factory=list, init=False)
     #: Each platform's backup storage (its "disk": it outlives a crash).
     stores: dict[int, MemoryBackupStore] = field(default_factory=dict, init=False)
+    #: The platforms the latest ``--kill master`` crashed (``--restart master`` boots them).
+    _master_kills: tuple[int, ...] = field(default=(), init=False)
+    _faults_raised: int = field(default=0, init=False)
 
     def __post_init__(self) -> None:
         self.plan = Plan.build(self.script)
@@ -125,6 +145,10 @@ class TaskSim:
         if self.world_config is not None:
             self.world = World(self.world_config, platforms)
             self.separation = self._monitor(self.world_config, self.world)
+            for vf in self.vehicle_faults:
+                if vf.kind == "drain":
+                    for p in sorted(vf.ids):
+                        self.world.fleet.drain_faster(p, vf.value)
             self.swarm.radio.link_fn = self._link
             self.swarm.at(0.0, self._physics)
         self.ground = GroundStation(swarm=self.swarm.swarm, config=self.config)
@@ -139,7 +163,7 @@ class TaskSim:
         runtime = ActorRuntime(
             platform,
             seed=self.seed,
-            vehicle=None if world is None else world.vehicle(platform),
+            vehicle=None if world is None else self._vehicle(platform),
             camera=None if world is None else world.camera(platform),
             areas=None if world is None else world.area_polygons(),
         )
@@ -154,6 +178,40 @@ class TaskSim:
             self.swarm.call(platform, lambda n: self._resume_or_start(engine, now))
         elif self.auto_start:
             self.swarm.call(platform, lambda n: engine.start(now))
+        self._arm(platform)
+
+    def _vehicle(self, platform: int) -> Any:
+        """The world's vehicle of ``platform``, behind its autopilot's faults if it has any."""
+        assert self.world is not None
+        vehicle = self.world.vehicle(platform)
+        late = [f.value for f in self.vehicle_faults if f.kind == "late" and platform in f.ids]
+        refuses = any(f.kind == "refuse" and platform in f.ids for f in self.vehicle_faults)
+        if not late and not refuses:
+            return vehicle
+        return FaultyVehicle(
+            vehicle,
+            clock=lambda: self.swarm.now,
+            schedule=self.swarm.at,
+            fault=lambda reason: self._vehicle_fault(platform, reason),
+            ready_at=max(late, default=0.0),
+            refuses=refuses,
+        )
+
+    def _vehicle_fault(self, platform: int, reason: str) -> None:
+        """The autopilot of ``platform`` failed a command for good: the task event the
+        daemon raises (:data:`VEHICLE_FAULT_EVENT`), local to that platform."""
+        host = self.hosts.get(platform)
+        if host is None:
+            return
+        self._faults_raised += 1
+        occasion = f"vehicle.{platform}:{self._faults_raised}"
+        engine = host.engine
+        self.swarm.call(
+            platform,
+            lambda n: engine.inject(
+                VEHICLE_FAULT_EVENT, self.swarm.now, data={"reason": reason}, occasion=occasion
+            ),
+        )
         self._arm(platform)
 
     def _link(self, src: int, dst: int) -> tuple[float, float]:
@@ -345,11 +403,15 @@ class TaskSim:
 
     def fault(self, fault: Fault) -> None:
         if fault.kind == "kill":
-            for p in sorted(fault.ids):
+            ids = sorted(fault.ids)
+            if fault.master:
+                ids = [p for p in self.swarm.current_masters() if p in self.hosts]
+                self._master_kills = tuple(ids)
+            for p in ids:
                 self.swarm.crash(p)
                 self._retire(p)
         elif fault.kind == "restart":
-            for p in sorted(fault.ids):
+            for p in self._master_kills if fault.master else sorted(fault.ids):
                 self._retire(p)
                 self.swarm.restart(p)
                 self._boot(p, restarted=True)
@@ -480,9 +542,14 @@ def parse_event(text: str) -> GroundEvent:
 
 
 def parse_fault(kind: str, text: str) -> Fault:
-    """``--kill ID@T``, ``--restart ID@T``, ``--partition IDS[@T]``, ``--heal @T``."""
+    """``--kill ID@T``, ``--restart ID@T``, ``--partition IDS[@T]``, ``--heal @T``; a kill or
+    restart of ``master@T`` is of the master at ``T`` (:class:`Fault`)."""
     flag = f"--{kind}"
     ids, sep, when = text.partition("@")
+    if kind in ("kill", "restart") and ids.strip() == "master":
+        if not sep:
+            raise ValueError(f"{flag}: expected master@T such as master@30, got {text!r}")
+        return Fault(kind, _time(when, flag), master=True)
     if kind == "heal":
         if ids.strip():
             raise ValueError(f"--heal: expected @T such as @12, got {text!r}")
@@ -537,7 +604,7 @@ def steps(transitions: Iterable[dict[str, Any]]) -> list[Step]:
     return out
 
 
-def _why_not(report: dict[str, Any]) -> str:
+def why_not(report: dict[str, Any]) -> str:
     """Why a run did not complete, in a few words: which actors still have transitions and
     on how many platforms, and the events those wait for."""
     holders: dict[str, int] = {}
@@ -559,7 +626,7 @@ def summary(report: dict[str, Any]) -> list[str]:
     """A few human-readable lines about a run's report."""
     lines = [
         f"simulated {report['sim_time_s']:.1f} s; completed: {report['completed']}"
-        + ("" if report["completed"] else f" ({_why_not(report)})"),
+        + ("" if report["completed"] else f" ({why_not(report)})"),
     ]
     for first, last, event, src, dst, cause, who in steps(report["transitions"]):
         spread = f" (+{(last - first) * 1000:.0f} ms)" if last > first else ""

@@ -24,6 +24,7 @@ from typing import Any, Final
 from actorswarm.dsl.model import TaskScript
 from actorswarm.dsl.syntax import id_ranges
 from actorswarm.sim.tasksim import Fault, GroundEvent
+from actorswarm.sim.vehicle_faults import VehicleFault
 from actorswarm.suggest import did_you_mean
 from actorswarm.world.separation import BREACH_PREFIX
 
@@ -45,6 +46,7 @@ def schedule_problems(
     duration: float,
     events: Iterable[GroundEvent] = (),
     faults: Iterable[Fault] = (),
+    vehicle_faults: Iterable[VehicleFault] = (),
 ) -> list[str]:
     """Every mistake in the schedule of a run of ``script`` for ``duration`` seconds, one
     sentence each (empty: none)."""
@@ -64,10 +66,14 @@ def schedule_problems(
         if event.ids is not None:
             problems += _unknown(flag, event.ids, platforms)
     for fault in faults:
-        flag = f"--{fault.kind} " + (f"{id_ranges(fault.ids)}@" if fault.ids else "@")
-        flag += f"{fault.t:g}"
+        flag = " ".join(fault.option())
         problems += _after(flag, fault.t, duration)
         problems += _unknown(flag, fault.ids, platforms)
+    for vf in vehicle_faults:
+        flag = " ".join(vf.option())
+        if vf.kind == "late":
+            problems += _after(flag, vf.value, duration)
+        problems += _unknown(flag, vf.ids, platforms)
     return problems
 
 

@@ -426,6 +426,13 @@ class Fleet:
 
     # --- commands (through SimVehicle) -----------------------------------------------------------
 
+    def drain_faster(self, platform: int, factor: float) -> None:
+        """Make ``platform``'s battery drain ``factor`` times faster from now on (a worn or
+        cold battery: ``actorswarm sim --drain``). ValueError for a factor under 1."""
+        if not (_is_number(factor) and factor >= 1.0):
+            raise ValueError(f"drain factor must be a number >= 1, not {factor!r}")
+        self._drain_scale[self.index(platform)] *= factor
+
     def _goto(self, row: int, x: float, y: float, z: float, speed: float | None) -> None:
         goal = _finite_point("goto", (x, y, z))
         if speed is not None and not (_is_number(speed) and speed > 0):
