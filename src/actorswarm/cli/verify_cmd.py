@@ -98,7 +98,12 @@ def task_verify(
         ),
     ] = None,
     budget: Annotated[
-        int, typer.Option(min=1, max=10_000, help="Re-runs spent minimizing each failure class.")
+        int,
+        typer.Option(
+            min=0,
+            max=10_000,
+            help="Re-runs spent minimizing each failure class (0: no minimizing).",
+        ),
     ] = 48,
     json_out: Annotated[
         str | None, typer.Option("--json", help="Write the JSON report here ('-': stdout).")
@@ -341,6 +346,7 @@ def _run(
             on_result=on_result,
             on_minimized=on_minimized,
             budget=budget,
+            minimize_classes=budget > 0,
         )
     outcome.wall_s = time.perf_counter() - began
     outcome.where = pool.describe()

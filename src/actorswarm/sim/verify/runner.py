@@ -59,7 +59,7 @@ class Mission:
         if self.no_world:
             parts.append("--no-world")
         elif self.world_path is not None:
-            parts += ["--world", self.world_path]
+            parts += ["--world", _shown(self.world_path)]
         parts += ["--duration", f"{self.duration:g}"]
         if self.min_separation is not None:
             parts += ["--min-separation", f"{self.min_separation:g}"]
@@ -69,6 +69,16 @@ class Mission:
         if record is not None:
             parts += ["--record", record]
         return " ".join(_quote(p) for p in parts)
+
+
+def _shown(path: str) -> str:
+    """``path`` relative to the working directory when it lies below it (a shorter
+    command), as given otherwise."""
+    import os
+
+    absolute = os.path.abspath(path)
+    here = os.getcwd()
+    return os.path.relpath(absolute, here) if absolute.startswith(here + os.sep) else path
 
 
 #: The order of ``actorswarm sim``'s fault options.
@@ -93,6 +103,8 @@ class RunResult:
     why: str
     violations: list[str]
     breaches: int
+    #: The actors the first breaching pair ran then ("B/C"), or "" without a breach.
+    breach_actors: str
     #: The closest any two airborne vehicles came, and that pair's required minimum.
     closest_m: float | None
     minimum_m: float | None
@@ -126,6 +138,7 @@ class RunResult:
             "why": self.why,
             "violations": self.violations,
             "breaches": self.breaches,
+            "breach_actors": self.breach_actors,
             "closest_m": self.closest_m,
             "minimum_m": self.minimum_m,
             "margin_m": self.margin_m,
@@ -188,8 +201,8 @@ def run_one(mission: Mission, schedule: Schedule) -> RunResult:
     except Exception:
         crash = traceback.format_exc().rstrip()
         result = RunResult(
-            schedule.seed, False, None, "the simulator raised", [], 0, None, None, 0, 0, [],
-            crash, faults, time.perf_counter() - began,
+            schedule.seed, False, None, "the simulator raised", [], 0, "", None, None, 0, 0,
+            [], crash, faults, time.perf_counter() - began,
         )  # fmt: skip
         result.signature = signature_of(result)
         return result
@@ -215,6 +228,7 @@ def _result(report: dict[str, Any], seed: int, faults: list[str], wall: float) -
         why="" if completed else why_not(report),
         violations=violations,
         breaches=breaches,
+        breach_actors=_breach_actors(report, separation),
         closest_m=None if closest is None else closest["distance_m"],
         minimum_m=None if closest is None else closest["minimum_m"],
         master_changes=len(report["masters"]),
@@ -227,6 +241,21 @@ def _result(report: dict[str, Any], seed: int, faults: list[str], wall: float) -
         faults=faults,
         wall_s=wall,
     )
+
+
+def _breach_actors(report: dict[str, Any], separation: dict[str, Any]) -> str:
+    """The actors the two platforms of the first breach ran at its start, sorted ("B/C";
+    "-" for one that ran none): the phase of the mission where separation was lost."""
+    breaches = separation.get("breaches") or []
+    if not breaches:
+        return ""
+    first = min(breaches, key=lambda b: b["start"])
+    running: dict[int, str] = {}
+    for move in report["transitions"]:  # in time order
+        if move["t"] > first["start"]:
+            break
+        running[move["platform"]] = move["to"]
+    return "/".join(sorted(running.get(p) or "-" for p in first["platforms"]))
 
 
 def _judged_by(report: dict[str, Any], done: frozenset[str]) -> dict[str, Any]:
@@ -264,7 +293,7 @@ def signature_of(result: RunResult) -> str:
         text = _TIME.sub("", result.violations[0])
         return "invariant: " + _NUMBER.sub("#", _LIST.sub("[…]", text))
     if result.breaches:
-        return "separation breach"
+        return f"separation breach ({result.breach_actors})"
     if result.plugin_failures:
         first = result.plugin_failures[0]
         where, _, error = first.partition(": ")

@@ -80,7 +80,8 @@ def scenario_of(text: str, script: Path) -> Scenario | None:
 def _base(script: Path, written: str) -> Path:
     """The directory the line's paths are relative to: the script's own directory, less
     the directories the line's script path names."""
-    here = script.resolve().parent
+    # Not resolve(): a script linked into another directory keeps its own neighbours.
+    here = script.absolute().parent
     parts = Path(written).parent.parts if written else ()
     if parts and here.parts[-len(parts) :] == parts:
         return Path(*here.parts[: -len(parts)]) if len(here.parts) > len(parts) else Path("/")
