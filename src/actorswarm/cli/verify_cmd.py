@@ -369,6 +369,8 @@ def _record(outcome: Outcome, pool: Pool) -> dict[int, Path]:
     try:
         for index, path in pool.map(record_one, jobs):
             made[index + 1] = Path(path)
+    except KeyboardInterrupt:
+        outcome.interrupted = True
     except Exception as exc:  # a recording that cannot be made is said, not fatal
         typer.echo(f"the failure recordings could not all be made: {exc}", err=True)
     return made
