@@ -336,7 +336,7 @@ def test_guards_sharing_a_verdict_memo_refuse_as_guards_without(make: object, re
 
 def test_guards_sharing_a_verdict_memo_accept_once_each_and_keep_their_windows() -> None:
     memo = VerdictMemo(size=2)
-    packets = [sealed(seq=seq) for seq in (1, 2, 3)]  # three: the memo forgets the first
+    packets = [sealed(seq=seq) for seq in (1, 2, 3)]  # three: the memo forgets at the third
     guards = [PacketGuard(KEY, GS_PUBLIC, memo=memo) for _ in range(3)]
     for guard in guards:
         for data in packets:
