@@ -541,7 +541,8 @@ class ActorMachine:
         body = whereabouts.due(
             now,
             watched=watched,
-            position=self.runtime.position(),
+            # Unwatched, due only forgets the last report: the position is not read either.
+            position=self.runtime.position() if watched else None,
             roles=self.node.roles.held,
         )
         if body is None:
