@@ -70,7 +70,9 @@ class Fault:
 
     def option(self) -> list[str]:
         """The ``actorswarm sim`` options that give this fault."""
-        ids = "master" if self.master else ",".join(str(i) for i in sorted(self.ids))
+        from actorswarm.dsl.syntax import id_ranges
+
+        ids = "master" if self.master else id_ranges(self.ids)
         if self.kind == "heal":
             return ["--heal", f"@{self.t:.12g}"]
         return [f"--{self.kind}", f"{ids}@{self.t:.12g}"]

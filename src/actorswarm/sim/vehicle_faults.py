@@ -54,7 +54,9 @@ class VehicleFault:
 
     def option(self) -> list[str]:
         """The ``actorswarm sim`` options that give this fault."""
-        ids = ",".join(str(i) for i in sorted(self.ids))
+        from actorswarm.dsl.syntax import id_ranges
+
+        ids = id_ranges(self.ids)
         if self.kind == "late":
             return ["--late-ready", f"{ids}@{self.value:.12g}"]
         if self.kind == "refuse":
