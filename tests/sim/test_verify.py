@@ -255,6 +255,7 @@ def test_a_run_replays_bit_for_bit_and_the_clean_radio_completes() -> None:
     assert (a.as_dict() | {"wall_s": 0}) == (b.as_dict() | {"wall_s": 0})
     clean = run_one(mission, Schedule(0, EVENTS))
     assert clean.ok and clean.completed and clean.completion_s == pytest.approx(10.02, abs=0.1)
+    assert clean.packets > 1000 and clean.master_changes == 1
 
 
 def test_a_crash_of_the_simulator_is_its_own_class_and_the_others_run_on(

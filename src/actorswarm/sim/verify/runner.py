@@ -232,7 +232,7 @@ def _result(report: dict[str, Any], seed: int, faults: list[str], wall: float) -
         closest_m=None if closest is None else closest["distance_m"],
         minimum_m=None if closest is None else closest["minimum_m"],
         master_changes=len(report["masters"]),
-        packets=sum(int(row.get("sent", 0)) for row in report["traffic"].values()),
+        packets=sum(int(row.get("sent_packets", 0)) for row in report["traffic"].values()),
         plugin_failures=[
             f"{f['actor']}/{f['plugin']} on {f['platform']}: {f['error']}"
             for f in report["plugin_failures"]
