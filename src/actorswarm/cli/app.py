@@ -269,15 +269,7 @@ def _run_campaign(
     how far it got."""
     import time
 
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
+    from actorswarm.cli.progress import tally
     from actorswarm.sim.campaign import CaseResult
     from actorswarm.sim.campaign_runner import run_campaign
 
@@ -286,45 +278,23 @@ def _run_campaign(
         f"{total} cases: seeds {start}..{start + count - 1} in {' and '.join(modes)} "
         f"membership, {workers} worker(s)"
     )
-    done = [0, 0]  # cases, failures
-    said = [time.monotonic()]
-    with Progress(
-        TextColumn("cases"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[failed]} failed"),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=console,
-        transient=True,
-        # Not a terminal (a CI log, a pipe): no bar, the plain lines below instead.
-        disable=not console.is_terminal,
-    ) as bar:
-        task = bar.add_task("cases", total=total, failed=0)
+    with tally(console, total, "cases") as progress:
 
         def on_result(result: CaseResult) -> None:
-            done[0] += 1
             if not result.ok:
-                done[1] += 1
                 console.print(result.explain(), markup=False, soft_wrap=True)
-            bar.update(task, advance=1, failed=done[1])
-            now = time.monotonic()
-            if not console.is_terminal and (now - said[0] >= 10.0 or done[0] == total):
-                said[0] = now
-                console.print(
-                    f"[{done[0]}/{total}] {done[1]} failed, {now - began:.0f} s", markup=False
-                )
+            progress.count(result.ok)
 
         try:
             run_campaign(start, count, modes, workers=workers, on_result=on_result, renew=renew)
         except KeyboardInterrupt:
-            bar.stop()
+            progress.bar.stop()
             console.print(
-                f"interrupted: {done[0] - done[1]} passed, {done[1]} failed of {total} "
-                f"in {time.perf_counter() - began:.1f} s"
+                f"interrupted: {progress.done - progress.failed} passed, {progress.failed} "
+                f"failed of {total} in {time.perf_counter() - began:.1f} s"
             )
             raise typer.Exit(130) from None
-    return done[1]
+    return progress.failed
 
 
 @bench_app.command("core")

@@ -287,15 +287,8 @@ def _run(
     mission: Mission, profile: FaultProfile, planned: list[Schedule], pool: Pool, budget: int
 ) -> Outcome:
     from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
 
+    from actorswarm.cli.progress import tally
     from actorswarm.sim.verify.runner import RunResult
     from actorswarm.sim.verify.session import FailureClass, verify
 
@@ -303,31 +296,10 @@ def _run(
     total = len(planned)
     typer.echo(f"{total} run(s) of {mission.script_path} on {pool.describe()}", err=True)
     began = time.perf_counter()
-    counts = [0, 0]
-    said = [began]
-    with Progress(
-        TextColumn("runs"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[failed]} failed"),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=console,
-        transient=True,
-        disable=not console.is_terminal,
-    ) as bar:
-        task = bar.add_task("runs", total=total, failed=0)
+    with tally(console, total, "runs") as progress:
 
         def on_result(result: RunResult) -> None:
-            counts[0] += 1
-            counts[1] += not result.ok
-            bar.update(task, advance=1, failed=counts[1])
-            now = time.perf_counter()
-            if not console.is_terminal and (now - said[0] >= 10.0 or counts[0] == total):
-                said[0] = now
-                typer.echo(
-                    f"[{counts[0]}/{total}] {counts[1]} failed, {now - began:.0f} s", err=True
-                )
+            progress.count(result.ok)
 
         def on_minimized(cls: FailureClass) -> None:
             m = cls.minimized
