@@ -10,6 +10,7 @@ progress. Stopped by ``KeyboardInterrupt`` while the runs go, it returns what it
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -76,7 +77,10 @@ class Outcome:
     results: list[RunResult] = field(default_factory=list)
     classes: list[FailureClass] = field(default_factory=list)
     interrupted: bool = False
+    #: The whole command's time (set by the caller), and the runs' alone (the rest:
+    #: minimizing, recording).
     wall_s: float = 0.0
+    runs_s: float = 0.0
     where: str = ""
 
     @property
@@ -138,6 +142,7 @@ def verify(
     outcome = Outcome(mission, profile, planned[0].seed if planned else 0, len(planned))
     by_seed = {s.seed: s for s in planned}
     chunk = 1 if len(planned) < 64 else 4
+    began = time.perf_counter()
     try:
         for _, result in pool.map(run_one, [(mission, s) for s in planned], chunk=chunk):
             outcome.results.append(result)
@@ -145,6 +150,7 @@ def verify(
                 on_result(result)
     except KeyboardInterrupt:
         outcome.interrupted = True
+    outcome.runs_s = time.perf_counter() - began
     outcome.results.sort(key=lambda r: r.seed)
     outcome.classes = _classes(outcome.results, by_seed)
     for cls in outcome.classes:
