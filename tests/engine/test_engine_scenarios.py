@@ -101,12 +101,20 @@ def test_timeout_sends_the_waiting_candidates_to_the_timeout_branch() -> None:
         'timeoutBranch="Back"><successor actor="Go"/></transition></actor>',
         '<platform id="1-5" actor="Loiter"/>',
     )
-    report = TaskSim(s, seed=3).run(12, events=[GroundEvent("go", 2.0, frozenset({1, 2}))])
+    run = TaskSim(s, seed=3)
+    report = run.run(12, events=[GroundEvent("go", 2.0, frozenset({1, 2}))])
     clean(report)
     out = switches(report)
     assert sorted(t["platform"] for t in out) == [1, 2]
     assert all(t["to"] == "Back" and t["cause"] == "timeout" for t in out)
     assert all(6.0 <= t["t"] <= 6.1 for t in out), "the master times out 4 s after the request"
+    # Each leaves with its own place among those who waited (a formation's slot).
+    places = sorted(
+        (run.hosts[p].engine.runtime.acbs()["Back"].context.slot,
+         run.hosts[p].engine.runtime.acbs()["Back"].context.slots)
+        for p in (1, 2)
+    )  # fmt: skip
+    assert places == [(1, 2), (2, 2)]
 
 
 def test_more_candidates_than_sysnum_best_bids_win_the_rest_stay() -> None:

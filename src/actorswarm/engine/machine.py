@@ -366,7 +366,18 @@ class ActorMachine:
         transition = cand.transition
         if event.outcome == "timeout":
             if transition.timeout_branch is not None:
-                self.switch(cand.actor, transition.timeout_branch, now, transition.event, "timeout")
+                # Those who waited leave together, each with the place the timeout firing
+                # gave it among them, as a release's do: a formation actor they go to has a
+                # slot per aircraft (without one every aircraft flew to the same point).
+                slot, slots = scattered_slot(event.data) or (
+                    (event.index, event.size) if 1 <= event.index <= event.size else (0, 0)
+                )
+                context = ActorContext(
+                    index=event.index, data=event.data, size=event.size, slot=slot, slots=slots
+                )
+                self.switch(
+                    cand.actor, transition.timeout_branch, now, transition.event, "timeout", context
+                )
             return
         if not event.chosen:
             return
