@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import re
+import shlex
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -68,7 +69,7 @@ class Mission:
         parts += schedule.sim_options()
         if record is not None:
             parts += ["--record", record]
-        return " ".join(_quote(p) for p in parts)
+        return shlex.join(parts)
 
 
 def _shown(path: str) -> str:
@@ -83,12 +84,6 @@ def _shown(path: str) -> str:
 
 #: The order of ``actorswarm sim``'s fault options.
 _FAULT_ORDER = ("kill", "restart", "partition", "heal")
-
-
-def _quote(word: str) -> str:
-    import shlex
-
-    return shlex.quote(word)
 
 
 @dataclass(slots=True)
@@ -165,6 +160,14 @@ def _loaded(script_text: str, world_text: str | None) -> tuple[TaskScript, World
     return result.script, world
 
 
+@functools.lru_cache(maxsize=1)
+def _default_world() -> WorldConfig:
+    """The default world, read once per process (not at every run)."""
+    from actorswarm.world.config import load_world
+
+    return load_world(None)
+
+
 def platforms_of(mission: Mission) -> frozenset[int]:
     """The platforms the mission's script starts."""
     script, _ = _loaded(mission.script_text, None)
@@ -175,9 +178,7 @@ def build(mission: Mission, schedule: Schedule) -> TaskSim:
     """The simulation of ``schedule`` (not yet run)."""
     script, world = _loaded(mission.script_text, None if mission.no_world else mission.world_text)
     if world is None and not mission.no_world:
-        from actorswarm.world.config import load_world
-
-        world = load_world(None)  # the default world, as `sim` without --world
+        world = _default_world()  # as `sim` without --world
     return TaskSim(
         script,
         seed=schedule.seed,
