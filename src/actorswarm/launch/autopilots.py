@@ -9,12 +9,15 @@ In the launch file::
     [autopilot]
     # started by the launcher, one per platform (leave command out to attach to autopilots
     # already running); placeholders: {i} the instance (0, 1, ...), {platform}, {sysid},
-    # {port}, {home} (LAT,LON,ALT: the origin moved {i} × spacing metres east)
+    # {port}, {home} (LAT,LON,ALT: the origin moved {i} × spacing metres along bearing)
     command = "arducopter -S -I{i} --model + --sysid {sysid} --home {home},0 --defaults c.parm"
     mavlink = "tcp:127.0.0.1:{port}"      # each daemon's link to its autopilot
     port = 5760                           # {port} of instance 0 ...
     port_step = 10                        # ... and of instance i: port + i × port_step
     spacing = 4                           # metres between two instances' homes
+    bearing = 90                          # the row of homes runs this way (degrees from
+                                          # north, clockwise: 90 east; 0 north, for
+                                          # fixed-wings side by side, each on its runway east)
     link_timeout = 60                     # seconds the launcher waits for each link
 
 ``{sysid}`` is the platform ID (an autopilot's system ID is 1..255). A command whose first
@@ -41,7 +44,7 @@ from typing import Any, Final
 __all__ = ["AUTOPILOT_KEYS", "AutopilotSpec", "Autopilots", "read_autopilots"]
 
 AUTOPILOT_KEYS: Final = frozenset(
-    {"command", "mavlink", "port", "port_step", "spacing", "link_timeout"}
+    {"command", "mavlink", "port", "port_step", "spacing", "bearing", "link_timeout"}
 )
 _PLACES: Final = ("i", "platform", "sysid", "port", "home")
 #: Seconds an autopilot gets to stop after SIGTERM before it is killed.
@@ -59,19 +62,22 @@ class AutopilotSpec:
     port_step: int = 10
     spacing: float = 4.0
     link_timeout: float = 60.0
+    bearing: float = 90.0
 
     def values(self, index: int, platform: int) -> dict[str, str]:
         """The placeholders' values for instance ``index`` (platform ``platform``)."""
         lat, lon, alt = self.origin
-        east = index * self.spacing
-        # A few metres east: the local flat-earth step is exact to well under a millimetre.
+        way = math.radians(self.bearing)
+        east, north = index * self.spacing * math.sin(way), index * self.spacing * math.cos(way)
+        # A few hundred metres: the local flat-earth step is exact to well under a centimetre.
+        lat_home = lat + math.degrees(north / 6378137.0)
         lon_home = lon + math.degrees(east / (6378137.0 * math.cos(math.radians(lat))))
         return {
             "i": str(index),
             "platform": str(platform),
             "sysid": str(platform),
             "port": str(self.port + index * self.port_step),
-            "home": f"{lat:.7f},{lon_home:.7f},{alt:g}",
+            "home": f"{lat_home:.7f},{lon_home:.7f},{alt:g}",
         }
 
     def link(self, index: int, platform: int) -> str:
@@ -114,7 +120,13 @@ def read_autopilots(
     if command is not None and not isinstance(command, str):
         return f"autopilot.command: expected a string, not {command!r}"
     numbers: dict[str, float] = {}
-    for key, low in (("port", 1), ("port_step", 0), ("spacing", 0), ("link_timeout", 0.1)):
+    for key, low in (
+        ("port", 1),
+        ("port_step", 0),
+        ("spacing", 0),
+        ("bearing", -360),
+        ("link_timeout", 0.1),
+    ):
         value = table.get(key)
         if value is None:
             continue
@@ -128,6 +140,7 @@ def read_autopilots(
         port=int(numbers.get("port", 5760)),
         port_step=int(numbers.get("port_step", 10)),
         spacing=float(numbers.get("spacing", 4.0)),
+        bearing=float(numbers.get("bearing", 90.0)),
         link_timeout=float(numbers.get("link_timeout", 60.0)),
     )
     last = len(platforms) - 1

@@ -28,23 +28,34 @@ from actorswarm.vehicles.mavlink.dialect import mav
 
 __all__ = [
     "ARDUPILOT_MODES",
+    "ARDUPLANE_MODES",
     "PX4_MAIN",
     "PX4_SUB",
+    "Airframe",
     "ArduPilot",
     "Controls",
     "Flavour",
     "Kind",
     "Px4",
     "Target",
+    "before_arming",
     "flavour",
     "mode_name",
     "px4_custom_mode",
+    "ready_and_arm",
 ]
 
 Kind = Literal["ardupilot", "px4"]
+#: The airframe, from the HEARTBEAT's type: a fixed-wing, or anything else (a multicopter).
+Airframe = Literal["copter", "plane"]
 
 #: ArduCopter's custom mode numbers.
 ARDUPILOT_MODES: Final = {"STABILIZE": 0, "GUIDED": 4, "LOITER": 5, "RTL": 6, "LAND": 9}
+#: ArduPlane's custom mode numbers (pymavlink's ``mode_mapping_apm``).
+ARDUPLANE_MODES: Final = {
+    "MANUAL": 0, "CIRCLE": 1, "STABILIZE": 2, "FBWA": 5, "AUTO": 10, "RTL": 11, "LOITER": 12,
+    "TAKEOFF": 13, "GUIDED": 15, "INITIALISING": 16,
+}  # fmt: skip
 #: PX4's main modes, and the sub-modes of AUTO.
 PX4_MAIN: Final = {"POSCTL": 3, "AUTO": 4, "OFFBOARD": 6}
 PX4_SUB: Final = {"READY": 1, "TAKEOFF": 2, "LOITER": 3, "MISSION": 4, "RTL": 5, "LAND": 6}
@@ -57,6 +68,7 @@ _ARDUCOPTER_NAMES: Final = {
     20: "GUIDED_NOGPS", 21: "SMART_RTL", 22: "FLOWHOLD", 23: "FOLLOW", 24: "ZIGZAG",
     25: "SYSTEMID", 26: "AUTOROTATE", 27: "AUTO_RTL", 28: "TURTLE", 29: "RATE_ACRO",
 }  # fmt: skip
+_ARDUPLANE_NAMES: Final = {number: name for name, number in ARDUPLANE_MODES.items()}
 #: PX4's main modes and AUTO's sub-modes by number, named as pymavlink names them.
 _PX4_MAIN_NAMES: Final = {
     1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED",
@@ -168,12 +180,12 @@ def _above_here(v: Controls, altitude: float) -> tuple[float, float, float]:
     return (x, y, z - v.height() + altitude)
 
 
-def _before_arming(v: Controls) -> list[Step]:
+def before_arming(v: Controls) -> list[Step]:
     """Both autopilots: stop any setpoint stream, then the failsafe pre-flight check."""
     return [Do("stop streaming", lambda: v.set_target(None)), _check_failsafes(v)]
 
 
-def _ready_and_arm(v: Controls) -> list[Step]:
+def ready_and_arm(v: Controls) -> list[Step]:
     """Arm, asking again after each refusal, within ``arm_timeout`` of the plan's start;
     while the autopilot's readiness signals say "not yet", only every ``arm_probe``
     seconds (the signals are advice: the autopilot's answer decides)."""
@@ -202,9 +214,9 @@ class ArduPilot:
         if v.airborne:
             return self.goto(v, _above_here(v, altitude), None)
         return [
-            *_before_arming(v),
+            *before_arming(v),
             self._guided(),
-            *_ready_and_arm(v),
+            *ready_and_arm(v),
             # ArduPilot: param 7 is the altitude above home.
             Command(mav.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 0, 0, altitude)),
         ]
@@ -249,8 +261,8 @@ class Px4:
         if v.airborne:
             return self.goto(v, _above_here(v, altitude), None)
         return [
-            *_before_arming(v),
-            *_ready_and_arm(v),
+            *before_arming(v),
+            *ready_and_arm(v),
             # PX4: param 7 is the altitude above mean sea level (home's plus the climb).
             Command(
                 mav.MAV_CMD_NAV_TAKEOFF,
@@ -299,18 +311,21 @@ class Px4:
         ]
 
 
-def mode_name(kind: Kind, base_mode: int, custom_mode: int) -> str:
+def mode_name(kind: Kind, base_mode: int, custom_mode: int, airframe: Airframe = "copter") -> str:
     """The name of the mode a HEARTBEAT reports, read as ``kind`` encodes it (the names
-    pymavlink gives: ``GUIDED``; PX4's ``OFFBOARD``, and ``LOITER`` for AUTO.LOITER)."""
+    pymavlink gives: ``GUIDED``; PX4's ``OFFBOARD``, and ``LOITER`` for AUTO.LOITER;
+    ArduPlane's own numbers for an ArduPilot ``plane``)."""
     del base_mode  # PX4 1.12+ and ArduPilot: the custom mode alone says which
     if kind == "px4":
         main, sub = (custom_mode >> 16) & 0xFF, (custom_mode >> 24) & 0xFF
         if main == PX4_MAIN["AUTO"]:
             return _PX4_AUTO_NAMES.get(sub, "UNKNOWN")
         return _PX4_MAIN_NAMES.get(main, "UNKNOWN")
+    if airframe == "plane":
+        return _ARDUPLANE_NAMES.get(custom_mode, f"Mode({custom_mode})")
     return _ARDUCOPTER_NAMES.get(custom_mode, f"Mode({custom_mode})")
 
 
 def flavour(kind: Kind) -> Flavour:
-    """The flavour of ``kind``."""
+    """The multicopter flavour of ``kind`` (a fixed-wing's: :mod:`~.fixedwing`)."""
     return ArduPilot() if kind == "ardupilot" else Px4()

@@ -50,7 +50,15 @@ from typing import Any, Final, Literal
 from actorswarm.vehicles.mavlink.commands import Check, Command, CommandSender, Step
 from actorswarm.vehicles.mavlink.dialect import mav, result_name
 from actorswarm.vehicles.mavlink.fence import FencePusher
+from actorswarm.vehicles.mavlink.fixedwing import (
+    ARDUPLANE_FAILSAFE_PARAMS,
+    GCS_ID,
+    ArduPlane,
+    PlaneGuidance,
+    Px4FixedWing,
+)
 from actorswarm.vehicles.mavlink.flavours import (
+    Airframe,
     Flavour,
     Kind,
     Target,
@@ -65,6 +73,7 @@ from actorswarm.vehicles.mavlink.link import (
     drain_library_lines,
     is_mavlink1,
 )
+from actorswarm.vehicles.mavlink.mission import MISSION_MESSAGES, MissionWrite
 from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
 from actorswarm.vehicles.mavlink.streams import StreamWatch
 
@@ -207,6 +216,7 @@ class _State:
     heard: float | None = None  # the last HEARTBEAT
     link: LinkState = "never heard"
     kind: Kind | None = None
+    airframe: Airframe = "copter"
     mode: str = ""
     armed: bool = False
     position: tuple[float, float, float] | None = None
@@ -268,6 +278,13 @@ class MavlinkVehicle:
             if settings.push_fence
             else None
         )
+        # A fixed-wing's parts (:mod:`~.fixedwing`): its goal stream, the mission it writes
+        # (a landing), the parameters it sets and the line of its take-off run.
+        self._guidance: PlaneGuidance | None = None
+        self._mission: MissionWrite | None = None
+        self._landing_loaded = False
+        self._param_set_at: dict[str, float] = {}
+        self._runway: tuple[float, float] | None = None
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -332,6 +349,9 @@ class MavlinkVehicle:
                 for request in self._streams.tick(now):
                     self._send(request)
                 self._stream_changes()
+            if self._mission is not None:
+                for message in self._mission.tick(now):
+                    self._send(message)
             if self._plan is not None:
                 self._plan.tick(now)
                 failed = self._plan.drain_errors()
@@ -556,18 +576,99 @@ class MavlinkVehicle:
         kind = self._state.kind
         if kind is None:
             return None
-        for name, what in FAILSAFE_PARAMS[kind].items():
-            value = self._state.params.get(name)
+        params = self._state.params
+        for name, what in self._failsafe_params().items():
+            value = params.get(name)
             if value is None:
                 return None
-            if value == 0 and not self.settings.force:
+            if value == 0 and name != GCS_ID and not self.settings.force:
                 return (
                     f"{name} is 0 ({what} off): refusing to arm; set it on the autopilot, "
                     "or force the take-off"
                 )
+        watched, ours = params.get(GCS_ID), self.settings.own_system
+        if watched is not None and round(watched) != ours and not self.settings.force:
+            # ArduPlane's link-loss failsafe counts only the heartbeats of SYSID_MYGCS: one
+            # that watches another system fires on the ground (RTL, "RTL mode not armable").
+            return (
+                f"{GCS_ID} is {watched:g}, not this vehicle's system {ours}: the link-loss "
+                f"failsafe watches another ground station; set {GCS_ID} {ours} on the "
+                "autopilot, or force the take-off"
+            )
         return True
 
+    # --- a fixed-wing's view (fixedwing.PlaneControls) --------------------------------------------
+
+    def param_is(self, name: str, value: float) -> bool | str | None:
+        """Set the autopilot's ``name`` to ``value``: ``PARAM_SET`` every second until a
+        ``PARAM_VALUE`` echoes it (True then; None meanwhile)."""
+        known = self._state.params.get(name)
+        if known is not None and abs(known - value) < 1e-3:
+            return True
+        now = self._clock()
+        if now - self._param_set_at.get(name, -math.inf) >= _BEAT:
+            self._param_set_at[name] = now
+            system, component = self._filter.system or 0, self.settings.component
+            self._send(
+                mav.MAVLink_param_set_message(
+                    system, component, name.encode(), value, mav.MAV_PARAM_TYPE_REAL32
+                )
+            )
+        return None
+
+    def write_mission(self, items: list[Any], what: str) -> None:
+        system, component = self._filter.system or 0, self.settings.component
+        self._mission = MissionWrite(items, (system, component), what=what, name=self.name)
+        self._landing_loaded = bool(items)
+        for message in self._mission.start(self._clock()):
+            self._send(message)
+
+    def mission_written(self) -> bool | str | None:
+        write = self._mission
+        if write is None:
+            return "no mission was written"
+        if write.error is not None:
+            return write.error
+        return True if write.done else None
+
+    @property
+    def landing_loaded(self) -> bool:
+        return self._landing_loaded
+
+    def runway(self) -> tuple[float, float]:
+        return self._runway or (1.0, 0.0)
+
+    @property
+    def target(self) -> tuple[int, int]:
+        return (self._filter.system or 0, self.settings.component)
+
+    @property
+    def origin(self) -> MissionFrame:
+        return self.settings.origin
+
+    def _note_runway(self) -> None:
+        """Keep the line of the take-off run: the direction of the first fast ground track
+        low after arming (the landing comes back along it)."""
+        s = self._state
+        vx, vy, _ = s.velocity
+        speed = math.hypot(vx, vy)
+        if self._runway is None and s.armed and s.height < 15.0 and speed > 5.0:
+            self._runway = (vx / speed, vy / speed)
+
     # --- inside ----------------------------------------------------------------------------------
+
+    def _flavour_of(self, kind: Kind, airframe: Airframe) -> Flavour:
+        if airframe == "copter":
+            return flavour(kind)
+        return ArduPlane(self) if kind == "ardupilot" else Px4FixedWing()
+
+    def _failsafe_params(self) -> dict[str, str]:
+        s = self._state
+        if s.kind is None:
+            return {}
+        if s.kind == "ardupilot" and s.airframe == "plane":
+            return ARDUPLANE_FAILSAFE_PARAMS
+        return FAILSAFE_PARAMS[s.kind]
 
     def _command(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
         if self._flavour is None or self._plan is None:
@@ -594,7 +695,7 @@ class MavlinkVehicle:
                 custom = px4_custom_mode(int(message.param2), int(message.param3))
             else:
                 custom = int(message.param2)
-            asked = mode_name(self._state.kind, int(message.param1), custom)
+            asked = mode_name(self._state.kind, int(message.param1), custom, self._state.airframe)
             self._mode_asked = (asked, self._clock())
         # A link that is down drops what is sent; the heartbeat watch reports it.
         self._link.send(message)
@@ -606,6 +707,9 @@ class MavlinkVehicle:
             self._streams.heard(message.get_msgId(), now)
         if self._fence is not None:
             for answer in self._fence.on_message(message, now):
+                self._send(answer)
+        if self._mission is not None and kind in MISSION_MESSAGES:
+            for answer in self._mission.on_message(message, now):
                 self._send(answer)
         if kind == "HEARTBEAT":
             self._on_heartbeat(message, now)
@@ -620,6 +724,7 @@ class MavlinkVehicle:
             s.height = message.relative_alt / 1000.0
             if s.home_amsl is None:
                 s.home_amsl = alt - s.height
+            self._note_runway()
         elif kind in ("EKF_STATUS_REPORT", "GPS_RAW_INT"):
             self._readiness.on_message(kind, message)
         elif kind == "STATUSTEXT":
@@ -671,7 +776,11 @@ class MavlinkVehicle:
                 ardupilot = message.autopilot == mav.MAV_AUTOPILOT_ARDUPILOTMEGA
                 chosen = "ardupilot" if ardupilot else "px4"
             s.kind = chosen
-            self._flavour = flavour(chosen)
+            s.airframe = "plane" if message.type == mav.MAV_TYPE_FIXED_WING else "copter"
+            self._flavour = self._flavour_of(chosen, s.airframe)
+            if s.airframe == "plane":
+                system, component = message.get_srcSystem(), message.get_srcComponent()
+                self._guidance = PlaneGuidance(self.settings.origin, system, component)
             self._beat = None  # our next heartbeat now, of the kind's type (PX4: a GCS's)
             target = (message.get_srcSystem(), message.get_srcComponent())
             self._plan = CommandSender(
@@ -684,7 +793,9 @@ class MavlinkVehicle:
                 on_refused=self._on_refused,
             )
             self._streams = StreamWatch(chosen, target, grace=self.settings.stream_grace)
-        s.mode = mode_name(s.kind, message.base_mode, message.custom_mode)
+        if not s.armed:
+            self._runway = None  # the next take-off run sets it again
+        s.mode = mode_name(s.kind, message.base_mode, message.custom_mode, s.airframe)
         if self._mode_asked is not None and self._mode_asked[0] == s.mode:
             self._mode_asked = None  # carried out
 
@@ -836,7 +947,7 @@ class MavlinkVehicle:
         kind = self._state.kind
         if kind is None or (self._params_asked is not None and now - self._params_asked < _BEAT):
             return
-        missing = [name for name in FAILSAFE_PARAMS[kind] if name not in self._state.params]
+        missing = [name for name in self._failsafe_params() if name not in self._state.params]
         if not missing:
             return
         self._params_asked = now
@@ -846,6 +957,10 @@ class MavlinkVehicle:
 
     def _stream(self, now: float) -> None:
         target = self._target
+        if self._guidance is not None:
+            for message in self._guidance.messages(target, self._state.mode, now):
+                self._send(message)
+            return
         if target is None or (
             self._target_sent is not None and now - self._target_sent < 1.0 / target.rate
         ):
