@@ -44,6 +44,7 @@ def test_declarations(cls: type[Plugin]) -> None:
     [
         (TakeOff, {}),
         (TakeOff, {"altitude": "3", "scope": "swarm"}),
+        (TakeOff, {"altitude": "3", "layers": "2", "layer_step": "5", "stagger": "1"}),
         (GoTo, {"target": "4 3 2"}),
         (GoTo, {"TargetPoint": "1 1 1", "speed": "2"}),
         (ReturnHome, {}),
@@ -167,6 +168,42 @@ def test_goto_restore_refuses_a_bad_snapshot() -> None:
 
 
 # --- ReturnHome ----------------------------------------------------------------------------------
+
+
+def test_takeoff_layers_and_staggers_by_platform() -> None:
+    """Platform 3 of three layers, 10 m and 20 s apart: layer 2 waits 40 s, then climbs to
+    its own altitude, and its event fires there (not at the first layer's)."""
+    params = {
+        "altitude": "60",
+        "tolerance": "1",
+        "layers": "3",
+        "layer_step": "10",
+        "stagger": "20",
+    }
+    vehicle = FakeVehicle(climb_rate=4.0)
+    ctx = make_context(TakeOff, params=params, vehicle=vehicle, platform=3)
+    plugin = TakeOff()
+    assert run_plugin(plugin, ctx, steps=390, dt=0.1) == []  # 39 s: still waiting its turn
+    assert vehicle.commands == []
+    events = run_plugin(plugin, ctx, steps=300, dt=0.1)
+    assert vehicle.commands[0] == ("takeoff", 80.0)
+    assert names(events) == ["ready_event"]
+    assert abs(vehicle.position()[2] - 80.0) <= 1.0
+    first = FakeVehicle(climb_rate=4.0)  # platform 4 is on layer 0 again: at once, 60 m
+    run_plugin(TakeOff(), make_context(TakeOff, params=params, vehicle=first, platform=4), steps=1)
+    assert first.commands == [("takeoff", 60.0)]
+
+
+def test_return_home_lands_in_turn_waiting_over_home() -> None:
+    params = {"home": "0 0 0", "altitude": "10", "layers": "0", "land_stagger": "30"}
+    vehicle = FakeVehicle(position=(0.0, 5.0, 10.0), cruise_speed=10.0, climb_rate=3.0)
+    ctx = make_context(ReturnHome, params=params, vehicle=vehicle, slot=2, slots=3)
+    plugin = ReturnHome()
+    run_plugin(plugin, ctx, steps=290, dt=0.1)  # over home within 1 s; its turn at 30 s
+    assert ("land",) not in vehicle.commands
+    assert plugin._drive_snapshot()["land_at"] == pytest.approx(30.0)
+    events = run_plugin(plugin, ctx, steps=200, dt=0.1)
+    assert ("land",) in vehicle.commands and names(events) == ["landed_event"]
 
 
 def test_return_home_flies_home_lands_and_emits_once() -> None:

@@ -109,6 +109,13 @@ class TakeOff(Plugin):
         is within ``tolerance`` of ``altitude``; the plugin then tells the vehicle to hold.
     ``scope`` (``local``, the default, or ``swarm``)
         The event's scope (:meth:`~actorswarm.runtime.context.PluginContext.emit`).
+    ``layers`` (int ≥ 1, default 1), ``layer_step`` (float ≥ 0, default 0), ``stagger``
+        (float ≥ 0, default 0)
+        Take-offs deconflicted for aircraft that cannot hover: platform ``p`` is on layer
+        ``k = (p - 1) mod layers``, climbs to ``altitude + k · layer_step`` (and its event
+        fires there) and takes off ``k · stagger`` seconds after the actor started — so
+        neighbours on a field neither roll at once nor circle at one altitude. The defaults
+        take everyone off at once to ``altitude``.
 
     A vehicle already in the air within ``tolerance`` of ``altitude`` when the actor starts
     gets no take-off command: the event goes out on the first step. (One in the air at
@@ -136,10 +143,37 @@ class TakeOff(Plugin):
         ),
         "event": _event_param("ready_event", "when the vehicle reaches the altitude"),
         "scope": _scope_param(),
+        "layers": Param(
+            kind="int",
+            default=1,
+            minimum=1,
+            doc="platform p takes off on layer (p - 1) mod layers",
+        ),
+        "layer_step": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="metres between two take-off layers (layer k climbs to altitude + k · step)",
+        ),
+        "stagger": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="seconds between two layers' take-offs (layer k waits k · stagger)",
+        ),
     }
 
     def __init__(self) -> None:
         self._fired = False
+        # When this platform's take-off goes out (its layer's turn), None once sent.
+        self._due: float | None = None
+
+    def _altitude(self, ctx: PluginContext) -> float:
+        return float(ctx.params["altitude"]) + self._layer(ctx) * float(ctx.params["layer_step"])
+
+    @staticmethod
+    def _layer(ctx: PluginContext) -> int:
+        return (ctx.platform - 1) % int(ctx.params["layers"])
 
     def on_start(self, ctx: PluginContext) -> None:
         altitude = float(ctx.params["altitude"])
@@ -147,15 +181,25 @@ class TakeOff(Plugin):
             raise ValueError(f"flight.takeoff: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
         self._fired = False
+        self._due = None
         z = vehicle.position()[2]
-        if not (z > LANDED_ALTITUDE and abs(z - altitude) <= ctx.params["tolerance"]):
-            vehicle.takeoff(altitude)
+        if not (z > LANDED_ALTITUDE and abs(z - self._altitude(ctx)) <= ctx.params["tolerance"]):
+            wait = self._layer(ctx) * float(ctx.params["stagger"])
+            if wait > 0:
+                self._due = ctx.now + wait
+            else:
+                vehicle.takeoff(self._altitude(ctx))
 
     def step(self, ctx: PluginContext) -> None:
         if self._fired:
             return
         vehicle = ctx.require_vehicle()
-        if abs(vehicle.position()[2] - ctx.params["altitude"]) <= ctx.params["tolerance"]:
+        if self._due is not None:
+            if ctx.now < self._due:
+                return
+            self._due = None
+            vehicle.takeoff(self._altitude(ctx))
+        if abs(vehicle.position()[2] - self._altitude(ctx)) <= ctx.params["tolerance"]:
             self._fired = True
             ctx.emit(ctx.params["event"], scope=ctx.params["scope"])
             vehicle.hold()
@@ -164,8 +208,8 @@ class TakeOff(Plugin):
         vehicle = ctx.require_vehicle()
         if self._fired:
             vehicle.hold()
-        else:
-            vehicle.takeoff(float(ctx.params["altitude"]))
+        elif self._due is None:
+            vehicle.takeoff(self._altitude(ctx))
 
     def snapshot(self) -> dict[str, Any]:
         return {"fired": self._fired}
@@ -371,6 +415,11 @@ class ReturnHome(Plugin):
         group share an altitude and, with ``layer_step`` above the separation, two members
         level on their layers cannot meet however their paths cross. (A landing still
         descends through the layers below it.)
+    ``land_stagger`` (float ≥ 0, default 0)
+        Landings in turn: the member on layer ``k`` lands no earlier than ``k ·
+        land_stagger`` seconds after this actor started, waiting over home (a fixed-wing
+        circling it, on its layer) until then — so aircraft do not share the approach at
+        once. 0: each lands as soon as it is over home.
     ``rally`` (point ``"x y z"``, optional; z unused)
         Where a group sent home together (``ctx.slots`` > 1) flies first, *keeping its
         shape*: each member flies to ``rally + (its position − the group's centre)``, the
@@ -434,6 +483,13 @@ class ReturnHome(Plugin):
             minimum=0,
             doc="how many layers a group travels home on; 0: one per member",
         ),
+        "land_stagger": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="seconds between the landings of two layers (layer k lands from k · this "
+            "after the start); 0: each as soon as it is over home",
+        ),
         "rally": Param(
             kind="point",
             doc='where a group sent home first flies together, keeping its shape, "x y z" '
@@ -447,6 +503,8 @@ class ReturnHome(Plugin):
         self._home: Point | None = None
         self._phase = "transit"
         self._layer = 0
+        # The earliest this member may land (its layer's turn; -inf: at once).
+        self._land_at = -math.inf
         # The member's place around the rally point, and the unit vector (x, y, 0) of the
         # group's flight there: the rally phase ends once that far along it.
         self._rally: Point | None = None
@@ -469,6 +527,8 @@ class ReturnHome(Plugin):
         vehicle = ctx.require_vehicle()
         layers = int(ctx.params["layers"]) or max(ctx.slots, 1)
         self._layer = (ctx.slot - 1) % layers if ctx.slot > 0 else 0
+        stagger = float(ctx.params["land_stagger"])
+        self._land_at = ctx.now + self._layer * stagger if stagger > 0 else -math.inf
         given = ctx.params["home"]
         if given is not None:
             self._home = read_point("flight.return_home", "home", given)
@@ -525,6 +585,8 @@ class ReturnHome(Plugin):
         if self._phase == "transit":
             if _distance(vehicle.position(), self._over_home(ctx)) > ctx.params["tolerance"]:
                 return
+            if ctx.params["land"] and ctx.now < self._land_at:
+                return  # not its turn yet: it waits over home
             if ctx.params["land"]:
                 self._phase = "landing"
                 vehicle.land()
@@ -547,6 +609,8 @@ class ReturnHome(Plugin):
         if self._rally is not None:
             state["rally"] = list(self._rally)
             state["rally_way"] = list(self._rally_way)
+        if math.isfinite(self._land_at):
+            state["land_at"] = self._land_at
         return state
 
     def restore(self, state: Mapping[str, Any]) -> None:
@@ -564,6 +628,12 @@ class ReturnHome(Plugin):
                 f"not {layer!r}"
             )
         self._layer = layer
+        land_at = state.get("land_at", -math.inf)
+        if not (isinstance(land_at, int | float) and not isinstance(land_at, bool)):
+            raise ValueError(
+                f"flight.return_home: a snapshot's 'land_at' must be a number, not {land_at!r}"
+            )
+        self._land_at = float(land_at)
         self._rally = None
         if phase == "rally":
             self._rally = read_point("flight.return_home", "rally", state.get("rally"))
