@@ -35,6 +35,10 @@ SRC = str(Path(__file__).resolve().parents[2] / "src")
             ["--home", "47.4,8.5,3", "--withhold", "EKF_STATUS"],
             "--withhold EKF_STATUS: not a MAVLink message name",
         ),
+        (
+            ["--home", "47.4,8.5,3", "--kind", "px4", "--frame", "plane"],
+            "a px4 fixed-wing is not modelled yet",
+        ),
     ],
 )
 def test_bad_options(args: list[str], message: str) -> None:
@@ -86,3 +90,34 @@ def test_serves_mavlink_until_sigterm() -> None:
             proc.wait()
     said = proc.stderr.read() if proc.stderr is not None else ""
     assert "autopilot 5 (px4)" in said and "ready to arm 35 s after boot" in said
+
+
+def test_frame_plane_heartbeats_as_a_fixed_wing() -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "actorswarm", "autopilot", "--home", "47.4,8.5,400",
+         "--listen", f"udpin:127.0.0.1:{port}", "--frame", "plane"],
+        env={**os.environ, "PYTHONPATH": SRC},
+        stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=255)
+    try:
+        deadline = time.monotonic() + 20.0
+        beat = None
+        while beat is None and time.monotonic() < deadline:
+            gcs.mav.heartbeat_send(6, 8, 0, 0, 0)
+            beat = gcs.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
+        assert beat is not None, "no heartbeat from the autopilot"
+        assert (beat.type, beat.autopilot) == (1, 3)  # MAV_TYPE_FIXED_WING, ARDUPILOTMEGA
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
+    finally:
+        gcs.close()
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    said = proc.stderr.read() if proc.stderr is not None else ""
+    assert "autopilot 1 (ardupilot, plane)" in said and "ready to arm 22 s after boot" in said

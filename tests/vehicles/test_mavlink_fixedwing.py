@@ -89,6 +89,14 @@ def test_the_speed_goes_out_on_a_change_once_a_second_and_again_after_a_mode_cha
     assert speeds(None, "GUIDED", 8.4) == ["speed -2"]
 
 
+def test_a_speed_outside_the_autopilots_airspeed_limits_is_clamped_to_them() -> None:
+    g = PlaneGuidance(ORIGIN, 1, 1, low=10.0, high=30.0)
+    (speed,) = g.messages(_target((0.0, 0.0, 60.0), 38.0), "GUIDED", 0.0)[1:]
+    assert speed.param2 == 30.0
+    (speed,) = g.messages(_target((0.0, 0.0, 60.0), 4.0), "GUIDED", 1.0)
+    assert speed.param2 == 10.0
+
+
 def test_no_speed_asked_after_a_mode_change_sends_none() -> None:
     g = PlaneGuidance(ORIGIN, 1, 1)
     assert _kinds(g.messages(_target((0.0, 0.0, 60.0)), "GUIDED", 0.0)) == ["reposition"]

@@ -1,11 +1,12 @@
-"""``actorswarm autopilot``: a simulated MAVLink autopilot (ArduCopter or PX4) for one
-vehicle, until SIGTERM or SIGINT (:mod:`actorswarm.vehicles.mavlink.autopilot`).
+"""``actorswarm autopilot``: a simulated MAVLink autopilot (ArduCopter, ArduPlane or PX4)
+for one vehicle, until SIGTERM or SIGINT (:mod:`actorswarm.vehicles.mavlink.autopilot`).
 
 pymavlink is imported only when the command runs.
 """
 
 from __future__ import annotations
 
+import math
 import signal
 import sys
 import threading
@@ -22,10 +23,19 @@ class AutopilotKind(StrEnum):
     px4 = "px4"
 
 
+class AutopilotFrame(StrEnum):
+    copter = "copter"
+    plane = "plane"
+
+
 def autopilot(
     home: Annotated[
         str,
-        typer.Option(help="Where it stands: LAT,LON,ALT (degrees, degrees, metres AMSL)."),
+        typer.Option(
+            help="Where it stands: LAT,LON,ALT (degrees, degrees, metres AMSL), and for a "
+            "--frame plane optionally ,HEADING: where it faces down its runway, degrees "
+            "clockwise from north (default 0), as SITL's --home takes it."
+        ),
     ],
     listen: Annotated[
         str,
@@ -35,6 +45,14 @@ def autopilot(
     kind: Annotated[
         AutopilotKind, typer.Option(help="Which autopilot it behaves as.")
     ] = AutopilotKind.ardupilot,
+    frame: Annotated[
+        AutopilotFrame,
+        typer.Option(
+            help="The airframe: a multicopter, or plane: a fixed-wing that plays ArduPlane "
+            "4.5.7 (TAKEOFF, GUIDED, LOITER, RTL, AUTO modes, missions; --kind ardupilot "
+            "only).",
+        ),
+    ] = AutopilotFrame.copter,
     failsafes: Annotated[
         bool,
         typer.Option(
@@ -53,7 +71,8 @@ def autopilot(
         typer.Option(
             min=0.0,
             help="Seconds from boot until it accepts arming, refusing with the real "
-            "autopilot's reasons before (default: as measured, 40 for ardupilot, 35 for px4). "
+            "autopilot's reasons before (default: as measured, 40 for ardupilot, 22 for "
+            "ardupilot --frame plane, 35 for px4). "
             "On tcpin: its clock starts when the first client connects.",
         ),
     ] = None,
@@ -78,7 +97,8 @@ def autopilot(
         typer.Option("--mavlink1", help="Speak MAVLink 1 only (a link that drops MAVLink 2)."),
     ] = False,
 ) -> None:
-    """Run a simulated MAVLink autopilot (quadrotor) for one vehicle until SIGTERM/SIGINT.
+    """Run a simulated MAVLink autopilot (quadrotor, or ArduPlane with --frame plane) for one
+    vehicle until SIGTERM/SIGINT.
 
     It links as the firmware does: as ArduCopter's first serial port, it sends HEARTBEAT and
     little else until asked (SET_MESSAGE_INTERVAL, REQUEST_DATA_STREAM); as PX4's onboard
@@ -88,6 +108,7 @@ def autopilot(
     from actorswarm.vehicles.mavlink.frame import parse_origin
 
     withheld = _message_ids(withhold or [])
+    place, heading = _home_and_heading(home)
     busy = _udp_port_taken(listen)
     if busy:
         typer.echo(f"autopilot: --listen {listen}: {busy}; choose another port", err=True)
@@ -95,9 +116,11 @@ def autopilot(
     try:
         options = AutopilotOptions(
             listen,
-            parse_origin(home, what="--home"),
+            parse_origin(place, what="--home"),
             system=sysid,
             kind=kind.value,
+            frame=frame.value,
+            heading=heading,
             failsafes=failsafes,
             battery=battery,
             endurance=endurance,
@@ -116,7 +139,8 @@ def autopilot(
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
     print(
-        f"autopilot {sysid} ({kind.value}) on {listen}, home {home}, "
+        f"autopilot {sysid} ({kind.value}"
+        f"{', plane' if frame is AutopilotFrame.plane else ''}) on {listen}, home {home}, "
         f"ready to arm {sim.boot.ready_after:g} s after boot",
         file=sys.stderr,
         flush=True,
@@ -125,6 +149,21 @@ def autopilot(
         sim.run(stop)
     finally:
         sim.close()
+
+
+def _home_and_heading(home: str) -> tuple[str, float]:
+    """``LAT,LON,ALT[,HEADING]`` -> (``LAT,LON,ALT``, heading); a bad heading is refused."""
+    parts = home.split(",")
+    if len(parts) != 4:
+        return home, 0.0
+    try:
+        heading = float(parts[3])
+    except ValueError:
+        heading = math.nan
+    if not math.isfinite(heading):
+        typer.echo(f"autopilot: --home {home}: the heading {parts[3]!r} is not a number", err=True)
+        raise typer.Exit(2)
+    return ",".join(parts[:3]), heading
 
 
 def _udp_port_taken(url: str) -> str:

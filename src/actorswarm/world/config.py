@@ -311,6 +311,41 @@ VehicleParams = QuadrotorParams | FixedWingParams
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class FixedWingTuning:
+    """Opt-in refinements of the fixed-wing model, for one fitted to a real autopilot's
+    measured flight (the simulated ArduPlane's); not part of a world file. Each is off by
+    default, and a vehicle without them flies exactly as before they existed.
+
+    ``loiter_clockwise`` circles clockwise (ArduPlane's default); ``rotate_speed`` (m/s, 0:
+    ``min_airspeed``) is the speed at which a take-off roll lifts off; ``level_altitude``
+    (metres, 0: off) hands a take-off over to normal flight once this high, so that it turns
+    towards its goal while it climbs on (ArduPlane's ``TKOFF_LVL_ALT``); ``climb_gain`` (1/s,
+    0: off) also bounds the vertical speed by ``climb_gain`` times the height still to climb
+    or descend, the slowing approach of an energy controller; ``glide_slope`` (degrees, 0:
+    none) and ``landing_speed`` (m/s, 0: ``min_airspeed``) shape a landing to a point
+    (:meth:`~actorswarm.world.vehicles.SimVehicle.land_at`, which needs a glide slope).
+    """
+
+    loiter_clockwise: bool = False
+    rotate_speed: float = 0.0
+    level_altitude: float = 0.0
+    climb_gain: float = 0.0
+    glide_slope: float = 0.0
+    landing_speed: float = 0.0
+
+    def __post_init__(self) -> None:
+        _non_negative(
+            self, "rotate_speed", "level_altitude", "climb_gain", "glide_slope", "landing_speed"
+        )
+        if not isinstance(self.loiter_clockwise, bool):
+            raise _fail(
+                self, "loiter_clockwise", f"must be true or false, not {self.loiter_clockwise!r}"
+            )
+        if self.glide_slope >= 45.0:
+            raise _fail(self, "glide_slope", f"must be below 45 degrees, not {self.glide_slope!r}")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class SafetyConfig:
     """``[safety]``: the limits every run is held to.
 
@@ -590,6 +625,8 @@ class VehicleSpec:
     heading: float
     battery: float
     params: VehicleParams
+    #: Refinements of a fixed-wing's model (None: none; ignored for a quadrotor).
+    tuning: FixedWingTuning | None = None
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -77,7 +77,13 @@ from typing import Any, Final, Literal, TypeVar, get_args
 import numpy as np
 from numpy.typing import NDArray
 
-from actorswarm.world.config import FixedWingParams, Kind, VehicleSpec, WorldConfig
+from actorswarm.world.config import (
+    FixedWingParams,
+    FixedWingTuning,
+    Kind,
+    VehicleSpec,
+    WorldConfig,
+)
 
 __all__ = [
     "DEAD",
@@ -151,6 +157,23 @@ class Fleet:
         self._min_speed = column(f.min_airspeed if f else 0.0 for f in fixed)
         self._turn = column(f.turn_rate_rad if f else math.inf for f in fixed)
         self._loiter = column(f.loiter_radius if f else 0.0 for f in fixed)
+        # The opt-in refinements (FixedWingTuning: without them nothing changes).
+        tune = [
+            (spec.tuning or FixedWingTuning()) if f else FixedWingTuning()
+            for spec, f in zip(specs, fixed, strict=True)
+        ]
+        self._loiter_dir = column(-1.0 if t.loiter_clockwise else 1.0 for t in tune)
+        self._rotate = column(
+            max(f.min_airspeed, t.rotate_speed) if f else 0.0
+            for f, t in zip(fixed, tune, strict=True)
+        )
+        self._level = column(t.level_altitude if t.level_altitude > 0 else math.inf for t in tune)
+        self._climb_gain = column(t.climb_gain for t in tune)
+        self._glide = column(math.tan(math.radians(t.glide_slope)) for t in tune)
+        self._land_speed = column(
+            (t.landing_speed or f.min_airspeed) if f else 0.0
+            for f, t in zip(fixed, tune, strict=True)
+        )
         rest = column(p.rest_power for p in params)
         self._rest = rest
         # Drain per second at speed s is (rest + (1 - rest) s / max) * _drain_scale, so that
@@ -174,6 +197,11 @@ class Fleet:
         self._pending = np.zeros(n, dtype=bool)
         self._speed_cmd = self._cruise.copy()
         self._takeoff_alt = np.zeros(n)
+        # A landing to a point (land_at): the glide's tangent (0: none), the distance short
+        # of the point where it meets the ground, and the altitude it starts from.
+        self._glide_tan = np.zeros(n)
+        self._glide_short = np.zeros(n)
+        self._glide_top = np.zeros(n)
         self._vehicles = [SimVehicle(self, row) for row in range(n)]
 
     @classmethod
@@ -324,38 +352,45 @@ class Fleet:
         radius = self._loiter[rows]
         r2, big_r2 = r * r, radius * radius
         inward = -(r2 - big_r2) / (r2 + big_r2)
-        along = 2.0 * r * radius / (r2 + big_r2)
+        along = 2.0 * r * radius / (r2 + big_r2) * self._loiter_dir[rows]
         fx, fy = inward * rx - along * ry, inward * ry + along * rx
         # Beyond 2R blend towards the straight bearing (-r̂), all of it from 3R (docstring).
         pursuit = np.clip(r / np.maximum(radius, 1e-9) - 2.0, 0.0, 1.0)
         fx = (1.0 - pursuit) * fx - pursuit * rx
         fy = (1.0 - pursuit) * fy - pursuit * ry
         field = np.arctan2(fy, fx)
-        wanted_heading = np.where(flying, field, heading)
+        on_ground = z <= 0.0
+        # A landing to a point steers straight at it until the wheels are down.
+        glide_tan = self._glide_tan[rows]
+        gliding = landing & (glide_tan > 0.0) & ~on_ground
+        wanted_heading = np.where(flying, field, np.where(gliding, np.arctan2(-ry, -rx), heading))
         turn = _wrap(wanted_heading - heading)
         limit = self._turn[rows] * dt
         heading = _wrap(heading + np.clip(turn, -limit, limit))
 
         # Airspeed: what was asked when flying; cruise on the take-off roll; min_airspeed on
         # the approach, then braking to a stop once the wheels are down.
-        on_ground = z <= 0.0
         wanted_speed = np.where(
             flying,
             np.clip(self._speed_cmd[rows], min_speed, max_speed),
-            np.where(takeoff, self._cruise[rows], np.where(on_ground, 0.0, min_speed)),
+            np.where(takeoff, self._cruise[rows], np.where(on_ground, 0.0, self._land_speed[rows])),
         )
         step = accel * dt
         speed = speed + np.clip(wanted_speed - speed, -step, step)
 
         # Vertical: towards the aim's altitude (the take-off altitude, the ground when
         # landing), braking in time. A take-off lifts off only at min_airspeed.
-        lifted = ~takeoff | (z > 0.0) | (speed >= min_speed)
+        lifted = ~takeoff | (z > 0.0) | (speed >= self._rotate[rows])
         target_z = np.where(landing, 0.0, np.where(takeoff, self._takeoff_alt[rows], aim[:, 2]))
         dz = target_z - z
         rate = np.minimum(
             np.minimum(climb, _braking_speed(np.abs(dz), _BRAKE * accel, dt)), np.abs(dz) / dt
         )
+        gain = self._climb_gain[rows]
+        rate = np.where(gain > 0.0, np.minimum(rate, gain * np.abs(dz)), rate)
         wanted_vz = np.where(lifted & ~(landing & on_ground), np.sign(dz) * rate, 0.0)
+        if gliding.any():
+            wanted_vz = np.where(gliding, self._glide_vz(rows, r, speed, z, wanted_vz), wanted_vz)
         vz = vz + np.clip(wanted_vz - vz, -step, step)
 
         horizontal = np.sqrt(np.maximum(speed * speed - vz * vz, 0.0))
@@ -367,6 +402,27 @@ class Fleet:
         self._heading[rows], self._airspeed[rows] = heading, speed
         self._finish_phases(rows, pos, before, dt)
 
+    def _glide_vz(
+        self,
+        rows: NDArray[np.intp],
+        r: FloatArray,
+        speed: FloatArray,
+        z: FloatArray,
+        plain: FloatArray,
+    ) -> FloatArray:
+        """The vertical speed that follows a landing's glide line (``land_at``): the line's
+        own sink plus a correction towards it (``climb_gain``, 1/s when unset); once the
+        line has reached the ground (``r`` within its distance short of the point), the
+        ``plain`` descent onto it."""
+        tan, short, top = self._glide_tan[rows], self._glide_short[rows], self._glide_top[rows]
+        line = np.minimum(top, tan * np.maximum(r - short, 0.0))
+        sink = np.where((line > 0.0) & (line < top), speed * np.sin(np.arctan(tan)), 0.0)
+        gain = np.where(self._climb_gain[rows] > 0.0, self._climb_gain[rows], 1.0)
+        climb = self._climb[rows]
+        follow = np.clip(-sink + gain * (line - z), -climb, climb)
+        out: FloatArray = np.where(line > 0.0, follow, plain)
+        return out
+
     def _finish_phases(
         self, rows: NDArray[np.intp], pos: FloatArray, before: FloatArray, dt: float
     ) -> None:
@@ -374,13 +430,19 @@ class Fleet:
         landings that reached the ground (and, for a fixed-wing, stopped) are landed."""
         mode = self._mode[rows]
         z = pos[:, 2]
-        up = (mode == TAKEOFF) & (np.abs(z - self._takeoff_alt[rows]) <= _ARRIVE)
+        up = (mode == TAKEOFF) & (
+            (np.abs(z - self._takeoff_alt[rows]) <= _ARRIVE) | (z >= self._level[rows])
+        )
         if up.any():
             done = rows[up]
             self._mode[done] = FLYING
             pending = self._pending[done]
-            # No goto meanwhile: hover (circle) where the climb ended.
-            self._aim[done] = np.where(pending[:, None], self._goal[done], self._pos[done])
+            # No goto meanwhile: hover (circle) where the climb ended (at the take-off
+            # altitude, also when handed over early at level_altitude).
+            here = self._pos[done].copy()
+            early = np.isfinite(self._level[done])
+            here[:, 2] = np.where(early, self._takeoff_alt[done], here[:, 2])
+            self._aim[done] = np.where(pending[:, None], self._goal[done], here)
             self._pending[done] = False
         # Touchdown within _ARRIVE of the ground, once it came down so slowly vertically (a
         # quadrotor: in every direction) that stopping dead in this step stays within
@@ -514,6 +576,33 @@ class Fleet:
             self._mode[row] = LANDING
             self._pending[row] = False
             self._aim[row] = (self._pos[row, 0], self._pos[row, 1], 0.0)
+            self._glide_tan[row] = 0.0
+
+    def _land_at(
+        self, row: int, point: tuple[float, float], start: tuple[float, float, float]
+    ) -> None:
+        x, y, _ = _finite_point("land_at", (point[0], point[1], 0.0))
+        sx, sy, sz = _finite_point("land_at", start)
+        if not (self._is_fw[row] and self._glide[row] > 0.0):
+            raise ValueError("land_at: only a fixed-wing with a glide_slope lands at a point")
+        if int(self._mode[row]) not in (TAKEOFF, FLYING) or self._on_wheels(row):
+            return
+        top = max(sz, 0.0)
+        span = math.hypot(sx - x, sy - y)
+        # The line falls at glide_slope, or more steeply when that would land past the point.
+        tan = max(float(self._glide[row]), top / span if span > 0.0 else math.inf)
+        self._mode[row] = LANDING
+        self._pending[row] = False
+        self._aim[row] = (x, y, 0.0)
+        self._glide_tan[row] = min(tan, 1.0)
+        self._glide_short[row] = max(span - top / self._glide_tan[row], 0.0)
+        self._glide_top[row] = top
+
+    def _set_loiter_radius(self, row: int, radius: float) -> None:
+        if not (_is_number(radius) and radius > 0):
+            raise ValueError(f"loiter radius must be a positive number (metres), not {radius!r}")
+        if self._is_fw[row]:
+            self._loiter[row] = radius
 
 
 class SimVehicle:
@@ -586,6 +675,22 @@ class SimVehicle:
 
     def takeoff(self, altitude: float) -> None:
         self._fleet._takeoff(self._row, altitude)
+
+    # --- beyond the interface: a fixed-wing's refinements ----------------------------------------
+
+    def land_at(self, x: float, y: float, *, start: tuple[float, float, float]) -> None:
+        """Land a fixed-wing with a ``glide_slope`` on the point ``(x, y)``: steer straight at
+        it and descend along the line from ``start`` (the approach point, ``(x, y, z)``) that
+        falls at ``glide_slope`` — more steeply when that would touch down past the point —
+        not above ``start``'s altitude, touching down where the line meets the ground, short
+        of the point when the slope is steeper than ``start`` needs; then brake to a stop
+        straight ahead. Nothing on the ground; ValueError for any other vehicle."""
+        self._fleet._land_at(self._row, (x, y), start)
+
+    def set_loiter_radius(self, radius: float) -> None:
+        """Circle goals at ``radius`` metres from now on (a fixed-wing; others ignore it).
+        A radius below the turn radius at the speed flown is flown wider, as it must be."""
+        self._fleet._set_loiter_radius(self._row, radius)
 
     # --- beyond the interface --------------------------------------------------------------------
 

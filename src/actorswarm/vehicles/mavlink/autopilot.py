@@ -35,6 +35,16 @@ What it models
   the estimator has one, ``GPS_RAW_INT``, ``EKF_STATUS_REPORT`` (ArduPilot), the pre-arm bit
   of ``SYS_STATUS``; STATUSTEXT (ArduPilot: only to a link that sent something; PX4: only
   after a GCS-type HEARTBEAT, chunked).
+* ArduPlane 4.5.7 (``frame="plane"``, :mod:`~.simplane`): the project's fixed-wing physics
+  fitted to the measured SITL (cruise 22 m/s in 10–30, clockwise circles 20–25 m wider than
+  asked, at least 50 m; the take-off roll, lift-off and climb; a 3.5° glide at 16 m/s);
+  HEARTBEAT type FIXED_WING, INITIALISING then MANUAL; its 1 Hz streams unasked from
+  1.9 s, a ``SET_MESSAGE_INTERVAL`` before its first HEARTBEAT ACKed and ignored; arming
+  refused with its ``Arm:`` reasons until 22 s; TAKEOFF, GUIDED (``DO_REPOSITION``, the
+  altitude of ``SET_POSITION_TARGET_GLOBAL_INT``), LOITER, RTL (``RTL_ALTITUDE``,
+  ``RTL_AUTOLAND``), AUTO; ``DO_CHANGE_SPEED``; the mission protocol and a landing
+  sequence (``DO_LAND_START``, ``NAV_LAND``) that touches down short, as measured, and
+  disarms.
 * Both: landing ends disarmed; an empty battery drops the vehicle (the physics' ``dead``)
   and disarms it. The failsafe parameters the pre-flight check reads answer
   ``PARAM_REQUEST_READ`` (1, or 0 with ``failsafes=False``) and take ``PARAM_SET``.
@@ -43,11 +53,13 @@ What it does not model
 ----------------------
 Sensors, EKF and GPS (the position is exact), wind, attitude and yaw, RC input, enforcing
 a geofence (one is taken, :class:`~actorswarm.vehicles.mavlink.fence.FenceReceiver`, with
-its parameters, but never acted on), missions other than the fence (``MISSION_*``), RTL,
-the failsafes themselves (the parameters are read, never acted on), pre-arm checks beyond
-the mode, the battery and the replayed boot (:mod:`~actorswarm.vehicles.mavlink.boot`),
-parameters other than the failsafes' and the fence's, MAVLink signing, fixed-wing and VTOL
-vehicles, and any other message.
+its parameters, but never acted on), missions other than the fence (``MISSION_*``) and RTL
+(but for ArduPlane's), the failsafes themselves (the parameters are read, never acted
+on), pre-arm checks beyond the mode, the battery and the replayed boot
+(:mod:`~actorswarm.vehicles.mavlink.boot`), parameters other than the failsafes' and the
+fence's (ArduPlane: and its own), MAVLink signing, PX4 fixed-wings, VTOL vehicles,
+ArduPlane's flare as its own phase, its AUTO take-off and the mission items beyond
+waypoints and the landing, and any other message.
 """
 
 from __future__ import annotations
@@ -59,14 +71,29 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, Literal
 
-from actorswarm.vehicles.mavlink.boot import DEFAULT_READY_AFTER, Boot, chunks
+from actorswarm.vehicles.mavlink.boot import (
+    ARDUPLANE_READY_AFTER,
+    DEFAULT_READY_AFTER,
+    Boot,
+    chunks,
+)
 from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.fence import FenceReceiver, fence_params
-from actorswarm.vehicles.mavlink.firmware import PX4_ONBOARD
+from actorswarm.vehicles.mavlink.firmware import (
+    ARDUPLANE_DATA_STREAMS,
+    ARDUPLANE_UNASKED,
+    PX4_ONBOARD,
+)
 from actorswarm.vehicles.mavlink.flavours import ARDUPILOT_MODES, PX4_MAIN, PX4_SUB, px4_custom_mode
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import open_connection, read_available
 from actorswarm.vehicles.mavlink.linkstreams import LinkStreams
+from actorswarm.vehicles.mavlink.simplane import (
+    PLANE_MESSAGES,
+    SimPlane,
+    plane_params,
+    plane_spec,
+)
 from actorswarm.vehicles.mavlink.vehicle import FAILSAFE_PARAMS
 from actorswarm.world.config import QuadrotorParams, VehicleSpec
 from actorswarm.world.vehicles import Fleet
@@ -109,12 +136,17 @@ class AutopilotOptions:
     the start of its clock until it accepts arming (None: as measured on the real one, 40 s
     for ArduPilot, 35 s for PX4; see :mod:`~actorswarm.vehicles.mavlink.boot`). The clock
     starts at once, or on a ``tcpin:`` endpoint when the first client connects, as SITL's
-    does."""
+    does. ``frame``: a multicopter, or (ArduPilot only) ArduPlane's fixed-wing
+    (:mod:`~actorswarm.vehicles.mavlink.simplane`; ready after 22 s by default);
+    ``heading``: where a fixed-wing faces, down its runway (degrees clockwise from north,
+    as SITL's ``--home`` takes it)."""
 
     url: str
     home: MissionFrame
     system: int = 1
     kind: Literal["ardupilot", "px4"] = "ardupilot"
+    frame: Literal["copter", "plane"] = "copter"
+    heading: float = 0.0
     failsafes: bool = True
     battery: float = 1.0
     endurance: float = 1200.0
@@ -136,6 +168,13 @@ class AutopilotOptions:
             raise ValueError(f"autopilot: the battery must be within (0, 1], not {self.battery}")
         if not (self.endurance > 0 and self.offboard_timeout > 0):
             raise ValueError("autopilot: endurance and offboard timeout must be > 0 s")
+        if self.frame not in ("copter", "plane"):
+            raise ValueError(f"autopilot: the frame is copter or plane, not {self.frame!r}")
+        if self.frame == "plane" and self.kind != "ardupilot":
+            raise ValueError(
+                f"autopilot: a {self.kind} fixed-wing is not modelled yet (only ArduPlane: "
+                "kind ardupilot)"
+            )
 
 
 class SimAutopilot:
@@ -154,14 +193,18 @@ class SimAutopilot:
             source_component=mav.MAV_COMP_ID_AUTOPILOT1,
         )
         self._conn.mavlink1_only = options.mavlink1
-        params = QuadrotorParams(endurance=options.endurance)
-        spec = VehicleSpec(
-            platform=1,
-            kind="quadrotor",
-            home=(0.0, 0.0),
-            heading=math.pi / 2,
-            battery=options.battery,
-            params=params,
+        plane = options.frame == "plane"
+        spec = (
+            plane_spec(options.battery, options.endurance, options.heading)
+            if plane
+            else VehicleSpec(
+                platform=1,
+                kind="quadrotor",
+                home=(0.0, 0.0),
+                heading=math.pi / 2,
+                battery=options.battery,
+                params=QuadrotorParams(endurance=options.endurance),
+            )
         )
         self._fleet = Fleet([spec])
         self._vehicle = self._fleet.vehicle(1)
@@ -175,8 +218,10 @@ class SimAutopilot:
         )
         self._speed: float | None = None
         self._setpoint_at: float | None = None
-        self._params = dict.fromkeys(
-            FAILSAFE_PARAMS[options.kind], 1.0 if options.failsafes else 0.0
+        self._params = (
+            plane_params(options.failsafes)
+            if plane
+            else dict.fromkeys(FAILSAFE_PARAMS[options.kind], 1.0 if options.failsafes else 0.0)
         )
         # The geofence: its parameters take PARAM_SET, its polygon the mission protocol.
         self._params.update(fence_params(options.kind, 100.0))
@@ -186,23 +231,44 @@ class SimAutopilot:
             producible |= set(PX4_ONBOARD)
         else:
             producible.add(mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT)
+        if plane:
+            producible |= PLANE_MESSAGES
+            tables: dict[str, Any] = {
+                "unasked": ARDUPLANE_UNASKED,
+                "data_streams": ARDUPLANE_DATA_STREAMS,
+            }
+        else:
+            tables = {}
         self.streams = LinkStreams(
             options.kind,
             producible,
             withheld=options.withheld,
             interval_ignored=options.interval_ignored,
+            **tables,
         )
         self._physics_at = self._started = clock()
         self._closed = False
         ready_after = options.ready_after
         if ready_after is None:
-            ready_after = DEFAULT_READY_AFTER[options.kind]
-        self.boot = Boot(options.kind, ready_after)
+            ready_after = ARDUPLANE_READY_AFTER if plane else DEFAULT_READY_AFTER[options.kind]
+        self.boot = Boot(options.kind, ready_after, options.frame)
         # SITL's clock (and so its boot) starts when the first client connects over TCP.
         self._booted: float | None = None if options.url.startswith("tcpin:") else self._started
         self._said = -1.0  # the boot texts said up to this boot time
         self._nagged: float | None = None
         self._text_id = 0
+        # ArduPlane: the part that plays it (its modes, commands, mission and boot steps).
+        self._plane = (
+            SimPlane(
+                self,
+                link=self._conn,
+                vehicle=self._vehicle,
+                home=options.home,
+                params=self._params,
+            )
+            if plane
+            else None
+        )
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -238,6 +304,8 @@ class SimAutopilot:
 
     @property
     def mode_name(self) -> str:
+        if self._plane is not None:
+            return self._plane.mode_name
         if isinstance(self._mode, tuple):
             main, sub = self._mode
             main_name = next(k for k, v in PX4_MAIN.items() if v == main)
@@ -297,6 +365,8 @@ class SimAutopilot:
         if getattr(message, "target_system", 0) not in (0, self.options.system):
             return
         self.streams.heard(kind, message.type if kind == "HEARTBEAT" else None)
+        if self._plane is not None and self._plane.on_message(message, now):
+            return
         if kind == "REQUEST_DATA_STREAM":
             self.streams.request_stream(
                 message.req_stream_id, message.req_message_rate, bool(message.start_stop)
@@ -469,6 +539,9 @@ class SimAutopilot:
             self._vehicle.goto(x, y, max(z, 0.5), speed=self._speed)
 
     def _after_step(self, now: float) -> None:
+        if self._plane is not None:
+            self._plane.after_step(now)
+            return
         mode = self._vehicle.mode
         # Both autopilots disarm on touchdown, and on the ground after a few seconds armed
         # without a take-off (ArduCopter's DISARM_DELAY, PX4's COM_DISARM_PRFLT, 10 s by
@@ -491,19 +564,25 @@ class SimAutopilot:
                 self.say("Offboard setpoints lost: holding")
 
     def _streams(self, now: float) -> None:
+        plane = self._plane
         for message_id in self.streams.due(now):
-            if not self._send_stream(message_id, now):
+            if plane is not None and not plane.may_send(message_id, now):
+                self.streams.unsent(message_id)  # ArduPlane's boot: not yet
+            elif not self._send_stream(message_id, now):
                 self.streams.unsent(message_id)
-        if self.boot.at(self.boot_time(now)).home:
-            # ArduPilot: one of each, unasked, once its EKF has an origin.
-            for message_id in (
-                mav.MAVLINK_MSG_ID_HOME_POSITION,
-                mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
-            ):
-                if self.streams.take_once(message_id):
-                    self._send_stream(message_id, now)
+        # ArduPilot: one of each, unasked: home once it has one, the origin once its EKF
+        # has one (ArduCopter: both at once).
+        state = self.boot.at(self.boot_time(now))
+        for message_id, due in (
+            (mav.MAVLINK_MSG_ID_HOME_POSITION, state.home),
+            (mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, state.origin),
+        ):
+            if due and self.streams.take_once(message_id):
+                self._send_stream(message_id, now)
 
     def _custom_mode(self) -> int:
+        if self._plane is not None:
+            return self._plane.mode
         if isinstance(self._mode, tuple):
             return px4_custom_mode(*self._mode)
         return self._mode
@@ -520,7 +599,8 @@ class SimAutopilot:
                 base |= mav.MAV_MODE_FLAG_SAFETY_ARMED
             autopilot = mav.MAV_AUTOPILOT_PX4 if self._px4 else mav.MAV_AUTOPILOT_ARDUPILOTMEGA
             state = mav.MAV_STATE_ACTIVE if self._airborne() else mav.MAV_STATE_STANDBY
-            mav_.heartbeat_send(mav.MAV_TYPE_QUADROTOR, autopilot, base, self._custom_mode(), state)
+            kind = mav.MAV_TYPE_QUADROTOR if self._plane is None else mav.MAV_TYPE_FIXED_WING
+            mav_.heartbeat_send(kind, autopilot, base, self._custom_mode(), state)
         elif message_id == mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
             shown = self.boot.at(self.boot_time(now)).position
             if shown == "none":
@@ -597,7 +677,7 @@ class SimAutopilot:
                 0,
                 0,
             )
-        else:
+        elif self._plane is None or not self._plane.send(message_id, boot_ms):
             mav_.send(zero_message(message_id))
         return True
 

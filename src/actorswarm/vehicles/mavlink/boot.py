@@ -13,6 +13,17 @@ ArduPilot
     constant-position mode off) at 98 %; arming accepted from 100 %. A refused arm is
     answered ``MAV_RESULT_FAILED`` with ``Arm:`` texts; ``PreArm:`` texts repeat while not
     ready.
+ArduPlane (``frame="plane"``, measured on ArduPlane 4.5.7 SITL with ``plane.parm``)
+    About 22 s to arming; as measured, in seconds of that: the mode INITIALISING until 0.2 s
+    (then MANUAL); ``ArduPilot Ready`` and the first ``HEARTBEAT`` at 1.6 s (before it, a
+    ``SET_MESSAGE_INTERVAL`` is ACKed and never applied, a mission refused); its 1 Hz
+    streams from 1.9 s, ``EKF_STATUS_REPORT`` from 3 s; home, a 3D fix and a real
+    ``GLOBAL_POSITION_INT`` at 10 s; ``EKF3 IMU0 is using GPS`` at 20.3 s; the EKF origin
+    (``GPS_GLOBAL_ORIGIN``) at 21.7 s. A refused arm is answered ``MAV_RESULT_FAILED`` with
+    ``Arm: Accels inconsistent``, ``Arm: Compass not healthy``, ``Arm: AHRS: waiting for
+    home`` (until home), ``Arm: Airspeed 1 not healthy`` and, for the first 0.2 s, ``Arm:
+    INITIALISING mode not armable``; from 12 s ``Arm: Gyros inconsistent`` alone (measured
+    12–18 s; held until ready, the last reason seen). No ``PreArm:`` nagging is modelled.
 PX4
     ``HOME_POSITION`` from 5 %; every arm ``MAV_RESULT_TEMPORARILY_REJECTED`` with
     ``Arming denied: Resolve system health failures first`` (51 characters: two chunks) and
@@ -29,10 +40,12 @@ from typing import Final, Literal
 
 from actorswarm.vehicles.mavlink.dialect import mav
 
-__all__ = ["DEFAULT_READY_AFTER", "Boot", "BootState", "chunks"]
+__all__ = ["ARDUPLANE_READY_AFTER", "DEFAULT_READY_AFTER", "Boot", "BootState", "chunks"]
 
 #: Seconds from the start of its clock until each autopilot accepts arming, as measured.
 DEFAULT_READY_AFTER: Final[dict[str, float]] = {"ardupilot": 40.0, "px4": 35.0}
+#: ... ArduPlane 4.5.7 (first accepted at 21.3 s, on another boot 23.4 s).
+ARDUPLANE_READY_AFTER: Final = 22.0
 #: STATUSTEXT's text field, characters.
 _TEXT: Final = 50
 
@@ -46,6 +59,20 @@ _ARDUPILOT_TEXTS: Final = (
     (0.98, "EKF3 IMU0 is using GPS"),
 )
 _PX4_TEXTS: Final = ((0.0, "PX4 SITL boot"),)
+#: ArduPlane's boot, in seconds of its measured 22 s (scaled with ready_after).
+_PLANE_INITIALISED: Final = 0.2
+_PLANE_READY: Final = 1.6
+_PLANE_STREAMS: Final = 1.9
+_PLANE_EKF: Final = 3.0
+_PLANE_HOME: Final = 10.0
+_PLANE_GYROS: Final = 12.0
+_PLANE_USING_GPS: Final = 20.3
+_PLANE_ORIGIN: Final = 21.7
+_PLANE_TEXTS: Final = (
+    (_PLANE_READY / ARDUPLANE_READY_AFTER, "ArduPilot Ready"),
+    (_PLANE_EKF / ARDUPLANE_READY_AFTER, "EKF3 IMU0 initialised"),
+    (_PLANE_USING_GPS / ARDUPLANE_READY_AFTER, "EKF3 IMU0 is using GPS"),
+)
 _PX4_DENIED: Final = "Arming denied: Resolve system health failures first\t"
 
 
@@ -78,24 +105,49 @@ class BootState:
     ekf_flags: int
     #: The texts repeated while not ready (ArduPilot's ``PreArm:``, PX4's ``Preflight Fail``).
     nag: str | None
+    #: ``GPS_GLOBAL_ORIGIN`` may go (ArduPilot: once, when its EKF has an origin).
+    origin: bool = False
+    #: ArduPlane's start-up steps (the other autopilots have them all from the start): its
+    #: mode left INITIALISING; HEARTBEAT sent, SET_MESSAGE_INTERVAL applied, a mission
+    #: taken ("ArduPilot Ready"); its streams going; its EKF_STATUS_REPORT going.
+    initialised: bool = True
+    link_ready: bool = True
+    streaming: bool = True
+    ekf_streaming: bool = True
 
 
 class Boot:
     """The boot of a ``kind`` autopilot that accepts arming from ``ready_after`` s."""
 
-    def __init__(self, kind: Literal["ardupilot", "px4"], ready_after: float) -> None:
+    def __init__(
+        self,
+        kind: Literal["ardupilot", "px4"],
+        ready_after: float,
+        frame: Literal["copter", "plane"] = "copter",
+    ) -> None:
         if not ready_after >= 0:
             raise ValueError(f"ready_after must be >= 0 s, not {ready_after!r}")
+        if frame == "plane" and kind != "ardupilot":
+            raise ValueError(f"the boot of a {kind} plane is not modelled yet")
         self.kind = kind
         self.ready_after = ready_after
+        self.frame = frame
 
     def texts(self, t0: float, t1: float) -> list[str]:
         """The boot messages said in ``(t0, t1]`` (the first one at ``t0 == t1 == 0``)."""
-        table = _ARDUPILOT_TEXTS if self.kind == "ardupilot" else _PX4_TEXTS
+        table = (
+            _PLANE_TEXTS
+            if self.frame == "plane"
+            else _ARDUPILOT_TEXTS
+            if self.kind == "ardupilot"
+            else _PX4_TEXTS
+        )
         r = self.ready_after
         return [text for f, text in table if (t0 < f * r <= t1) or (f * r == t1 == t0 == 0)]
 
     def at(self, t: float) -> BootState:
+        if self.frame == "plane":
+            return self._plane(t)
         r = self.ready_after
         armable = t >= r
         if self.kind == "px4":
@@ -146,4 +198,52 @@ class Boot:
             nag=None
             if armable
             else ("PreArm: Need Position Estimate" if origin else "PreArm: AHRS: waiting for home"),
+            origin=origin,
+        )
+
+    def _plane(self, t: float) -> BootState:
+        """ArduPlane's boot (module docstring), its measured seconds scaled to ready_after."""
+        scale = self.ready_after / ARDUPLANE_READY_AFTER
+
+        def since(seconds: float) -> bool:
+            return t >= seconds * scale
+
+        armable = t >= self.ready_after
+        home = since(_PLANE_HOME)
+        using_gps = since(_PLANE_USING_GPS)
+        flags = 0
+        if since(_PLANE_EKF):
+            flags = mav.EKF_ATTITUDE | mav.EKF_VELOCITY_HORIZ | mav.EKF_VELOCITY_VERT
+            flags |= mav.EKF_POS_VERT_ABS | mav.EKF_POS_VERT_AGL
+            if using_gps:
+                flags |= mav.EKF_POS_HORIZ_REL | mav.EKF_POS_HORIZ_ABS | mav.EKF_PRED_POS_HORIZ_ABS
+            else:
+                flags |= mav.EKF_CONST_POS_MODE
+        refusal: tuple[str, ...]
+        if armable:
+            refusal = ()
+        elif since(_PLANE_GYROS):
+            refusal = ("Arm: Gyros inconsistent",)
+        else:
+            refusal = ("Arm: Accels inconsistent", "Arm: Compass not healthy")
+            if not home:
+                refusal += ("Arm: AHRS: waiting for home",)
+            refusal += ("Arm: Airspeed 1 not healthy",)
+            if not since(_PLANE_INITIALISED):
+                refusal += ("Arm: INITIALISING mode not armable",)
+        return BootState(
+            armable=armable,
+            refusal=refusal,
+            refused_with=mav.MAV_RESULT_FAILED,
+            prearm_ok=armable,
+            position="real" if home else "zeros",
+            home=home,
+            gps_fix=3 if home else 0,
+            ekf_flags=flags,
+            nag=None,
+            origin=since(_PLANE_ORIGIN),
+            initialised=since(_PLANE_INITIALISED),
+            link_ready=since(_PLANE_READY),
+            streaming=since(_PLANE_STREAMS),
+            ekf_streaming=since(_PLANE_EKF),
         )

@@ -15,6 +15,14 @@ ArduPilot (ArduCopter)
     the link asks: ``MAV_CMD_SET_MESSAGE_INTERVAL`` per message (ACKed ``ACCEPTED``, sent at
     the rate asked from then on) or the legacy ``REQUEST_DATA_STREAM`` per group of messages
     (:data:`ARDUPILOT_DATA_STREAMS`, no ACK). Streams are per link, and forgotten at a reboot.
+ArduPlane
+    Its ``SR0_*`` defaults are 1 Hz, so unlike ArduCopter it streams unasked
+    (:data:`ARDUPLANE_UNASKED`, from 1.9 s after its clock starts; ``EKF_STATUS_REPORT``
+    from 3 s; one ``HOME_POSITION`` at 10 s, one ``GPS_GLOBAL_ORIGIN`` at 21.7 s: the
+    simulated autopilot's boot, :mod:`~.boot`, holds those times). ``REQUEST_DATA_STREAM``
+    rewrites the rates of :data:`ARDUPLANE_DATA_STREAMS`' groups (no ACK); a
+    ``SET_MESSAGE_INTERVAL`` that comes before its first ``HEARTBEAT`` is ACKed and never
+    applied.
 PX4 (onboard mode)
     Its default onboard set streams unasked at the rates of :data:`PX4_ONBOARD` (messages
     per second over the first 20 s), ``GLOBAL_POSITION_INT`` only once the estimator has a
@@ -34,6 +42,8 @@ from actorswarm.vehicles.mavlink.dialect import mav
 __all__ = [
     "ARDUCOPTER_UNASKED",
     "ARDUPILOT_DATA_STREAMS",
+    "ARDUPLANE_DATA_STREAMS",
+    "ARDUPLANE_UNASKED",
     "PX4_ONBOARD",
     "PX4_ONBOARD_NOT_IN_DIALECT",
     "PX4_POSITION_RATE",
@@ -62,6 +72,33 @@ ARDUPILOT_DATA_STREAMS: Final = MappingProxyType(
         ),
         mav.MAV_DATA_STREAM_POSITION: (mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,),
         mav.MAV_DATA_STREAM_EXTRA3: (mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT,),
+    }
+)
+
+#: ArduPlane 4.5.7's first serial port (``plane.parm``), asking for nothing: message ->
+#: messages per second (None: sent once). Measured: these at 1 Hz, and more of the
+#: ``SR0_*`` groups that the simulated autopilot does not send.
+ARDUPLANE_UNASKED: Final = MappingProxyType(
+    {
+        mav.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
+        mav.MAVLINK_MSG_ID_ATTITUDE: 1.0,
+        mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 1.0,
+        mav.MAVLINK_MSG_ID_VFR_HUD: 1.0,
+        mav.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
+        mav.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+        mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
+        mav.MAVLINK_MSG_ID_HOME_POSITION: None,
+        mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: None,
+    }
+)
+
+#: ArduPlane's legacy streams -> the messages of each that the simulated one sends (the
+#: copter's, and ATTITUDE in EXTRA1, VFR_HUD in EXTRA2, as ``GCS_Mavlink.cpp`` groups them).
+ARDUPLANE_DATA_STREAMS: Final = MappingProxyType(
+    {
+        **ARDUPILOT_DATA_STREAMS,
+        mav.MAV_DATA_STREAM_EXTRA1: (mav.MAVLINK_MSG_ID_ATTITUDE,),
+        mav.MAV_DATA_STREAM_EXTRA2: (mav.MAVLINK_MSG_ID_VFR_HUD,),
     }
 )
 

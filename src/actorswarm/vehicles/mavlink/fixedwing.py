@@ -26,7 +26,10 @@ Speed
     :data:`SPEED_STEP` or more (at most once a second), again after every mode change
     (ArduPlane forgets it then), and every :data:`SPEED_REPAIR` seconds. ArduPlane holds it
     within ``AIRSPEED_MIN``..``AIRSPEED_MAX`` (10..30 m/s in its SITL) and only in GUIDED and
-    AUTO. No speed: the cruise speed (``-2``, which ArduPlane reads as "back to cruise").
+    AUTO; a speed outside ``AIRSPEED_MIN``..``AIRSPEED_MAX`` (read from the autopilot,
+    :data:`ENVELOPE`) is clamped to them here, as ArduPlane refuses it (``FAILED``) rather
+    than flying the nearest. No speed: the cruise speed (``-2``, which ArduPlane reads as
+    "back to cruise").
 Hold
     ``LOITER`` (12): it circles where it is, at ``WP_LOITER_RAD``.
 Landing
@@ -68,6 +71,7 @@ __all__ = [
     "APPROACH_DISTANCE",
     "APPROACH_HEIGHT",
     "ARDUPLANE_FAILSAFE_PARAMS",
+    "ENVELOPE",
     "GCS_ID",
     "LOITER_RADIUS",
     "REPAIR",
@@ -91,6 +95,9 @@ ARDUPLANE_FAILSAFE_PARAMS: Final = {
     "BATT_FS_LOW_ACT": "low-battery failsafe",
     GCS_ID: "the ground station the link-loss failsafe watches",
 }
+#: The airspeed limits read from ArduPlane (not checked before arming: they bound the speeds
+#: asked for, :class:`PlaneGuidance`).
+ENVELOPE: Final = ("AIRSPEED_MIN", "AIRSPEED_MAX")
 #: The loiter radius asked with each goal, metres: the smallest that makes ArduPlane fly its
 #: tightest sustained circle (about 50 m at cruise; it adds ~20 m to what is asked).
 LOITER_RADIUS: Final = 30.0
@@ -256,6 +263,9 @@ class PlaneGuidance:
     system: int
     component: int
     radius: float = LOITER_RADIUS
+    #: The autopilot's airspeed limits, once read (:data:`ENVELOPE`).
+    low: float = 0.0
+    high: float = math.inf
     _goal: tuple[float, float, float] | None = None
     _goal_at: float = -math.inf
     _speed: float | None = None
@@ -276,7 +286,9 @@ class PlaneGuidance:
         if (moved and since >= 1.0 / target.rate) or since >= REPAIR:
             out.append(self._reposition(goal))
             self._goal, self._goal_at = goal, now
-        wanted = _CRUISE if target.speed is None else float(target.speed)
+        wanted = (
+            _CRUISE if target.speed is None else min(max(float(target.speed), self.low), self.high)
+        )
         since = now - self._speed_at
         changed = self._speed is None or abs(wanted - self._speed) >= SPEED_STEP
         if mode in ("GUIDED", "AUTO") and (

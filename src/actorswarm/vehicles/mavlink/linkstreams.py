@@ -21,7 +21,7 @@ Pure: the owner gives ``now`` and sends the messages :meth:`LinkStreams.due` nam
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Mapping, Sequence
 from typing import Final, Literal
 
 from actorswarm.vehicles.mavlink.dialect import mav
@@ -39,18 +39,22 @@ _DENIED: Final[int] = mav.MAV_RESULT_DENIED
 _FAILED: Final[int] = mav.MAV_RESULT_FAILED
 
 
-def _initial(kind: Literal["ardupilot", "px4"]) -> dict[int, float]:
+def _initial(
+    kind: Literal["ardupilot", "px4"], unasked: Mapping[int, float | None]
+) -> dict[int, float]:
     """Intervals (seconds) of what ``kind`` sends unasked, sent once or not at all left out."""
     if kind == "px4":
         out = {m: 1.0 / rate for m, rate in PX4_ONBOARD.items()}
         out[mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT] = 1.0 / PX4_POSITION_RATE
         return out
-    return {m: 1.0 / rate for m, rate in ARDUCOPTER_UNASKED.items() if rate is not None}
+    return {m: 1.0 / rate for m, rate in unasked.items() if rate is not None}
 
 
 class LinkStreams:
     """The streams of one link of a ``kind`` autopilot that can produce the messages
-    ``producible`` (the rest of what a firmware could be asked for is refused)."""
+    ``producible`` (the rest of what a firmware could be asked for is refused).
+    ``unasked`` and ``data_streams`` are an ArduPilot firmware's tables (ArduCopter's by
+    default; ArduPlane's are in :mod:`~.firmware`)."""
 
     def __init__(
         self,
@@ -59,8 +63,12 @@ class LinkStreams:
         *,
         withheld: Collection[int] = (),
         interval_ignored: bool = False,
+        unasked: Mapping[int, float | None] = ARDUCOPTER_UNASKED,
+        data_streams: Mapping[int, Sequence[int]] = ARDUPILOT_DATA_STREAMS,
     ) -> None:
         self.kind = kind
+        self._unasked = unasked
+        self._data_streams = data_streams
         self.producible = frozenset(producible) - frozenset(withheld)
         self.withheld = frozenset(withheld)
         self.interval_ignored = interval_ignored
@@ -73,11 +81,13 @@ class LinkStreams:
 
     def forget(self) -> None:
         """A reboot: back to what the firmware sends unasked, every rate asked for gone."""
-        self.intervals = {m: i for m, i in _initial(self.kind).items() if m not in self.withheld}
+        self.intervals = {
+            m: i for m, i in _initial(self.kind, self._unasked).items() if m not in self.withheld
+        }
         self.once = (
             set()
             if self.kind == "px4"
-            else {m for m, rate in ARDUCOPTER_UNASKED.items() if rate is None} - self.withheld
+            else {m for m, rate in self._unasked.items() if rate is None} - self.withheld
         )
         self._next.clear()
         self.active = self.gcs = False
@@ -103,7 +113,7 @@ class LinkStreams:
         if self.interval_ignored:
             return _ACCEPTED
         if interval_us == 0:
-            default = _initial(self.kind).get(message_id)
+            default = _initial(self.kind, self._unasked).get(message_id)
             if default is None:
                 self.intervals.pop(message_id, None)
             else:
@@ -120,15 +130,16 @@ class LinkStreams:
         PX4 ignores it."""
         if self.kind != "ardupilot":
             return
+        table = self._data_streams
         streams = (
-            list(ARDUPILOT_DATA_STREAMS)
+            list(table)
             if stream == mav.MAV_DATA_STREAM_ALL
             else [stream]
-            if stream in ARDUPILOT_DATA_STREAMS
+            if stream in table
             else []
         )
         for s in streams:
-            for message_id in ARDUPILOT_DATA_STREAMS[s]:
+            for message_id in table[s]:
                 if message_id not in self.producible:
                     continue
                 if start and rate > 0:

@@ -52,6 +52,7 @@ from actorswarm.vehicles.mavlink.dialect import mav, result_name
 from actorswarm.vehicles.mavlink.fence import FencePusher
 from actorswarm.vehicles.mavlink.fixedwing import (
     ARDUPLANE_FAILSAFE_PARAMS,
+    ENVELOPE,
     GCS_ID,
     ArduPlane,
     PlaneGuidance,
@@ -407,6 +408,7 @@ class MavlinkVehicle:
             return {
                 "link": s.link,
                 "autopilot": s.kind,
+                "airframe": s.airframe if s.kind is not None else None,
                 "system": self._filter.system,
                 "mode": s.mode,
                 "armed": s.armed,
@@ -749,7 +751,13 @@ class MavlinkVehicle:
             name = message.param_id
             if isinstance(name, bytes):
                 name = name.decode("ascii", "replace")
-            s.params[name.rstrip("\x00")] = self._param_value(message)
+            name = name.rstrip("\x00")
+            s.params[name] = self._param_value(message)
+            if self._guidance is not None and name in ENVELOPE:
+                if name == ENVELOPE[0]:
+                    self._guidance.low = s.params[name]
+                else:
+                    self._guidance.high = s.params[name]
         elif kind == "COMMAND_ACK":
             if (
                 message.command == mav.MAV_CMD_COMPONENT_ARM_DISARM
@@ -947,7 +955,8 @@ class MavlinkVehicle:
         kind = self._state.kind
         if kind is None or (self._params_asked is not None and now - self._params_asked < _BEAT):
             return
-        missing = [name for name in self._failsafe_params() if name not in self._state.params]
+        wanted = [*self._failsafe_params(), *(ENVELOPE if self._guidance is not None else ())]
+        missing = [name for name in wanted if name not in self._state.params]
         if not missing:
             return
         self._params_asked = now
