@@ -135,3 +135,81 @@ def test_launch_starts_an_autopilot_per_platform_restarts_a_dead_one_and_stops_t
             continue
         raise AssertionError(f"autopilot {pid} is still running")
     assert "autopilot 2 (ardupilot) on tcpin" in (tmp_path / "run" / "autopilot-2.log").read_text()
+
+
+def test_the_fixed_wing_launch_file_flies_simulated_arduplanes(tmp_path: Path) -> None:
+    """examples/launch/formation-arduplane.toml as shipped, with `actorswarm autopilot --frame
+    plane` for the SITL binary and two platforms: the daemons pass ArduPlane's failsafe check
+    (SYSID_MYGCS), set each aircraft's take-off altitude on its layer and arm it in TAKEOFF."""
+    import json
+    import time
+
+    root = Path(__file__).resolve().parents[2]
+    shipped = (root / "examples" / "launch" / "formation-arduplane.toml").read_text()
+    ports = free_ports(4)
+    low, high = sorted(ports[2:])
+    swarm = f"fw{os.getpid()}"
+    body = (
+        shipped.replace(
+            'swarm = "formation-arduplane"', f'swarm = "fw{os.getpid()}"\ninsecure = true'
+        )
+        .replace('platforms = "1-10"', 'platforms = "1-2"')
+        .replace('directory = "~/.local/state/actorswarm/formation-arduplane"', 'directory = "run"')
+        .replace("ports = 7601", f"ports = {ports[:2]}")
+        .replace(
+            'config = "formation-arduplane-daemon.toml"',
+            f'config = "{root / "examples" / "launch" / "formation-arduplane-daemon.toml"}"',
+        )
+    )
+    template = next(line for line in body.splitlines() if line.startswith("command = "))
+    assert "arduplane" in template and "{home},90" in template
+    body = body.replace(
+        template,
+        'command = "actorswarm autopilot --frame plane --listen tcpin:127.0.0.1:{port} '
+        '--sysid {sysid} --home {home},90 --ready-after 2"',
+    )
+    body = body.replace("port = 5760", f"port = {low}").replace(
+        "port_step = 10", f"port_step = {high - low}"
+    )
+    path = _file(tmp_path, body)
+    launcher = subprocess.Popen(
+        [sys.executable, "-m", "actorswarm", "launch", str(path), "--interval", "0.3"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    out = LauncherOutput(launcher)
+    gs = ["--swarm", swarm, "--insecure", "--no-multicast"]
+    gs += ["--connect", f"tcp/127.0.0.1:{ports[0]}"]
+
+    def vehicle(p: int) -> dict[str, object]:
+        try:
+            state = json.loads((tmp_path / "run" / f"state-{p}" / "status.json").read_text())
+        except (OSError, ValueError):
+            return {}
+        return state.get("vehicle") or {}
+
+    try:
+        for p in (1, 2):
+            out.wait_for(rf"platform {p}: autopilot link up after [\d.]+ s")
+        script = str(root / "examples" / "formation_arduplane.xml")
+        for command in (["deploy", script, "--expect", "2"], ["start"]):
+            done = subprocess.run(
+                [sys.executable, "-m", "actorswarm", "gs", *command, *gs],
+                check=False, capture_output=True, text=True, timeout=60,
+            )  # fmt: skip
+            assert done.returncode == 0, done.stdout + done.stderr
+        deadline = time.monotonic() + 40.0
+        while time.monotonic() < deadline:
+            if all(vehicle(p).get("armed") and vehicle(p).get("mode") == "TAKEOFF" for p in (1, 2)):
+                break
+            time.sleep(0.5)
+        for p, altitude in ((1, 60.0), (2, 70.0)):  # its take-off layer: 60 + (p - 1) x 10
+            seen = vehicle(p)
+            assert seen.get("armed") and seen.get("airframe") == "plane", seen
+            assert seen.get("mode") == "TAKEOFF", seen
+            assert seen["failsafes"]["TKOFF_ALT"] == altitude, seen  # type: ignore[index]
+        launcher.send_signal(signal.SIGINT)
+        assert launcher.wait(timeout=40) == 0, "".join(out.lines)
+    finally:
+        if launcher.poll() is None:
+            launcher.kill()
+            launcher.wait()

@@ -176,7 +176,7 @@ def _run(write: MissionWrite, autopilot: _Autopilot, *, lose_first: bool = False
 def test_a_mission_is_written_item_by_item_as_the_autopilot_asks() -> None:
     items = landing_items(_Plane(), (0.0, 0.0, 0.0), (1.0, 0.0))  # type: ignore[arg-type]
     autopilot = _Autopilot()
-    write = MissionWrite(items, (4, 1), what="the landing mission", name="3")
+    write = MissionWrite(items, (4, 1), what="the landing mission", who="vehicle 3")
     _run(write, autopilot, lose_first=True)  # the lost count is sent again
     assert write.done and [m.seq for m in autopilot.items] == [0, 1, 2, 3]
 
@@ -191,13 +191,13 @@ def test_no_items_clears_the_mission() -> None:
 
 def test_a_refused_write_says_why_naming_the_vehicle() -> None:
     items = landing_items(_Plane(), (0.0, 0.0, 0.0), (1.0, 0.0))  # type: ignore[arg-type]
-    write = MissionWrite(items, (4, 1), what="the landing mission", name="3")
+    write = MissionWrite(items, (4, 1), what="the landing mission", who="vehicle 3")
     _run(write, _Autopilot(refuse=mav.MAV_MISSION_ERROR))
     assert write.error == "vehicle 3: the autopilot refused the landing mission: MAV_MISSION_ERROR"
 
 
 def test_an_autopilot_that_never_answers_fails_the_write_at_its_deadline() -> None:
-    write = MissionWrite([], (4, 1), what="the mission clear", name="3", deadline=3.0)
+    write = MissionWrite([], (4, 1), what="the mission clear", who="vehicle 3", deadline=3.0)
     write.start(0.0)
     resent = sum(len(write.tick(t / 10)) for t in range(1, 40))
     assert resent >= 4 and write.error is not None

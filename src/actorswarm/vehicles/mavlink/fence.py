@@ -37,6 +37,7 @@ from typing import Any, Final, Literal, Protocol
 
 from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.frame import MissionFrame
+from actorswarm.vehicles.mavlink.mission import MissionWrite
 
 __all__ = [
     "FENCE_MESSAGES",
@@ -127,14 +128,15 @@ def fence_params(kind: Literal["ardupilot", "px4"], z_max: float) -> list[tuple[
     ]
 
 
-Phase = Literal["params", "count", "items", "done", "failed"]
+Phase = Literal["params", "polygon", "done", "failed"]
 
 
 @dataclass(slots=True)
 class FenceUpload:
     """Pushes ``params`` (name, value) and then the polygon ``items`` to the autopilot
-    ``target_system``/``target_component`` (module docstring). ``name`` starts the error
-    line (``vehicle 3``)."""
+    ``target_system``/``target_component`` (module docstring); the polygon goes by the
+    mission protocol (:class:`~.mission.MissionWrite` on the fence). ``name`` starts the
+    error line (``vehicle 3``)."""
 
     items: Sequence[Any]
     params: Sequence[tuple[str, float]]
@@ -147,7 +149,7 @@ class FenceUpload:
     #: Why the upload failed (one line), None while it has not.
     error: str | None = None
     _pending: list[tuple[str, float]] | None = None
-    _last: list[Any] | None = None
+    _polygon: MissionWrite | None = None
     _sent_at: float = 0.0
     _progress_at: float = 0.0
 
@@ -161,14 +163,16 @@ class FenceUpload:
         self._pending = list(self.params)
         self._progress_at = now
         if not self._pending:
-            return self._count(now)
+            return self._write_polygon(now)
         self.phase = "params"
-        return self._send(now, [self._param_set(n, v) for n, v in self._pending])
+        self._sent_at = now
+        return [self._param_set(n, v) for n, v in self._pending]
 
     def on_message(self, message: Any, now: float) -> list[Any]:
         """What to send in answer to ``message`` from the autopilot."""
-        kind = message.get_type()
-        if self.phase == "params" and kind == "PARAM_VALUE" and self._pending is not None:
+        if self.phase == "polygon" and self._polygon is not None:
+            return self._follow(self._polygon.on_message(message, now))
+        if self.phase == "params" and message.get_type() == "PARAM_VALUE" and self._pending:
             name = message.param_id
             if isinstance(name, bytes):
                 name = name.decode("ascii", "replace")
@@ -177,47 +181,47 @@ class FenceUpload:
                 if name == wanted and abs(float(message.param_value) - value) < 1e-3:
                     self._pending.remove((wanted, value))
                     self._progress_at = now
-            return self._count(now) if not self._pending else []
-        if getattr(message, "mission_type", _FENCE) != _FENCE:
-            return []
-        if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST") and self.phase in ("count", "items"):
-            seq = int(message.seq)
-            if not 0 <= seq < len(self.items):
-                return self._fail(f"asked for fence item {seq} of {len(self.items)}")
-            self.phase = "items"
-            self._progress_at = now
-            return self._send(now, [self.items[seq]])
-        if kind == "MISSION_ACK" and self.phase in ("count", "items"):
-            if message.type != mav.MAV_MISSION_ACCEPTED:
-                entry = mav.enums["MAV_MISSION_RESULT"].get(message.type)
-                return self._fail(f"refused the fence: {entry.name if entry else message.type}")
-            self.phase = "done"
-            return []
+            return self._write_polygon(now) if not self._pending else []
         return []
 
     def tick(self, now: float) -> list[Any]:
         """Repeat what got no answer; fail past the deadline."""
-        if self.phase in ("done", "failed"):
+        if self.phase == "polygon" and self._polygon is not None:
+            return self._follow(self._polygon.tick(now))
+        if self.phase != "params" or self._pending is None:
             return []
         if now - self._progress_at >= self.deadline:
-            step = "set its fence parameters" if self.phase == "params" else "take the fence"
-            return self._fail(f"did not {step} in {self.deadline:g} s (no answer)")
-        if self._last is not None and now - self._sent_at >= self.retry:
-            if self.phase == "params" and self._pending is not None:
-                return self._send(now, [self._param_set(n, v) for n, v in self._pending])
-            return self._send(now, self._last)
+            return self._fail(
+                f"did not set its fence parameters in {self.deadline:g} s (no answer)"
+            )
+        if now - self._sent_at >= self.retry:
+            self._sent_at = now
+            return [self._param_set(n, v) for n, v in self._pending]
         return []
 
-    def _count(self, now: float) -> list[Any]:
-        self.phase = "count"
-        return self._send(
-            now,
-            [
-                mav.MAVLink_mission_count_message(
-                    self.target_system, self.target_component, len(self.items), _FENCE
-                )
-            ],
+    def _write_polygon(self, now: float) -> list[Any]:
+        self.phase = "polygon"
+        self._polygon = MissionWrite(
+            self.items,
+            (self.target_system, self.target_component),
+            what="the fence",
+            who=self.name,
+            retry=self.retry,
+            deadline=self.deadline,
+            mission_type=_FENCE,
         )
+        return self._polygon.start(now)
+
+    def _follow(self, out: list[Any]) -> list[Any]:
+        """The polygon write's messages, and its end as the upload's."""
+        polygon = self._polygon
+        assert polygon is not None
+        if polygon.done:
+            self.phase = "done"
+        elif polygon.error is not None:
+            self.phase = "failed"
+            self.error = f"{polygon.error}; its own fence is not set"
+        return out
 
     def _param_set(self, name: str, value: float) -> Any:
         return mav.MAVLink_param_set_message(
@@ -227,11 +231,6 @@ class FenceUpload:
             value,
             mav.MAV_PARAM_TYPE_REAL32,
         )
-
-    def _send(self, now: float, messages: list[Any]) -> list[Any]:
-        self._last = messages
-        self._sent_at = now
-        return messages
 
     def _fail(self, why: str) -> list[Any]:
         self.phase = "failed"

@@ -69,12 +69,15 @@ def item(
 @dataclass(slots=True)
 class MissionWrite:
     """Writes ``items`` as the mission of the autopilot ``target`` (system, component);
-    with no items, clears it. ``what`` names it in the error line, ``name`` the vehicle."""
+    with no items, clears it. ``mission_type``: the mission, or another list the protocol
+    carries (the fence, :mod:`~.fence`); ``what`` names it in the error line, which ``who``
+    starts (``vehicle platform 3``)."""
 
     items: Sequence[Any]
     target: tuple[int, int]
     what: str = "the mission"
-    name: str = "vehicle"
+    who: str = "vehicle"
+    mission_type: int = _MISSION
     retry: float = 0.5
     deadline: float = 8.0
     phase: Phase = "writing"
@@ -92,18 +95,19 @@ class MissionWrite:
         """The first message: the count, or the clear."""
         self._progress_at = now
         system, component = self.target
+        kind = self.mission_type
         if self.items:
-            first = mav.MAVLink_mission_count_message(system, component, len(self.items), _MISSION)
+            first = mav.MAVLink_mission_count_message(system, component, len(self.items), kind)
         else:
-            first = mav.MAVLink_mission_clear_all_message(system, component, _MISSION)
+            first = mav.MAVLink_mission_clear_all_message(system, component, kind)
         return self._send(now, [first])
 
     def on_message(self, message: Any, now: float) -> list[Any]:
         """What to send in answer to the autopilot's ``message``."""
         if self.phase != "writing" or message.get_type() not in MISSION_MESSAGES:
             return []
-        if getattr(message, "mission_type", _MISSION) != _MISSION:
-            return []  # another upload's (the fence's)
+        if getattr(message, "mission_type", _MISSION) != self.mission_type:
+            return []  # another list's (the fence's, the mission's)
         if message.get_type() == "MISSION_ACK":
             if message.type != mav.MAV_MISSION_ACCEPTED:
                 entry = mav.enums["MAV_MISSION_RESULT"].get(message.type)
@@ -137,5 +141,5 @@ class MissionWrite:
 
     def _fail(self, why: str) -> list[Any]:
         self.phase = "failed"
-        self.error = f"vehicle {self.name}: the autopilot {why}"
+        self.error = f"{self.who}: the autopilot {why}"
         return []

@@ -620,7 +620,9 @@ class MavlinkVehicle:
 
     def write_mission(self, items: list[Any], what: str) -> None:
         system, component = self._filter.system or 0, self.settings.component
-        self._mission = MissionWrite(items, (system, component), what=what, name=self.name)
+        self._mission = MissionWrite(
+            items, (system, component), what=what, who=f"vehicle {self.name}"
+        )
         self._landing_loaded = bool(items)
         for message in self._mission.start(self._clock()):
             self._send(message)
