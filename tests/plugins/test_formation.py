@@ -436,3 +436,22 @@ def test_a_crossing_change_of_shape_is_deconflicted_by_the_transit_layers() -> N
     # pass one above the other (5.4 m: one is still settling onto its layer), well clear of
     # a quadrotor's 3 m separation.
     assert _swap("6") >= 5.0
+
+
+def test_transit_layers_zero_gives_every_member_a_layer_of_its_own() -> None:
+    """Slots 5 and 9 of ten share the default four layers' first (80 - 2 x 10 m); with
+    transit_layers 0 there are ten, and they fly 70 m and 120 m."""
+
+    def transit_altitude(slot: int, layers: str | None) -> float:
+        params = {"route": "0 0", "size": "10", "spacing": "40", "altitude": "80"}
+        params["transit_step"] = "10"
+        if layers is not None:
+            params["transit_layers"] = layers
+        vehicle = FakeVehicle(position=(800.0, 800.0, 80.0))
+        ctx = make_context(Arrow, params=params, vehicle=vehicle, slot=slot, slots=10)
+        Arrow()._drive_start(ctx)
+        (command,) = vehicle.commands
+        return float(command[3])
+
+    assert transit_altitude(5, None) == transit_altitude(9, None) == 60.0
+    assert (transit_altitude(5, "0"), transit_altitude(9, "0")) == (70.0, 120.0)

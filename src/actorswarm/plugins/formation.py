@@ -448,6 +448,10 @@ class Formation(Plugin):
         While far from its slot (changing shape), fly a transit layer: ``transit_step``
         metres apart, by slot (module docstring). 0: no transit layers. A step of at least
         the vehicles' separation keeps members on different layers apart.
+    ``transit_layers`` (int ≥ 0, default :data:`TRANSIT_LAYERS`)
+        How many transit layers (half below the altitude, half above, none at it); 0: one
+        per member of the group, so that no two members in transit share one — for aircraft
+        that follow their slots loosely (real fixed-wings), where two on one layer meet.
     ``loop`` (bool, default false)
         Fly the route round and round (back from the last point to the first) instead of
         stopping at the last point.
@@ -570,7 +574,14 @@ class Formation(Plugin):
             default=0.0,
             minimum=0.0,
             doc="metres between the transit layers a member flies while far from its slot "
-            "(slot k on layer (k - 1) mod 4, two below the altitude, two above); 0: none",
+            "(slot k on layer (k - 1) mod transit_layers, half below the altitude, half "
+            "above); 0: none",
+        ),
+        "transit_layers": Param(
+            kind="int",
+            default=TRANSIT_LAYERS,
+            minimum=0,
+            doc="how many transit layers; 0: one per member of the group",
         ),
     }
 
@@ -589,6 +600,7 @@ class Formation(Plugin):
         self._spacing = 0.0
         #: The transit layer flown now (a multiple of transit_step), None: the slot's own.
         self._layer: int | None = None
+        self._layers = TRANSIT_LAYERS
 
     @classmethod
     def group_points(
@@ -637,6 +649,7 @@ class Formation(Plugin):
                 "a size of at least the group's number of platforms (or 0: the group's)"
             )
         self._altitude += (slot - 1) * float(params["altitude_step"])
+        self._layers = int(params["transit_layers"]) or size
         route = parse_route(str(params["route"]), self._altitude)
         self._leader = VirtualLeader(route, self._speed, start, loop=bool(params["loop"]))
         forward, left = (float(v) for v in str(params["offset"]).split())
@@ -704,12 +717,12 @@ class Formation(Plugin):
         elif self._layer is None and far > TRANSIT_ENTER * self._spacing:
             # Layers by slot: members whose slots are neighbours (in any shape, mostly a
             # few numbers apart) cross and converge on different layers.
-            self._layer = (self._slot - 1) % TRANSIT_LAYERS
+            self._layer = (self._slot - 1) % self._layers
         if self._layer is None:
             return slot[2]
         # Half the layers below the formation's altitude, half above, none at it: a member
         # in transit passes at least one step above or below the members on their slots.
-        half = TRANSIT_LAYERS // 2
+        half = self._layers // 2
         level = self._layer - half if self._layer < half else self._layer - half + 1
         return self._base + level * step
 
