@@ -11,7 +11,8 @@ The pipeline, each stage its own module:
 4. :func:`~actorswarm.dsl.rules.check_whole` — reachability and barrier-group feasibility,
    only once 2 and 3 found no error;
 5. with a world, :func:`~actorswarm.dsl.safety.check_safety` — warnings about separation,
-   the ceiling and areas the script's platforms cannot share.
+   the ceiling and areas the script's platforms cannot share — and
+   :func:`~actorswarm.dsl.fixedwing.check_fixed_wing`: what fixed-wings cannot fly.
 
 A script with any error is refused whole (docs/design.md §4): :func:`check` then returns no model
 and :func:`load` raises :class:`~actorswarm.dsl.diagnostics.ScriptError`. Warnings never
@@ -29,6 +30,7 @@ from typing import TYPE_CHECKING
 from actorswarm.dsl import rules
 from actorswarm.dsl.builder import build
 from actorswarm.dsl.diagnostics import Diagnostic, Report, ScriptError
+from actorswarm.dsl.fixedwing import check_fixed_wing
 from actorswarm.dsl.model import TaskScript
 from actorswarm.dsl.parser import DEFAULT_MAX_BYTES, XmlError, check_size, parse_xml
 from actorswarm.dsl.plugins import installed_plugins
@@ -97,6 +99,7 @@ def check(
                 rules.check_whole(script, report)
             if not report.has_errors and world is not None:
                 check_safety(script, world, report)
+                check_fixed_wing(script, world, report)
     found = report.sorted()
     errors = tuple(d for d in found if d.severity == "error")
     return CheckResult(
