@@ -361,8 +361,13 @@ def test_change_speed_holds_within_limits_in_guided_and_resets_on_a_mode_change(
         assert airspeed(quick) == pytest.approx(held, abs=0.6), asked
     assert quick.command(change, 0, 35) == mav.MAV_RESULT_FAILED  # above AIRSPEED_MAX
     assert quick.command(change, 0, 28) == mav.MAV_RESULT_ACCEPTED
-    assert quick.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED  # any mode change
+    # GUIDED asked again changes nothing (ArduPlane's set_mode returns at once)...
+    assert quick.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert airspeed(quick) == pytest.approx(28.0, abs=0.6)
+    # ... a real mode change resets the airspeed to cruise.
+    assert quick.set_mode("LOITER") == mav.MAV_RESULT_ACCEPTED
     assert airspeed(quick) == pytest.approx(SPEEDS[-2.0], abs=0.6)
+    assert quick.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
     guided_speed = mav.MAV_CMD_GUIDED_CHANGE_SPEED
     frame = mav.MAV_FRAME_GLOBAL
     assert quick.command_int(guided_speed, frame, (0, 18, 0, 0), 0, 0, 0) == 0
