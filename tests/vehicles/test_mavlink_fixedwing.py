@@ -109,15 +109,8 @@ def test_no_target_sends_nothing_and_the_next_goal_goes_out_at_once() -> None:
     assert _kinds(g.messages(_target((0.0, 0.0, 60.0)), "GUIDED", 0.6)) == ["reposition"]
 
 
-class _Plane:
-    """What landing_items reads of a vehicle."""
-
-    target = (4, 1)
-    origin = ORIGIN
-
-
 def test_the_landing_comes_back_along_the_take_off_run_to_home() -> None:
-    items = landing_items(_Plane(), (10.0, 20.0, 0.0), (0.0, 1.0))  # type: ignore[arg-type]
+    items = landing_items(ORIGIN, (4, 1), (10.0, 20.0, 0.0), (0.0, 1.0))
     commands = [m.command for m in items]
     assert commands == [
         mav.MAV_CMD_NAV_WAYPOINT,
@@ -174,7 +167,7 @@ def _run(write: MissionWrite, autopilot: _Autopilot, *, lose_first: bool = False
 
 
 def test_a_mission_is_written_item_by_item_as_the_autopilot_asks() -> None:
-    items = landing_items(_Plane(), (0.0, 0.0, 0.0), (1.0, 0.0))  # type: ignore[arg-type]
+    items = landing_items(ORIGIN, (4, 1), (0.0, 0.0, 0.0), (1.0, 0.0))
     autopilot = _Autopilot()
     write = MissionWrite(items, (4, 1), what="the landing mission", who="vehicle 3")
     _run(write, autopilot, lose_first=True)  # the lost count is sent again
@@ -190,7 +183,7 @@ def test_no_items_clears_the_mission() -> None:
 
 
 def test_a_refused_write_says_why_naming_the_vehicle() -> None:
-    items = landing_items(_Plane(), (0.0, 0.0, 0.0), (1.0, 0.0))  # type: ignore[arg-type]
+    items = landing_items(ORIGIN, (4, 1), (0.0, 0.0, 0.0), (1.0, 0.0))
     write = MissionWrite(items, (4, 1), what="the landing mission", who="vehicle 3")
     _run(write, _Autopilot(refuse=mav.MAV_MISSION_ERROR))
     assert write.error == "vehicle 3: the autopilot refused the landing mission: MAV_MISSION_ERROR"

@@ -51,7 +51,8 @@ that circle's radius — the shipped fixed-wing missions use 60 m and more.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any, Final, Protocol
 
 from actorswarm.vehicles.mavlink.commands import Check, CheckResult, Command, Do, Step
@@ -65,7 +66,7 @@ from actorswarm.vehicles.mavlink.flavours import (
     ready_and_arm,
 )
 from actorswarm.vehicles.mavlink.frame import MissionFrame
-from actorswarm.vehicles.mavlink.mission import item
+from actorswarm.vehicles.mavlink.mission import MISSION_MESSAGES, MissionWrite, item
 
 __all__ = [
     "APPROACH_DISTANCE",
@@ -79,6 +80,7 @@ __all__ = [
     "SPEED_REPAIR",
     "SPEED_STEP",
     "ArduPlane",
+    "FixedWing",
     "PlaneControls",
     "PlaneGuidance",
     "Px4FixedWing",
@@ -115,6 +117,8 @@ SPEED_REPAIR: Final = 5.0
 #: The landing approach: metres out from the land point, and metres above home.
 APPROACH_DISTANCE: Final = 700.0
 APPROACH_HEIGHT: Final = 40.0
+#: Seconds between two PARAM_SETs of a parameter not echoed yet.
+_PARAM_RETRY: Final = 1.0
 #: A take-off is over within this many metres below its altitude (ArduPlane closes the last
 #: metres slowly: 39 of 40 m in 30 s).
 _CLIMBED_WITHIN: Final = 3.0
@@ -128,42 +132,104 @@ _CRUISE: Final = -2.0
 class PlaneControls(Controls, Protocol):
     """What the fixed-wing plans need of the vehicle beyond a copter's."""
 
-    def param_is(self, name: str, value: float) -> CheckResult:
-        """Set the autopilot's parameter ``name`` to ``value``: True once it echoed the
-        value, None while not yet (the setting repeats), a reason when it cannot."""
-        ...
-
-    def write_mission(self, items: list[Any], what: str) -> None:
-        """Start writing ``items`` as the autopilot's mission (none: clear it)."""
-        ...
-
-    def mission_written(self) -> CheckResult:
-        """The write's state: True, None (going on) or why it failed."""
-        ...
-
-    @property
-    def landing_loaded(self) -> bool:
-        """Whether a landing mission this vehicle wrote may still be loaded."""
-        ...
-
-    def runway(self) -> tuple[float, float]:
-        """The unit vector (east, north) of the aircraft's take-off run (east when it never
-        took off under this vehicle)."""
-        ...
-
     def home(self) -> tuple[float, float, float]:
         """Home, local metres."""
         ...
 
-    @property
-    def target(self) -> tuple[int, int]:
-        """The autopilot's system and component IDs."""
-        ...
 
-    @property
-    def origin(self) -> MissionFrame:
-        """The mission's frame."""
-        ...
+@dataclass(slots=True)
+class FixedWing:
+    """The vehicle's fixed-wing part: its goal stream (:class:`PlaneGuidance`), the mission
+    it writes (a landing), the parameters it sets, and the line of its take-off run. The
+    vehicle hands it what the autopilot says (:meth:`on_message`, :meth:`on_position`) and
+    sends what it returns; ``params`` is the vehicle's table of the autopilot's parameters,
+    ``send`` its way to the autopilot, ``clock`` its clock, ``who`` names it in errors."""
+
+    origin: MissionFrame
+    target: tuple[int, int]
+    who: str
+    send: Callable[[Any], None]
+    clock: Callable[[], float]
+    params: dict[str, float]
+    guidance: PlaneGuidance = field(init=False)
+    mission: MissionWrite | None = None
+    #: Whether a landing mission this vehicle wrote may still be loaded.
+    landing_loaded: bool = False
+    _runway: tuple[float, float] | None = None
+    _set_at: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.guidance = PlaneGuidance(self.origin, *self.target)
+
+    # --- the plans' view ---------------------------------------------------------------------
+
+    def param_is(self, name: str, value: float) -> CheckResult:
+        """Set the autopilot's ``name`` to ``value``: ``PARAM_SET`` every second until a
+        ``PARAM_VALUE`` echoes it (True then; None meanwhile)."""
+        known = self.params.get(name)
+        if known is not None and abs(known - value) < 1e-3:
+            return True
+        now = self.clock()
+        if now - self._set_at.get(name, -math.inf) >= _PARAM_RETRY:
+            self._set_at[name] = now
+            self.send(
+                mav.MAVLink_param_set_message(
+                    *self.target, name.encode(), value, mav.MAV_PARAM_TYPE_REAL32
+                )
+            )
+        return None
+
+    def write_mission(self, items: list[Any], what: str) -> None:
+        """Start writing ``items`` as the autopilot's mission (none: clear it)."""
+        self.mission = MissionWrite(items, self.target, what=what, who=self.who)
+        self.landing_loaded = bool(items)
+        for message in self.mission.start(self.clock()):
+            self.send(message)
+
+    def mission_written(self) -> CheckResult:
+        """The write's state: True, None (going on) or why it failed."""
+        write = self.mission
+        if write is None:
+            return "no mission was written"
+        if write.error is not None:
+            return write.error
+        return True if write.done else None
+
+    def runway(self) -> tuple[float, float]:
+        """The unit vector (east, north) of the aircraft's take-off run (east when it never
+        took off under this vehicle)."""
+        return self._runway or (1.0, 0.0)
+
+    # --- what the autopilot says -------------------------------------------------------------
+
+    def on_message(self, message: Any, now: float) -> None:
+        """A mission answer, or an airspeed limit (:data:`ENVELOPE`) read."""
+        if self.mission is not None and message.get_type() in MISSION_MESSAGES:
+            for answer in self.mission.on_message(message, now):
+                self.send(answer)
+        elif message.get_type() == "PARAM_VALUE":
+            low, high = ENVELOPE
+            self.guidance.low = self.params.get(low, self.guidance.low)
+            self.guidance.high = self.params.get(high, self.guidance.high)
+
+    def on_position(self, armed: bool, height: float, velocity: tuple[float, float, float]) -> None:
+        """Keep the line of the take-off run: the direction of the first fast ground track
+        low after arming (the landing comes back along it); forgotten once disarmed."""
+        if not armed:
+            self._runway = None
+            return
+        vx, vy, _ = velocity
+        speed = math.hypot(vx, vy)
+        if self._runway is None and height < 15.0 and speed > 5.0:
+            self._runway = (vx / speed, vy / speed)
+
+    def service(self, target: Target | None, mode: str, now: float) -> None:
+        """Move the mission write on and stream the goal being flown in ``mode``."""
+        if self.mission is not None:
+            for message in self.mission.tick(now):
+                self.send(message)
+        for message in self.guidance.messages(target, mode, now):
+            self.send(message)
 
 
 def _mode(name: str) -> Command:
@@ -178,14 +244,17 @@ def _climbed(v: Controls, altitude: float) -> Check:
 
 
 def landing_items(
-    v: PlaneControls, land: tuple[float, float, float], runway: tuple[float, float]
+    frame: MissionFrame,
+    target: tuple[int, int],
+    land: tuple[float, float, float],
+    runway: tuple[float, float],
 ) -> list[Any]:
-    """The landing mission (module docstring): ``[home, DO_LAND_START, approach, NAV_LAND]``,
-    landing at ``land`` (local metres; its z unused) along ``runway`` (a unit vector)."""
+    """The landing mission (module docstring) for the autopilot ``target``:
+    ``[home, DO_LAND_START, approach, NAV_LAND]``, landing at ``land`` (local metres in
+    ``frame``; its z unused) along ``runway`` (a unit vector)."""
     ux, uy = runway
     x, y = land[0], land[1]
     approach = (x - ux * APPROACH_DISTANCE, y - uy * APPROACH_DISTANCE, 0.0)
-    target, frame = v.target, v.origin
     ground = (x, y, 0.0)
     return [
         item(0, mav.MAV_CMD_NAV_WAYPOINT, frame, ground, height=0.0, target=target),
@@ -196,26 +265,28 @@ def landing_items(
 
 
 class ArduPlane:
-    """ArduPlane: the module docstring's mapping."""
+    """ArduPlane: the module docstring's mapping, for the vehicle ``v`` and its fixed-wing
+    part ``part``."""
 
     kind: Kind = "ardupilot"
 
-    def __init__(self, v: PlaneControls) -> None:
+    def __init__(self, v: PlaneControls, part: FixedWing) -> None:
         self._v = v
+        self._part = part
 
     def takeoff(self, v: Controls, altitude: float) -> list[Step]:
-        p = self._v
+        p, part = self._v, self._part
         if p.airborne:
             x, y, z = p.here()
             return self.goto(p, (x, y, z - p.height() + altitude), None)
         steps: list[Step] = [*before_arming(p)]
-        if p.landing_loaded:
+        if part.landing_loaded:
             steps += [
-                Do("clear the landing mission", lambda: p.write_mission([], "the mission clear")),
-                Check("the mission clear", p.mission_written, deadline=10.0),
+                Do("clear the landing", lambda: part.write_mission([], "the mission clear")),
+                Check("the mission clear", part.mission_written, deadline=10.0),
             ]
         steps += [
-            Check(f"TKOFF_ALT = {altitude:g}", lambda: p.param_is("TKOFF_ALT", altitude)),
+            Check(f"TKOFF_ALT = {altitude:g}", lambda: part.param_is("TKOFF_ALT", altitude)),
             _mode("TAKEOFF"),
             *ready_and_arm(p),
         ]
@@ -242,14 +313,14 @@ class ArduPlane:
         return [Do("stop streaming", lambda: p.set_target(None)), _mode("LOITER")]
 
     def land(self, v: Controls) -> list[Step]:
-        p = self._v
+        p, part = self._v, self._part
         if not p.airborne:
             return [Do("stop streaming", lambda: p.set_target(None))]
-        items = landing_items(p, p.home(), p.runway())
+        items = landing_items(part.origin, part.target, p.home(), part.runway())
         return [
             Do("stop streaming", lambda: p.set_target(None)),
-            Do("load the landing", lambda: p.write_mission(items, "the landing mission")),
-            Check("the landing mission", p.mission_written, deadline=15.0),
+            Do("load the landing", lambda: part.write_mission(items, "the landing mission")),
+            Check("the landing mission", part.mission_written, deadline=15.0),
             Command(mav.MAV_CMD_DO_LAND_START, (0, 0, 0, 0, 0, 0, 0)),
         ]
 

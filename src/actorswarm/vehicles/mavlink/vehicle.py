@@ -55,7 +55,7 @@ from actorswarm.vehicles.mavlink.fixedwing import (
     ENVELOPE,
     GCS_ID,
     ArduPlane,
-    PlaneGuidance,
+    FixedWing,
     Px4FixedWing,
 )
 from actorswarm.vehicles.mavlink.flavours import (
@@ -74,7 +74,6 @@ from actorswarm.vehicles.mavlink.link import (
     drain_library_lines,
     is_mavlink1,
 )
-from actorswarm.vehicles.mavlink.mission import MISSION_MESSAGES, MissionWrite
 from actorswarm.vehicles.mavlink.readiness import Readiness, Texts
 from actorswarm.vehicles.mavlink.streams import StreamWatch
 
@@ -279,13 +278,8 @@ class MavlinkVehicle:
             if settings.push_fence
             else None
         )
-        # A fixed-wing's parts (:mod:`~.fixedwing`): its goal stream, the mission it writes
-        # (a landing), the parameters it sets and the line of its take-off run.
-        self._guidance: PlaneGuidance | None = None
-        self._mission: MissionWrite | None = None
-        self._landing_loaded = False
-        self._param_set_at: dict[str, float] = {}
-        self._runway: tuple[float, float] | None = None
+        # A fixed-wing's part (:mod:`~.fixedwing`), once its HEARTBEAT says it is one.
+        self._fixed_wing: FixedWing | None = None
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -350,9 +344,6 @@ class MavlinkVehicle:
                 for request in self._streams.tick(now):
                     self._send(request)
                 self._stream_changes()
-            if self._mission is not None:
-                for message in self._mission.tick(now):
-                    self._send(message)
             if self._plan is not None:
                 self._plan.tick(now)
                 failed = self._plan.drain_errors()
@@ -599,72 +590,22 @@ class MavlinkVehicle:
             )
         return True
 
-    # --- a fixed-wing's view (fixedwing.PlaneControls) --------------------------------------------
-
-    def param_is(self, name: str, value: float) -> bool | str | None:
-        """Set the autopilot's ``name`` to ``value``: ``PARAM_SET`` every second until a
-        ``PARAM_VALUE`` echoes it (True then; None meanwhile)."""
-        known = self._state.params.get(name)
-        if known is not None and abs(known - value) < 1e-3:
-            return True
-        now = self._clock()
-        if now - self._param_set_at.get(name, -math.inf) >= _BEAT:
-            self._param_set_at[name] = now
-            system, component = self._filter.system or 0, self.settings.component
-            self._send(
-                mav.MAVLink_param_set_message(
-                    system, component, name.encode(), value, mav.MAV_PARAM_TYPE_REAL32
-                )
-            )
-        return None
-
-    def write_mission(self, items: list[Any], what: str) -> None:
-        system, component = self._filter.system or 0, self.settings.component
-        self._mission = MissionWrite(
-            items, (system, component), what=what, who=f"vehicle {self.name}"
-        )
-        self._landing_loaded = bool(items)
-        for message in self._mission.start(self._clock()):
-            self._send(message)
-
-    def mission_written(self) -> bool | str | None:
-        write = self._mission
-        if write is None:
-            return "no mission was written"
-        if write.error is not None:
-            return write.error
-        return True if write.done else None
-
-    @property
-    def landing_loaded(self) -> bool:
-        return self._landing_loaded
-
-    def runway(self) -> tuple[float, float]:
-        return self._runway or (1.0, 0.0)
-
-    @property
-    def target(self) -> tuple[int, int]:
-        return (self._filter.system or 0, self.settings.component)
-
-    @property
-    def origin(self) -> MissionFrame:
-        return self.settings.origin
-
-    def _note_runway(self) -> None:
-        """Keep the line of the take-off run: the direction of the first fast ground track
-        low after arming (the landing comes back along it)."""
-        s = self._state
-        vx, vy, _ = s.velocity
-        speed = math.hypot(vx, vy)
-        if self._runway is None and s.armed and s.height < 15.0 and speed > 5.0:
-            self._runway = (vx / speed, vy / speed)
-
     # --- inside ----------------------------------------------------------------------------------
 
-    def _flavour_of(self, kind: Kind, airframe: Airframe) -> Flavour:
+    def _flavour_of(self, kind: Kind, airframe: Airframe, target: tuple[int, int]) -> Flavour:
         if airframe == "copter":
             return flavour(kind)
-        return ArduPlane(self) if kind == "ardupilot" else Px4FixedWing()
+        if kind == "px4":
+            return Px4FixedWing()
+        self._fixed_wing = FixedWing(
+            self.settings.origin,
+            target,
+            f"vehicle {self.name}",
+            self._send,
+            self._clock,
+            self._state.params,
+        )
+        return ArduPlane(self, self._fixed_wing)
 
     def _failsafe_params(self) -> dict[str, str]:
         s = self._state
@@ -712,9 +653,6 @@ class MavlinkVehicle:
         if self._fence is not None:
             for answer in self._fence.on_message(message, now):
                 self._send(answer)
-        if self._mission is not None and kind in MISSION_MESSAGES:
-            for answer in self._mission.on_message(message, now):
-                self._send(answer)
         if kind == "HEARTBEAT":
             self._on_heartbeat(message, now)
         elif kind == "GLOBAL_POSITION_INT":
@@ -728,7 +666,8 @@ class MavlinkVehicle:
             s.height = message.relative_alt / 1000.0
             if s.home_amsl is None:
                 s.home_amsl = alt - s.height
-            self._note_runway()
+            if self._fixed_wing is not None:
+                self._fixed_wing.on_position(s.armed, s.height, s.velocity)
         elif kind in ("EKF_STATUS_REPORT", "GPS_RAW_INT"):
             self._readiness.on_message(kind, message)
         elif kind == "STATUSTEXT":
@@ -753,13 +692,7 @@ class MavlinkVehicle:
             name = message.param_id
             if isinstance(name, bytes):
                 name = name.decode("ascii", "replace")
-            name = name.rstrip("\x00")
-            s.params[name] = self._param_value(message)
-            if self._guidance is not None and name in ENVELOPE:
-                if name == ENVELOPE[0]:
-                    self._guidance.low = s.params[name]
-                else:
-                    self._guidance.high = s.params[name]
+            s.params[name.rstrip("\x00")] = self._param_value(message)
         elif kind == "COMMAND_ACK":
             if (
                 message.command == mav.MAV_CMD_COMPONENT_ARM_DISARM
@@ -769,6 +702,8 @@ class MavlinkVehicle:
                 s.armed = True
             if self._plan is not None:
                 self._plan.on_ack(message, now)
+        if self._fixed_wing is not None:
+            self._fixed_wing.on_message(message, now)  # after the parameters above are kept
 
     def _on_heartbeat(self, message: Any, now: float) -> None:
         s = self._state
@@ -787,12 +722,9 @@ class MavlinkVehicle:
                 chosen = "ardupilot" if ardupilot else "px4"
             s.kind = chosen
             s.airframe = "plane" if message.type == mav.MAV_TYPE_FIXED_WING else "copter"
-            self._flavour = self._flavour_of(chosen, s.airframe)
-            if s.airframe == "plane":
-                system, component = message.get_srcSystem(), message.get_srcComponent()
-                self._guidance = PlaneGuidance(self.settings.origin, system, component)
             self._beat = None  # our next heartbeat now, of the kind's type (PX4: a GCS's)
             target = (message.get_srcSystem(), message.get_srcComponent())
+            self._flavour = self._flavour_of(chosen, s.airframe, target)
             self._plan = CommandSender(
                 self.name,
                 self._send,
@@ -803,8 +735,6 @@ class MavlinkVehicle:
                 on_refused=self._on_refused,
             )
             self._streams = StreamWatch(chosen, target, grace=self.settings.stream_grace)
-        if not s.armed:
-            self._runway = None  # the next take-off run sets it again
         s.mode = mode_name(s.kind, message.base_mode, message.custom_mode, s.airframe)
         if self._mode_asked is not None and self._mode_asked[0] == s.mode:
             self._mode_asked = None  # carried out
@@ -957,7 +887,7 @@ class MavlinkVehicle:
         kind = self._state.kind
         if kind is None or (self._params_asked is not None and now - self._params_asked < _BEAT):
             return
-        wanted = [*self._failsafe_params(), *(ENVELOPE if self._guidance is not None else ())]
+        wanted = [*self._failsafe_params(), *(ENVELOPE if self._fixed_wing is not None else ())]
         missing = [name for name in wanted if name not in self._state.params]
         if not missing:
             return
@@ -968,9 +898,8 @@ class MavlinkVehicle:
 
     def _stream(self, now: float) -> None:
         target = self._target
-        if self._guidance is not None:
-            for message in self._guidance.messages(target, self._state.mode, now):
-                self._send(message)
+        if self._fixed_wing is not None:
+            self._fixed_wing.service(target, self._state.mode, now)
             return
         if target is None or (
             self._target_sent is not None and now - self._target_sent < 1.0 / target.rate
