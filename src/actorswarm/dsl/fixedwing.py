@@ -25,7 +25,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 from actorswarm.dsl.diagnostics import Report
-from actorswarm.dsl.model import NOWHERE, Param, PluginSpec, TaskScript
+from actorswarm.dsl.model import NOWHERE, Param, PluginSpec, Position, TaskScript
 from actorswarm.dsl.plugins import plugin_class
 
 if TYPE_CHECKING:
@@ -73,7 +73,7 @@ def _number(spec: PluginSpec, params: Mapping[str, Param], key: str) -> float | 
         return None  # the checker has said what is wrong with it
 
 
-def _pos(spec: PluginSpec, params: Mapping[str, Param], key: str) -> tuple[int, int]:
+def _pos(spec: PluginSpec, params: Mapping[str, Param], key: str) -> Position:
     param = params.get(key)
     return param.pos if param is not None and param.pos != NOWHERE else spec.pos
 
