@@ -248,3 +248,17 @@ def test_a_hold_then_a_new_goal_at_once_flies_to_the_new_goal(
         )
         assert sim.mode_name == ("GUIDED" if kind == "ardupilot" else "OFFBOARD")
         assert vehicle.drain_errors() == []
+
+
+def test_an_arducopter_whose_failsafe_watches_another_ground_station_is_not_armed() -> None:
+    """ArduCopter's link-loss failsafe counts only SYSID_MYGCS's heartbeats and starts only
+    once it heard one: watching another system, FS_GCS_ENABLE 1 guards nothing."""
+    with fly("ardupilot", settings={"own_system": 200}) as (vehicle, sim):
+        wait_for("the failsafe check", lambda: vehicle.failsafes() is not None, 3.0)
+        why = vehicle.failsafes()
+        assert isinstance(why, str) and why.startswith("SYSID_MYGCS is 245, not this vehicle's"), (
+            why
+        )
+        vehicle.takeoff(4.0)
+        wait_for("the refusal", lambda: bool(vehicle.drain_faults()), 3.0)
+        assert not sim.armed

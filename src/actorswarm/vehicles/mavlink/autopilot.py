@@ -84,7 +84,13 @@ from actorswarm.vehicles.mavlink.firmware import (
     ARDUPLANE_UNASKED,
     PX4_ONBOARD,
 )
-from actorswarm.vehicles.mavlink.flavours import ARDUPILOT_MODES, PX4_MAIN, PX4_SUB, px4_custom_mode
+from actorswarm.vehicles.mavlink.flavours import (
+    ARDUPILOT_MODES,
+    GCS_ID,
+    PX4_MAIN,
+    PX4_SUB,
+    px4_custom_mode,
+)
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.link import open_connection, read_available
 from actorswarm.vehicles.mavlink.linkstreams import LinkStreams
@@ -94,7 +100,7 @@ from actorswarm.vehicles.mavlink.simplane import (
     plane_params,
     plane_spec,
 )
-from actorswarm.vehicles.mavlink.vehicle import FAILSAFE_PARAMS
+from actorswarm.vehicles.mavlink.vehicle import FAILSAFE_PARAMS, GCS_DEFAULT, OWN_SYSTEM
 from actorswarm.world.config import QuadrotorParams, VehicleSpec
 from actorswarm.world.vehicles import Fleet
 
@@ -223,6 +229,9 @@ class SimAutopilot:
             if plane
             else dict.fromkeys(FAILSAFE_PARAMS[options.kind], 1.0 if options.failsafes else 0.0)
         )
+        if not plane and options.kind == "ardupilot":
+            # As a SITL set up for the daemon has it (or the firmware's default without).
+            self._params[GCS_ID] = float(OWN_SYSTEM if options.failsafes else GCS_DEFAULT)
         # The geofence: its parameters take PARAM_SET, its polygon the mission protocol.
         self._params.update(fence_params(options.kind, 100.0))
         self.fence = FenceReceiver(options.system)

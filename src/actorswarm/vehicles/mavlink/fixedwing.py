@@ -59,6 +59,7 @@ from actorswarm.vehicles.mavlink.commands import Check, CheckResult, Command, Do
 from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.flavours import (
     ARDUPLANE_MODES,
+    GCS_ID,
     Controls,
     Kind,
     Target,
@@ -73,7 +74,6 @@ __all__ = [
     "APPROACH_HEIGHT",
     "ARDUPLANE_FAILSAFE_PARAMS",
     "ENVELOPE",
-    "GCS_ID",
     "LOITER_RADIUS",
     "REPAIR",
     "REPOSITION_RATE",
@@ -87,9 +87,6 @@ __all__ = [
     "landing_items",
 ]
 
-#: The parameter naming the one ground station whose heartbeats ArduPlane's link-loss
-#: failsafe counts: it must be the vehicle's own system ID.
-GCS_ID: Final = "SYSID_MYGCS"
 #: ArduPlane's failsafe parameters read before arming (its link-loss one is spelt
 #: ``FS_GCS_ENABL``), and :data:`GCS_ID`.
 ARDUPLANE_FAILSAFE_PARAMS: Final = {

@@ -29,6 +29,7 @@ from actorswarm.vehicles.mavlink.dialect import mav
 __all__ = [
     "ARDUPILOT_MODES",
     "ARDUPLANE_MODES",
+    "GCS_ID",
     "PX4_MAIN",
     "PX4_SUB",
     "Airframe",
@@ -46,6 +47,9 @@ __all__ = [
 ]
 
 Kind = Literal["ardupilot", "px4"]
+#: ArduPilot's parameter naming the one ground station whose heartbeats its link-loss
+#: failsafe counts: it must be the vehicle's own system ID (``MavlinkSettings.own_system``).
+GCS_ID: Final = "SYSID_MYGCS"
 #: The airframe, from the HEARTBEAT's type: a fixed-wing, or anything else (a multicopter).
 Airframe = Literal["copter", "plane"]
 

@@ -63,9 +63,10 @@ from typing import Any, Final, Protocol
 
 from actorswarm.vehicles.mavlink.boot import Boot
 from actorswarm.vehicles.mavlink.dialect import mav
-from actorswarm.vehicles.mavlink.flavours import ARDUPLANE_MODES
+from actorswarm.vehicles.mavlink.flavours import ARDUPLANE_MODES, GCS_ID
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.linkstreams import LinkStreams
+from actorswarm.vehicles.mavlink.vehicle import GCS_DEFAULT, OWN_SYSTEM
 from actorswarm.world.config import FixedWingParams, FixedWingTuning, VehicleSpec
 from actorswarm.world.vehicles import SimVehicle
 
@@ -117,13 +118,6 @@ def flown_radius(asked: float) -> float:
     return max(_RADIUS_OFFSET + _RADIUS_GROWTH * abs(asked), _TIGHTEST)
 
 
-#: The daemon's own MAVLink system (``MavlinkSettings.own_system``'s default): the ground
-#: station whose heartbeats the link-loss failsafe counts once it is set up for the daemon.
-_DAEMON_SYSTEM: Final = 245.0
-#: ``SYSID_MYGCS``'s firmware default.
-_DEFAULT_GCS: Final = 255.0
-
-
 def plane_params(failsafes: bool) -> dict[str, float]:
     """The parameters it answers: with ``failsafes``, as a SITL set up for the daemon has
     them (``FS_GCS_ENABL`` 1, ``BATT_FS_LOW_ACT`` 1, ``SYSID_MYGCS`` 245); without, the
@@ -131,7 +125,7 @@ def plane_params(failsafes: bool) -> dict[str, float]:
     out = {
         "FS_GCS_ENABL": 1.0 if failsafes else 0.0,
         "BATT_FS_LOW_ACT": 1.0 if failsafes else 0.0,
-        "SYSID_MYGCS": _DAEMON_SYSTEM if failsafes else _DEFAULT_GCS,
+        GCS_ID: float(OWN_SYSTEM if failsafes else GCS_DEFAULT),
     }
     out.update(_DEFAULTS)
     return out

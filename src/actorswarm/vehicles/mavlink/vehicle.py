@@ -53,12 +53,12 @@ from actorswarm.vehicles.mavlink.fence import FencePusher
 from actorswarm.vehicles.mavlink.fixedwing import (
     ARDUPLANE_FAILSAFE_PARAMS,
     ENVELOPE,
-    GCS_ID,
     ArduPlane,
     FixedWing,
     Px4FixedWing,
 )
 from actorswarm.vehicles.mavlink.flavours import (
+    GCS_ID,
     Airframe,
     Flavour,
     Kind,
@@ -80,9 +80,11 @@ from actorswarm.vehicles.mavlink.streams import StreamWatch
 __all__ = [
     "FAILSAFE_PARAMS",
     "FAULT",
+    "GCS_DEFAULT",
     "LINK_LOST",
     "LINK_RESTORED",
     "OPERATOR_EVENTS",
+    "OWN_SYSTEM",
     "Fence",
     "MavlinkSettings",
     "MavlinkVehicle",
@@ -102,11 +104,20 @@ OPERATOR_EVENTS: Final[dict[str, Literal["land", "hold"] | None]] = {
 }
 
 #: The failsafe parameters read before arming, per autopilot: name -> what it guards. A
-#: value of 0 means the failsafe is off.
+#: value of 0 means the failsafe is off; ArduPilot's ``SYSID_MYGCS`` (:data:`GCS_ID`) must be
+#: this vehicle's own system, the one ground station its link-loss failsafe watches.
 FAILSAFE_PARAMS: Final[dict[Kind, dict[str, str]]] = {
-    "ardupilot": {"FS_GCS_ENABLE": "link-loss failsafe", "BATT_FS_LOW_ACT": "low-battery failsafe"},
+    "ardupilot": {
+        "FS_GCS_ENABLE": "link-loss failsafe",
+        "BATT_FS_LOW_ACT": "low-battery failsafe",
+        GCS_ID: "the ground station the link-loss failsafe watches",
+    },
     "px4": {"NAV_DLL_ACT": "link-loss failsafe", "COM_LOW_BAT_ACT": "low-battery failsafe"},
 }
+#: Our own MAVLink system ID by default (``MavlinkSettings.own_system``).
+OWN_SYSTEM: Final = 245
+#: ``SYSID_MYGCS``'s firmware default.
+GCS_DEFAULT: Final = 255
 
 _INT_TYPES: Final = frozenset(
     (
@@ -182,7 +193,7 @@ class MavlinkSettings:
     origin: MissionFrame
     system: int | None = None
     component: int = 1
-    own_system: int = 245
+    own_system: int = OWN_SYSTEM
     own_component: int = 191
     kind: Literal["auto", "ardupilot", "px4"] = "auto"
     link_timeout: float = 3.0
@@ -581,8 +592,10 @@ class MavlinkVehicle:
                 )
         watched, ours = params.get(GCS_ID), self.settings.own_system
         if watched is not None and round(watched) != ours and not self.settings.force:
-            # ArduPlane's link-loss failsafe counts only the heartbeats of SYSID_MYGCS: one
-            # that watches another system fires on the ground (RTL, "RTL mode not armable").
+            # ArduPilot's link-loss failsafe counts only the heartbeats of SYSID_MYGCS. One
+            # that watches another system: ArduPlane's fires on the ground (RTL, "RTL mode
+            # not armable"); ArduCopter's never starts (it waits for that system's first
+            # heartbeat), so FS_GCS_ENABLE 1 would guard nothing.
             return (
                 f"{GCS_ID} is {watched:g}, not this vehicle's system {ours}: the link-loss "
                 f"failsafe watches another ground station; set {GCS_ID} {ours} on the "
