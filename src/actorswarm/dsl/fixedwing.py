@@ -25,8 +25,9 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 from actorswarm.dsl.diagnostics import Report
-from actorswarm.dsl.model import NOWHERE, Param, PluginSpec, Position, TaskScript
+from actorswarm.dsl.model import Param, PluginSpec, TaskScript
 from actorswarm.dsl.plugins import plugin_class
+from actorswarm.dsl.safety import position_of
 
 if TYPE_CHECKING:
     from actorswarm.world.config import FixedWingParams, WorldConfig
@@ -73,11 +74,6 @@ def _number(spec: PluginSpec, params: Mapping[str, Param], key: str) -> float | 
         return None  # the checker has said what is wrong with it
 
 
-def _pos(spec: PluginSpec, params: Mapping[str, Param], key: str) -> Position:
-    param = params.get(key)
-    return param.pos if param is not None and param.pos != NOWHERE else spec.pos
-
-
 def _envelope(
     spec: PluginSpec,
     params: Mapping[str, Param],
@@ -91,13 +87,13 @@ def _envelope(
     low, high = aircraft.min_airspeed, aircraft.max_speed
     if speed < low:
         report.warning(
-            _pos(spec, params, key),
+            position_of(spec, params.get(key)),
             f"{spec.name}: {key} {speed:g} m/s is below the fixed-wings' min_airspeed "
             f"({low:g} m/s in the world): they cannot fly that slowly (the stall speed)",
         )
     elif speed > high:
         report.warning(
-            _pos(spec, params, key),
+            position_of(spec, params.get(key)),
             f"{spec.name}: {key} {speed:g} m/s is above the fixed-wings' max_speed "
             f"({high:g} m/s in the world)",
         )
@@ -113,7 +109,7 @@ def _formation(
     carrot, reach = speed * lookahead, CARROT_RADII * aircraft.loiter_radius
     if carrot < reach:
         report.warning(
-            _pos(spec, params, "lookahead"),
+            position_of(spec, params.get("lookahead")),
             f"{spec.name}: the carrot is {carrot:g} m ahead of each slot (lookahead "
             f"{lookahead:g} s × speed {speed:g} m/s), within {CARROT_RADII:g} loiter radii "
             f"({reach:g} m in the world): a fixed-wing would circle it rather than fly at it; "
@@ -130,7 +126,7 @@ def _arrival(
     radius = aircraft.loiter_radius
     if tolerance is not None and tolerance < radius:
         report.warning(
-            _pos(spec, params, "tolerance"),
+            position_of(spec, params.get("tolerance")),
             f"{spec.name}: tolerance {tolerance:g} m is below the fixed-wings' loiter radius "
             f"({radius:g} m in the world): an aircraft circles its goal at that radius and "
             f"may never come within the tolerance; make it at least {radius:g}",

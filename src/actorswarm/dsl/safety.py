@@ -32,7 +32,7 @@ from actorswarm.dsl.model import NOWHERE, Param, PluginSpec, Position, TaskScrip
 if TYPE_CHECKING:
     from actorswarm.world.config import WorldConfig
 
-__all__ = ["check_safety"]
+__all__ = ["check_safety", "position_of"]
 
 #: A formation's params' defaults, as the formation plugins have them.
 _SPACING_DEFAULT = 20.0
@@ -100,7 +100,9 @@ def _number(param: Param | None, default: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _at(spec: PluginSpec, param: Param | None) -> Position:
+def position_of(spec: PluginSpec, param: Param | None) -> Position:
+    """Where a warning about ``param`` of ``spec`` points: the param's line, else the
+    plugin's (a param left out)."""
     return param.pos if param is not None and param.pos != NOWHERE else spec.pos
 
 
@@ -116,7 +118,7 @@ def _formation(
     spacing = _number(params.get("spacing"), _SPACING_DEFAULT)
     if spacing is not None and spacing < separation:
         report.warning(
-            _at(spec, params.get("spacing")),
+            position_of(spec, params.get("spacing")),
             f"{spec.name}: spacing {spacing:g} m is below the vehicles' separation ({what} "
             f"in the world): neighbouring slots would breach it; make spacing at least "
             f"{separation:g}",
@@ -124,7 +126,7 @@ def _formation(
     size = _number(params.get("size"), 0.0)
     if size is not None and size > 0 and count > size:
         report.warning(
-            _at(spec, params.get("size")),
+            position_of(spec, params.get("size")),
             f"{spec.name}: size {size:g} gives {size:g} slots but up to {count} platforms may "
             "fly this formation; those beyond the slots will refuse to start (size 0 gives "
             "one slot per platform sent)",
@@ -137,7 +139,7 @@ def _formation(
             top = altitude + max(slots - 1, 0) * step
             if top > ceiling:
                 report.warning(
-                    _at(spec, params.get("altitude_step") or params.get("altitude")),
+                    position_of(spec, params.get("altitude_step") or params.get("altitude")),
                     f"{spec.name}: its top layer is at {top:g} m (altitude {altitude:g} + "
                     f"{max(slots - 1, 0)} × altitude_step {step:g}), above the world's "
                     f"ceiling of {ceiling:g} m ([safety] ceiling)",
@@ -160,7 +162,7 @@ def _goto(
     if sent > 1 and spacing is not None and spacing < separation:
         said = "no spacing" if spacing == 0 else f"spacing {spacing:g} m"
         report.warning(
-            _at(spec, params.get("spacing")),
+            position_of(spec, params.get("spacing")),
             f"flight.goto: up to {sent} platforms may be sent here with {said}: they would "
             f"meet closer than their separation ({what} in the world); give "
             f'<param key="spacing" value="{separation:g}"/> or more',
@@ -201,7 +203,7 @@ def _return_home(
     top = altitude + max(used - 1, 0) * step
     if top > ceiling and altitude <= ceiling:
         report.warning(
-            _at(spec, params.get("layer_step")),
+            position_of(spec, params.get("layer_step")),
             f"{spec.name}: the top layer of the way home is at {top:g} m (altitude "
             f"{altitude:g} + {max(used - 1, 0)} × layer_step {step:g}), above the world's "
             f"ceiling of {ceiling:g} m ([safety] ceiling)",
