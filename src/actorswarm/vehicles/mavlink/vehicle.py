@@ -9,6 +9,10 @@ keeps the messages of this vehicle's autopilot (:class:`~.link.MessageFilter`), 
 latest state, moves the command plan on (:class:`~.commands.CommandSender`), streams the
 current goal, sends our own ``HEARTBEAT`` each second and watches the autopilot's.
 
+A multicopter's plans are :mod:`~.flavours`'. An autopilot whose ``HEARTBEAT`` says
+fixed-wing is flown by :mod:`~.fixedwing` (ArduPlane: its plans, and its part that streams
+the goal, writes the landing mission and sets parameters); a PX4 fixed-wing is refused.
+
 The plugins' calls never block: a read returns the latest state under a lock; a command
 builds its plan (:mod:`~.flavours`) and returns, the thread carries it out. What fails
 — a refused or unanswered command, a pre-flight check that refuses to arm — is kept for
