@@ -229,7 +229,7 @@ class SimAutopilot:
             if plane
             else dict.fromkeys(FAILSAFE_PARAMS[options.kind], 1.0 if options.failsafes else 0.0)
         )
-        if not plane and options.kind == "ardupilot":
+        if options.kind == "ardupilot":
             # As a SITL set up for the daemon has it (or the firmware's default without).
             self._params[GCS_ID] = float(OWN_SYSTEM if options.failsafes else GCS_DEFAULT)
         # The geofence: its parameters take PARAM_SET, its polygon the mission protocol.

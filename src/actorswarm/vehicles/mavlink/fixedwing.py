@@ -59,7 +59,7 @@ from actorswarm.vehicles.mavlink.commands import Check, CheckResult, Command, Do
 from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.flavours import (
     ARDUPLANE_MODES,
-    GCS_ID,
+    FAILSAFE_PARAMS,
     Controls,
     Kind,
     Target,
@@ -87,12 +87,11 @@ __all__ = [
     "landing_items",
 ]
 
-#: ArduPlane's failsafe parameters read before arming (its link-loss one is spelt
-#: ``FS_GCS_ENABL``), and :data:`GCS_ID`.
+#: ArduPlane's failsafe parameters read before arming: ArduCopter's, its link-loss one
+#: spelt ``FS_GCS_ENABL``.
 ARDUPLANE_FAILSAFE_PARAMS: Final = {
-    "FS_GCS_ENABL": "link-loss failsafe",
-    "BATT_FS_LOW_ACT": "low-battery failsafe",
-    GCS_ID: "the ground station the link-loss failsafe watches",
+    ("FS_GCS_ENABL" if name == "FS_GCS_ENABLE" else name): what
+    for name, what in FAILSAFE_PARAMS["ardupilot"].items()
 }
 #: The airspeed limits read from ArduPlane (not checked before arming: they bound the speeds
 #: asked for, :class:`PlaneGuidance`).

@@ -29,6 +29,7 @@ from actorswarm.vehicles.mavlink.dialect import mav
 __all__ = [
     "ARDUPILOT_MODES",
     "ARDUPLANE_MODES",
+    "FAILSAFE_PARAMS",
     "GCS_ID",
     "PX4_MAIN",
     "PX4_SUB",
@@ -50,6 +51,18 @@ Kind = Literal["ardupilot", "px4"]
 #: ArduPilot's parameter naming the one ground station whose heartbeats its link-loss
 #: failsafe counts: it must be the vehicle's own system ID (``MavlinkSettings.own_system``).
 GCS_ID: Final = "SYSID_MYGCS"
+#: The failsafe parameters read before arming, per autopilot: name -> what it guards. A
+#: value of 0 means the failsafe is off; ArduPilot's :data:`GCS_ID` must be the vehicle's
+#: own system, the one ground station its link-loss failsafe watches. (ArduPlane spells
+#: the first one ``FS_GCS_ENABL``: :data:`~.fixedwing.ARDUPLANE_FAILSAFE_PARAMS`.)
+FAILSAFE_PARAMS: Final[dict[Kind, dict[str, str]]] = {
+    "ardupilot": {
+        "FS_GCS_ENABLE": "link-loss failsafe",
+        "BATT_FS_LOW_ACT": "low-battery failsafe",
+        GCS_ID: "the ground station the link-loss failsafe watches",
+    },
+    "px4": {"NAV_DLL_ACT": "link-loss failsafe", "COM_LOW_BAT_ACT": "low-battery failsafe"},
+}
 #: The airframe, from the HEARTBEAT's type: a fixed-wing, or anything else (a multicopter).
 Airframe = Literal["copter", "plane"]
 

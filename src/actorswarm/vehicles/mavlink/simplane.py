@@ -63,10 +63,9 @@ from typing import Any, Final, Protocol
 
 from actorswarm.vehicles.mavlink.boot import Boot
 from actorswarm.vehicles.mavlink.dialect import mav
-from actorswarm.vehicles.mavlink.flavours import ARDUPLANE_MODES, GCS_ID
+from actorswarm.vehicles.mavlink.flavours import ARDUPLANE_MODES
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.linkstreams import LinkStreams
-from actorswarm.vehicles.mavlink.vehicle import GCS_DEFAULT, OWN_SYSTEM
 from actorswarm.world.config import FixedWingParams, FixedWingTuning, VehicleSpec
 from actorswarm.world.vehicles import SimVehicle
 
@@ -120,12 +119,11 @@ def flown_radius(asked: float) -> float:
 
 def plane_params(failsafes: bool) -> dict[str, float]:
     """The parameters it answers: with ``failsafes``, as a SITL set up for the daemon has
-    them (``FS_GCS_ENABL`` 1, ``BATT_FS_LOW_ACT`` 1, ``SYSID_MYGCS`` 245); without, the
-    firmware's defaults (0, 0, 255)."""
+    them (``FS_GCS_ENABL`` 1, ``BATT_FS_LOW_ACT`` 1); without, the firmware's defaults (0).
+    ``SYSID_MYGCS`` is every simulated ArduPilot's (:class:`~.autopilot.SimAutopilot`)."""
     out = {
         "FS_GCS_ENABL": 1.0 if failsafes else 0.0,
         "BATT_FS_LOW_ACT": 1.0 if failsafes else 0.0,
-        GCS_ID: float(OWN_SYSTEM if failsafes else GCS_DEFAULT),
     }
     out.update(_DEFAULTS)
     return out

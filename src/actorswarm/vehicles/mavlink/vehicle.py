@@ -62,6 +62,7 @@ from actorswarm.vehicles.mavlink.fixedwing import (
     Px4FixedWing,
 )
 from actorswarm.vehicles.mavlink.flavours import (
+    FAILSAFE_PARAMS,
     GCS_ID,
     Airframe,
     Flavour,
@@ -107,17 +108,6 @@ OPERATOR_EVENTS: Final[dict[str, Literal["land", "hold"] | None]] = {
     "vehicle_resume": None,
 }
 
-#: The failsafe parameters read before arming, per autopilot: name -> what it guards. A
-#: value of 0 means the failsafe is off; ArduPilot's ``SYSID_MYGCS`` (:data:`GCS_ID`) must be
-#: this vehicle's own system, the one ground station its link-loss failsafe watches.
-FAILSAFE_PARAMS: Final[dict[Kind, dict[str, str]]] = {
-    "ardupilot": {
-        "FS_GCS_ENABLE": "link-loss failsafe",
-        "BATT_FS_LOW_ACT": "low-battery failsafe",
-        GCS_ID: "the ground station the link-loss failsafe watches",
-    },
-    "px4": {"NAV_DLL_ACT": "link-loss failsafe", "COM_LOW_BAT_ACT": "low-battery failsafe"},
-}
 #: Our own MAVLink system ID by default (``MavlinkSettings.own_system``).
 OWN_SYSTEM: Final = 245
 #: ``SYSID_MYGCS``'s firmware default.
