@@ -141,6 +141,7 @@ def test_every_option_of_the_typer_command_is_read_the_same_way() -> None:
         ["--platform", "4", "--broadcast", "multicast", "--group", "224.0.0.9:7000",
          "--interface", "wlan0", "--lease", "2.5"],
         ["--platform", "4", "--lease=10"],
+        ["--platform", "5", "--relay", "--listen", "tcp/0.0.0.0:7447"],
     ],
 )  # fmt: skip
 def test_a_well_formed_command_line_reads_as_typer_reads_it(

@@ -44,9 +44,7 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
-import subprocess
 import time
 import warnings
 from collections.abc import Iterator, Sequence
@@ -55,6 +53,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import pytest
+from netns_lab import PREFIX, must, netem, reap_leftovers, run
 
 from actorswarm.daemon.launch import LocalSwarm
 
@@ -66,30 +65,11 @@ SUBNET = "10.199.0"
 PORT = 7447
 LOSS_PERCENT = 20
 DELAY_MS = 20
-#: Namespace names: this prefix, the ID of the process that made them, ``-`` and a role.
-PREFIX = "asw"
 
 
 def _address(platform: int) -> str:
     """Platform ``platform``'s address; 0 is the ground station."""
     return f"{SUBNET}.{platform + 10}" if platform else f"{SUBNET}.2"
-
-
-def _run(*cmd: str, stdin: str | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(cmd, input=stdin, capture_output=True, text=True, timeout=15, check=False)
-
-
-def _must(*cmd: str, stdin: str | None = None) -> str:
-    """Run a set-up command: its output, or RuntimeError with the command and its error."""
-    done = _run(*cmd, stdin=stdin)
-    if done.returncode != 0:
-        raise RuntimeError(f"`{' '.join(cmd)}` failed ({done.returncode}): {done.stderr.strip()}")
-    return done.stdout
-
-
-def _netem(loss_percent: int, delay_ms: int) -> tuple[str, ...]:
-    """The ``tc qdisc add ... root`` arguments of a netem that loses and delays."""
-    return ("netem", "loss", f"{loss_percent}%", "delay", f"{delay_ms}ms")
 
 
 # --- what this machine can do -------------------------------------------------------------
@@ -124,51 +104,35 @@ def _probe(prefix: str) -> Impairment:
     if shutil.which("ip") is None:
         pytest.skip("`ip` (iproute2) is not installed: run scripts/system-deps.sh as root")
     probe = f"{prefix}-probe"
-    made = _run("ip", "netns", "add", probe)
+    made = run("ip", "netns", "add", probe)
     if made.returncode != 0:
         pytest.skip(f"network namespaces are unavailable here: {made.stderr.strip()}")
     try:
-        veth = _run("ip", "-n", probe, "link", "add", "probe0", "type", "veth",
+        veth = run("ip", "-n", probe, "link", "add", "probe0", "type", "veth",
                     "peer", "name", "probe1")  # fmt: skip
         if veth.returncode != 0:
             pytest.skip(f"veth pairs are unavailable here: {veth.stderr.strip()}")
-        netem = _run("ip", "netns", "exec", probe, "tc", "qdisc", "add", "dev", "probe0",
-                     "root", *_netem(LOSS_PERCENT, DELAY_MS))  # fmt: skip
-        if netem.returncode == 0:
+        qdisc = run("ip", "netns", "exec", probe, "tc", "qdisc", "add", "dev", "probe0",
+                     "root", *netem(LOSS_PERCENT, DELAY_MS))  # fmt: skip
+        if qdisc.returncode == 0:
             return Impairment("netem", LOSS_PERCENT, DELAY_MS)
         if shutil.which("nft") is None:
             pytest.skip(
-                f"no way to lose packets: tc netem failed ({netem.stderr.strip()}) and `nft` "
+                f"no way to lose packets: tc netem failed ({qdisc.stderr.strip()}) and `nft` "
                 "(nftables) is not installed: run scripts/system-deps.sh as root"
             )
         table = (
             "table bridge probe {\n chain links {\n type filter hook forward priority 0;\n }\n}\n"
         )
-        nft = _run("ip", "netns", "exec", probe, "nft", "-f", "-", stdin=table)
+        nft = run("ip", "netns", "exec", probe, "nft", "-f", "-", stdin=table)
         if nft.returncode != 0:
             pytest.skip(
-                f"no way to lose packets: tc netem failed ({netem.stderr.strip()}) and nftables "
+                f"no way to lose packets: tc netem failed ({qdisc.stderr.strip()}) and nftables "
                 f"bridge filtering failed ({nft.stderr.strip()})"
             )
         return Impairment("nftables", LOSS_PERCENT, 0)
     finally:
-        _run("ip", "netns", "del", probe)
-
-
-def _reap_leftovers() -> None:
-    """Delete the namespaces of runs whose process is gone (a crash, a kill -9): nobody
-    else would."""
-    for line in _run("ip", "netns", "list").stdout.splitlines():
-        name = line.split(" ", 1)[0]
-        found = re.fullmatch(rf"{PREFIX}(\d+)-\w+", name)
-        if found is None or int(found.group(1)) == os.getpid():
-            continue
-        try:
-            os.kill(int(found.group(1)), 0)
-        except ProcessLookupError:
-            _run("ip", "netns", "del", name)
-        except PermissionError:
-            pass  # alive: another user's run
+        run("ip", "netns", "del", probe)
 
 
 # --- the topology ---------------------------------------------------------------------------
@@ -202,25 +166,25 @@ class Topology:
     def build(self) -> None:
         """Create every namespace, link and address, then impair the daemons' links."""
         self._netns(self.hub)
-        _must("ip", "-n", self.hub, "link", "add", "br0", "type", "bridge")
-        _must("ip", "-n", self.hub, "link", "set", "br0", "up")
+        must("ip", "-n", self.hub, "link", "add", "br0", "type", "bridge")
+        must("ip", "-n", self.hub, "link", "set", "br0", "up")
         for platform in range(self.size + 1):
             ns, port = self.ns(platform), self.port(platform)
             self._netns(ns)
             # Made in the hub with its peer moved straight into the platform's namespace:
             # no interface of the test ever exists in the machine's own namespace.
-            _must("ip", "-n", self.hub, "link", "add", port, "type", "veth",
+            must("ip", "-n", self.hub, "link", "add", port, "type", "veth",
                   "peer", "name", "eth0", "netns", ns)  # fmt: skip
-            _must("ip", "-n", self.hub, "link", "set", port, "master", "br0", "up")
-            _must("ip", "-n", ns, "addr", "add", f"{_address(platform)}/24", "dev", "eth0")
-            _must("ip", "-n", ns, "link", "set", "eth0", "up")
+            must("ip", "-n", self.hub, "link", "set", port, "master", "br0", "up")
+            must("ip", "-n", ns, "addr", "add", f"{_address(platform)}/24", "dev", "eth0")
+            must("ip", "-n", ns, "link", "set", "eth0", "up")
         if self.impairment.kind == "netem":
             for platform in range(1, self.size + 1):
-                _must("ip", "netns", "exec", self.ns(platform), "tc", "qdisc", "add", "dev",
-                      "eth0", "root", *_netem(self.impairment.loss_percent,
+                must("ip", "netns", "exec", self.ns(platform), "tc", "qdisc", "add", "dev",
+                      "eth0", "root", *netem(self.impairment.loss_percent,
                                               self.impairment.delay_ms))  # fmt: skip
         else:
-            _must("ip", "netns", "exec", self.hub, "nft", "-f", "-", stdin=self._nft_table())
+            must("ip", "netns", "exec", self.hub, "nft", "-f", "-", stdin=self._nft_table())
 
     def _nft_table(self) -> str:
         # The bridge's forward hook sees every frame from one port to another. Per daemon
@@ -245,7 +209,7 @@ class Topology:
         None when the counters cannot be read."""
         try:
             if self.impairment.kind == "nftables":
-                listed = _run("ip", "netns", "exec", self.hub, "nft", "-j", "list", "table",
+                listed = run("ip", "netns", "exec", self.hub, "nft", "-j", "list", "table",
                               "bridge", "radio").stdout  # fmt: skip
                 counts = [
                     int(expr["counter"]["packets"])
@@ -257,7 +221,7 @@ class Topology:
                 return sum(counts[1::2]), sum(counts[0::2])
             lost = sent = 0
             for platform in range(1, self.size + 1):
-                shown = _run("ip", "netns", "exec", self.ns(platform), "tc", "-s", "-j",
+                shown = run("ip", "netns", "exec", self.ns(platform), "tc", "-s", "-j",
                              "qdisc", "show", "dev", "eth0").stdout  # fmt: skip
                 for qdisc in json.loads(shown):
                     if qdisc.get("kind") == "netem":
@@ -269,14 +233,14 @@ class Topology:
             return None
 
     def _netns(self, name: str) -> None:
-        _must("ip", "netns", "add", name)
+        must("ip", "netns", "add", name)
         self.made.append(name)
-        _must("ip", "-n", name, "link", "set", "lo", "up")
+        must("ip", "-n", name, "link", "set", "lo", "up")
 
     def teardown(self) -> None:
         """Delete every namespace made (their veths and the bridge go with them)."""
         for name in reversed(self.made):
-            _run("ip", "netns", "del", name)
+            run("ip", "netns", "del", name)
         self.made.clear()
 
 
@@ -284,7 +248,7 @@ class Topology:
 def topology() -> Iterator[Topology]:
     prefix = f"{PREFIX}{os.getpid()}"
     impairment = _probe(prefix)
-    _reap_leftovers()
+    reap_leftovers()
     topo = Topology(prefix, PLATFORMS, impairment)
     try:
         topo.build()

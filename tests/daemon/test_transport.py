@@ -119,6 +119,18 @@ def test_multicast_settings_refuse_what_would_loop_or_cannot_be_a_group() -> Non
     assert ipv6.group_endpoint == "udp/[ff02::1]:7448"
 
 
+def test_a_relay_is_a_zenoh_router_and_never_on_a_multicast_group() -> None:
+    """--relay: Zenoh's routers route between each other (link-state), its peers never
+    forward; timestamps off (nobody reads them); scouted neighbours connected."""
+    data = json.loads(str(ZenohSettings(relay=True, listen=("tcp/0.0.0.0:7447",)).config()))
+    assert data["mode"] == "router"
+    assert data["timestamping"]["enabled"] is False
+    assert data["scouting"]["multicast"]["autoconnect"] == ["router", "peer"]
+    assert json.loads(str(ZenohSettings().config()))["mode"] == "peer"
+    with pytest.raises(ValueError, match="no relaying"):
+        ZenohSettings(multicast=False, broadcast="multicast", relay=True)
+
+
 def test_multicast_members_join_often_and_within_their_lease() -> None:
     """Zenoh's default join interval (2.5 s) is longer than a short lease (members would
     expire between joins) and than a ground-station command listens: 250 ms, and at least

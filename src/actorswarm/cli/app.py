@@ -950,9 +950,16 @@ def task_check(
     areas = None if world_config is None else [area.name for area in world_config.areas]
     status = 0
     for path in files:
-        code, _ = check_script(path, max_bytes, areas, world_config)
+        code, script = check_script(path, max_bytes, areas, world_config)
         if code == 0:
             typer.echo(f"{path}: ok")
+        if script is not None and world_config is not None and world_config.radio.relay:
+            from actorswarm.world.radio_model import hop_span
+
+            specs = world_config.vehicle_specs(script.platform_ids())
+            span, groups = hop_span([(*s.home, 0.0) for s in specs], world_config.radio)
+            if groups == 1:
+                typer.echo(f"{path}: the platforms' homes span {span} radio hop(s), relayed")
         status = max(status, code)
     raise typer.Exit(status)
 

@@ -80,6 +80,14 @@ def daemon(
             "peer's session; four keep-alives per lease on each idle link.",
         ),
     ] = None,
+    relay: Annotated[
+        bool,
+        typer.Option(
+            "--relay",
+            help="Forward the others' packets (Zenoh router, link-state routing): for a swarm "
+            "whose platforms reach only their neighbours. Not with --broadcast multicast.",
+        ),
+    ] = False,
     state_dir: Annotated[
         Path | None,
         typer.Option(
@@ -157,6 +165,7 @@ def daemon(
             group=group,
             interface=interface,
             lease=lease,
+            relay=relay,
             state_dir=state_dir,
             keys=keys,
             insecure=insecure,

@@ -36,6 +36,7 @@ OPTIONS: dict[str, tuple[str, str]] = {
     "--group": ("group", "value"),
     "--interface": ("interface", "value"),
     "--lease": ("lease", "seconds"),
+    "--relay": ("relay", "flag"),
     "--state-dir": ("state_dir", "path"),
     "--keys": ("keys", "path"),
     "--insecure": ("insecure", "flag"),
@@ -71,6 +72,7 @@ def parse_daemon_args(args: Sequence[str]) -> dict[str, Any] | None:
         "group": None,
         "interface": None,
         "lease": None,
+        "relay": False,
         "state_dir": None,
         "keys": None,
         "insecure": False,
@@ -155,6 +157,7 @@ def start_daemon(
     group: str | None = None,
     interface: str | None = None,
     lease: float | None = None,
+    relay: bool = False,
     ros2: bool = False,
     ros2_profile: str | None = None,
 ) -> int:
@@ -234,6 +237,7 @@ def start_daemon(
         group or file.group,
         interface or file.interface,
         lease if lease is not None else file.lease,
+        relay or file.relay,
     )
     for endpoint in settings.listen:
         problem = busy_endpoint(endpoint)

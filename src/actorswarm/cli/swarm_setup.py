@@ -69,10 +69,12 @@ def zenoh_settings(
     group: str | None = None,
     interface: str | None = None,
     lease: float | None = None,
+    relay: bool = False,
 ) -> ZenohSettings:
     """The Zenoh settings of these options, or a clear error and exit 2. ``multicast``
     (scouting) None: on for the mesh, off on a multicast group (which refuses it);
-    ``lease`` in seconds (None: :data:`LEASE_MS`)."""
+    ``lease`` in seconds (None: :data:`LEASE_MS`); ``relay``: forward for the others
+    (multi-hop, a daemon's option)."""
     chosen = broadcast or "mesh"
     if chosen == "mesh" and (group is not None or interface is not None):
         raise refuse(
@@ -87,6 +89,7 @@ def zenoh_settings(
             group=group or DEFAULT_GROUP,
             interface=interface,
             lease_ms=LEASE_MS if lease is None else round(lease * 1000),
+            relay=relay,
         )
     except ValueError as exc:
         raise refuse(str(exc)) from None

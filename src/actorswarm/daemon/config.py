@@ -14,6 +14,7 @@ directory, so a robot's configuration can live beside its keys::
     broadcast = "mesh"       # or "multicast": one datagram per broadcast on a group
     # group = "224.0.0.225:7448"; interface = "wlan0"   (broadcast = "multicast" only)
     lease = 30.0             # Zenoh's session lease, seconds (docs/deploying.md)
+    relay = false            # true: forward for the others, for a swarm beyond one radio hop
     keys = "keys"
     state_dir = "/var/lib/actorswarm"
     vehicle = "sim"          # or "none", or "mavlink"
@@ -93,6 +94,7 @@ class DaemonFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     group: str | None = None
     interface: str | None = None
     lease: Annotated[float, msgspec.Meta(ge=0.1, le=3600)] | None = None
+    relay: bool = False
     keys: str | None = None
     insecure: bool = False
     state_dir: str | None = None

@@ -13,7 +13,9 @@ endpoints and no scouting.
 
 ``wrap(platform)`` may prefix a daemon's command (``ip netns exec ns3``) and ``endpoints``
 may give other addresses than loopback, which is how the network-namespace tests put
-daemons behind emulated radio links.
+daemons behind emulated radio links. ``links`` says whom each daemon connects to (a chain,
+a grid: neighbours only) and ``gs_connect`` where the ground station connects; with
+``relay`` every daemon forwards for the others (``--relay``), so such a swarm stays one.
 """
 
 from __future__ import annotations
@@ -56,7 +58,10 @@ class LocalSwarm:
     endpoints. ``state_dirs``: state directories other than ``directory/state-ID``.
     ``new_session``: each daemon in a session of its own, so a Ctrl-C at the terminal
     reaches only the process that started them (``actorswarm launch``), which stops them.
-    ``env``: the daemons' whole environment (default: this process's).
+    ``env``: the daemons' whole environment (default: this process's). ``links``: the
+    endpoints each platform connects to (default: every earlier platform's);
+    ``gs_connect``: the ground station's (default: every platform's). ``relay``: every
+    daemon relays (``--relay``, multi-hop).
     Use it as a context manager: leaving kills what still runs.
     """
 
@@ -78,6 +83,9 @@ class LocalSwarm:
         group: str | None = None,
         interface: str | None = None,
         env: Mapping[str, str] | None = None,
+        links: Mapping[int, Sequence[str]] | None = None,
+        gs_connect: Sequence[str] | None = None,
+        relay: bool = False,
     ) -> None:
         # Created when something is written there (keys, logs): a launch that is only
         # checked leaves no trace.
@@ -113,6 +121,10 @@ class LocalSwarm:
         self.state_dirs = dict(state_dirs or {})
         self.new_session = new_session
         self.env = None if env is None else dict(env)
+        self.links = None if links is None else {p: list(e) for p, e in links.items()}
+        self.gs_connect = None if gs_connect is None else list(gs_connect)
+        if relay:
+            self.extra.append("--relay")
         self.procs: dict[int, subprocess.Popen[bytes]] = {}
 
     def __enter__(self) -> LocalSwarm:
@@ -151,7 +163,8 @@ class LocalSwarm:
         ]  # fmt: skip
         if self.endpoints:
             args += ["--no-multicast", "--listen", self.endpoints[index]]
-            for other in self.endpoints[:index]:
+            links = self.endpoints[:index] if self.links is None else self.links.get(platform, [])
+            for other in links:
                 args += ["--connect", other]
         return args
 
@@ -208,7 +221,7 @@ class LocalSwarm:
                *security, *self.air]  # fmt: skip
         if self.endpoints:
             cmd.append("--no-multicast")
-        for endpoint in self.endpoints:
+        for endpoint in self.endpoints if self.gs_connect is None else self.gs_connect:
             cmd += ["--connect", endpoint]
         prefix = list(self.wrap(0)) if self.wrap is not None else []
         return subprocess.run(

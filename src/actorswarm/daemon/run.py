@@ -380,6 +380,8 @@ async def _main(options: DaemonOptions) -> int:
         broadcast=options.zenoh.broadcast
         if options.zenoh.broadcast == "mesh"
         else options.zenoh.group_endpoint,
+        # Whether it forwards for the others (multi-hop).
+        relay=options.zenoh.relay,
     )
     seen = _Seen()
     traffic = Traffic()

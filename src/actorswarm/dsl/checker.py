@@ -12,7 +12,8 @@ The pipeline, each stage its own module:
    only once 2 and 3 found no error;
 5. with a world, :func:`~actorswarm.dsl.safety.check_safety` — warnings about separation,
    the ceiling and areas the script's platforms cannot share — and
-   :func:`~actorswarm.dsl.fixedwing.check_fixed_wing`: what fixed-wings cannot fly.
+   :func:`~actorswarm.dsl.fixedwing.check_fixed_wing`: what fixed-wings cannot fly, and
+   :func:`~actorswarm.dsl.radio.check_radio`: platforms out of each other's radio reach.
 
 A script with any error is refused whole (docs/design.md §4): :func:`check` then returns no model
 and :func:`load` raises :class:`~actorswarm.dsl.diagnostics.ScriptError`. Warnings never
@@ -34,6 +35,7 @@ from actorswarm.dsl.fixedwing import check_fixed_wing
 from actorswarm.dsl.model import TaskScript
 from actorswarm.dsl.parser import DEFAULT_MAX_BYTES, XmlError, check_size, parse_xml
 from actorswarm.dsl.plugins import installed_plugins
+from actorswarm.dsl.radio import check_radio
 from actorswarm.dsl.safety import check_safety
 
 if TYPE_CHECKING:
@@ -100,6 +102,7 @@ def check(
             if not report.has_errors and world is not None:
                 check_safety(script, world, report)
                 check_fixed_wing(script, world, report)
+                check_radio(script, world, report)
     found = report.sorted()
     errors = tuple(d for d in found if d.severity == "error")
     return CheckResult(

@@ -655,7 +655,12 @@ class SimRadio(Generic[P]):
     def components(self, platforms: Iterable[int]) -> list[frozenset[int]]:
         """The given platforms split into groups that can hear each other.
 
-        Sorted by smallest member; platforms given twice count once.
+        Sorted by smallest member; platforms given twice count once. With a per-link model
+        (:attr:`link_fn`), a group connected hop by hop whose members do not all hear each
+        other (loss 1 between two of them: out of range, and nobody relays) is no stable
+        network: it counts as each of its platforms alone, so that the invariants of a
+        connected swarm (one master, all-or-nothing releases) are not asked of it. A world
+        whose radio relays answers for the relayed path, so its groups hear each other.
         """
         by_group: dict[int, set[int]] = {}
         group = self._group
@@ -681,7 +686,12 @@ class SimRadio(Generic[P]):
                             left.discard(b)
                             seen.add(b)
                             frontier.append(b)
-                out.append(frozenset(seen))
+                ordered = sorted(seen)
+                if all(link_fn(a, b)[0] < 1.0 for i, a in enumerate(ordered)
+                       for b in ordered[i + 1 :]):  # fmt: skip
+                    out.append(frozenset(seen))
+                else:
+                    out.extend(frozenset((p,)) for p in ordered)
         return sorted(out, key=min)
 
     # --- sending ------------------------------------------------------------------------

@@ -29,6 +29,7 @@ from actorswarm.runtime.actor_runtime import ActorRuntime
 from actorswarm.runtime.collective import NodeCollective
 from actorswarm.runtime.storage import MemoryBackupStore
 from actorswarm.security.pipeline import Pipeline
+from actorswarm.sim.hops import HopWatch, hops_line
 from actorswarm.sim.port import RadioPort
 from actorswarm.sim.radio import Airtime, LinkModel, Transmission
 from actorswarm.sim.scheduler import Timer
@@ -112,6 +113,8 @@ class TaskSim:
     #: How close the airborne vehicles come (:mod:`actorswarm.world.separation`), measured
     #: after every physics step; None without a world.
     separation: SeparationMonitor | None = field(default=None, init=False)
+    #: How many radio hops the swarm spans over the run; None without a world.
+    hops: HopWatch | None = field(default=None, init=False)
     #: Why the run stopped before its end (a fatal separation breach); None: it did not.
     halted: str | None = field(default=None, init=False)
     ground: GroundStation | None = field(default=None, init=False)
@@ -147,6 +150,7 @@ class TaskSim:
         if self.world_config is not None:
             self.world = World(self.world_config, platforms)
             self.separation = self._monitor(self.world_config, self.world)
+            self.hops = HopWatch(self.world_config.radio.relay)
             for vf in self.vehicle_faults:
                 if vf.kind == "drain":
                     for p in sorted(vf.ids):
@@ -230,6 +234,8 @@ class TaskSim:
         and its radio are one), so the swarm notices it as it would a real loss."""
         assert self.world is not None and self.world_config is not None
         self.world.step_to(self.swarm.now)
+        if self.hops is not None:
+            self.hops.observe(self.world)
         for platform in self.world.wrecked():
             if platform in self.hosts:
                 self.wrecks.append({"t": round(self.swarm.now, 6), "platform": platform})
@@ -507,6 +513,7 @@ class TaskSim:
             "wrecks": list(self.wrecks),
             "violations": self.swarm.finish() + separation_lines,
             "separation": None if separation is None else separation.as_dict(),
+            "radio": None if self.hops is None else self.hops.as_dict(),
             "halted": self.halted,
             "seed": self.seed,
             "channel": self.swarm.radio.channel_stats().as_dict(),
@@ -656,6 +663,8 @@ def summary(report: dict[str, Any]) -> list[str]:
     separation = report.get("separation")
     if separation is not None:
         lines.append(separation_line(separation))
+    if report.get("radio") is not None:
+        lines.append(hops_line(report["radio"]))
     if report.get("halted"):
         lines.append(f"HALTED: {report['halted']}")
     lines.append(

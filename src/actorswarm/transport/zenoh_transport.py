@@ -55,6 +55,21 @@ random per session, so that two ``gs`` commands at once differ too).
 Multicast is UDP: no retransmission below the core (which retransmits what must arrive),
 and a datagram larger than the link's MTU is lost whole when one of its IP fragments is.
 
+Multi-hop (``relay``): where platforms reach only their neighbours (a chain or a grid of
+radio ranges), each daemon opens its session in Zenoh's *router* mode instead of *peer*.
+Routers keep a link-state picture of who is connected to whom and forward every sample
+along the shortest path to the routers whose sessions subscribed to it, so a platform's
+broadcast or unicast reaches the far end of the chain through the platforms between,
+without any part of the collective core knowing. Each relay holds sessions only with the
+neighbours it connects to or that connect to it (``connect``/``listen``, or multicast
+scouting, which on a radio only its neighbours hear: relays connect to the routers and
+peers they scout). A ground station connects as a plain peer to any one relay. A relay
+without ``listen`` endpoints listens where Zenoh's routers do, ``tcp/[::]:7447``. Zenoh
+(1.10) routes between routers only: a peer's session never forwards, which is why relaying
+is a mode of its own. The multicast group cannot be relayed (a link-local group does not
+cross a hop, and a unicast session beside the group loops): ``relay`` refuses it. Routers
+stamp samples with a hybrid clock by default; the daemon has no use for it, so it is off.
+
 The session lease (:data:`LEASE_MS`, 30 s, with :data:`KEEP_ALIVES` keep-alives per
 lease: one every 7.5 s on each idle link, each way) is Zenoh's own failure detection; the
 core detects failures itself (heartbeats, ``t_leave`` 0.5 s) and does not wait for it. What
@@ -327,7 +342,9 @@ class ZenohSettings:
     ``group`` (``ADDRESS:PORT``) through ``interface`` (the system's choice when None), and
     ``listen``, ``connect`` and scouting are refused (see the module's docstring).
     ``beat_delay_ms`` is how long a heartbeat sent to this platform may wait for the loop
-    (0: it wakes the loop at once, as every other packet does).
+    (0: it wakes the loop at once, as every other packet does). ``relay``: this platform
+    forwards for the others (Zenoh's router mode, link-state routing: see the module's
+    docstring), for a swarm that spans more than one radio hop; not with ``"multicast"``.
 
     Construction raises ValueError naming the setting that is wrong.
     """
@@ -341,6 +358,7 @@ class ZenohSettings:
     group: str = DEFAULT_GROUP
     interface: str | None = None
     beat_delay_ms: int = BEAT_DELAY_MS
+    relay: bool = False
 
     def __post_init__(self) -> None:
         if self.broadcast not in BROADCASTS:
@@ -365,6 +383,7 @@ class ZenohSettings:
                     ("listen endpoints", self.listen),
                     ("connect endpoints", self.connect),
                     ("multicast scouting", self.multicast),
+                    ("relaying", self.relay),
                 )
                 if given
             ]
@@ -385,7 +404,12 @@ class ZenohSettings:
     def config(self) -> zenoh.Config:
         """The Zenoh configuration these settings stand for."""
         cfg = zenoh.Config()
-        cfg.insert_json5("mode", json.dumps("peer"))
+        cfg.insert_json5("mode", json.dumps("router" if self.relay else "peer"))
+        if self.relay:
+            cfg.insert_json5("timestamping/enabled", json.dumps(False))
+            # A router connects to nothing it scouts unless told to: a relay's neighbours
+            # are exactly the routers and peers it hears.
+            cfg.insert_json5("scouting/multicast/autoconnect", json.dumps(["router", "peer"]))
         if self.broadcast == "multicast":
             cfg.insert_json5("listen/endpoints", json.dumps([self.group_endpoint]))
             cfg.insert_json5(

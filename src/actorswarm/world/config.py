@@ -573,7 +573,9 @@ class RadioConfig:
     ``loss_at_range * (d / range) ** loss_exponent`` — near zero close by, steep towards the
     edge with a large exponent. Latency is ``base_latency + latency_per_km * d / 1000``
     seconds; the radio adds a jitter drawn in ``[0, jitter]`` seconds from its seeded
-    generator.
+    generator. ``relay``: the platforms forward for each other (the daemons' ``--relay``),
+    so a packet reaches a platform out of range through others, each relay adding
+    ``relay_latency`` seconds; off, a platform hears only those within ``range``.
     """
 
     range: float = 2000.0
@@ -582,11 +584,13 @@ class RadioConfig:
     base_latency: float = 0.005
     latency_per_km: float = 0.001
     jitter: float = 0.002
+    relay: bool = False
+    relay_latency: float = 0.002
 
     def __post_init__(self) -> None:
         _positive(self, "range", "loss_exponent")
         _fraction(self, "loss_at_range")
-        _non_negative(self, "base_latency", "latency_per_km", "jitter")
+        _non_negative(self, "base_latency", "latency_per_km", "jitter", "relay_latency")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -1006,7 +1010,7 @@ class _Loader:
         world = self.simple(root, "world", WorldSettings)
         quadrotor = self.simple(root, "quadrotor", QuadrotorParams)
         fixed_wing = self.simple(root, "fixed_wing", FixedWingParams)
-        radio = self.simple(root, "radio", RadioConfig)
+        radio = self.radio(root.table("radio", _field_names(RadioConfig)))
         camera = self.simple(root, "camera", CameraConfig)
         safety = self.safety(root.table("safety", _field_names(SafetyConfig)))
         fleet = self.fleet(root.table("fleet", (*_field_names(FleetConfig), "groups")))
@@ -1034,6 +1038,12 @@ class _Loader:
         """A section whose keys are all numbers, one per field of ``cls``."""
         table = root.table(name, _field_names(cast(type[Any], cls)))
         return table.build(cls, **{key: table.number(key) for key in table.data})
+
+    def radio(self, table: _Table) -> RadioConfig:
+        kwargs: dict[str, Any] = {
+            key: table.boolean(key) if key == "relay" else table.number(key) for key in table.data
+        }
+        return table.build(RadioConfig, **kwargs)
 
     def safety(self, table: _Table) -> SafetyConfig:
         kwargs: dict[str, Any] = {}

@@ -16,6 +16,16 @@ and receiver are, through this model (parameters in
   rates and retries of a long link (propagation alone, 3.3 µs/km, is negligible).
 * **Jitter** is not computed here: the radio draws it per packet, in ``[0, jitter]``, from
   its own seeded generator, so this model stays a pure function.
+* **Relaying** (``relay``, the daemons' ``--relay``): a packet reaches a platform out of
+  range through others. :func:`routes` picks, for every pair, the path of fewest expected
+  transmissions (ETX: the sum over its links of ``1 / (1 - loss)``, the metric of mesh
+  radios' routing; Zenoh routes by hop count over links that TCP makes reliable, which
+  differs only where a short hop is much better than a long one). Along that path the losses
+  compound (``1 - Π(1 - loss_i)``: each hop draws its own), the latencies add up, and each
+  relay adds ``relay_latency`` (taking a packet in and sending it on). One draw per
+  receiver, so two receivers behind one relay lose a packet independently: a
+  simplification, as is the relays' airtime, which the shared channel does not count.
+  :func:`hops` counts the links of the fewest-hop path, for the span a swarm reaches.
 
 Every function is pure (no state, no randomness, no clock) and works on numpy arrays:
 positions of shape ``(..., 3)`` broadcast against each other, so one call can answer for
@@ -35,12 +45,15 @@ from actorswarm.world.config import RadioConfig
 
 __all__ = [
     "distances",
+    "hop_span",
+    "hops",
     "latency_at",
     "link",
     "link_arrays",
     "link_matrix",
     "loss_at",
     "reachable",
+    "routes",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -111,3 +124,74 @@ def reachable(positions: ArrayLike, cfg: RadioConfig) -> NDArray[np.bool_]:
     out: NDArray[np.bool_] = loss_at(d, cfg) < 1.0
     np.fill_diagonal(out, True)
     return out
+
+
+def routes(
+    loss: FloatArray, latency: FloatArray, relay_latency: float
+) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
+    """``(loss, latency, hops)``, each ``(n, n)``, of the relayed paths between every pair
+    of ``n`` platforms whose direct links have ``loss`` and ``latency`` (rows send; see
+    the module's docstring): the path of fewest expected transmissions, its compound loss
+    (1 where no path exists), its latency plus ``relay_latency`` per relay, and its
+    links (0 on the diagonal, -1 where no path exists). Floyd–Warshall over numpy rows:
+    O(n³), about 1 ms at 30 platforms and a second at 1000."""
+    n = len(loss)
+    ok = loss < 1.0
+    with np.errstate(divide="ignore"):
+        cost = np.where(ok, 1.0 / np.where(ok, 1.0 - loss, 1.0), np.inf)
+        keep = np.where(ok, np.log(np.where(ok, 1.0 - loss, 1.0)), -np.inf)
+    lat = np.where(ok, latency, 0.0)
+    count = np.where(ok, 1, 0).astype(np.int64)
+    np.fill_diagonal(cost, 0.0)
+    np.fill_diagonal(keep, 0.0)
+    np.fill_diagonal(lat, 0.0)
+    np.fill_diagonal(count, 0)
+    for k in range(n):
+        through = cost[:, k, None] + cost[None, k, :]
+        better = through < cost
+        if not better.any():
+            continue
+        cost = np.where(better, through, cost)
+        keep = np.where(better, keep[:, k, None] + keep[None, k, :], keep)
+        lat = np.where(better, lat[:, k, None] + lat[None, k, :] + relay_latency, lat)
+        count = np.where(better, count[:, k, None] + count[None, k, :], count)
+    reached = np.isfinite(cost)
+    out_loss: FloatArray = np.where(reached, 1.0 - np.exp(keep), 1.0)
+    out_hops: NDArray[np.int64] = np.where(reached, count, -1)
+    return out_loss, lat, out_hops
+
+
+def hops(can_hear: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """``(n, n)``: the fewest links between every pair, given which pairs hear each other
+    directly (:func:`reachable`); 0 on the diagonal, -1 where no path exists."""
+    n = len(can_hear)
+    adjacency = np.asarray(can_hear, dtype=np.float32)
+    np.fill_diagonal(adjacency, 0.0)
+    out = np.full((n, n), -1, dtype=np.int64)
+    np.fill_diagonal(out, 0)
+    frontier = np.eye(n, dtype=np.float32)
+    for step in range(1, n):
+        frontier = ((frontier @ adjacency) > 0).astype(np.float32)
+        new = (frontier > 0) & (out < 0)
+        if not new.any():
+            break
+        out[new] = step
+        frontier = new.astype(np.float32)
+    return out
+
+
+def hop_span(positions: ArrayLike, cfg: RadioConfig) -> tuple[int, int]:
+    """``(span, groups)`` of platforms at ``positions``: the most links any two of them
+    are apart within a group that hears itself hop by hop, and how many such groups there
+    are (1: one swarm; more: out of radio range of each other even through relays)."""
+    table = hops(reachable(positions, cfg))
+    if not len(table):
+        return 0, 0
+    seen: set[int] = set()
+    groups = 0
+    for i in range(len(table)):
+        if i in seen:
+            continue
+        groups += 1
+        seen.update(np.flatnonzero(table[i] >= 0).tolist())
+    return int(table.max()), groups

@@ -12,7 +12,12 @@ times the step, not a running sum, so it does not drift over long runs.
 Targets are functions of time (:mod:`actorswarm.world.targets`) and are asked at the
 world's time. Areas are the configured polygons. :meth:`World.link` and
 :meth:`World.link_matrix` apply the radio model (:mod:`actorswarm.world.radio_model`) to the
-vehicles' current positions, for the simulated radio to use per packet.
+vehicles' current positions, for the simulated radio to use per packet. With the radio's
+``relay`` on, :meth:`World.link` answers for the relayed path instead
+(:func:`~actorswarm.world.radio_model.routes`), its routes worked out again every
+:data:`ROUTE_INTERVAL` seconds of world time, as a link-state protocol's updates follow
+the vehicles (every step would cost a millisecond a step at 30 platforms).
+:meth:`World.hop_span` says how many hops the swarm spans now.
 
 Recording: :meth:`World.record` snapshots every vehicle (and target) at the current time;
 with ``record_every`` the world also does it by itself, at time 0 and then every that many
@@ -36,11 +41,14 @@ from actorswarm.world.sensors import SimCamera
 from actorswarm.world.targets import Targets
 from actorswarm.world.vehicles import MODES, Fleet, Mode, SimVehicle
 
-__all__ = ["Track", "World"]
+__all__ = ["ROUTE_INTERVAL", "Track", "World"]
 
 FloatArray = NDArray[np.float64]
 # A time this close above a step boundary counts as the boundary: 0.1 + 0.2 is 0.3.
 _SLACK = 1e-9
+
+#: Seconds of world time between two computations of the relayed routes (radio ``relay``).
+ROUTE_INTERVAL = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -224,9 +232,7 @@ class World:
         positions change only when the world steps. KeyError for an unknown platform."""
         links = self._links
         if links is None or links[0] != self._steps:
-            loss, latency = radio_model.link_matrix(self.fleet.positions, self.config.radio)
-            rows = zip(loss.tolist(), latency.tolist(), strict=True)
-            links = self._links = (self._steps, dict(zip(self.fleet.platforms, rows, strict=True)))
+            links = self._links = self._link_rows(links)
         try:
             loss_row, latency_row = links[1][a]
             j = self._rows[b]
@@ -235,6 +241,28 @@ class World:
             self.fleet.index(b)
             raise
         return loss_row[j], latency_row[j]
+
+    def _link_rows(
+        self, last: tuple[int, dict[int, tuple[list[float], list[float]]]] | None
+    ) -> tuple[int, dict[int, tuple[list[float], list[float]]]]:
+        """The link rows of this step: the radio model's, or with ``relay`` the routes',
+        kept from ``last`` until :data:`ROUTE_INTERVAL` has passed since they were made."""
+        radio = self.config.radio
+        if radio.relay and last is not None:
+            every = max(1, round(ROUTE_INTERVAL / self._step))
+            if self._steps // every == last[0] // every:
+                return self._steps, last[1]
+        loss, latency = radio_model.link_matrix(self.fleet.positions, radio)
+        if radio.relay:
+            loss, latency, _ = radio_model.routes(loss, latency, radio.relay_latency)
+        rows = zip(loss.tolist(), latency.tolist(), strict=True)
+        return self._steps, dict(zip(self.fleet.platforms, rows, strict=True))
+
+    def hop_span(self) -> tuple[int, int]:
+        """``(span, groups)`` now (:func:`~actorswarm.world.radio_model.hop_span`): the most
+        radio hops between two platforms that reach each other, and how many groups out of
+        each other's reach the swarm is in."""
+        return radio_model.hop_span(self.fleet.positions, self.config.radio)
 
     def link_matrix(self) -> tuple[FloatArray, FloatArray]:
         """``(loss, latency)`` between every pair of platforms now, ``(n, n)`` in
