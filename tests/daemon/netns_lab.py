@@ -132,6 +132,8 @@ class Radios:
     made: list[str] = field(default_factory=list)
     #: (a, b) -> (a's address, b's address) on their link.
     addresses: dict[tuple[int, int], tuple[str, str]] = field(default_factory=dict)
+    #: (a, b) -> (a's device, b's device) of their link.
+    devices: dict[tuple[int, int], tuple[str, str]] = field(default_factory=dict)
     _ports: dict[int, int] = field(default_factory=dict)
 
     def ns(self, node: int) -> str:
@@ -173,6 +175,13 @@ class Radios:
                 must("ip", "netns", "exec", self.ns(node), "tc", "qdisc", "add", "dev", dev,
                      "root", *netem(self.loss_percent, self.delay_ms))  # fmt: skip
         self.addresses[(a, b)] = pair
+        self.devices[(a, b)] = (ends[0], ends[1])
+
+    def set_link(self, a: int, b: int, *, up: bool) -> None:
+        """Take the link between ``a`` and ``b`` down (both ends: out of range) or up."""
+        pair = (a, b) if (a, b) in self.devices else (b, a)
+        for node, dev in zip(pair, self.devices[pair], strict=True):
+            must("ip", "-n", self.ns(node), "link", "set", dev, "up" if up else "down")
 
     def address(self, node: int, neighbour: int) -> str:
         """``node``'s address on its link with ``neighbour``."""

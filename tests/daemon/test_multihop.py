@@ -10,9 +10,10 @@ and platform 5 of the chain never exchange a packet directly: the daemons relay
 The ground station is attached to the far end from platform 1, which is master (the lowest
 ID): every command it sends crosses the whole swarm. In each topology the branch-and-merge
 script (resized to the swarm) is deployed, started, branched and merged, each platform
-switching exactly once per event on a barrier release; then the master is killed and the
-survivors must agree on the next lowest ID, which the ground station, from the other end,
-must hear. What each step took is printed (``-s`` shows it).
+switching exactly once per event on a barrier release; in the chain, the link between 2
+and 3 then goes down (two swarms, masters 1 and 3) and up again (one swarm under 1); then
+the master is killed and the survivors must agree on the next lowest ID, which the ground
+station, from the other end, must hear. What each step took is printed (``-s`` shows it).
 """
 
 from __future__ import annotations
@@ -71,8 +72,11 @@ def _gs(swarm: LocalSwarm, *args: str) -> str:
     return done.stdout
 
 
-def _fly(radios: Radios, tmp_path: Path, size: int, gs_at: int) -> str:
-    """The whole scenario on the links ``radios`` holds; a line of what each step took."""
+def _fly(
+    radios: Radios, tmp_path: Path, size: int, gs_at: int, cut: tuple[int, int] | None = None
+) -> str:
+    """The whole scenario on the links ``radios`` holds; a line of what each step took.
+    ``cut``: a link taken down after the merge and up again (two swarms, then one)."""
     radios.link(0, gs_at)
     # No IP route joins two links: the master's end cannot reach the ground station's.
     far = run("ip", "-n", radios.ns(1), "route", "get", radios.address(gs_at, 0))
@@ -140,6 +144,27 @@ def _fly(radios: Radios, tmp_path: Path, size: int, gs_at: int) -> str:
                 ("", "A", "", "start"), ("A", to, BRANCH, "barrier"), (to, "A", MERGE, "barrier")
             ], f"platform {p}: transitions {got}"  # fmt: skip
 
+        if cut is not None:
+            # Out of range in the middle: each side agrees on its own lowest ID, then the
+            # healed chain on platform 1 again.
+            radios.set_link(*cut, up=False)
+            near, far = everyone[: cut[0]], everyone[cut[0] :]
+            swarm.wait(
+                f"two swarms, masters 1 and {far[0]}",
+                lambda: swarm.agreed_master(near) == 1 and swarm.agreed_master(far) == far[0],
+                timeout=20,
+                detail=lambda: f"masters {[swarm.status(p).get('master') for p in everyone]}",
+            )
+            mark("split")
+            radios.set_link(*cut, up=True)
+            swarm.wait(
+                "one swarm again under platform 1",
+                lambda: swarm.agreed_master(everyone) == 1,
+                timeout=45,
+                detail=lambda: f"masters {[swarm.status(p).get('master') for p in everyone]}",
+            )
+            mark("healed")
+
         # The master, at the far end from the ground station, dies.
         killed = time.monotonic()
         swarm.stop(1, signal.SIGKILL)
@@ -166,10 +191,12 @@ def _fly(radios: Radios, tmp_path: Path, size: int, gs_at: int) -> str:
 
 
 def test_a_chain_of_five_stays_one_swarm(radios: Radios, tmp_path: Path) -> None:
-    """1 — 2 — 3 — 4 — 5 — ground station: four hops from the master to the far end."""
+    """1 — 2 — 3 — 4 — 5 — ground station: four hops from the master to the far end. The
+    chain is also broken between 2 and 3 for a while: two swarms, merged again."""
     for p in range(1, 5):
         radios.link(p, p + 1)
-    print(f"\nchain of 5, {radios.describe()}: {_fly(radios, tmp_path, 5, gs_at=5)}")
+    line = _fly(radios, tmp_path, 5, gs_at=5, cut=(2, 3))
+    print(f"\nchain of 5, {radios.describe()}: {line}")
 
 
 def test_a_three_by_three_grid_stays_one_swarm(radios: Radios, tmp_path: Path) -> None:
