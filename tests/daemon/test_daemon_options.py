@@ -80,8 +80,13 @@ def test_a_configuration_file_fills_what_the_command_line_leaves_out(tmp_path: P
         (("--platform", "1", "--vehicle", "sim", "--fleet", "4-1"), "--fleet '4-1': the range"),
         (("--platform", "9", "--vehicle", "sim", "--fleet", "1-4"), "platform 9 is not one of"),
         (("--platform", "1", "--broadcast", "radio"), "broadcast 'radio': say how broadcasts"),
-        (("--platform", "1", "--group", "224.0.0.9:7000"), "give --broadcast multicast"),
-        (("--platform", "1", "--interface", "lo"), "give --broadcast multicast"),
+        (
+            ("--platform", "1", "--group", "224.0.0.9:7000", "--connect", "tcp/127.0.0.1:7"),
+            "give --broadcast multicast (the mesh is chosen by --listen, --connect",
+        ),
+        (("--platform", "1", "--interface", "lo", "--relay"), "give --broadcast multicast"),
+        (("--platform", "1", "--broadcast", "mesh", "--interface", "lo"), "give --broadcast"),
+        (("--platform", "1", "--interface", "lo;x"), "interface 'lo;x'"),
         (
             ("--platform", "1", "--broadcast", "multicast", "--group", "10.1.1.1:7000"),
             "10.1.1.1 is not a multicast address",

@@ -70,6 +70,15 @@ def _zenoh_line(exc: BaseException) -> str:
             f"cannot listen on {endpoint}: Address already in use; choose another --listen "
             "endpoint (or stop the process that holds it)"
         )
+    group = re.search(r"UDP link bound to udp/(\S+?):?\s*\[\S+ (.*?)\]?$", text)
+    if group is not None and group.group(1).split(".")[0].isdigit():
+        first = int(group.group(1).split(".")[0])
+        if 224 <= first <= 239:
+            return (
+                f"cannot join the multicast group {group.group(1)}: {group.group(2)}; give "
+                "--interface IF (a network interface that carries multicast), or put every "
+                "platform and ground station on the mesh (--broadcast mesh)"
+            )
     return f"the network layer (Zenoh) refused: {text}; check the --listen/--connect endpoints"
 
 

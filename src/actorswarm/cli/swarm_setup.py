@@ -74,11 +74,19 @@ def zenoh_settings(
     """The Zenoh settings of these options, or a clear error and exit 2. ``multicast``
     (scouting) None: on for the mesh, off on a multicast group (which refuses it);
     ``lease`` in seconds (None: :data:`LEASE_MS`); ``relay``: forward for the others
-    (multi-hop, a daemon's option)."""
-    chosen = broadcast or "mesh"
+    (multi-hop, a daemon's option).
+
+    ``broadcast`` None chooses: the multicast group (a broadcast sent once, as a radio
+    does), unless endpoints, scouting (``--multicast`` or ``--no-multicast``) or relaying
+    are given, which are the mesh's; a group chosen so falls back to the mesh where it
+    cannot be opened (:attr:`ZenohSettings.fallback`)."""
+    mesh_asked = bool(listen or connect) or multicast is not None or relay
+    chosen = broadcast or ("mesh" if mesh_asked else "multicast")
     if chosen == "mesh" and (group is not None or interface is not None):
         raise refuse(
             "--group and --interface are the multicast group's: give --broadcast multicast"
+            + (" (the mesh is chosen by --listen, --connect, --[no-]multicast or --relay)"
+               if broadcast is None else "")
         )
     try:
         return ZenohSettings(
@@ -90,6 +98,7 @@ def zenoh_settings(
             interface=interface,
             lease_ms=LEASE_MS if lease is None else round(lease * 1000),
             relay=relay,
+            fallback=broadcast is None and chosen == "multicast",
         )
     except ValueError as exc:
         raise refuse(str(exc)) from None

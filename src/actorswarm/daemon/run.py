@@ -140,9 +140,16 @@ class DaemonOptions:
 
 @dataclass(slots=True)
 class _Seen:
-    """What the daemon's loop already reported: the master it logged."""
+    """What the daemon's loop already reported: the master it logged, and whether it said
+    it heard nobody on its multicast group (:data:`ALONE_S`)."""
 
     master: int | None = None
+    alone_said: bool = False
+
+
+#: Seconds a daemon on a multicast group may hear no packet at all before it says so: a
+#: network that drops multicast silently (many Wi-Fi access points) looks just like this.
+ALONE_S = 10.0
 
 
 def _log(event: str, **fields: Any) -> None:
@@ -376,14 +383,15 @@ async def _main(options: DaemonOptions) -> int:
         else "ros2",
         ros2=None if ros is None else ros.node.name,
         position=endpoint.runtime.position(),
-        # How broadcasts travel: "mesh", or the multicast group's Zenoh endpoint.
-        broadcast=options.zenoh.broadcast
-        if options.zenoh.broadcast == "mesh"
-        else options.zenoh.group_endpoint,
+        # How broadcasts travel: "mesh", or the multicast group's Zenoh endpoint (the
+        # transport's: a group chosen by default that could not be opened is the mesh).
+        broadcast=transport.settings.described,
+        fell_back=transport.fell_back,
         # Whether it forwards for the others (multi-hop).
         relay=options.zenoh.relay,
     )
     seen = _Seen()
+    began = clock()
     traffic = Traffic()
     records = EngineRecords(engine, endpoint.runtime, _log)
     files = DaemonFiles(
@@ -448,6 +456,23 @@ async def _main(options: DaemonOptions) -> int:
                 # once.
                 made = endpoint.ready().packets
                 inbox.poke()
+        if (
+            not seen.alone_said
+            and transport.settings.broadcast == "multicast"
+            and t - began >= ALONE_S
+        ):
+            seen.alone_said = True
+            if traffic.recv_packets == 0:
+                _log(
+                    "alone",
+                    group=transport.settings.group_endpoint,
+                    seconds=ALONE_S,
+                    why="no packet heard on the multicast group: if other platforms are up, "
+                    "this network drops multicast (many Wi-Fi access points do) or they are "
+                    "on another group, interface or --broadcast; give every platform and the "
+                    "ground station --broadcast mesh with --listen/--connect "
+                    "(docs/deploying.md, Network)",
+                )
         if endpoint.node.master != seen.master:
             seen.master = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)

@@ -150,6 +150,7 @@ import json
 import logging
 import os
 import random
+import re
 import threading
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -345,6 +346,9 @@ class ZenohSettings:
     (0: it wakes the loop at once, as every other packet does). ``relay``: this platform
     forwards for the others (Zenoh's router mode, link-state routing: see the module's
     docstring), for a swarm that spans more than one radio hop; not with ``"multicast"``.
+    ``fallback``: the group was chosen by default, not asked for: where it cannot be opened
+    (no interface of this host carries multicast), :class:`ZenohTransport` opens
+    :meth:`as_mesh` instead and says so.
 
     Construction raises ValueError naming the setting that is wrong.
     """
@@ -359,6 +363,7 @@ class ZenohSettings:
     interface: str | None = None
     beat_delay_ms: int = BEAT_DELAY_MS
     relay: bool = False
+    fallback: bool = False
 
     def __post_init__(self) -> None:
         if self.broadcast not in BROADCASTS:
@@ -394,6 +399,24 @@ class ZenohSettings:
                     + " (beside the group, a unicast session makes Zenoh forward packets "
                     "between the two, and they loop)"
                 )
+
+    def as_mesh(self) -> ZenohSettings:
+        """These settings on the mesh instead of the group: multicast scouting, no group."""
+        return ZenohSettings(
+            listen=self.listen,
+            connect=self.connect,
+            multicast=True,
+            lease_ms=self.lease_ms,
+            extra=self.extra,
+            broadcast="mesh",
+            beat_delay_ms=self.beat_delay_ms,
+            relay=self.relay,
+        )
+
+    @property
+    def described(self) -> str:
+        """How broadcasts travel, for a log line: ``mesh`` or the group's endpoint."""
+        return "mesh" if self.broadcast == "mesh" else self.group_endpoint
 
     @property
     def group_endpoint(self) -> str:
@@ -544,7 +567,24 @@ class ZenohTransport:
         self.received = 0
         self._wake: Callable[[], None] | None = None
         use_small_robot_runtime()
-        self._session: zenoh.Session | None = zenoh.open(self.settings.config())
+        #: Why the group chosen by default could not be opened (None: it was, or it was not
+        #: the default): this transport is on the mesh instead.
+        self.fell_back: str | None = None
+        try:
+            self._session: zenoh.Session | None = zenoh.open(self.settings.config())
+        except zenoh.ZError as exc:
+            if not self.settings.fallback:
+                raise
+            # Zenoh ends each part of its message with its Rust source location.
+            self.fell_back = re.sub(r" at \S+\.rs:\d+\.?\]?", "", " ".join(str(exc).split()))
+            log.warning(
+                "cannot open the multicast group %s (%s): on the mesh instead; every platform "
+                "and ground station must then be on it (--broadcast mesh), or give --interface",
+                self.settings.group_endpoint,
+                self.fell_back,
+            )
+            self.settings = self.settings.as_mesh()
+            self._session = zenoh.open(self.settings.config())
         # On a multicast group every key has a tail, and each member matches it with a
         # pattern of its own (see the module's docstring).
         self._tail, pattern = "", ""
