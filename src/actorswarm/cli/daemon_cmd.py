@@ -53,14 +53,16 @@ def daemon(
         bool | None,
         typer.Option(
             "--multicast/--no-multicast",
-            help="Multicast scouting (default on with --broadcast mesh, off with multicast).",
+            help="Multicast scouting of peers on the mesh (either flag puts the platform on "
+            "the mesh: --no-multicast for listed peers).",
         ),
     ] = None,
     broadcast: Annotated[
         str | None,
         typer.Option(
-            help="How broadcasts travel: mesh (default: one copy per peer over the Zenoh "
-            "sessions) or multicast (one datagram on --group, which then carries everything)."
+            help="How broadcasts travel: multicast (the default unless --listen, --connect, "
+            "--[no-]multicast or --relay is given: one datagram on --group, which then carries "
+            "everything) or mesh (one copy per peer over Zenoh sessions)."
         ),
     ] = None,
     group: Annotated[

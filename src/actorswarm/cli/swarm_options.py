@@ -86,16 +86,17 @@ class LinkOptions:
         typer.Option(
             "--multicast/--no-multicast",
             envvar="ACTORSWARM_MULTICAST",
-            help="Multicast scouting of peers (default on with --broadcast mesh, off with "
-            "multicast).",
+            help="Multicast scouting of peers on the mesh (either flag puts the command on "
+            "the mesh: --no-multicast for listed peers).",
         ),
     ] = None
     broadcast: Annotated[
         str | None,
         typer.Option(
             envvar="ACTORSWARM_BROADCAST",
-            help="How the swarm's broadcasts travel: mesh (the default) or multicast "
-            "(everything on --group; every platform must say the same).",
+            help="How the swarm's broadcasts travel: multicast (the default unless --listen, "
+            "--connect or --[no-]multicast is given: everything on --group) or mesh; every "
+            "platform must say the same.",
         ),
     ] = None
     group: Annotated[

@@ -10,8 +10,9 @@ directory, so a robot's configuration can live beside its keys::
     swarm = "field"
     listen = ["tcp/0.0.0.0:7447"]
     connect = ["tcp/192.168.1.10:7447"]
-    multicast = false
-    broadcast = "mesh"       # or "multicast": one datagram per broadcast on a group
+    multicast = false        # listed peers (with listen/connect): the mesh
+    broadcast = "mesh"       # or "multicast": one datagram per broadcast on a group, the
+                             # default when no listen, connect, multicast or relay is given
     # group = "224.0.0.225:7448"; interface = "wlan0"   (broadcast = "multicast" only)
     lease = 30.0             # Zenoh's session lease, seconds (docs/deploying.md)
     relay = false            # true: forward for the others, for a swarm beyond one radio hop

@@ -26,9 +26,11 @@ Discovery: multicast scouting is on by default (peers find each other on the LAN
 ``connect`` endpoints (``tcp/10.0.0.1:7447``) or a router where Wi-Fi drops multicast, and
 ``listen`` endpoints to accept them.
 
-On the air (``broadcast``): by default (``"mesh"``) every pair of peers holds one Zenoh
+On the air (``broadcast``): with ``"mesh"`` (this class's default; the command line's
+when endpoints, scouting or relaying are given) every pair of peers holds one Zenoh
 session, over TCP (or UDP unicast) endpoints, so a broadcast leaves its sender as one copy
-per peer: N − 1 packets for N platforms. With ``"multicast"`` every platform instead joins
+per peer: N − 1 packets for N platforms. With ``"multicast"`` (the command line's default
+otherwise, :attr:`ZenohSettings.fallback`) every platform instead joins
 Zenoh's UDP multicast transport on one group (``group``, ``224.0.0.225:7448`` by default,
 on ``interface`` when given), and a broadcast is one datagram that every member receives,
 as a radio works. Zenoh (1.x) then opens no unicast session to a peer it already meets on
