@@ -85,8 +85,11 @@ def zenoh_settings(
     if chosen == "mesh" and (group is not None or interface is not None):
         raise refuse(
             "--group and --interface are the multicast group's: give --broadcast multicast"
-            + (" (the mesh is chosen by --listen, --connect, --[no-]multicast or --relay)"
-               if broadcast is None else "")
+            + (
+                " (the mesh is chosen by --listen, --connect, --[no-]multicast or --relay)"
+                if broadcast is None
+                else ""
+            )
         )
     try:
         return ZenohSettings(
