@@ -63,6 +63,9 @@ def test_the_group_is_the_default_unless_the_mesh_is_asked_for() -> None:
         assert mesh.broadcast == "mesh" and not mesh.fallback
     asked = zenoh_settings(None, None, False, "multicast")
     assert asked.broadcast == "multicast" and not asked.fallback
+    # A group or interface named is meant: no falling back from it.
+    assert not zenoh_settings(None, None, None, interface="wlan0").fallback
+    assert not zenoh_settings(None, None, None, group="224.0.0.9:7000").fallback
     # --no-multicast: listed peers, for networks that drop multicast.
     assert zenoh_settings(None, None, False).broadcast == "mesh"
 
@@ -104,3 +107,14 @@ def test_without_a_multicast_interface_the_default_falls_back_to_the_mesh(
         assert "Traceback" not in asked.stderr
     finally:
         subprocess.run(["ip", "netns", "del", ns], check=False)
+
+
+def test_a_group_on_an_interface_this_machine_lacks_is_refused_in_one_line() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "actorswarm", "gs", "status", "--interface", "nosuch0",
+         "--insecure", "--timeout", "1"],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert "cannot join the multicast group 224.0.0.225:7448 on interface nosuch0" in done.stderr
+    assert "Traceback" not in done.stderr

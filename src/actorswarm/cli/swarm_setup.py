@@ -78,8 +78,9 @@ def zenoh_settings(
 
     ``broadcast`` None chooses: the multicast group (a broadcast sent once, as a radio
     does), unless endpoints, scouting (``--multicast`` or ``--no-multicast``) or relaying
-    are given, which are the mesh's; a group chosen so falls back to the mesh where it
-    cannot be opened (:attr:`ZenohSettings.fallback`)."""
+    are given, which are the mesh's; a group chosen so, with neither ``group`` nor
+    ``interface`` named, falls back to the mesh where it cannot be opened
+    (:attr:`ZenohSettings.fallback`)."""
     mesh_asked = bool(listen or connect) or multicast is not None or relay
     chosen = broadcast or ("mesh" if mesh_asked else "multicast")
     if chosen == "mesh" and (group is not None or interface is not None):
@@ -101,7 +102,11 @@ def zenoh_settings(
             interface=interface,
             lease_ms=LEASE_MS if lease is None else round(lease * 1000),
             relay=relay,
-            fallback=broadcast is None and chosen == "multicast",
+            # Only a group nobody asked for: a named group or interface is meant.
+            fallback=broadcast is None
+            and group is None
+            and interface is None
+            and chosen == "multicast",
         )
     except ValueError as exc:
         raise refuse(str(exc)) from None
