@@ -95,10 +95,7 @@ def build(kind: str, impairment: str, events: int, directory: Path) -> dict[str,
             hops = dict.fromkeys(everyone, 1)
             hops[1] = 0
             gs_at = everyone
-        links = {
-            p: [f"tcp/{radios.address(q, p)}:{PORT}" for q in radios.neighbours(p) if 0 < q < p]
-            for p in everyone
-        }
+        links = radios.connects(everyone, PORT)
         with LocalSwarm(
             directory / "swarm",
             SIZE,

@@ -189,6 +189,14 @@ class Radios:
             return self.addresses[(node, neighbour)][0]
         return self.addresses[(neighbour, node)][1]
 
+    def connects(self, platforms: Sequence[int], port: int) -> dict[int, list[str]]:
+        """Whom each platform connects to (``LocalSwarm(links=...)``): its neighbours with
+        lower IDs, at their address on the shared link (each listens on ``port``)."""
+        return {
+            p: [f"tcp/{self.address(q, p)}:{port}" for q in self.neighbours(p) if 0 < q < p]
+            for p in platforms
+        }
+
     def neighbours(self, node: int) -> list[int]:
         return sorted({b if a == node else a for a, b in self.addresses if node in (a, b)})
 

@@ -82,10 +82,7 @@ def _fly(
     far = run("ip", "-n", radios.ns(1), "route", "get", radios.address(gs_at, 0))
     assert far.returncode != 0, f"platform 1 has a route to the far end: {far.stdout}"
     everyone = tuple(range(1, size + 1))
-    links = {
-        p: [f"tcp/{radios.address(q, p)}:{PORT}" for q in radios.neighbours(p) if 0 < q < p]
-        for p in everyone
-    }
+    links = radios.connects(everyone, PORT)
     with LocalSwarm(
         tmp_path / "swarm",
         size,

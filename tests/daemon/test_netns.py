@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import time
 import warnings
 from collections.abc import Iterator, Sequence
@@ -53,7 +52,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import pytest
-from netns_lab import PREFIX, must, netem, reap_leftovers, run
+from netns_lab import PREFIX, impairment, must, netem, reap_leftovers, run
 
 from actorswarm.daemon.launch import LocalSwarm
 
@@ -97,42 +96,11 @@ class Impairment:
 
 
 def _probe(prefix: str) -> Impairment:
-    """What this machine offers, tried on a throw-away namespace; pytest.skip naming what
-    is missing when the test cannot run here."""
-    if os.geteuid() != 0:
-        pytest.skip("network namespaces need root (CAP_NET_ADMIN); CI runs this test as root")
-    if shutil.which("ip") is None:
-        pytest.skip("`ip` (iproute2) is not installed: run scripts/system-deps.sh as root")
-    probe = f"{prefix}-probe"
-    made = run("ip", "netns", "add", probe)
-    if made.returncode != 0:
-        pytest.skip(f"network namespaces are unavailable here: {made.stderr.strip()}")
-    try:
-        veth = run("ip", "-n", probe, "link", "add", "probe0", "type", "veth",
-                    "peer", "name", "probe1")  # fmt: skip
-        if veth.returncode != 0:
-            pytest.skip(f"veth pairs are unavailable here: {veth.stderr.strip()}")
-        qdisc = run("ip", "netns", "exec", probe, "tc", "qdisc", "add", "dev", "probe0",
-                     "root", *netem(LOSS_PERCENT, DELAY_MS))  # fmt: skip
-        if qdisc.returncode == 0:
-            return Impairment("netem", LOSS_PERCENT, DELAY_MS)
-        if shutil.which("nft") is None:
-            pytest.skip(
-                f"no way to lose packets: tc netem failed ({qdisc.stderr.strip()}) and `nft` "
-                "(nftables) is not installed: run scripts/system-deps.sh as root"
-            )
-        table = (
-            "table bridge probe {\n chain links {\n type filter hook forward priority 0;\n }\n}\n"
-        )
-        nft = run("ip", "netns", "exec", probe, "nft", "-f", "-", stdin=table)
-        if nft.returncode != 0:
-            pytest.skip(
-                f"no way to lose packets: tc netem failed ({qdisc.stderr.strip()}) and nftables "
-                f"bridge filtering failed ({nft.stderr.strip()})"
-            )
-        return Impairment("nftables", LOSS_PERCENT, 0)
-    finally:
-        run("ip", "netns", "del", probe)
+    """What this machine offers (:func:`netns_lab.impairment`); pytest.skip naming what is
+    missing when the test cannot run here."""
+    if impairment(prefix) == "netem":
+        return Impairment("netem", LOSS_PERCENT, DELAY_MS)
+    return Impairment("nftables", LOSS_PERCENT, 0)
 
 
 # --- the topology ---------------------------------------------------------------------------
