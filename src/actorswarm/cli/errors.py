@@ -74,9 +74,9 @@ def _zenoh_line(exc: BaseException) -> str:
     if group is not None and group.group(1).split(".")[0].isdigit():
         first = int(group.group(1).split(".")[0])
         if 224 <= first <= 239:
-            where = group.group(1).replace("#iface=", " on interface ")
+            place = group.group(1).replace("#iface=", " on interface ")
             return (
-                f"cannot join the multicast group {where}: {group.group(2)}; give "
+                f"cannot join the multicast group {place}: {group.group(2)}; give "
                 "--interface IF (a network interface that carries multicast), or put every "
                 "platform and ground station on the mesh (--broadcast mesh)"
             )
