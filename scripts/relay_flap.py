@@ -29,7 +29,7 @@ PORT = 7447
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--lease", type=float, default=None, help="Zenoh's lease (default 30 s)")
+    parser.add_argument("--lease", type=float, default=None, help="Zenoh's lease (default 3 s)")
     parser.add_argument("--period", type=float, default=1.5)
     parser.add_argument("--seconds", type=float, default=30.0)
     args = parser.parse_args()
@@ -77,7 +77,7 @@ def main() -> int:
                     f"traffic {st.get('traffic')}, rejected {st.get('rejected')}"
                 )
         print(
-            f"lease {args.lease or 30} s, links swapped every {args.period} s for "
+            f"lease {args.lease or 3.0} s, links swapped every {args.period} s for "
             f"{args.seconds} s: not whole in {broken} of {samples} samples "
             f"({100 * broken / samples:.0f} %); platform 3's last master lines {lines[-6:]}"
         )

@@ -12,8 +12,16 @@ import time
 import pytest
 import zenoh
 
+from actorswarm.cli.swarm_setup import zenoh_settings
 from actorswarm.transport import ZenohSettings, ZenohTransport
-from actorswarm.transport.zenoh_transport import SPREAD_CHUNKS, SPREAD_PATTERNS, spread_pattern
+from actorswarm.transport.zenoh_transport import (
+    LEASE_MS,
+    RELAY_LEASE_MS,
+    SMALL_ROBOT_RUNTIME,
+    SPREAD_CHUNKS,
+    SPREAD_PATTERNS,
+    spread_pattern,
+)
 
 
 def test_peers_without_endpoints_find_each_other_by_multicast_scouting() -> None:
@@ -129,6 +137,10 @@ def test_a_relay_is_a_zenoh_router_and_never_on_a_multicast_group() -> None:
     assert json.loads(str(ZenohSettings().config()))["mode"] == "peer"
     with pytest.raises(ValueError, match="no relaying"):
         ZenohSettings(multicast=False, broadcast="multicast", relay=True)
+    # A relay reroutes around a lost link once its session expired: a short lease.
+    assert zenoh_settings(None, None, None, relay=True).lease_ms == RELAY_LEASE_MS == 3000
+    assert zenoh_settings(None, None, None, relay=True, lease=10).lease_ms == 10_000
+    assert zenoh_settings(None, None, None).lease_ms == LEASE_MS
 
 
 def test_multicast_members_join_often_and_within_their_lease() -> None:
@@ -193,7 +205,10 @@ def test_zenohs_thread_keeps_a_python_thread_state_between_callbacks(keep: bool)
     data starts empty each time) that is made and torn down per sample. The transport's
     callback keeps one for good on its first call (``_keep_thread_state``), so a
     thread-local count carries from one callback to the next. In a fresh interpreter each,
-    so no earlier callback has kept Zenoh's thread already."""
+    so no earlier callback has kept Zenoh's thread already, on the daemon's runtime (one
+    worker: with Zenoh's default pools, samples may come on either of two threads, whatever
+    ``ZENOH_RUNTIME`` this test's process happened to inherit or set)."""
+    env = {**os.environ, "ZENOH_RUNTIME": SMALL_ROBOT_RUNTIME}
     out = subprocess.run(
         [
             sys.executable,
@@ -206,6 +221,7 @@ def test_zenohs_thread_keeps_a_python_thread_state_between_callbacks(keep: bool)
         text=True,
         timeout=60,
         check=True,
+        env=env,
     )
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert len(seen) == 5, out

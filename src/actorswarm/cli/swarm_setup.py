@@ -14,6 +14,7 @@ from actorswarm.security.guard import PacketGuard
 from actorswarm.transport.zenoh_transport import (
     DEFAULT_GROUP,
     LEASE_MS,
+    RELAY_LEASE_MS,
     ZenohSettings,
     key_prefix,
 )
@@ -73,8 +74,8 @@ def zenoh_settings(
 ) -> ZenohSettings:
     """The Zenoh settings of these options, or a clear error and exit 2. ``multicast``
     (scouting) None: on for the mesh, off on a multicast group (which refuses it);
-    ``lease`` in seconds (None: :data:`LEASE_MS`); ``relay``: forward for the others
-    (multi-hop, a daemon's option).
+    ``lease`` in seconds (None: :data:`LEASE_MS`, :data:`RELAY_LEASE_MS` for a relay);
+    ``relay``: forward for the others (multi-hop, a daemon's option).
 
     ``broadcast`` None chooses: the multicast group (a broadcast sent once, as a radio
     does), unless endpoints, scouting (``--multicast`` or ``--no-multicast``) or relaying
@@ -82,6 +83,7 @@ def zenoh_settings(
     ``interface`` named, falls back to the mesh where it cannot be opened
     (:attr:`ZenohSettings.fallback`)."""
     mesh_asked = bool(listen or connect) or multicast is not None or relay
+    default_lease = RELAY_LEASE_MS if relay else LEASE_MS
     chosen = broadcast or ("mesh" if mesh_asked else "multicast")
     if chosen == "mesh" and (group is not None or interface is not None):
         raise refuse(
@@ -100,7 +102,7 @@ def zenoh_settings(
             broadcast=chosen,
             group=group or DEFAULT_GROUP,
             interface=interface,
-            lease_ms=LEASE_MS if lease is None else round(lease * 1000),
+            lease_ms=round(lease * 1000) if lease is not None else default_lease,
             relay=relay,
             # Only a group nobody asked for: a named group or interface is meant.
             fallback=broadcast is None

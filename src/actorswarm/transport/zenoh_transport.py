@@ -68,9 +68,12 @@ scouting, which on a radio only its neighbours hear: relays connect to the route
 peers they scout). A ground station connects as a plain peer to any one relay. A relay
 without ``listen`` endpoints listens where Zenoh's routers do, ``tcp/[::]:7447``. Zenoh
 (1.10) routes between routers only: a peer's session never forwards, which is why relaying
-is a mode of its own. The multicast group cannot be relayed (a link-local group does not
-cross a hop, and a unicast session beside the group loops): ``relay`` refuses it. Routers
-stamp samples with a hybrid clock by default; the daemon has no use for it, so it is off.
+is a mode of its own. A relay reroutes around a lost link once that link's session
+expires, so its lease defaults to :data:`RELAY_LEASE_MS` (3 s) and its receive threads are
+kept apart from the one worker (:data:`RELAY_RUNTIME`). The multicast group cannot be
+relayed (a link-local group does not cross a hop, and a unicast session beside the group
+loops): ``relay`` refuses it. Routers stamp samples with a hybrid clock by default; the
+daemon has no use for it, so it is off.
 
 The session lease (:data:`LEASE_MS`, 30 s, with :data:`KEEP_ALIVES` keep-alives per
 lease: one every 7.5 s on each idle link, each way) is Zenoh's own failure detection; the
@@ -169,6 +172,8 @@ __all__ = [
     "JOIN_MS",
     "KEEP_ALIVES",
     "LEASE_MS",
+    "RELAY_LEASE_MS",
+    "RELAY_RUNTIME",
     "RX_CAPACITY",
     "SMALL_ROBOT",
     "SMALL_ROBOT_RUNTIME",
@@ -221,10 +226,21 @@ SMALL_ROBOT_RUNTIME = (
 )
 
 
-def use_small_robot_runtime() -> str:
-    """Ask for :data:`SMALL_ROBOT_RUNTIME` unless ``ZENOH_RUNTIME`` is set already; returns
-    what the environment holds. Too late once this process opened a Zenoh session."""
-    return os.environ.setdefault("ZENOH_RUNTIME", SMALL_ROBOT_RUNTIME)
+#: A relay's thread pools (``relay``): :data:`SMALL_ROBOT_RUNTIME` but for the receive pool,
+#: kept apart. Handed over to the one application worker, the receive task of a link whose
+#: radio went silent held it, and a relay rerouted around the lost link only some 13 s
+#: later, or not within 40 s, instead of within Zenoh's lease (three relays in a triangle,
+#: one link cut: ``scripts/relay_flap.py``).
+RELAY_RUNTIME = (
+    "(app: (worker_threads: 1), acc: (handover: app), tx: (handover: app), net: (handover: app))"
+)
+
+
+def use_small_robot_runtime(*, relay: bool = False) -> str:
+    """Ask for :data:`SMALL_ROBOT_RUNTIME` (:data:`RELAY_RUNTIME` for a relay) unless
+    ``ZENOH_RUNTIME`` is set already; returns what the environment holds. Too late once
+    this process opened a Zenoh session."""
+    return os.environ.setdefault("ZENOH_RUNTIME", RELAY_RUNTIME if relay else SMALL_ROBOT_RUNTIME)
 
 
 #: Samples each receive channel (unicasts, broadcasts) holds before the oldest is
@@ -245,6 +261,13 @@ DEFAULT_GROUP = "224.0.0.225:7448"
 
 #: Zenoh's session lease, milliseconds (see the module's docstring).
 LEASE_MS = 30_000
+
+#: A relay's lease unless one is given, milliseconds: a relay reroutes around a lost link
+#: only once that link's session expired, so its lease is how long the platforms behind it
+#: stay cut off (three relays in a triangle, one link cut: the swarm whole again 3 s after
+#: the cut at 3 s, ``scripts/relay_flap.py``). A relay holds a session with its neighbours
+#: only: four keep-alives per lease on a few links.
+RELAY_LEASE_MS = 3_000
 
 #: Chunks of the tail that keys carry on a multicast group (see the module's docstring).
 SPREAD_CHUNKS = 5
@@ -568,7 +591,7 @@ class ZenohTransport:
         #: Packets :meth:`drain` handed over.
         self.received = 0
         self._wake: Callable[[], None] | None = None
-        use_small_robot_runtime()
+        use_small_robot_runtime(relay=self.settings.relay)
         #: Why the group chosen by default could not be opened (None: it was, or it was not
         #: the default): this transport is on the mesh instead.
         self.fell_back: str | None = None
