@@ -954,10 +954,9 @@ def task_check(
         if code == 0:
             typer.echo(f"{path}: ok")
         if script is not None and world_config is not None and world_config.radio.relay:
-            from actorswarm.world.radio_model import hop_span
+            from actorswarm.dsl.radio import homes_span
 
-            specs = world_config.vehicle_specs(script.platform_ids())
-            span, groups = hop_span([(*s.home, 0.0) for s in specs], world_config.radio)
+            span, groups = homes_span(script, world_config)
             if groups == 1:
                 typer.echo(f"{path}: the platforms' homes span {span} radio hop(s), relayed")
         status = max(status, code)

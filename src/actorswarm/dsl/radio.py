@@ -25,18 +25,23 @@ from actorswarm.dsl.model import TaskScript
 if TYPE_CHECKING:
     from actorswarm.world.config import WorldConfig
 
-__all__ = ["check_radio"]
+__all__ = ["check_radio", "homes_span"]
+
+
+def homes_span(script: TaskScript, world: WorldConfig) -> tuple[int, int]:
+    """``(span, groups)`` of the script's platforms at their homes in ``world``
+    (:func:`~actorswarm.world.radio_model.hop_span`)."""
+    from actorswarm.world.radio_model import hop_span
+
+    specs = world.vehicle_specs(sorted(script.platform_ids()))
+    return hop_span([(*s.home, 0.0) for s in specs], world.radio)
 
 
 def check_radio(script: TaskScript, world: WorldConfig, report: Report) -> None:
     """Warn on ``report`` about what the module docstring names."""
-    from actorswarm.world.radio_model import hop_span
-
-    platforms = sorted(script.platform_ids())
-    if len(platforms) < 2:
+    if len(script.platform_ids()) < 2:
         return
-    specs = world.vehicle_specs(platforms)
-    span, groups = hop_span([(*s.home, 0.0) for s in specs], world.radio)
+    span, groups = homes_span(script, world)
     where = f"the world's [radio] range is {world.radio.range:g} m"
     if groups > 1:
         report.warning(

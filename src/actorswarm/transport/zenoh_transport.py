@@ -150,6 +150,7 @@ loop at once, as do probes and their answers.
 
 from __future__ import annotations
 
+import dataclasses
 import ipaddress
 import json
 import logging
@@ -426,17 +427,8 @@ class ZenohSettings:
                 )
 
     def as_mesh(self) -> ZenohSettings:
-        """These settings on the mesh instead of the group: multicast scouting, no group."""
-        return ZenohSettings(
-            listen=self.listen,
-            connect=self.connect,
-            multicast=True,
-            lease_ms=self.lease_ms,
-            extra=self.extra,
-            broadcast="mesh",
-            beat_delay_ms=self.beat_delay_ms,
-            relay=self.relay,
-        )
+        """These settings on the mesh instead of the group: multicast scouting."""
+        return dataclasses.replace(self, broadcast="mesh", multicast=True, fallback=False)
 
     @property
     def described(self) -> str:
