@@ -54,11 +54,11 @@ def test_each_impossible_request_is_warned_at_its_line() -> None:
     for line, message in found:
         by_line.setdefault(line, []).append(message)
     assert sorted(by_line) == [5, 6, 12, 15], found  # speed and tolerance share line 12
-    assert "speed 8 m/s is below the fixed-wings' min_airspeed (12 m/s" in by_line[5][0]
+    assert "speed 8 m/s is below the fixed-wings' min_airspeed (10 m/s" in by_line[5][0]
     assert "the carrot is 32 m ahead of each slot" in by_line[6][0]
     assert "make lookahead at least 22.5" in by_line[6][0]
     goto = " | ".join(by_line[12])
-    assert "flight.goto: speed 40 m/s is above the fixed-wings' max_speed (25 m/s" in goto
+    assert "flight.goto: speed 40 m/s is above the fixed-wings' max_speed (30 m/s" in goto
     assert "flight.goto: tolerance 10 m is below the fixed-wings' loiter radius (60 m" in goto
     assert (
         "flight.return_home: tolerance 50 m is below the fixed-wings' loiter radius (60 m"

@@ -42,13 +42,9 @@ def test_defaults_are_the_documented_numbers() -> None:
     assert config.world.step == 0.05
     q, f = config.quadrotor, config.fixed_wing
     assert (q.max_speed, q.max_accel, q.max_climb) == (12.0, 4.0, 3.0)
-    assert (f.min_airspeed, f.max_speed, f.max_turn_rate, f.max_climb, f.max_accel) == (
-        12.0,
-        25.0,
-        25.0,
-        4.0,
-        2.0,
-    )
+    # The fixed-wing is ArduPlane 4.5.7's (tests/world/test_fixedwing_conformance.py).
+    assert (f.min_airspeed, f.max_speed, f.cruise_speed, f.max_turn_rate) == (10, 30, 22, 26)
+    assert (f.max_climb, f.max_accel, f.loiter_radius, f.loiter_clockwise) == (3, 5.13, 50, True)
     assert q.endurance > 0 and f.endurance > 0
     assert config.targets == () and config.areas == ()
     assert loads_world("") == dataclasses.replace(WorldConfig(), source="<string>")
@@ -255,7 +251,9 @@ def test_unknown_keys_get_suggestions(text: str, key: str, problem: str) -> None
         ("[world]\nstep = 0", "world.step", "> 0"),
         ("[world]\nstep = true", "world.step", "must be a number"),
         ("[quadrotor]\ncruise_speed = 20", "quadrotor.cruise_speed", "above max_speed"),
-        ("[fixed_wing]\nmin_airspeed = 30", "fixed_wing.min_airspeed", "above max_speed"),
+        ("[fixed_wing]\nmin_airspeed = 31", "fixed_wing.min_airspeed", "above max_speed"),
+        ("[fixed_wing]\nloiter_clockwise = 1", "fixed_wing.loiter_clockwise", "true or false"),
+        ("[fixed_wing]\nglide_slope = 50", "fixed_wing.glide_slope", "below 45 degrees"),
         ("[fixed_wing]\nloiter_radius = 20", "fixed_wing.loiter_radius", "turn radius"),
         ("[fixed_wing]\nmax_climb = 15", "fixed_wing.max_climb", "below min_airspeed"),
         ('[fleet]\nkind = "quadrotors"', "fleet.kind", 'did you mean "quadrotor"'),

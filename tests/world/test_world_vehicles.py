@@ -262,8 +262,9 @@ def test_fixed_wing_takes_off_along_its_runway() -> None:
     # Along the runway: x / y follow the heading all the way.
     assert np.allclose(flight.pos[:, 1], flight.pos[:, 0] * math.tan(runway), atol=1e-6)
     on_ground = flight.pos[:, 2] == 0.0
-    # Rolls until it has min_airspeed, then climbs.
-    assert flight.speed[on_ground].max() < WING.min_airspeed + WING.max_accel * DT
+    # Rolls until it has its rotate speed (ArduPlane's 19.5 m/s), then climbs.
+    assert flight.speed[on_ground].max() < WING.rotate_speed + WING.max_accel * DT
+    assert flight.speed[on_ground].max() >= WING.rotate_speed - WING.max_accel * DT
     airborne = ~on_ground
     assert flight.speed[airborne].min() >= WING.min_airspeed - EPS
     assert vehicle.mode == "flying" and vehicle.position()[2] == pytest.approx(50, abs=0.06)
@@ -279,20 +280,24 @@ def test_fixed_wing_takes_off_along_its_runway() -> None:
 def test_fixed_wing_flies_to_a_goal_within_its_limits_and_loiters() -> None:
     fleet = fleet_of("fixed_wing")
     vehicle = fleet.vehicle(1)
-    vehicle.goto(1500, -800, 120, speed=30)  # takes off first; 30 is clamped to max_speed
+    vehicle.goto(1500, -800, 120, speed=40)  # takes off first; 40 is clamped to max_speed
     flight = fly(fleet, 300)
     assert_wing_limits(flight)
     assert flight.speed.max() == pytest.approx(WING.max_speed)
     assert np.abs(flight.vel[:, 2]).max() == pytest.approx(WING.max_climb)
     assert turn_rates(flight.heading).max() == pytest.approx(WING.turn_rate_rad)
-    # Loitering: on the circle, at altitude, counter-clockwise, never stopping.
+    # Loitering: on the circle, at altitude, clockwise (ArduPlane's way), never stopping.
+    # At 30 m/s the 50 m loiter radius is tighter than it can turn: it circles as tight as
+    # it can, max_speed / max_turn_rate (66 m), steadily.
     last = flight.pos[-600:]
     rel = last[:, :2] - (1500, -800)
-    assert np.hypot(rel[:, 0], rel[:, 1]) == pytest.approx(WING.loiter_radius, rel=0.02)
+    widest = WING.turn_radius(WING.max_speed)
+    assert widest > WING.loiter_radius
+    assert np.hypot(rel[:, 0], rel[:, 1]) == pytest.approx(widest, rel=0.02)
     assert last[:, 2] == pytest.approx(120, abs=0.1)
     angle = np.unwrap(np.arctan2(rel[:, 1], rel[:, 0]))
-    assert np.diff(angle).min() > 0
-    assert angle[-1] - angle[0] > 2 * math.pi  # 30 s at 25 m/s on an 80 m circle
+    assert np.diff(angle).max() < 0
+    assert angle[0] - angle[-1] > 2 * math.pi  # 30 s at 30 m/s on a 66 m circle
     assert vehicle.goal() == (1500.0, -800.0, 120.0)
 
 

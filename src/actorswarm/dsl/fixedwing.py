@@ -15,8 +15,9 @@ a world whose platforms are fixed-wings, ``actorswarm task check --world WORLD``
   tolerance, so the event never comes; a ``flight.goto`` ``speed`` outside the envelope.
 
 Warnings, as :mod:`~actorswarm.dsl.safety`'s: the script may be meant for other aircraft.
-The figures are the world's ``[fixed_wing]``; a real autopilot's differ (ArduPlane circles a
-goal at ~50 m and holds at ~100 m: docs/vehicles.md, "Fixed-wing").
+The figures are the world's ``[fixed_wing]``, by default ArduPlane 4.5.7's as measured (a
+goal circled at ~50 m; a real ArduPlane told to hold circles at ~100 m: docs/vehicles.md,
+"Fixed-wing").
 """
 
 from __future__ import annotations

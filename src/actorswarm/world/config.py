@@ -222,18 +222,32 @@ class QuadrotorParams:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class FixedWingParams:
-    """``[fixed_wing]``: the performance of a fixed-wing aircraft.
+    """``[fixed_wing]``: the performance of a fixed-wing aircraft. The defaults are
+    ArduPlane 4.5.7's as flown in SITL with its stock airframe (``plane.parm``), so that a
+    world that says nothing flies the aircraft the project's fixed-wing vehicle flies for
+    real; ``tests/world/test_fixedwing_conformance.py`` pins the model to those figures.
 
     Once airborne its speed stays within [``min_airspeed``, ``max_speed``] (below it would
     stall); ``cruise_speed`` is the speed of a ``goto`` that names none. ``max_turn_rate``
     (degrees per second) bounds heading changes, ``max_climb`` the vertical speed, and
     ``max_accel`` every change of airspeed and of vertical speed. It never stops in the
     air: at its goal, or told to hold, it circles the point at ``loiter_radius`` metres,
-    counter-clockwise.
+    clockwise unless ``loiter_clockwise`` is false.
 
-    ``loiter_radius`` must be at least the turn radius at ``max_speed`` (``max_speed /
-    max_turn_rate``), so that the circle can be flown at any commanded speed, and
-    ``max_climb`` below ``min_airspeed``, because the climb is part of the airspeed.
+    ``loiter_radius`` must be at least the turn radius at ``cruise_speed``
+    (``cruise_speed / max_turn_rate``; 48.5 m for the defaults, which is why ArduPlane's
+    tightest sustained circle is about 50 m): faster than that, the circle is flown wider,
+    as a real aircraft does at its bank limit. ``max_climb`` must be below
+    ``min_airspeed``, because the climb is part of the airspeed.
+
+    Take-off and landing: the take-off roll accelerates at ``max_accel`` and lifts off at
+    ``rotate_speed`` (0: ``min_airspeed``); from ``level_altitude`` metres up (0: never) the
+    climbing aircraft turns towards its goal while it climbs on (ArduPlane's
+    ``TKOFF_LVL_ALT``); ``climb_gain`` (1/s, 0: off) also bounds the vertical speed by
+    that many times the height still to climb or descend, the slowing approach of an
+    energy controller. ``glide_slope`` (degrees, 0: none) and ``landing_speed`` (m/s, 0:
+    ``min_airspeed``) shape a landing to a point
+    (:meth:`~actorswarm.world.vehicles.SimVehicle.land_at`, which needs a glide slope).
 
     Battery: as for :class:`QuadrotorParams` — ``endurance`` seconds at cruise speed, the
     draw growing linearly from ``rest_power`` (extrapolated to zero airspeed) to 1 at
@@ -243,16 +257,29 @@ class FixedWingParams:
     other airborne vehicle (as for :class:`QuadrotorParams`).
     """
 
-    min_airspeed: float = 12.0
-    max_speed: float = 25.0
-    cruise_speed: float = 18.0
-    max_turn_rate: float = 25.0
-    max_climb: float = 4.0
-    max_accel: float = 2.0
-    loiter_radius: float = 80.0
+    # ArduPlane's AIRSPEED_MIN, AIRSPEED_MAX and AIRSPEED_CRUISE.
+    min_airspeed: float = 10.0
+    max_speed: float = 30.0
+    cruise_speed: float = 22.0
+    # 22 m/s on a 48.5 m circle: the tightest circle measured (~50 m at 56° of bank).
+    max_turn_rate: float = 26.0
+    max_climb: float = 3.0
+    # 0 to 19.5 m/s in 3.8 s on the runway.
+    max_accel: float = 5.13
+    # A goal asked for with the vehicle's radius (30 m) is circled at ~50 m.
+    loiter_radius: float = 50.0
     endurance: float = 3600.0
     rest_power: float = 0.5
     separation: float = 10.0
+    loiter_clockwise: bool = True
+    # Wheels off at 19.5 m/s, 3.8 s and ~40 m down the runway.
+    rotate_speed: float = 19.5
+    level_altitude: float = 5.0
+    # 20 m at +10.8 s and TKOFF_ALT - 1 at +30 s of a take-off to 40 m.
+    climb_gain: float = 0.158
+    # The measured landing: a 3.5° glide at 16 m/s.
+    glide_slope: float = 3.5
+    landing_speed: float = 16.0
 
     def __post_init__(self) -> None:
         _positive(
@@ -267,7 +294,16 @@ class FixedWingParams:
             "loiter_radius",
             "endurance",
         )
+        _non_negative(
+            self, "rotate_speed", "level_altitude", "climb_gain", "glide_slope", "landing_speed"
+        )
         _fraction(self, "rest_power", open_low=True)
+        if not isinstance(self.loiter_clockwise, bool):
+            raise _fail(
+                self, "loiter_clockwise", f"must be true or false, not {self.loiter_clockwise!r}"
+            )
+        if self.glide_slope >= 45.0:
+            raise _fail(self, "glide_slope", f"must be below 45 degrees, not {self.glide_slope!r}")
         if self.min_airspeed > self.max_speed:
             raise _fail(
                 self,
@@ -292,13 +328,13 @@ class FixedWingParams:
             raise _fail(
                 self, "max_turn_rate", f"must be at most 360 °/s, not {self.max_turn_rate!r}"
             )
-        smallest = self.max_speed / self.turn_rate_rad
+        smallest = self.turn_radius(self.cruise_speed)
         if self.loiter_radius < smallest:
             raise _fail(
                 self,
                 "loiter_radius",
-                f"{self.loiter_radius!r} m is tighter than the turn radius at max_speed "
-                f"({smallest:.1f} m = max_speed / max_turn_rate)",
+                f"{self.loiter_radius!r} m is tighter than the turn radius at cruise_speed "
+                f"({smallest:.1f} m = cruise_speed / max_turn_rate)",
             )
 
     @property
@@ -306,43 +342,12 @@ class FixedWingParams:
         """``max_turn_rate`` in radians per second."""
         return math.radians(self.max_turn_rate)
 
+    def turn_radius(self, speed: float) -> float:
+        """The tightest circle, metres, flown at ``speed`` m/s."""
+        return speed / self.turn_rate_rad
+
 
 VehicleParams = QuadrotorParams | FixedWingParams
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class FixedWingTuning:
-    """Opt-in refinements of the fixed-wing model, for one fitted to a real autopilot's
-    measured flight (the simulated ArduPlane's); not part of a world file. Each is off by
-    default, and a vehicle without them flies exactly as before they existed.
-
-    ``loiter_clockwise`` circles clockwise (ArduPlane's default); ``rotate_speed`` (m/s, 0:
-    ``min_airspeed``) is the speed at which a take-off roll lifts off; ``level_altitude``
-    (metres, 0: off) hands a take-off over to normal flight once this high, so that it turns
-    towards its goal while it climbs on (ArduPlane's ``TKOFF_LVL_ALT``); ``climb_gain`` (1/s,
-    0: off) also bounds the vertical speed by ``climb_gain`` times the height still to climb
-    or descend, the slowing approach of an energy controller; ``glide_slope`` (degrees, 0:
-    none) and ``landing_speed`` (m/s, 0: ``min_airspeed``) shape a landing to a point
-    (:meth:`~actorswarm.world.vehicles.SimVehicle.land_at`, which needs a glide slope).
-    """
-
-    loiter_clockwise: bool = False
-    rotate_speed: float = 0.0
-    level_altitude: float = 0.0
-    climb_gain: float = 0.0
-    glide_slope: float = 0.0
-    landing_speed: float = 0.0
-
-    def __post_init__(self) -> None:
-        _non_negative(
-            self, "rotate_speed", "level_altitude", "climb_gain", "glide_slope", "landing_speed"
-        )
-        if not isinstance(self.loiter_clockwise, bool):
-            raise _fail(
-                self, "loiter_clockwise", f"must be true or false, not {self.loiter_clockwise!r}"
-            )
-        if self.glide_slope >= 45.0:
-            raise _fail(self, "glide_slope", f"must be below 45 degrees, not {self.glide_slope!r}")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -629,8 +634,6 @@ class VehicleSpec:
     heading: float
     battery: float
     params: VehicleParams
-    #: Refinements of a fixed-wing's model (None: none; ignored for a quadrotor).
-    tuning: FixedWingTuning | None = None
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -1009,7 +1012,7 @@ class _Loader:
         root = _Table(self, "", data, _TOP_KEYS)
         world = self.simple(root, "world", WorldSettings)
         quadrotor = self.simple(root, "quadrotor", QuadrotorParams)
-        fixed_wing = self.simple(root, "fixed_wing", FixedWingParams)
+        fixed_wing = self.fixed_wing(root.table("fixed_wing", _field_names(FixedWingParams)))
         radio = self.radio(root.table("radio", _field_names(RadioConfig)))
         camera = self.simple(root, "camera", CameraConfig)
         safety = self.safety(root.table("safety", _field_names(SafetyConfig)))
@@ -1038,6 +1041,13 @@ class _Loader:
         """A section whose keys are all numbers, one per field of ``cls``."""
         table = root.table(name, _field_names(cast(type[Any], cls)))
         return table.build(cls, **{key: table.number(key) for key in table.data})
+
+    def fixed_wing(self, table: _Table) -> FixedWingParams:
+        kwargs: dict[str, Any] = {
+            key: table.boolean(key) if key == "loiter_clockwise" else table.number(key)
+            for key in table.data
+        }
+        return table.build(FixedWingParams, **kwargs)
 
     def radio(self, table: _Table) -> RadioConfig:
         kwargs: dict[str, Any] = {

@@ -36,30 +36,35 @@ Quadrotor
     Take-off is a vertical climb, landing a descent onto the point below it.
 
 Fixed-wing
-    Keeps an airspeed S in [min_airspeed, max_speed] once airborne, changed by at most
-    ``max_accel · dt`` per step; a vertical speed within ``max_climb`` (changed by at most
-    ``max_accel · dt``), the rest of S being horizontal along the heading; and a heading
-    that turns by at most ``max_turn_rate · dt``. It steers by a guidance vector field
-    around the point it aims at (Lawrence, Frew & Pisano, 2008): with r the horizontal
-    distance to the point and R the loiter radius, the wanted direction is::
+    By default ArduPlane 4.5.7 as measured in SITL (:class:`~actorswarm.world.config.
+    FixedWingParams`; ``tests/world/test_fixedwing_conformance.py`` holds the model to the
+    firmware's figures). Keeps an airspeed S in [min_airspeed, max_speed] once airborne,
+    changed by at most ``max_accel · dt`` per step; a vertical speed within ``max_climb``
+    (changed by at most ``max_accel · dt``, and with ``climb_gain`` at most that many times
+    the height still to go), the rest of S being horizontal along the heading; and a
+    heading that turns by at most ``max_turn_rate · dt``. It steers by a guidance vector
+    field around the point it aims at (Lawrence, Frew & Pisano, 2008): with r the
+    horizontal distance to the point and R the loiter radius, the wanted direction is::
 
-        -(r² - R²) / (r² + R²) · r̂  +  2 r R / (r² + R²) · t̂       (t̂: counter-clockwise)
+        -(r² - R²) / (r² + R²) · r̂  ±  2 r R / (r² + R²) · t̂       (t̂: counter-clockwise)
 
     a unit vector that becomes the circle's tangent at r = R, so "fly to the goal" and
     "circle the goal" are one law and the aircraft never stops: it arrives by spiralling
-    onto the circle of radius R around its goal and loiters there, counter-clockwise, until
-    told otherwise. The field alone still points 28° off the goal at r = 4R, which would make
-    an aircraft chasing a moving goal (a formation slot) drift sideways for ever; so beyond
-    2R the wanted direction turns from the field's towards the straight bearing to the goal,
-    reaching it at 3R (pure pursuit from afar, as an autopilot flies to a waypoint before it
-    loiters there). ``hold`` makes the
-    current position the goal. Take-off rolls along the runway (the heading at home),
-    accelerating towards cruise speed, lifts off at ``min_airspeed`` and climbs straight
-    ahead to the take-off altitude; it then loiters around the point where it got there,
-    or flies on to the goal of a ``goto`` given meanwhile. Landing keeps the heading,
-    slows to ``min_airspeed``, descends at up to ``max_climb`` (flaring near the ground),
+    onto the circle of radius R around its goal and loiters there (clockwise, ArduPlane's
+    way, unless ``loiter_clockwise`` is false) until told otherwise. R is at least S over
+    the turn rate: a circle tighter than the aircraft can turn at its speed is flown as
+    tight as it can. The field alone still points 28° off the goal at r = 4R, which would
+    make an aircraft chasing a moving goal (a formation slot) drift sideways for ever; so
+    beyond 2R the wanted direction turns from the field's towards the straight bearing to
+    the goal, reaching it at 3R (pure pursuit from afar, as an autopilot flies to a waypoint
+    before it loiters there). ``hold`` makes the current position the goal. Take-off rolls
+    along the runway (the heading at home), accelerating at ``max_accel``, lifts off at
+    ``rotate_speed`` and climbs straight ahead to the take-off altitude; it then loiters
+    around the point where it got there, or flies on to the goal of a ``goto`` given
+    meanwhile (turning towards it from ``level_altitude`` up). Landing keeps the heading,
+    slows to ``landing_speed``, descends at up to ``max_climb`` (flaring near the ground),
     touches down and brakes to a stop: it lands ahead of where it was told, as an aircraft
-    does.
+    does; ``land_at`` glides to a point at ``glide_slope`` instead.
 
 Battery
     Every airborne mode drains ``p(speed) / (p(cruise) · endurance)`` per second, with
@@ -79,7 +84,6 @@ from numpy.typing import NDArray
 
 from actorswarm.world.config import (
     FixedWingParams,
-    FixedWingTuning,
     Kind,
     VehicleSpec,
     WorldConfig,
@@ -157,23 +161,14 @@ class Fleet:
         self._min_speed = column(f.min_airspeed if f else 0.0 for f in fixed)
         self._turn = column(f.turn_rate_rad if f else math.inf for f in fixed)
         self._loiter = column(f.loiter_radius if f else 0.0 for f in fixed)
-        # The opt-in refinements (FixedWingTuning: without them nothing changes).
-        tune = [
-            (spec.tuning or FixedWingTuning()) if f else FixedWingTuning()
-            for spec, f in zip(specs, fixed, strict=True)
-        ]
-        self._loiter_dir = column(-1.0 if t.loiter_clockwise else 1.0 for t in tune)
-        self._rotate = column(
-            max(f.min_airspeed, t.rotate_speed) if f else 0.0
-            for f, t in zip(fixed, tune, strict=True)
+        self._loiter_dir = column(-1.0 if f and f.loiter_clockwise else 1.0 for f in fixed)
+        self._rotate = column(max(f.min_airspeed, f.rotate_speed) if f else 0.0 for f in fixed)
+        self._level = column(
+            f.level_altitude if f and f.level_altitude > 0 else math.inf for f in fixed
         )
-        self._level = column(t.level_altitude if t.level_altitude > 0 else math.inf for t in tune)
-        self._climb_gain = column(t.climb_gain for t in tune)
-        self._glide = column(math.tan(math.radians(t.glide_slope)) for t in tune)
-        self._land_speed = column(
-            (t.landing_speed or f.min_airspeed) if f else 0.0
-            for f, t in zip(fixed, tune, strict=True)
-        )
+        self._climb_gain = column(f.climb_gain if f else 0.0 for f in fixed)
+        self._glide = column(math.tan(math.radians(f.glide_slope)) if f else 0.0 for f in fixed)
+        self._land_speed = column((f.landing_speed or f.min_airspeed) if f else 0.0 for f in fixed)
         rest = column(p.rest_power for p in params)
         self._rest = rest
         # Drain per second at speed s is (rest + (1 - rest) s / max) * _drain_scale, so that
@@ -349,7 +344,10 @@ class Fleet:
         # Right over the point the radial direction is undefined: carry straight on.
         rx = np.where(away, rel[:, 0] / safe_r, np.cos(heading))
         ry = np.where(away, rel[:, 1] / safe_r, np.sin(heading))
-        radius = self._loiter[rows]
+        # A circle tighter than the aircraft can turn at its speed is flown wider, at the
+        # tightest it can (a real autopilot's at its bank limit); the guidance field needs
+        # the wider radius too, or it weaves in and out of a circle it cannot hold.
+        radius = np.maximum(self._loiter[rows], speed / self._turn[rows])
         r2, big_r2 = r * r, radius * radius
         inward = -(r2 - big_r2) / (r2 + big_r2)
         along = 2.0 * r * radius / (r2 + big_r2) * self._loiter_dir[rows]
@@ -430,19 +428,18 @@ class Fleet:
         landings that reached the ground (and, for a fixed-wing, stopped) are landed."""
         mode = self._mode[rows]
         z = pos[:, 2]
+        # Handed over early at level_altitude only to turn towards a goal given meanwhile:
+        # with none, it climbs straight ahead to its altitude.
         up = (mode == TAKEOFF) & (
-            (np.abs(z - self._takeoff_alt[rows]) <= _ARRIVE) | (z >= self._level[rows])
+            (np.abs(z - self._takeoff_alt[rows]) <= _ARRIVE)
+            | ((z >= self._level[rows]) & self._pending[rows])
         )
         if up.any():
             done = rows[up]
             self._mode[done] = FLYING
             pending = self._pending[done]
-            # No goto meanwhile: hover (circle) where the climb ended (at the take-off
-            # altitude, also when handed over early at level_altitude).
-            here = self._pos[done].copy()
-            early = np.isfinite(self._level[done])
-            here[:, 2] = np.where(early, self._takeoff_alt[done], here[:, 2])
-            self._aim[done] = np.where(pending[:, None], self._goal[done], here)
+            # No goto meanwhile: hover (circle) where the climb ended.
+            self._aim[done] = np.where(pending[:, None], self._goal[done], self._pos[done])
             self._pending[done] = False
         # Touchdown within _ARRIVE of the ground, once it came down so slowly vertically (a
         # quadrotor: in every direction) that stopping dead in this step stays within

@@ -58,7 +58,7 @@ mission (it circles its last point), wind, stalls, quadplanes, rally points, the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Final, Protocol
 
 from actorswarm.vehicles.mavlink.boot import Boot
@@ -66,7 +66,7 @@ from actorswarm.vehicles.mavlink.dialect import mav
 from actorswarm.vehicles.mavlink.flavours import ARDUPLANE_MODES
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.linkstreams import LinkStreams
-from actorswarm.world.config import FixedWingParams, FixedWingTuning, VehicleSpec
+from actorswarm.world.config import FixedWingParams, VehicleSpec
 from actorswarm.world.vehicles import SimVehicle
 
 __all__ = ["PLANE_MESSAGES", "PlaneHost", "SimPlane", "flown_radius", "plane_params", "plane_spec"]
@@ -132,24 +132,16 @@ def plane_params(failsafes: bool) -> dict[str, float]:
 def plane_spec(battery: float, endurance: float, heading: float = 0.0) -> VehicleSpec:
     """The physics of the simulated ArduPlane (module docstring), at home facing
     ``heading`` (degrees clockwise from north)."""
-    params = FixedWingParams(
+    # The world's fixed-wing is ArduPlane's (its defaults are these figures, measured); only
+    # the hold circle is ArduPlane's WP_LOITER_RAD as flown, since the world's default is
+    # the circle of a goal asked with the vehicle's radius.
+    params = replace(
+        FixedWingParams(),
         min_airspeed=_DEFAULTS["AIRSPEED_MIN"],
         max_speed=_DEFAULTS["AIRSPEED_MAX"],
         cruise_speed=_DEFAULTS["AIRSPEED_CRUISE"],
-        # 22 m/s on a 48.5 m circle: the tightest measured (50 m) is sustained.
-        max_turn_rate=26.0,
-        max_climb=3.0,
-        max_accel=5.13,  # 0 to 19.5 m/s in 3.8 s on the runway
         loiter_radius=flown_radius(_DEFAULTS["WP_LOITER_RAD"]),
         endurance=endurance,
-    )
-    tuning = FixedWingTuning(
-        loiter_clockwise=True,
-        rotate_speed=19.5,
-        level_altitude=5.0,  # TKOFF_LVL_ALT
-        climb_gain=0.158,
-        glide_slope=3.5,
-        landing_speed=16.0,
     )
     return VehicleSpec(
         platform=1,
@@ -158,7 +150,6 @@ def plane_spec(battery: float, endurance: float, heading: float = 0.0) -> Vehicl
         heading=math.radians(90.0 - heading),
         battery=battery,
         params=params,
-        tuning=tuning,
     )
 
 
