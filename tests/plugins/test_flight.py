@@ -199,11 +199,41 @@ def test_return_home_lands_in_turn_waiting_over_home() -> None:
     vehicle = FakeVehicle(position=(0.0, 5.0, 10.0), cruise_speed=10.0, climb_rate=3.0)
     ctx = make_context(ReturnHome, params=params, vehicle=vehicle, slot=2, slots=3)
     plugin = ReturnHome()
-    run_plugin(plugin, ctx, steps=290, dt=0.1)  # over home within 1 s; its turn at 30 s
+    plugin._drive_start(ctx)
+    assert plugin._drive_snapshot()["land_wait"] == pytest.approx(30.0)  # not home yet
+    run_plugin(plugin, ctx, steps=290, dt=0.1)  # over home within 1 s; its turn 30 s on
     assert ("land",) not in vehicle.commands
-    assert plugin._drive_snapshot()["land_at"] == pytest.approx(30.0)
+    snapshot = plugin._drive_snapshot()
+    assert 30.0 < snapshot["land_at"] <= 31.0
     events = run_plugin(plugin, ctx, steps=200, dt=0.1)
     assert ("land",) in vehicle.commands and names(events) == ["landed_event"]
+    again = ReturnHome()
+    again._drive_restore(snapshot)
+    assert again._drive_snapshot()["land_at"] == snapshot["land_at"]
+
+
+def test_return_home_counts_its_turn_from_when_it_is_first_over_home() -> None:
+    """The way home took longer than one stagger: the member on layer 1 still lands a
+    stagger after it came home, not at once (as it would counting from the start)."""
+    params = {"home": "0 0 0", "altitude": "10", "layers": "0", "land_stagger": "30"}
+    vehicle = FakeVehicle(position=(400.0, 0.0, 10.0), cruise_speed=10.0, climb_rate=3.0)
+    ctx = make_context(ReturnHome, params=params, vehicle=vehicle, slot=2, slots=3)
+    plugin = ReturnHome()
+    run_plugin(plugin, ctx, steps=400, dt=0.1)  # 40 s home: its turn from the start is past
+    assert ("land",) not in vehicle.commands
+    arrived = plugin._drive_snapshot()["land_at"] - 30.0
+    assert 35.0 <= arrived <= 40.0
+    run_plugin(plugin, ctx, steps=320, dt=0.1)
+    assert ("land",) in vehicle.commands
+
+
+def test_return_home_restores_a_turn_not_yet_counted() -> None:
+    plugin = ReturnHome()
+    state = {"home": [0.0, 0.0, 0.0], "phase": "transit", "layer": 2, "land_wait": 60}
+    plugin._drive_restore(state)
+    assert plugin._drive_snapshot()["land_wait"] == 60.0
+    with pytest.raises(ValueError, match="land_wait"):
+        ReturnHome()._drive_restore({**state, "land_wait": -1})
 
 
 def test_return_home_flies_home_lands_and_emits_once() -> None:

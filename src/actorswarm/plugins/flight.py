@@ -416,10 +416,13 @@ class ReturnHome(Plugin):
         level on their layers cannot meet however their paths cross. (A landing still
         descends through the layers below it.)
     ``land_stagger`` (float ≥ 0, default 0)
-        Landings in turn: the member on layer ``k`` lands no earlier than ``k ·
-        land_stagger`` seconds after this actor started, waiting over home (a fixed-wing
-        circling it, on its layer) until then — so aircraft do not share the approach at
-        once. 0: each lands as soon as it is over home.
+        Landings in turn: the member on layer ``k`` lands ``k · land_stagger`` seconds
+        after it is first over home, waiting there (a fixed-wing circling it, on its layer)
+        until then — so aircraft that come home together (a group sent home with a
+        ``rally``) do not share the approach at once. Counted from its own arrival, not from
+        the start: the way home takes longer than one stagger, and the member on layer 1
+        would otherwise land with the one on layer 0. Members that come home far apart in
+        time are not sequenced by it. 0: each lands as soon as it is over home.
     ``rally`` (point ``"x y z"``, optional; z unused)
         Where a group sent home together (``ctx.slots`` > 1) flies first, *keeping its
         shape*: each member flies to ``rally + (its position − the group's centre)``, the
@@ -487,8 +490,8 @@ class ReturnHome(Plugin):
             kind="float",
             default=0.0,
             minimum=0.0,
-            doc="seconds between the landings of two layers (layer k lands from k · this "
-            "after the start); 0: each as soon as it is over home",
+            doc="seconds between the landings of two layers (layer k lands k · this after it "
+            "is first over home); 0: each as soon as it is over home",
         ),
         "rally": Param(
             kind="point",
@@ -503,8 +506,10 @@ class ReturnHome(Plugin):
         self._home: Point | None = None
         self._phase = "transit"
         self._layer = 0
-        # The earliest this member may land (its layer's turn; -inf: at once).
-        self._land_at = -math.inf
+        # The earliest this member may land (its layer's turn; -inf: at once; None: its
+        # turn is _land_wait seconds after it is first over home).
+        self._land_at: float | None = -math.inf
+        self._land_wait = 0.0
         # The member's place around the rally point, and the unit vector (x, y, 0) of the
         # group's flight there: the rally phase ends once that far along it.
         self._rally: Point | None = None
@@ -527,8 +532,8 @@ class ReturnHome(Plugin):
         vehicle = ctx.require_vehicle()
         layers = int(ctx.params["layers"]) or max(ctx.slots, 1)
         self._layer = (ctx.slot - 1) % layers if ctx.slot > 0 else 0
-        stagger = float(ctx.params["land_stagger"])
-        self._land_at = ctx.now + self._layer * stagger if stagger > 0 else -math.inf
+        self._land_wait = self._layer * float(ctx.params["land_stagger"])
+        self._land_at = None if self._land_wait > 0 else -math.inf
         given = ctx.params["home"]
         if given is not None:
             self._home = read_point("flight.return_home", "home", given)
@@ -585,9 +590,11 @@ class ReturnHome(Plugin):
         if self._phase == "transit":
             if _distance(vehicle.position(), self._over_home(ctx)) > ctx.params["tolerance"]:
                 return
-            if ctx.params["land"] and ctx.now < self._land_at:
-                return  # not its turn yet: it waits over home
             if ctx.params["land"]:
+                if self._land_at is None:  # first over home: its turn counts from now
+                    self._land_at = ctx.now + self._land_wait
+                if ctx.now < self._land_at:
+                    return  # not its turn yet: it waits over home
                 self._phase = "landing"
                 vehicle.land()
                 return
@@ -609,7 +616,9 @@ class ReturnHome(Plugin):
         if self._rally is not None:
             state["rally"] = list(self._rally)
             state["rally_way"] = list(self._rally_way)
-        if math.isfinite(self._land_at):
+        if self._land_at is None:
+            state["land_wait"] = self._land_wait
+        elif math.isfinite(self._land_at):
             state["land_at"] = self._land_at
         return state
 
@@ -634,6 +643,15 @@ class ReturnHome(Plugin):
                 f"flight.return_home: a snapshot's 'land_at' must be a number, not {land_at!r}"
             )
         self._land_at = float(land_at)
+        wait = state.get("land_wait", 0.0)
+        if not (isinstance(wait, int | float) and not isinstance(wait, bool) and wait >= 0):
+            raise ValueError(
+                f"flight.return_home: a snapshot's 'land_wait' must be a number of seconds "
+                f"≥ 0, not {wait!r}"
+            )
+        self._land_wait = float(wait)
+        if self._land_wait > 0 and "land_at" not in state:
+            self._land_at = None  # not over home yet when the snapshot was taken
         self._rally = None
         if phase == "rally":
             self._rally = read_point("flight.return_home", "rally", state.get("rally"))
