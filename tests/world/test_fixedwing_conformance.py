@@ -35,6 +35,7 @@ CRUISE = 22.0  # AIRSPEED_CRUISE, ~53 % throttle
 AIRSPEED = (10.0, 30.0)  # DO_CHANGE_SPEED accepted within AIRSPEED_MIN..MAX
 LIFT_OFF_S, LIFT_OFF_RUN, LIFT_OFF_SPEED = 3.8, 40.0, 19.5
 AT_20_M_S, AT_39_M_S = 10.8, 29.8  # TKOFF_ALT 40
+TKOFF_DIST = 200.0  # then circles the point this far down the runway
 TIGHTEST_CIRCLE = (49.0, 55.0)  # DO_REPOSITION radius 25: circled clockwise at 49-55 m
 SPEEDS = ((16.0, 15.9), (28.0, 28.4))  # DO_CHANGE_SPEED asked, airspeed held
 GLIDE_SPEED = 16.0
@@ -83,8 +84,10 @@ def test_take_off_rolls_lifts_off_and_climbs_as_arduplane_does() -> None:
     assert speed[rolled] == pytest.approx(LIFT_OFF_SPEED, abs=0.5)
     assert t[np.flatnonzero(z >= 20.0)[0]] == pytest.approx(AT_20_M_S, abs=1.0)
     assert t[-1] == pytest.approx(AT_39_M_S, abs=2.0)
-    # Straight ahead along the runway all the way up: no goal was given.
-    assert np.abs(track[:, 2]).max() < 1e-6
+    # Straight down the runway, then circling the point TKOFF_DIST ahead while it climbs.
+    outbound = np.flatnonzero(x >= TKOFF_DIST - 3 * 50.0)[0]  # blending onto its circle
+    assert np.abs(track[:outbound, 2]).max() < 1e-6
+    assert np.hypot(x[-1] - TKOFF_DIST, track[-1, 2]) == pytest.approx(50.0, abs=5.0)
 
 
 def test_the_default_circle_is_the_tightest_arduplane_sustains() -> None:
@@ -147,11 +150,12 @@ def test_a_landing_glides_at_the_measured_slope_and_touches_down_short() -> None
 
 def test_the_simulated_autopilot_flies_the_same_model() -> None:
     """One model: the simulated ArduPlane's physics is the world's default fixed-wing, but
-    for the circle it holds in LOITER (WP_LOITER_RAD 80 flown at ~100 m) and the battery."""
+    for the circle it holds in LOITER (WP_LOITER_RAD 80 flown at ~100 m), the battery, and
+    the take-off's point, which its TAKEOFF mode sets from its own TKOFF_DIST."""
     spec = plane_spec(battery=1.0, endurance=1800.0)
     assert isinstance(spec.params, FixedWingParams)
     assert spec.params == dataclasses.replace(
-        FixedWingParams(), loiter_radius=flown_radius(80.0), endurance=1800.0
+        FixedWingParams(), loiter_radius=flown_radius(80.0), endurance=1800.0, takeoff_distance=0
     )
     assert spec.params.loiter_radius == pytest.approx(100.7, abs=0.5)
     assert math.isclose(FixedWingParams().turn_radius(CRUISE), 48.5, abs_tol=0.1)

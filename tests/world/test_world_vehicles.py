@@ -252,7 +252,9 @@ def test_a_goto_during_takeoff_waits_for_the_altitude() -> None:
 
 
 def test_fixed_wing_takes_off_along_its_runway() -> None:
-    fleet = fleet_of("fixed_wing", text="heading = 30")
+    # No take-off distance: straight up the runway's line to its altitude (the default's
+    # climb-out to a point 200 m ahead is tests/world/test_fixedwing_conformance.py's).
+    fleet = fleet_of("fixed_wing", text="heading = 30\n[fixed_wing]\ntakeoff_distance = 0")
     vehicle = fleet.vehicle(1)
     vehicle.takeoff(50)
     flight = fly(fleet, 60, until=lambda v: v.mode == "flying")

@@ -243,10 +243,12 @@ class FixedWingParams:
     Take-off and landing: the take-off roll accelerates at ``max_accel`` and lifts off at
     ``rotate_speed`` (0: ``min_airspeed``); from ``level_altitude`` metres up (0: never) the
     climbing aircraft turns towards its goal while it climbs on (ArduPlane's
-    ``TKOFF_LVL_ALT``); ``climb_gain`` (1/s, 0: off) also bounds the vertical speed by
-    that many times the height still to climb or descend, the slowing approach of an
-    energy controller. ``glide_slope`` (degrees, 0: none) and ``landing_speed`` (m/s, 0:
-    ``min_airspeed``) shape a landing to a point
+    ``TKOFF_LVL_ALT``), the point ``takeoff_distance`` metres ahead of where it started
+    (ArduPlane's ``TKOFF_DIST``) unless a goal was given (0: none; it then climbs straight
+    ahead and circles where it reached its altitude); ``climb_gain`` (1/s, 0: off) also
+    bounds the vertical speed by that many times the height still to climb or descend, the
+    slowing approach of an energy controller. ``glide_slope`` (degrees, 0: none) and
+    ``landing_speed`` (m/s, 0: ``min_airspeed``) shape a landing to a point
     (:meth:`~actorswarm.world.vehicles.SimVehicle.land_at`, which needs a glide slope).
 
     Battery: as for :class:`QuadrotorParams` — ``endurance`` seconds at cruise speed, the
@@ -277,6 +279,8 @@ class FixedWingParams:
     level_altitude: float = 5.0
     # 20 m at +10.8 s and TKOFF_ALT - 1 at +30 s of a take-off to 40 m.
     climb_gain: float = 0.158
+    # ArduPlane's TKOFF_DIST: a take-off with no goal circles the point this far ahead.
+    takeoff_distance: float = 200.0
     # The measured landing: a 3.5° glide at 16 m/s.
     glide_slope: float = 3.5
     landing_speed: float = 16.0
@@ -295,7 +299,13 @@ class FixedWingParams:
             "endurance",
         )
         _non_negative(
-            self, "rotate_speed", "level_altitude", "climb_gain", "glide_slope", "landing_speed"
+            self,
+            "rotate_speed",
+            "level_altitude",
+            "climb_gain",
+            "takeoff_distance",
+            "glide_slope",
+            "landing_speed",
         )
         _fraction(self, "rest_power", open_low=True)
         if not isinstance(self.loiter_clockwise, bool):

@@ -59,9 +59,11 @@ Fixed-wing
     the goal, reaching it at 3R (pure pursuit from afar, as an autopilot flies to a waypoint
     before it loiters there). ``hold`` makes the current position the goal. Take-off rolls
     along the runway (the heading at home), accelerating at ``max_accel``, lifts off at
-    ``rotate_speed`` and climbs straight ahead to the take-off altitude; it then loiters
-    around the point where it got there, or flies on to the goal of a ``goto`` given
-    meanwhile (turning towards it from ``level_altitude`` up). Landing keeps the heading,
+    ``rotate_speed`` and climbs straight ahead; from ``level_altitude`` up it turns
+    towards the point ``takeoff_distance`` down the runway (ArduPlane's ``TKOFF_DIST``),
+    or the goal of a ``goto`` given meanwhile, and circles it at the take-off altitude
+    (with no take-off distance it climbs straight to its altitude and circles where it got
+    there). Landing keeps the heading,
     slows to ``landing_speed``, descends at up to ``max_climb`` (flaring near the ground),
     touches down and brakes to a stop: it lands ahead of where it was told, as an aircraft
     does; ``land_at`` glides to a point at ``glide_slope`` instead.
@@ -167,6 +169,7 @@ class Fleet:
             f.level_altitude if f and f.level_altitude > 0 else math.inf for f in fixed
         )
         self._climb_gain = column(f.climb_gain if f else 0.0 for f in fixed)
+        self._takeoff_dist = column(f.takeoff_distance if f else 0.0 for f in fixed)
         self._glide = column(math.tan(math.radians(f.glide_slope)) if f else 0.0 for f in fixed)
         self._land_speed = column((f.landing_speed or f.min_airspeed) if f else 0.0 for f in fixed)
         rest = column(p.rest_power for p in params)
@@ -526,7 +529,17 @@ class Fleet:
             return
         if self._on_wheels(row):
             self._start_takeoff(row, float(altitude))
-            self._pending[row] = False
+            distance = self._takeoff_dist[row]
+            # A fixed-wing with a take-off distance climbs out towards the point that far
+            # down its runway and circles it (ArduPlane's TKOFF_DIST), as towards a goal.
+            self._pending[row] = distance > 0.0
+            if distance > 0.0:
+                heading = self._heading[row]
+                self._goal[row] = (
+                    self._pos[row, 0] + distance * math.cos(heading),
+                    self._pos[row, 1] + distance * math.sin(heading),
+                    altitude,
+                )
         elif mode == TAKEOFF:
             self._takeoff_alt[row] = altitude
             self._aim[row, 2] = altitude

@@ -134,7 +134,7 @@ def plane_spec(battery: float, endurance: float, heading: float = 0.0) -> Vehicl
     ``heading`` (degrees clockwise from north)."""
     # The world's fixed-wing is ArduPlane's (its defaults are these figures, measured); only
     # the hold circle is ArduPlane's WP_LOITER_RAD as flown, since the world's default is
-    # the circle of a goal asked with the vehicle's radius.
+    # the circle of a goal asked with the vehicle's radius, and TAKEOFF's point is its own.
     params = replace(
         FixedWingParams(),
         min_airspeed=_DEFAULTS["AIRSPEED_MIN"],
@@ -142,6 +142,7 @@ def plane_spec(battery: float, endurance: float, heading: float = 0.0) -> Vehicl
         cruise_speed=_DEFAULTS["AIRSPEED_CRUISE"],
         loiter_radius=flown_radius(_DEFAULTS["WP_LOITER_RAD"]),
         endurance=endurance,
+        takeoff_distance=0.0,  # TAKEOFF mode sends it to TKOFF_DIST itself (a parameter)
     )
     return VehicleSpec(
         platform=1,
