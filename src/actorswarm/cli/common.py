@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Collection
+import asyncio
+from collections.abc import Collection, Coroutine
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import typer
 
@@ -22,7 +24,23 @@ __all__ = [
     "output_file",
     "output_paths",
     "read_world",
+    "run_async",
 ]
+
+
+_T = TypeVar("_T")
+
+
+def run_async(coro: Coroutine[Any, Any, _T]) -> _T:
+    """``asyncio.run(coro)``; in a thread of its own when this thread already runs an event
+    loop (an application or a notebook calling a command in-process), where ``asyncio.run``
+    would refuse to start. Its result or its exception, either way."""
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:
+        return asyncio.run(coro)
+    with ThreadPoolExecutor(1, thread_name_prefix="actorswarm-cli") as pool:
+        return pool.submit(asyncio.run, coro).result()
 
 
 def id_list(text: str, flag: str) -> list[int]:

@@ -11,14 +11,19 @@ are in :mod:`actorswarm.cli.gs_control`.
 
 from __future__ import annotations
 
-import asyncio
 import json
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from actorswarm.cli.common import check_script, int_list_or_count, output_file, read_world
+from actorswarm.cli.common import (
+    check_script,
+    int_list_or_count,
+    output_file,
+    read_world,
+    run_async,
+)
 from actorswarm.cli.swarm_options import (
     LinkOptions,
     TimeoutOpt,
@@ -108,7 +113,7 @@ def gs_deploy(
             why = gs.explain(platforms, set(platforms) - set(missing))
             return sha, missing, sorted(set(missing) & set(gs.station.unreachable)), why
 
-    sha, missing, unreachable, why = asyncio.run(go())
+    sha, missing, unreachable, why = run_async(go())
     confirmed = sorted(set(platforms) - set(missing))
     path = state or default_state_file(ln.swarm)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -172,7 +177,7 @@ def gs_start(
             why = gs.explain(platforms, answered())
             return sorted(started), gs.station.missing(sha), "", why
 
-    started, missing, refused, why = asyncio.run(go())
+    started, missing, refused, why = run_async(go())
     if refused:
         typer.echo(refused, err=True)
         for line in why:
@@ -262,7 +267,7 @@ def gs_status(
                 }
             return {"platforms": out}, gs.explain(heard, got)
 
-    status, why = asyncio.run(go())
+    status, why = run_async(go())
     rows = status["platforms"]
     if as_json:
         typer.echo(json.dumps(status, indent=2))

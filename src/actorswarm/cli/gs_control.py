@@ -10,14 +10,13 @@ for unusable options.
 
 from __future__ import annotations
 
-import asyncio
 import re
 from collections.abc import Callable
 from typing import Annotated
 
 import typer
 
-from actorswarm.cli.common import id_list
+from actorswarm.cli.common import id_list, run_async
 from actorswarm.cli.swarm_options import Link, LinkOptions, TimeoutOpt, link_options
 from actorswarm.engine import commands as cmds
 from actorswarm.ground.station import GroundStation
@@ -69,7 +68,7 @@ def _execute(
     same reason, that reason is one line for all of them, with a suggestion for ``actor``
     (the command's ACTOR) when the platforms named the actors they have."""
     chosen = None if platforms is None else id_list(platforms, "--platforms")
-    targets, answers, unreachable, why = asyncio.run(_run(ln, name, send, chosen, timeout))
+    targets, answers, unreachable, why = run_async(_run(ln, name, send, chosen, timeout))
     same = _one_refusal(targets, answers)
     if same is not None:
         hint = ""

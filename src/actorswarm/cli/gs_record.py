@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from actorswarm.cli.common import run_async
 from actorswarm.cli.record_cmd import LIVE_PORT, LiveHostOpt, LiveOpt, LivePortOpt, OriginOpt
 from actorswarm.cli.swarm_options import LinkOptions, link_options
 
@@ -175,7 +176,7 @@ def gs_record(
                 await asyncio.sleep(0.02)
 
     try:
-        asyncio.run(go())
+        run_async(go())
     except KeyboardInterrupt:
         pass  # Ctrl-C: the normal end of a recording
     except RecordingWriteError as exc:
