@@ -38,6 +38,23 @@ def formation(platforms: int, *, skip_to: float, until: float) -> SimSource:
     return SimSource(run, title=title, sha=sha, speed=0.25, until=until)
 
 
+def inspect_platform(page: Any, platform: int, *, tries: int = 6) -> None:
+    """Click ``platform``'s row of the swarm table until its control blocks are shown. The
+    table is redrawn with every swarm message, and a click that lands on a row just
+    replaced reaches no listener: on a loaded machine one click is not always enough."""
+    from playwright.sync_api import TimeoutError as PageTimeout  # there is a page: installed
+
+    row = f"#swarm-table tbody tr[data-platform='{platform}']"
+    for _ in range(tries):
+        page.click(row)
+        try:
+            page.wait_for_selector("#detail-body .acb", timeout=5_000)
+            return
+        except PageTimeout:
+            continue
+    raise AssertionError(f"platform {platform}'s control blocks never showed ({tries} clicks)")
+
+
 def shoot(
     page: Any, url: str, source: SimSource, *, pace: str, path: Path, inspect: int = 3
 ) -> None:
@@ -51,8 +68,7 @@ def shoot(
     page.wait_for_selector("#log li[data-op=backup][data-state=done]", timeout=30_000)
     page.click("button[data-tab=event]")
     page.fill("#event-name", "BCtoD_event")
-    page.click(f"#swarm-table tbody tr[data-platform='{inspect}']")
-    page.wait_for_selector("#detail-body .acb", timeout=30_000)
+    inspect_platform(page, inspect)
     page.select_option("#speed", pace)
     page.wait_for_selector("#log li[data-op=speed][data-state=done]", timeout=30_000)
     end = time.monotonic() + 120
