@@ -21,6 +21,7 @@ from actorswarm.core.events import CoreEvent
 from actorswarm.core.node import Node
 from actorswarm.core.wire import Packet
 from actorswarm.dsl.model import TaskScript
+from actorswarm.dsl.syntax import id_ranges
 from actorswarm.engine.engine import TaskEngine
 from actorswarm.engine.plan import Plan
 from actorswarm.engine.records import FiredRecord
@@ -642,7 +643,7 @@ def summary(report: dict[str, Any]) -> list[str]:
         on = f" on {event}" if event else ""
         lines.append(
             f"  {first:7.2f} s{spread}  {len(who):3d} × {src or '-'} → {dst or '-'}"
-            f" ({cause}{on}): {sorted(who)}"
+            f" ({cause}{on}): {id_ranges(frozenset(who))}"
         )
     channel = report.get("channel")
     if channel is not None and channel["bitrate"] is not None:
