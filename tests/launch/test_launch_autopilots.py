@@ -202,7 +202,7 @@ def test_the_fixed_wing_launch_file_flies_simulated_arduplanes(tmp_path: Path) -
             if all(vehicle(p).get("armed") and vehicle(p).get("mode") == "TAKEOFF" for p in (1, 2)):
                 break
             time.sleep(0.5)
-        for p, altitude in ((1, 60.0), (2, 70.0)):  # its take-off layer: 60 + (p - 1) x 10
+        for p, altitude in ((1, 45.0), (2, 58.0)):  # its take-off layer: 45 + (p - 1) x 13
             seen = vehicle(p)
             assert seen.get("armed") and seen.get("airframe") == "plane", seen
             assert seen.get("mode") == "TAKEOFF", seen

@@ -455,3 +455,31 @@ def test_transit_layers_zero_gives_every_member_a_layer_of_its_own() -> None:
 
     assert transit_altitude(5, None) == transit_altitude(9, None) == 60.0
     assert (transit_altitude(5, "0"), transit_altitude(9, "0")) == (70.0, 120.0)
+
+
+def test_transit_hold_keeps_a_take_off_layer_until_near_the_slot() -> None:
+    """With transit_hold, a member that starts 40 m above the formation (a take-off layer)
+    flies to its slot at its own altitude, not down to its transit layer (70 m) through
+    the others' altitudes; near the slot it takes the slot's 80 m. One that starts at the
+    formation's altitude, or less than a step off it, still takes its transit layer."""
+
+    def altitudes(start_z: float, hold: str) -> list[float]:
+        """The altitudes the member asks for on its way, in order, each once."""
+        params = {"route": "0 0", "size": "10", "spacing": "40", "altitude": "80"}
+        params |= {"transit_step": "10", "transit_layers": "0", "transit_hold": hold}
+        vehicle = FakeVehicle(position=(300.0, 300.0, start_z), cruise_speed=20.0)
+        ctx = make_context(Arrow, params=params, vehicle=vehicle, slot=5, slots=10)
+        member = Arrow()
+        member._drive_start(ctx)
+        for k in range(1, 601):
+            vehicle.advance(0.1)
+            ctx.now = k * 0.1
+            member._drive_step(ctx)
+        assert math.dist(vehicle.position(), member.slot_point(ctx.now)) < 1.0
+        asked = [float(c[3]) for c in vehicle.commands if c[0] == "goto"]
+        return [z for i, z in enumerate(asked) if i == 0 or z != asked[i - 1]]
+
+    assert altitudes(120.0, "true") == [120.0, 80.0]
+    assert altitudes(120.0, "false") == [70.0, 80.0]
+    assert altitudes(80.0, "true") == [70.0, 80.0]
+    assert altitudes(85.0, "true") == [70.0, 80.0]

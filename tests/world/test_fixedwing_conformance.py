@@ -34,7 +34,14 @@ DT = 0.05
 CRUISE = 22.0  # AIRSPEED_CRUISE, ~53 % throttle
 AIRSPEED = (10.0, 30.0)  # DO_CHANGE_SPEED accepted within AIRSPEED_MIN..MAX
 LIFT_OFF_S, LIFT_OFF_RUN, LIFT_OFF_SPEED = 3.8, 40.0, 19.5
-AT_20_M_S, AT_39_M_S = 10.8, 29.8  # TKOFF_ALT 40
+AT_39_M_S = 29.8  # TKOFF_ALT 40
+# 20 m is first reached 6-11 s after arming: the climb pauses for a few seconds while the
+# aircraft turns onto its circle (9.3 and 6 s in a flight of ten, 10.8 s alone), which the
+# model does not (it climbs on through the turn).
+AT_20_M_S = (6.0, 11.0)
+# A take-off to 162 m (TKOFF_ALT 162, a formation's top take-off layer): 80 m at 26.0 s,
+# 120 m at 34.2 s; the sustained climb in between, m/s.
+SUSTAINED_CLIMB = (120.0 - 80.0) / (34.2 - 26.0)
 TKOFF_DIST = 200.0  # then circles the point this far down the runway
 TIGHTEST_CIRCLE = (49.0, 55.0)  # DO_REPOSITION radius 25: circled clockwise at 49-55 m
 SPEEDS = ((16.0, 15.9), (28.0, 28.4))  # DO_CHANGE_SPEED asked, airspeed held
@@ -82,12 +89,21 @@ def test_take_off_rolls_lifts_off_and_climbs_as_arduplane_does() -> None:
     assert t[rolled] == pytest.approx(LIFT_OFF_S, abs=0.3)
     assert x[rolled] == pytest.approx(LIFT_OFF_RUN, abs=5.0)
     assert speed[rolled] == pytest.approx(LIFT_OFF_SPEED, abs=0.5)
-    assert t[np.flatnonzero(z >= 20.0)[0]] == pytest.approx(AT_20_M_S, abs=1.0)
-    assert t[-1] == pytest.approx(AT_39_M_S, abs=2.0)
+    assert AT_20_M_S[0] <= t[np.flatnonzero(z >= 20.0)[0]] <= AT_20_M_S[1]
+    # Up to 2 s early: the model climbs on through the turn where the firmware pauses.
+    assert t[-1] == pytest.approx(AT_39_M_S, abs=2.5)
     # Straight down the runway, then circling the point TKOFF_DIST ahead while it climbs.
     outbound = np.flatnonzero(x >= TKOFF_DIST - 3 * 50.0)[0]  # blending onto its circle
     assert np.abs(track[:outbound, 2]).max() < 1e-6
     assert np.hypot(x[-1] - TKOFF_DIST, track[-1, 2]) == pytest.approx(50.0, abs=5.0)
+
+
+def test_a_high_take_off_climbs_as_fast_as_arduplane_does() -> None:
+    fleet, vehicle = aircraft()
+    track = airborne_at(fleet, vehicle, 162.0)
+    t, z = track[:, 0], track[:, 3]
+    at_80, at_120 = (t[np.flatnonzero(z >= h)[0]] for h in (80.0, 120.0))
+    assert 40.0 / (at_120 - at_80) == pytest.approx(SUSTAINED_CLIMB, abs=0.3)
 
 
 def test_the_default_circle_is_the_tightest_arduplane_sustains() -> None:
@@ -163,9 +179,13 @@ def test_the_simulated_autopilot_flies_the_same_model() -> None:
 
 def test_the_arduplane_formation_reaches_its_first_shape_when_the_real_flight_did() -> None:
     """examples/formation_arduplane.xml in the simulator, from its own sim line: ten
-    aircraft take off in turn and in layers and switch to the arrow together 95.4 s after
-    the start; ten ArduPlane SITL did at 95 s (docs/benchmarks/real-firmware.md)."""
-    flown_s = 95.0
+    aircraft take off in turn and in layers and switch to the arrow together 82.3 s after
+    the start; ten ArduPlane SITL did 80.5 s after `gs start` (docs/benchmarks/
+    real-firmware.md, flight 4). They then
+    leave their take-off layers for the arrow 10 m apart or more: before transit_hold (and
+    with take-off layers 10 m apart), platform 7 descended from its layer through the
+    arrow's altitude and passed 8.7 m from 5 at 112 s, as two aircraft of a flight did."""
+    flown_s = 80.5
     script = Path(__file__).resolve().parents[2] / "examples" / "formation_arduplane.xml"
     scenario = scenario_of(script.read_text(), script)
     assert scenario is not None and scenario.world is not None
@@ -178,8 +198,9 @@ def test_the_arduplane_formation_reaches_its_first_shape_when_the_real_flight_di
         world_config=load_world(scenario.world),
     )
     sim.schedule(list(scenario.events), [])
-    report = run_slices(sim, 110.0, slice_s=5.0)
+    report = run_slices(sim, 130.0, slice_s=5.0)
     to_arrow = [t for t in report["transitions"] if (t["from"], t["to"]) == ("Standby", "A")]
     assert len(to_arrow) == 10
     assert [t["t"] for t in to_arrow] == pytest.approx([flown_s] * 10, abs=5.0)
     assert report["violations"] == []
+    assert report["separation"]["min_distance_m"] >= 10.0, report["separation"]["closest"]

@@ -44,7 +44,7 @@ def test_defaults_are_the_documented_numbers() -> None:
     assert (q.max_speed, q.max_accel, q.max_climb) == (12.0, 4.0, 3.0)
     # The fixed-wing is ArduPlane 4.5.7's (tests/world/test_fixedwing_conformance.py).
     assert (f.min_airspeed, f.max_speed, f.cruise_speed, f.max_turn_rate) == (10, 30, 22, 26)
-    assert (f.max_climb, f.max_accel, f.loiter_radius, f.loiter_clockwise) == (3, 5.13, 50, True)
+    assert (f.max_climb, f.max_accel, f.loiter_radius, f.loiter_clockwise) == (4.8, 5.13, 50, True)
     assert q.endurance > 0 and f.endurance > 0
     assert config.targets == () and config.areas == ()
     assert loads_world("") == dataclasses.replace(WorldConfig(), source="<string>")

@@ -70,9 +70,12 @@ half below the formation's altitude and half above, none at it (slot ``k`` on la
 layers, and every member in transit passes at least a step above or below the members
 already on their slots), and goes back to its slot's altitude once within a quarter of the
 spacing. With a step at least the vehicles' separation, two members in transit on
-different layers cannot breach it; two on one layer still can. How close they come is
-measured in every run (:mod:`actorswarm.world.separation`; docs/safety.md gives the
-figures of the shipped missions).
+different layers cannot breach it; two on one layer still can, and so can one climbing or
+descending through another's layer. ``transit_hold`` takes the climbs and descents of a
+join off the way: members that arrive on altitudes of their own (take-off layers) keep
+them until near their slots. How close they come is measured in every run
+(:mod:`actorswarm.world.separation`; docs/safety.md gives the figures of the shipped
+missions).
 """
 
 from __future__ import annotations
@@ -452,6 +455,13 @@ class Formation(Plugin):
         How many transit layers (half below the altitude, half above, none at it); 0: one
         per member of the group, so that no two members in transit share one — for aircraft
         that follow their slots loosely (real fixed-wings), where two on one layer meet.
+    ``transit_hold`` (bool, default false)
+        A member that leaves for its slot from ``transit_step`` or more above or below the
+        slot's altitude (a take-off layer) flies there at the altitude it has, not on a
+        transit layer, and climbs or descends only within a quarter of the spacing of its
+        slot. For members that arrive on altitudes of their own (``flight.takeoff`` with
+        ``layers``): going to a transit layer, each would cross the others' altitudes
+        where their paths converge. Members that share an altitude must not use it.
     ``loop`` (bool, default false)
         Fly the route round and round (back from the last point to the first) instead of
         stopping at the last point.
@@ -583,6 +593,14 @@ class Formation(Plugin):
             minimum=0,
             doc="how many transit layers; 0: one per member of the group",
         ),
+        "transit_hold": Param(
+            kind="bool",
+            default=False,
+            doc="a member that leaves for its slot from at least transit_step above or "
+            "below the slot's altitude keeps the altitude it has on the way instead of a "
+            "transit layer, and changes height only near its slot (members that arrive "
+            "on layers of their own: flight.takeoff's)",
+        ),
     }
 
     def __init__(self) -> None:
@@ -601,6 +619,7 @@ class Formation(Plugin):
         #: The transit layer flown now (a multiple of transit_step), None: the slot's own.
         self._layer: int | None = None
         self._layers = TRANSIT_LAYERS
+        self._held: float | None = None
 
     @classmethod
     def group_points(
@@ -641,6 +660,7 @@ class Formation(Plugin):
         self._base = self._altitude
         self._spacing = spacing
         self._layer = None
+        self._held = None
         slot = ctx.slot if ctx.slot > 0 else 1
         size = int(params["size"]) or max(ctx.slots, slot)
         if slot > size:
@@ -718,8 +738,15 @@ class Formation(Plugin):
             # Layers by slot: members whose slots are neighbours (in any shape, mostly a
             # few numbers apart) cross and converge on different layers.
             self._layer = (self._slot - 1) % self._layers
+            # Arriving from an altitude of its own (a take-off layer): climbing or
+            # descending to a transit layer on the way would cross the others' layers
+            # where their paths converge; it changes height near its slot instead.
+            hold = bool(ctx.params["transit_hold"]) and abs(position[2] - slot[2]) >= step
+            self._held = position[2] if hold else None
         if self._layer is None:
             return slot[2]
+        if self._held is not None:
+            return self._held
         # Half the layers below the formation's altitude, half above, none at it: a member
         # in transit passes at least one step above or below the members on their slots.
         half = self._layers // 2

@@ -265,7 +265,8 @@ class FixedWingParams:
     cruise_speed: float = 22.0
     # 22 m/s on a 48.5 m circle: the tightest circle measured (~50 m at 56° of bank).
     max_turn_rate: float = 26.0
-    max_climb: float = 3.0
+    # 80 to 120 m in 8.2 s of a take-off to 162 m (TECS_CLMB_MAX is 5).
+    max_climb: float = 4.8
     # 0 to 19.5 m/s in 3.8 s on the runway.
     max_accel: float = 5.13
     # A goal asked for with the vehicle's radius (30 m) is circled at ~50 m.

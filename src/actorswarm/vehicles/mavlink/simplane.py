@@ -13,8 +13,10 @@ Flight (the project's fixed-wing physics, :class:`~actorswarm.world.vehicles.Fle
     50 m (the tightest sustained, 56° of bank at 22 m/s): measured 100.5–100.9 m for R = 80
     (``WP_LOITER_RAD``), ~174 for 150, 49–55 for 25. The take-off roll accelerates at
     5.13 m/s² and lifts off at 19.5 m/s (+3.8 s, ~37 m of run; measured 40 m), climbs at up
-    to 3 m/s, slowing as it nears its altitude (0.158/s of the height left: 20 m at
-    +10.8 s, TKOFF_ALT − 1 at +30 s, as measured).
+    to 4.8 m/s (measured 4.9 from 80 to 120 m of a take-off to 162 m), slowing as it nears
+    its altitude (0.158/s of the height left: TKOFF_ALT − 1 at +28 s, measured +30 s). It
+    climbs on through the turn onto its circle, where the firmware pauses a few seconds:
+    20 m at +8.9 s, measured 6–11 s.
 
 Modes (``MAV_CMD_DO_SET_MODE``, ArduPlane's numbers; any other mode FAILED as ArduPilot
 answers a mode it cannot enter)
