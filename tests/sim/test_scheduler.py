@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import gc
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from actorswarm.sim.scheduler import Scheduler
+from actorswarm.sim.scheduler import RUN_GC_THRESHOLDS, Scheduler
 
 
 def test_starts_at_zero_and_empty() -> None:
@@ -215,3 +217,21 @@ def test_order_matches_a_stable_sort(plan: list[tuple[int, bool]]) -> None:
     sched.run_until(5.0)
     assert log == expected
     assert sched.pending == 0
+
+
+def test_the_collector_runs_rarely_during_a_run_and_as_before_after_it() -> None:
+    sched = Scheduler()
+    seen: list[tuple[int, int, int]] = []
+    before = gc.get_threshold()
+
+    def boom() -> None:
+        seen.append(gc.get_threshold())
+        raise RuntimeError("boom")
+
+    sched.call_at(1.0, lambda: seen.append(gc.get_threshold()))
+    sched.run_until(2.0)
+    assert seen == [RUN_GC_THRESHOLDS] and gc.get_threshold() == before
+    sched.call_at(3.0, boom)
+    with pytest.raises(RuntimeError):
+        sched.run_until(4.0)
+    assert seen[-1] == RUN_GC_THRESHOLDS and gc.get_threshold() == before

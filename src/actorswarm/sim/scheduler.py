@@ -21,6 +21,7 @@ scheduled for the current time gets a larger ``seq`` than anything already run.
 
 from __future__ import annotations
 
+import gc
 import heapq
 import math
 from collections.abc import Callable
@@ -29,6 +30,14 @@ from typing import Any, Final
 __all__ = ["Scheduler", "Timer"]
 
 _INF: Final = math.inf
+
+#: The cyclic garbage collector's thresholds while :meth:`Scheduler.run_until` runs. A
+#: simulation allocates millions of short-lived objects (events, packets, decoded
+#: messages) that reference counting frees, beside a large long-lived graph (every
+#: platform's stack) that each older-generation collection walks again: at the default
+#: (700, 10, 10), 2000 platforms spent 9 % of a run there. These collect about 30 times
+#: less often; the previous thresholds come back when the call returns.
+RUN_GC_THRESHOLDS: Final = (20_000, 50, 100)
 
 #: One heap entry: (time, seq, callable, positional arguments).
 _Event = tuple[float, int, Callable[..., object], tuple[Any, ...]]
@@ -150,6 +159,8 @@ class Scheduler:
         cancelled = self._cancelled
         pop = heapq.heappop
         self._running = True
+        thresholds = gc.get_threshold()
+        gc.set_threshold(*RUN_GC_THRESHOLDS)
         try:
             while heap and heap[0][0] <= t:
                 when, seq, fn, args = pop(heap)
@@ -161,6 +172,7 @@ class Scheduler:
                 fn(*args)
         finally:
             self._running = False
+            gc.set_threshold(*thresholds)
         self.now = t
         # Every event scheduled so far that is due at or before t has now been consumed.
         self._ran_seq = self._seq
