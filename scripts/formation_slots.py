@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -30,72 +29,39 @@ from actorswarm.sim.radio import LinkModel
 from actorswarm.sim.tasksim import TaskSim
 from actorswarm.sim.verify.scenario import scenario_of
 from actorswarm.world.config import load_world
+from actorswarm.world.separation import SeparationMonitor
 
 #: How often encounters are sampled (seconds of simulated time).
 ENCOUNTER_SLICE = 0.2
-#: Aircraft at or below this height (metres) are on the ground, as in the flights' analysis.
-AIRBORNE_Z = 5.0
-
-
-@dataclass
-class Episode:
-    """One approach of two aircraft under the threshold, and its closest sample."""
-
-    pair: tuple[int, int]
-    first: float
-    last: float
-    distance: float
-    t: float
-    heights: tuple[float, float]
-    actors: str
 
 
 class Encounters:
-    """Episodes of two airborne aircraft closer than ``under`` metres: one per pair and
-    approach (samples less than 2 s apart belong to one), with the closest sample's time,
-    distance, heights and the actors the two ran."""
+    """Every pass of two airborne aircraft closer than ``under`` metres: the simulator's own
+    separation monitor, with ``under`` as every aircraft's minimum, and the actors the two
+    ran when each pass began."""
 
-    def __init__(self, under: float) -> None:
+    def __init__(self, under: float, sim: TaskSim) -> None:
+        assert sim.world is not None
         self.under = under
-        self._open: dict[tuple[int, int], Episode] = {}
-        self.done: list[Episode] = []
+        self._monitor = SeparationMonitor(sim.world.platforms, [under] * len(sim.world.platforms))
+        self._actors: dict[tuple[int, int, float], str] = {}
 
     def observe(self, t: float, sim: TaskSim) -> None:
-        world = sim.world
-        assert world is not None
-        ids = [p for p in sim.hosts if world.vehicle(p).position()[2] > AIRBORNE_Z]
-        points = np.array([world.vehicle(p).position() for p in ids]).reshape(-1, 3)
-        for i, a in enumerate(ids):
-            d = np.linalg.norm(points[i + 1 :] - points[i], axis=1)
-            for j in np.flatnonzero(d < self.under):
-                b = ids[i + 1 + int(j)]
-                heights = (float(points[i][2]), float(points[i + 1 + j][2]))
-                self._note(t, (a, b), float(d[j]), heights, sim)
-        for pair, episode in list(self._open.items()):
-            if t - episode.last > 2.0:
-                self.done.append(self._open.pop(pair))
-
-    def _note(
-        self,
-        t: float,
-        pair: tuple[int, int],
-        d: float,
-        heights: tuple[float, float],
-        sim: TaskSim,
-    ) -> None:
-        actors = "/".join(",".join(sim.hosts[p].engine.runtime.running()) or "-" for p in pair)
-        episode = self._open.setdefault(pair, Episode(pair, t, t, d, t, heights, actors))
-        episode.last = t
-        if d <= episode.distance:
-            episode.distance, episode.t, episode.heights, episode.actors = d, t, heights, actors
+        assert sim.world is not None
+        positions = sim.world.fleet.positions
+        for breach in self._monitor.observe(t, positions, np.ones(len(positions), dtype=bool)):
+            pair = sorted((breach.closest.a, breach.closest.b))
+            running = (",".join(sim.hosts[p].engine.runtime.running()) or "-" for p in pair)
+            self._actors[(pair[0], pair[1], breach.start)] = "/".join(running)
 
     def lines(self) -> list[str]:
-        episodes = sorted([*self.done, *self._open.values()], key=lambda e: e.t)
         return [
-            f"under {self.under:g} m: {e.pair[0]} and {e.pair[1]} at {e.t:.1f} s, "
-            f"{e.distance:.1f} m apart, {e.heights[0]:.0f} and {e.heights[1]:.0f} m up, "
-            f"running {e.actors} ({e.last - e.first + ENCOUNTER_SLICE:.1f} s)"
-            for e in episodes
+            f"under {self.under:g} m: {c.a} and {c.b} at {c.t:.1f} s, {c.distance:.1f} m "
+            f"apart, {c.where[2]:.0f} m up, running "
+            f"{self._actors[(min(c.a, c.b), max(c.a, c.b), b.start)]} "
+            f"({b.end - b.start + ENCOUNTER_SLICE:.1f} s)"
+            for b in self._monitor.result().breaches
+            for c in (b.closest,)
         ]
 
 
@@ -124,7 +90,7 @@ def main() -> int:
     )
     sim.schedule(list(scenario.events), list(scenario.faults))
     samples: list[tuple[float, str, np.ndarray]] = []
-    encounters = Encounters(args.under)
+    encounters = Encounters(args.under, sim)
 
     def probe(t: float, _new: object) -> None:
         world = sim.world
