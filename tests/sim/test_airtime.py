@@ -332,6 +332,7 @@ def test_snapshot_of_a_scripted_scenario() -> None:
         drops=0,
         drops_by_kind={},
         max_queue_delay_s=3 * SLOT,
+        relayed=0,
     )
     as_dict = stats.as_dict()
     assert json.loads(json.dumps(as_dict)) == as_dict
@@ -348,6 +349,7 @@ def test_snapshot_of_a_scripted_scenario() -> None:
         "drops",
         "drops_by_kind",
         "max_queue_delay_s",
+        "relayed",
     }
 
 
@@ -425,3 +427,42 @@ def test_cli_summary_has_a_channel_line_and_a_bad_bitrate_is_refused() -> None:
     result = _sim("--channel-bitrate", "0")
     assert result.exit_code == 2
     assert "--channel-bitrate" in result.output and "Airtime.bitrate" in result.output
+
+
+# --- relays ---------------------------------------------------------------------------------
+
+
+def test_each_relay_sending_a_packet_on_holds_the_channel_once_more() -> None:
+    """A broadcast forwarded by two relays is three transmissions on the air; a unicast
+    over one relay two. The packet itself arrives when its own transmission ends; the
+    relays' follow it on the channel, so the next packet waits for them."""
+    sched, radio, log = make(airtime=EXACT)
+    asked: list[tuple[int, int | None]] = []
+
+    def relays(src: int, dst: int | None) -> int:
+        asked.append((src, dst))
+        return 2 if dst is None else 1
+
+    radio.relay_fn = relays
+    radio.send(1, None, packet(0), "heartbeat")
+    radio.send(2, 3, packet(1), "data")
+    sched.run_until(1.0)
+    assert asked == [(1, None), (2, 3)]
+    assert {t for t, _, src, _, _ in log if src == 1} == {SLOT + LATENCY}
+    # The unicast waited for the broadcast and its two relays: 3 slots, then its own.
+    assert [t for t, _, src, _, _ in log if src == 2] == [4 * SLOT + LATENCY]
+    stats = radio.channel_stats()
+    assert (stats.packets, stats.relayed, stats.bits) == (5, 3, 5 * SIZE * 8)
+    assert stats.busy_s == 5 * SLOT and stats.max_queue_delay_s == 3 * SLOT
+    assert stats.as_dict()["relayed"] == 3
+
+
+def test_relays_count_on_the_air_without_airtime_too() -> None:
+    sched, radio, _ = make()
+    radio.relay_fn = lambda src, dst: 3
+    radio.send(1, None, packet(0), "heartbeat")
+    sched.run_until(1.0)
+    stats = radio.channel_stats()
+    assert (stats.packets, stats.relayed, stats.bits, stats.busy_s) == (4, 3, 4 * SIZE * 8, 0.0)
+    # What the platforms sent is counted at the sender once: the relays are the air's.
+    assert radio.traffic.totals(1)[:2] == (1, SIZE)

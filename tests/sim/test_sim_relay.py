@@ -54,3 +54,16 @@ def test_without_relays_the_line_never_becomes_one_swarm() -> None:
     assert len({m["platform"] for m in report["masters"]}) > 1
     assert not [r for r in report["transitions"] if r["cause"] == "barrier"]
     assert report["radio"]["relay"] is False and report["radio"]["most_hops"] == 9
+
+
+def test_relays_sending_packets_on_are_counted_on_the_air() -> None:
+    """The line of ten: most of the swarm is several hops from its master, so relays
+    carry much of the air; the same run's packets without relaying are its own alone."""
+    report = _branch_merge(relay=True)
+    channel = report["channel"]
+    assert channel["relayed"] > 0
+    # Each broadcast from an end of the line is sent on by up to 8 relays: the relays'
+    # share is a large part of the air, below what 9 relays per packet would give.
+    share = channel["relayed"] / channel["packets"]
+    assert 0.3 < share < 0.9, share
+    assert _branch_merge(relay=False)["channel"]["relayed"] == 0

@@ -227,7 +227,9 @@ class ChannelStats:
     ``max_queue_s``, each counted once (:attr:`SimRadio.drops` counts them per receiver);
     ``drops_by_kind``: the same per packet kind, kinds sorted (read-only).
     ``max_queue_delay_s``: the longest a packet put on the air waited for the channel (0
-    when airtime is not modelled). Packets sent in the window
+    when airtime is not modelled). ``relayed``: of ``packets``, the transmissions of relays
+    sending packets on (:attr:`SimRadio.relay_fn`: a world whose radio relays); they count
+    in ``bits`` and hold the channel too. Packets sent in the window
     whose airtime falls after it count in ``packets``, ``bits`` and the queueing figures
     but not in ``busy_s``.
     """
@@ -244,6 +246,7 @@ class ChannelStats:
     drops: int
     drops_by_kind: Mapping[str, int]
     max_queue_delay_s: float
+    relayed: int
 
     def as_dict(self) -> dict[str, Any]:
         """Plain, JSON-ready data: every field under its own name (``drops_by_kind`` a dict)."""
@@ -260,6 +263,7 @@ class ChannelStats:
             "drops": self.drops,
             "drops_by_kind": dict(self.drops_by_kind),
             "max_queue_delay_s": self.max_queue_delay_s,
+            "relayed": self.relayed,
         }
 
 
@@ -440,6 +444,7 @@ class SimRadio(Generic[P]):
         "_air_bytes",
         "_air_drops",
         "_air_packets",
+        "_air_relayed",
         "_air_since",
         "_air_wait",
         "_airtime",
@@ -459,6 +464,7 @@ class SimRadio(Generic[P]):
         "decoder",
         "drops",
         "link_fn",
+        "relay_fn",
         "rng",
         "tap",
         "traffic",
@@ -483,6 +489,10 @@ class SimRadio(Generic[P]):
         #: drawn for each receiver on top of the link model — the world's radio model, so a
         #: platform that flies out of range really drops out. None: every link is alike.
         self.link_fn: Callable[[int, int], tuple[float, float]] | None = None
+        #: Optional ``relay_fn(src, dst)``: how many times relays send on a packet from
+        #: ``src`` to ``dst`` (None: a broadcast) — the world's relayed routes. Each is one
+        #: more transmission on the air (channel time, packets and bits). None: no relays.
+        self.relay_fn: Callable[[int, int | None], int] | None = None
         self._handlers: dict[int, Callable[[Transmission[P], float], None]] = {}
         # Attached platforms ascending, rebuilt lazily after attach/detach. A broadcast keeps
         # the tuple of its send time, so later attach/detach never disturbs one in flight.
@@ -504,6 +514,7 @@ class SimRadio(Generic[P]):
         self._air_since = scheduler.now
         self._air_packets = 0
         self._air_bytes = 0
+        self._air_relayed = 0
         self._air_wait = 0.0
         self._air_drops: dict[str, int] = {}
         # Channel time of the packets sent in the window, plus what was still reserved
@@ -560,6 +571,7 @@ class SimRadio(Generic[P]):
             start_s=self._air_since,
             elapsed_s=elapsed,
             packets=self._air_packets,
+            relayed=self._air_relayed,
             bits=bits,
             packets_per_s=self._air_packets / elapsed if elapsed > 0 else 0.0,
             bits_per_s=bits / elapsed if elapsed > 0 else 0.0,
@@ -580,6 +592,7 @@ class SimRadio(Generic[P]):
         self._air_since = now
         self._air_packets = 0
         self._air_bytes = 0
+        self._air_relayed = 0
         self._air_wait = 0.0
         self._air_drops = {}
         # Channel time already reserved beyond now belongs to the new window.
@@ -721,8 +734,9 @@ class SimRadio(Generic[P]):
 
         model = self._model
         end = now
+        relays = 0 if self.relay_fn is None else self.relay_fn(src, dst)
         if self._airtime is not None:
-            on_air = self._channel(src, dst, size, kind, now)
+            on_air = self._channel(src, dst, size, kind, now, relays)
             if on_air is None:
                 return
             end = on_air
@@ -731,8 +745,9 @@ class SimRadio(Generic[P]):
                 # One transmitter per sender: wait for the packets queued before this one.
                 end = max(now, self._tx_free.get(src, now)) + size / model.bandwidth
                 self._tx_free[src] = end
-            self._air_packets += 1
-            self._air_bytes += size
+            self._air_packets += 1 + relays
+            self._air_bytes += size * (1 + relays)
+            self._air_relayed += relays
         tx = Transmission(src, dst, kind, data, self.decoder, epoch=self._epochs[src], end=end)
         arrival = end + model.latency
 
@@ -752,9 +767,13 @@ class SimRadio(Generic[P]):
             return
         self._send_faulty(tx, receivers, arrival)
 
-    def _channel(self, src: int, dst: int | None, size: int, kind: str, now: float) -> float | None:
+    def _channel(
+        self, src: int, dst: int | None, size: int, kind: str, now: float, relays: int
+    ) -> float | None:
         """Queue a packet for the shared channel: when its transmission ends, or None if it
-        is dropped because it would wait longer than ``max_queue_s`` (counted here)."""
+        is dropped because it would wait longer than ``max_queue_s`` (counted here). Its
+        ``relays`` sending it on hold the channel right after it, once each: the packet is
+        not delivered before its own transmission ends, but the channel stays taken."""
         airtime = self._airtime
         assert airtime is not None
         on_air = size + airtime.overhead_bytes
@@ -772,12 +791,19 @@ class SimRadio(Generic[P]):
             self.drops["airtime"] += len(self._handlers) - 1 if dst is None else 1
             return None
         end = self._chan_free = start + duration
+        if relays:
+            # The relays' transmissions follow the packet's own: a simplification (a relay
+            # sends on only once it has the packet; relays far apart could share the air).
+            relayed = relays * on_air * 8 / airtime.bitrate
+            self._chan_free = end + relayed
+            self._busy += relayed
         if bandwidth is not None:
             # Keeps the sender's own queue right should airtime be switched off later.
             self._tx_free[src] = end
         self._busy += duration
-        self._air_packets += 1
-        self._air_bytes += on_air
+        self._air_packets += 1 + relays
+        self._air_bytes += on_air * (1 + relays)
+        self._air_relayed += relays
         self._air_wait = max(self._air_wait, wait)
         return end
 

@@ -157,6 +157,8 @@ class TaskSim:
                     for p in sorted(vf.ids):
                         self.world.fleet.drain_faster(p, vf.value)
             self.swarm.radio.link_fn = self._link
+            if self.world_config.radio.relay:
+                self.swarm.radio.relay_fn = self._relays
             self.swarm.at(0.0, self._physics)
         self.ground = GroundStation(swarm=self.swarm.swarm, config=self.config)
         guard = self.swarm.keys.guard("ground", max_bytes=self.config.max_packet_bytes)
@@ -228,6 +230,15 @@ class TaskSim:
         if src == 0 or dst == 0:
             return 0.0, 0.0
         return self.world.link(src, dst)
+
+    def _relays(self, src: int, dst: int | None) -> int:
+        """How many times the world's relays send on a packet from ``src`` to ``dst``
+        (None: a broadcast). The ground station's packets are taken to reach everyone
+        directly, as its links are (:meth:`_link`)."""
+        assert self.world is not None
+        if src == 0 or dst == 0:
+            return 0
+        return self.world.relays(src, dst)
 
     def _physics(self) -> None:
         """Advance the world in its fixed steps, in step with virtual time. A platform whose
@@ -651,6 +662,11 @@ def summary(report: dict[str, Any]) -> list[str]:
             f"channel: {channel['utilisation']:.0%} busy at {channel['bitrate']:,.0f} bit/s, "
             f"{channel['packets_per_s']:,.0f} packets/s, {channel['drops']} dropped, "
             f"longest wait {channel['max_queue_delay_s'] * 1000:.0f} ms"
+            + (
+                f"; {channel['relayed'] / channel['packets']:.0%} of the packets sent on by relays"
+                if channel.get("relayed")
+                else ""
+            )
         )
     masters = ", ".join(f"{m['platform']}@{m['t']:.2f}s" for m in report["masters"])
     lines.append(f"masters: {masters or 'none'}")

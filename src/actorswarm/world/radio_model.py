@@ -24,7 +24,10 @@ and receiver are, through this model (parameters in
   compound (``1 - Π(1 - loss_i)``: each hop draws its own), the latencies add up, and each
   relay adds ``relay_latency`` (taking a packet in and sending it on). One draw per
   receiver, so two receivers behind one relay lose a packet independently: a
-  simplification, as is the relays' airtime, which the shared channel does not count.
+  simplification. On the air, each relay sends a packet on once more: a unicast costs one
+  transmission per link of its path, a broadcast one per platform that forwards it (the
+  distinct relays of its routes, :attr:`Routes.forwarders`), as a mesh radio's flood or a
+  multicast forward would; links made of unicasts (the daemons' TCP) cost more.
   :func:`hops` counts the links of the fewest-hop path, for the span a swarm reaches.
 
 Every function is pure (no state, no randomness, no clock) and works on numpy arrays:
@@ -36,7 +39,7 @@ A link is symmetric: the model depends only on the distance.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import overload
+from typing import NamedTuple, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,6 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 from actorswarm.world.config import RadioConfig
 
 __all__ = [
+    "Routes",
     "distances",
     "hop_span",
     "hops",
@@ -126,15 +130,27 @@ def reachable(positions: ArrayLike, cfg: RadioConfig) -> NDArray[np.bool_]:
     return out
 
 
-def routes(
-    loss: FloatArray, latency: FloatArray, relay_latency: float
-) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
-    """``(loss, latency, hops)``, each ``(n, n)``, of the relayed paths between every pair
-    of ``n`` platforms whose direct links have ``loss`` and ``latency`` (rows send; see
-    the module's docstring): the path of fewest expected transmissions, its compound loss
-    (1 where no path exists), its latency plus ``relay_latency`` per relay, and its
-    links (0 on the diagonal, -1 where no path exists). Floyd–Warshall over numpy rows:
-    O(n³), about 1 ms at 30 platforms and a second at 1000."""
+class Routes(NamedTuple):
+    """The relayed paths between every pair of ``n`` platforms (:func:`routes`): ``loss``,
+    ``latency`` and ``hops`` ``(n, n)`` as :func:`routes` says; ``forwarders`` ``(n,)``:
+    how many platforms send on a broadcast from each (the distinct relays of its routes to
+    every platform it reaches), the extra transmissions it costs the air."""
+
+    loss: FloatArray
+    latency: FloatArray
+    hops: NDArray[np.int64]
+    forwarders: NDArray[np.int64]
+
+
+def routes(loss: FloatArray, latency: FloatArray, relay_latency: float) -> Routes:
+    """The relayed paths between every pair of ``n`` platforms whose direct links have
+    ``loss`` and ``latency`` (rows send; see the module's docstring): the path of fewest
+    expected transmissions, its compound loss (1 where no path exists), its latency plus
+    ``relay_latency`` per relay, its links (0 on the diagonal, -1 where no path exists),
+    and each sender's forwarders (:class:`Routes`). Floyd–Warshall over numpy rows, with
+    each path's last relay kept (a sender's paths form a tree: its forwarders are the last
+    relays before the platforms two or more links away): O(n³), about 1 ms at 30
+    platforms and a second at 1000."""
     n = len(loss)
     ok = loss < 1.0
     with np.errstate(divide="ignore"):
@@ -142,6 +158,8 @@ def routes(
         keep = np.where(ok, np.log(np.where(ok, 1.0 - loss, 1.0)), -np.inf)
     lat = np.where(ok, latency, 0.0)
     count = np.where(ok, 1, 0).astype(np.int64)
+    # The platform before the last link of each path: the sender itself on a direct link.
+    last = np.repeat(np.arange(n, dtype=np.int64)[:, None], n, axis=1)
     np.fill_diagonal(cost, 0.0)
     np.fill_diagonal(keep, 0.0)
     np.fill_diagonal(lat, 0.0)
@@ -155,10 +173,16 @@ def routes(
         keep = np.where(better, keep[:, k, None] + keep[None, k, :], keep)
         lat = np.where(better, lat[:, k, None] + lat[None, k, :] + relay_latency, lat)
         count = np.where(better, count[:, k, None] + count[None, k, :], count)
+        last = np.where(better, last[None, k, :], last)
     reached = np.isfinite(cost)
     out_loss: FloatArray = np.where(reached, 1.0 - np.exp(keep), 1.0)
     out_hops: NDArray[np.int64] = np.where(reached, count, -1)
-    return out_loss, lat, out_hops
+    relayed = out_hops >= 2
+    forwards = np.zeros((n, n), dtype=bool)
+    senders, _ = np.nonzero(relayed)
+    forwards[senders, last[relayed]] = True
+    forwarders: NDArray[np.int64] = forwards.sum(axis=1).astype(np.int64)
+    return Routes(out_loss, lat, out_hops, forwarders)
 
 
 def hops(can_hear: NDArray[np.bool_]) -> NDArray[np.int64]:

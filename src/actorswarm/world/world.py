@@ -50,6 +50,10 @@ _SLACK = 1e-9
 #: Seconds of world time between two computations of the relayed routes (radio ``relay``).
 ROUTE_INTERVAL = 0.5
 
+# World.link's cache: (step count, (loss row, latency row) by sender, (forwarders, hops
+# row) by sender when the radio relays).
+_Links = tuple[int, dict[int, tuple[list[float], list[float]]], dict[int, tuple[int, list[int]]]]
+
 
 @dataclass(frozen=True, slots=True)
 class Track:
@@ -132,9 +136,10 @@ class World:
         ] = []
         self._record_stride = 0
         # The radio model over the current positions, as (step count, each sender's (loss
-        # row, latency row) by platform): positions change only on a step, and the simulated
-        # radio asks once per packet and receiver.
-        self._links: tuple[int, dict[int, tuple[list[float], list[float]]]] | None = None
+        # row, latency row) by platform, and with relays each sender's (forwarders, hops
+        # row)): positions change only on a step, and the simulated radio asks once per
+        # packet and receiver.
+        self._links: _Links | None = None
         # Each platform's row (the fleet's, which never changes), read without a call.
         self._rows: dict[int, int] = {p: row for row, p in enumerate(self.fleet.platforms)}
         if record_every is not None:
@@ -237,26 +242,61 @@ class World:
             loss_row, latency_row = links[1][a]
             j = self._rows[b]
         except KeyError:
-            self.fleet.index(a)  # the fleet's KeyError, which names the platforms it has
-            self.fleet.index(b)
+            self._unknown(a, b)
             raise
         return loss_row[j], latency_row[j]
 
-    def _link_rows(
-        self, last: tuple[int, dict[int, tuple[list[float], list[float]]]] | None
-    ) -> tuple[int, dict[int, tuple[list[float], list[float]]]]:
+    def relays(self, a: int, b: int | None) -> int:
+        """How many times relays send on a packet from ``a`` to ``b`` now (None: a broadcast
+        to everyone): with the radio's ``relay``, a unicast's relays on its path and a
+        broadcast's forwarders (:class:`~actorswarm.world.radio_model.Routes`); 0 without
+        relaying, or where no path exists. What the packet costs the shared air beyond its
+        own transmission. KeyError for an unknown platform."""
+        links = self._links
+        if links is None or links[0] != self._steps:
+            links = self._links = self._link_rows(links)
+        try:
+            relayed = links[2].get(a)
+            j = -1 if b is None else self._rows[b]
+            if relayed is None:
+                if a not in self._rows:
+                    raise KeyError(a)
+                return 0
+        except KeyError:
+            self._unknown(a, a if b is None else b)
+            raise
+        forwarders, hops_row = relayed
+        return forwarders if b is None else max(hops_row[j] - 1, 0)
+
+    def _unknown(self, a: int, b: int) -> None:
+        """Raise the fleet's KeyError, which names the platforms it has, for whichever of
+        ``a`` and ``b`` it does not have."""
+        self.fleet.index(a)
+        self.fleet.index(b)
+
+    def _link_rows(self, last: _Links | None) -> _Links:
         """The link rows of this step: the radio model's, or with ``relay`` the routes',
         kept from ``last`` until :data:`ROUTE_INTERVAL` has passed since they were made."""
         radio = self.config.radio
         if radio.relay and last is not None:
             every = max(1, round(ROUTE_INTERVAL / self._step))
             if self._steps // every == last[0] // every:
-                return self._steps, last[1]
+                return self._steps, last[1], last[2]
         loss, latency = radio_model.link_matrix(self.fleet.positions, radio)
+        platforms = self.fleet.platforms
+        relayed: dict[int, tuple[int, list[int]]] = {}
         if radio.relay:
-            loss, latency, _ = radio_model.routes(loss, latency, radio.relay_latency)
+            routed = radio_model.routes(loss, latency, radio.relay_latency)
+            loss, latency = routed.loss, routed.latency
+            relayed = dict(
+                zip(
+                    platforms,
+                    zip(routed.forwarders.tolist(), routed.hops.tolist(), strict=True),
+                    strict=True,
+                )
+            )
         rows = zip(loss.tolist(), latency.tolist(), strict=True)
-        return self._steps, dict(zip(self.fleet.platforms, rows, strict=True))
+        return self._steps, dict(zip(platforms, rows, strict=True)), relayed
 
     def hop_span(self) -> tuple[int, int]:
         """``(span, groups)`` now (:func:`~actorswarm.world.radio_model.hop_span`): the most
