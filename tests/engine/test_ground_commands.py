@@ -57,6 +57,25 @@ def test_deploy_is_confirmed_by_every_platform_then_start(loss: float) -> None:
     assert sim.report()["violations"] == []
 
 
+def test_a_restarted_platform_resumes_its_last_switch_with_no_backup_asked() -> None:
+    """As a daemon does, a simulated platform backs its actors up after every switch: a
+    crash after the branch resumes C, not the task's start (where it would wait alone)."""
+    sim, _ = deployed()
+    sim.operate(lambda g, now: g.start(now))
+    sim.swarm.run_until(3.0)
+    sim.operate(lambda g, now: g.event("AtoBC_branch_event", now))
+    sim.swarm.run_until(4.0)
+    assert running(sim)[3] == ("C",)
+    sim.fault(Fault("restart", 4.0, frozenset({3})))
+    sim.swarm.run_until(6.0)
+    assert sim.swarm.node(3).incarnation == 1
+    assert running(sim)[3] == ("C",)
+    sim.operate(lambda g, now: g.event("finish_event", now))
+    sim.swarm.run_until(8.0)
+    assert all(actors == ("A",) for actors in running(sim).values())
+    assert sim.report()["violations"] == []
+
+
 def test_start_is_refused_until_everyone_confirmed_unless_forced() -> None:
     sim = TaskSim(load(BRANCH), seed=2, auto_start=False)
     sim.swarm.run_until(1.0)

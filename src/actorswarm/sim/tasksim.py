@@ -85,6 +85,8 @@ class _Host:
     engine: TaskEngine
     timer: Timer | None = None
     timer_at: float = float("inf")
+    #: The newest of the engine's transitions when its actors were last backed up.
+    backed_up: object = None
 
 
 @dataclass(slots=True)
@@ -353,9 +355,17 @@ class TaskSim:
         self._arm(node.platform)
 
     def _arm(self, platform: int) -> None:
+        """After the engine of ``platform`` acted: back its actors up if they switched, and
+        wake it when it is next due."""
         host = self.hosts.get(platform)
         if host is None:
             return
+        transitions = host.engine.transitions
+        if transitions and transitions[-1] is not host.backed_up:
+            # As a daemon does after every switch: a crash from now on resumes these actors
+            # (a restarted platform rejoins the task where it was, not at its start).
+            host.backed_up = transitions[-1]
+            host.engine.store.write(host.engine.runtime.snapshot())
         deadline = host.engine.next_deadline()
         if deadline is None or deadline >= host.timer_at:
             return
