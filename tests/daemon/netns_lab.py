@@ -12,7 +12,10 @@ given probability and, where the kernel has ``sch_netem``, delayed (``tc netem``
 link end); without netem, nftables in each namespace drops that share of what it sends and
 **no delay is emulated** (:func:`impairment` says which; tests say so in their output). No
 IP routing is set up between links, so a packet crosses a link only where a daemon relays
-it, as on a radio network where each robot hears only those in its range.
+it, as on a radio network where each robot hears only those in its range. Without netem, a
+link's delay can still be had from :class:`Radios`' ``proxy_delay_ms``: each connection is
+made through a TCP forwarder in the connecting node's namespace (``delay_proxy.py``) that
+hands on every chunk that long after it read it, in each direction.
 """
 
 from __future__ import annotations
@@ -22,8 +25,10 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import pytest
 
@@ -121,8 +126,11 @@ class Radios:
 
     ``loss_percent`` and ``delay_ms``: what happens to every packet each end of a link sends
     (so a packet that crosses k links is delayed k times), by ``kind`` (:func:`impairment`;
-    ``"nftables"`` emulates no delay). Use :meth:`link` for every pair that hears each
-    other, then :meth:`address` for where a neighbour connects.
+    ``"nftables"`` emulates no delay). ``proxy_delay_ms``: a delay each way on every
+    connection made through :meth:`via`, by a forwarder (the module's docstring), where
+    netem cannot give one. Use :meth:`link` for every pair that hears each other, then
+    :meth:`via` (or :meth:`address`) for where a neighbour connects; :meth:`teardown` at
+    the end.
     """
 
     prefix: str
@@ -134,7 +142,9 @@ class Radios:
     addresses: dict[tuple[int, int], tuple[str, str]] = field(default_factory=dict)
     #: (a, b) -> (a's device, b's device) of their link.
     devices: dict[tuple[int, int], tuple[str, str]] = field(default_factory=dict)
+    proxy_delay_ms: float = 0.0
     _ports: dict[int, int] = field(default_factory=dict)
+    _proxies: list[subprocess.Popen[str]] = field(default_factory=list)
 
     def ns(self, node: int) -> str:
         return f"{self.prefix}-gs" if node == 0 else f"{self.prefix}-p{node}"
@@ -189,18 +199,51 @@ class Radios:
             return self.addresses[(node, neighbour)][0]
         return self.addresses[(neighbour, node)][1]
 
+    def via(self, node: int, neighbour: int, port: int) -> str:
+        """The endpoint ``node`` connects to, to reach ``neighbour`` listening on ``port``:
+        its address on their link, or with ``proxy_delay_ms`` a forwarder started now in
+        ``node``'s namespace that delays what crosses it."""
+        target = self.address(neighbour, node)
+        if not self.proxy_delay_ms:
+            return f"tcp/{target}:{port}"
+        script = str(Path(__file__).with_name("delay_proxy.py"))
+        proc = subprocess.Popen(
+            [
+                *self.wrap(node),
+                sys.executable,
+                script,
+                "0",
+                target,
+                str(port),
+                str(self.proxy_delay_ms),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        self._proxies.append(proc)
+        assert proc.stdout is not None
+        ready = proc.stdout.readline().split()
+        if len(ready) != 2 or ready[0] != "ready":
+            raise RuntimeError(f"the delay proxy of {node} to {neighbour} did not start")
+        return f"tcp/127.0.0.1:{ready[1]}"
+
     def connects(self, platforms: Sequence[int], port: int) -> dict[int, list[str]]:
         """Whom each platform connects to (``LocalSwarm(links=...)``): its neighbours with
-        lower IDs, at their address on the shared link (each listens on ``port``)."""
+        lower IDs, each listening on ``port``, through :meth:`via`."""
         return {
-            p: [f"tcp/{self.address(q, p)}:{port}" for q in self.neighbours(p) if 0 < q < p]
-            for p in platforms
+            p: [self.via(p, q, port) for q in self.neighbours(p) if 0 < q < p] for p in platforms
         }
 
     def neighbours(self, node: int) -> list[int]:
         return sorted({b if a == node else a for a, b in self.addresses if node in (a, b)})
 
     def describe(self) -> str:
+        if self.proxy_delay_ms:
+            return (
+                f"{self.loss_percent} % lost per link end ({self.kind}) and "
+                f"{self.proxy_delay_ms} ms each way per link by a TCP forwarder"
+            )
         if self.kind == "netem":
             return f"{self.loss_percent} % lost and {self.delay_ms} ms delay per link end (netem)"
         return (
@@ -232,7 +275,11 @@ class Radios:
         return lost, offered
 
     def teardown(self) -> None:
-        """Delete every namespace made (their veths go with them)."""
+        """Stop the forwarders and delete every namespace made (their veths go with them)."""
+        for proc in self._proxies:
+            proc.kill()
+            proc.wait()
+        self._proxies.clear()
         for name in reversed(self.made):
             run("ip", "netns", "del", name)
         self.made.clear()
