@@ -4,11 +4,13 @@ bounds: the machine running the tests is shared and its load varies."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 import os
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 from typer.testing import CliRunner
@@ -24,6 +26,7 @@ from actorswarm.bench.daemons import (
     read_interface_packets,
     read_memory_kib,
     read_sleeps,
+    same_processes,
     switch_cpu,
     switch_script,
     to_json,
@@ -59,6 +62,18 @@ def test_a_switch_costs_what_the_swarm_used_beyond_its_idle_rate() -> None:
     assert switch_cpu(idle, before, (1_012_000_000, 11.5)) < 0
     with pytest.raises(ValueError, match="out of order"):
         switch_cpu(before, idle, after)
+
+
+def test_a_switch_counts_only_the_daemons_that_ran_through_it() -> None:
+    """A daemon restarted mid-switch (a new process near zero) or gone is left out of all
+    three reads; counted, it made the cost negative (-1.4 s once, at 50 daemons)."""
+    idle = {10: 5_000_000_000, 11: 1_000_000_000, 12: 2_000_000_000}
+    before = {10: 5_010_000_000, 11: 1_010_000_000, 12: 2_010_000_000}
+    after = {10: 5_050_000_000, 11: 1_050_000_000, 13: 3_000_000}  # 12 gone, 13 is new
+    assert same_processes(idle, before, after) == [6_000_000_000, 6_020_000_000, 6_100_000_000]
+    assert same_processes() == []
+    c0, c1, c2 = same_processes(idle, before, after)
+    assert switch_cpu((c0, 10.0), (c1, 11.0), (c2, 11.5)) > 0
 
 
 def test_the_command_refuses_a_swarm_of_one_before_starting_anything() -> None:
@@ -175,3 +190,32 @@ def test_three_daemons_are_measured_end_to_end(tmp_path: Path) -> None:
     assert data["machine"]["cpus"] >= 1
     assert data["sizes"][0]["failover"][0]["killed"] == failover.killed
     assert markdown(from_json(data)) == text, "a saved run renders the same"
+
+
+def test_a_short_window_waits_for_each_daemons_newer_counters(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Daemons rewrite their counters every 10 s when only those move: a window shorter
+    than that ended before some had, and their rate was NaN. Now it waits for them."""
+    from actorswarm.bench.daemons import measure
+    from actorswarm.bench.daemons.measure import _sent_rate
+
+    class Swarm:
+        def __init__(self) -> None:
+            self.reads = 0
+
+        def status(self, p: int) -> dict[str, Any]:
+            self.reads += 1
+            # Platform 2's counters move only from the sixth read on.
+            late = p == 2 and self.reads < 6
+            t, sent = (100.0, 500) if late else (110.0, 600 + 100 * p)
+            return {"t": t, "traffic": {"sent_packets": sent}}
+
+    swarm = Swarm()
+    start = {1: (100.0, 500), 2: (100.0, 500)}
+    rate = asyncio.run(_sent_rate(swarm, start, poll=0.001))  # type: ignore[arg-type]
+    assert rate == (200 + 300) / 10.0 and swarm.reads >= 6
+    # One that never writes newer counters: NaN after waiting, not a partial sum.
+    monkeypatch.setattr(measure, "COUNTERS_EVERY", 0.05)
+    never = {1: (100.0, 500), 2: (110.0, 800)}
+    assert math.isnan(asyncio.run(_sent_rate(swarm, never, poll=0.01)))  # type: ignore[arg-type]

@@ -58,7 +58,7 @@ from actorswarm.bench.daemons.probe import (
 from actorswarm.bench.daemons.report import markdown
 from actorswarm.bench.daemons.results import Settings, SizeResult, from_json, to_json
 from actorswarm.bench.daemons.run import bench
-from actorswarm.bench.daemons.stats import switch_cpu
+from actorswarm.bench.daemons.stats import same_processes, switch_cpu
 from actorswarm.bench.daemons.swarm import (
     daemons_env,
     deploy,
@@ -86,6 +86,7 @@ __all__ = [
     "read_interface_packets",
     "read_memory_kib",
     "read_sleeps",
+    "same_processes",
     "settled",
     "switch_cpu",
     "switch_script",

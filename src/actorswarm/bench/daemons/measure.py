@@ -32,7 +32,7 @@ from actorswarm.bench.daemons.results import (
     SizeResult,
     SwitchRun,
 )
-from actorswarm.bench.daemons.stats import switch_cpu
+from actorswarm.bench.daemons.stats import same_processes, switch_cpu
 from actorswarm.bench.daemons.swarm import deploy, ground_session, wait, wait_stable
 from actorswarm.core.config import CoreConfig
 from actorswarm.daemon.loop import clock
@@ -81,14 +81,6 @@ async def measure_resources(swarm: LocalSwarm, phase: str, window: float) -> Res
         loadavg_1min=os.getloadavg()[0],
         wire_packets_s=wire / elapsed if start_wire >= 0 else math.nan,
     )
-    # Each daemon writes its counters every 10 s or so, stamped: a rate over its own stamps.
-    rates = []
-    for p in run.platforms:
-        before, after = start_sent[p], sent_packets(swarm.status(p))
-        if before is not None and after is not None and after[0] > before[0]:
-            rates.append((after[1] - before[1]) / (after[0] - before[0]))
-    if rates and len(rates) == len(run.platforms):
-        run.sent_packets_s = sum(rates)
     for p in run.platforms:
         pid = procs[p].pid
         used = read_cpu_seconds(pid) - start_cpu[p]
@@ -99,7 +91,33 @@ async def measure_resources(swarm: LocalSwarm, phase: str, window: float) -> Res
         run.rss_anon_mib.append(anon / 1024)
         run.peers.append(len(swarm.status(p).get("members", ())))
     run.master = swarm.agreed_master()
+    run.sent_packets_s = await _sent_rate(swarm, start_sent)
     return run
+
+
+#: How often a daemon rewrites its packet counters when only they moved (``status.json``).
+COUNTERS_EVERY = 10.0
+
+
+async def _sent_rate(
+    swarm: LocalSwarm, start: dict[int, tuple[float, int] | None], poll: float = 0.5
+) -> float:
+    """Packets the daemons of ``start`` send a second, summed: each one's rate over the
+    stamps of its own counters, the first read ``start`` and a newer one. A window
+    shorter than :data:`COUNTERS_EVERY` may end before a daemon wrote newer counters: it
+    is waited for, at most that long. NaN when one never wrote them."""
+    rates: dict[int, float] = {}
+    waited = 0.0
+    while True:
+        for p, before in start.items():
+            after = sent_packets(swarm.status(p))
+            if before is not None and after is not None and after[0] > before[0]:
+                rates[p] = (after[1] - before[1]) / (after[0] - before[0])
+        if len(rates) == len(start) or waited > COUNTERS_EVERY:
+            break
+        await asyncio.sleep(poll)
+        waited += poll
+    return sum(rates.values()) if rates and len(rates) == len(start) else math.nan
 
 
 def measure_failover(
@@ -250,23 +268,24 @@ async def run_switches(
             progress(f"N={size}: CPU and memory with the script running ({settings.window:.0f} s)")
             result.resources.append(await measure_resources(swarm, "script", settings.window))
 
-        def swarm_cpu() -> int:
-            total = 0
+        def swarm_cpu() -> dict[int, int]:
+            """CPU so far by daemon process (a daemon that died is not there)."""
+            used: dict[int, int] = {}
             for proc in swarm.procs.values():
-                with contextlib.suppress(OSError):  # a daemon that died is not counted
-                    total += read_cpu_ns(proc.pid)
-            return total
+                with contextlib.suppress(OSError):
+                    used[proc.pid] = read_cpu_ns(proc.pid)
+            return used
 
         for i in range(settings.switches):
             event, src, dst = FORWARD if i % 2 == 0 else BACKWARD
             progress(f"N={size}: collective switch {i + 1}/{settings.switches} ({src} → {dst})")
             # The previous switch's acknowledgements settle, then the idle rate is taken.
             await asyncio.sleep(0.5)
-            idle = (swarm_cpu(), clock())
+            idle_cpu, idle_at = swarm_cpu(), clock()
             await asyncio.sleep(0.5)
             logs.mark()
             sent_at = clock()
-            before = (swarm_cpu(), sent_at)
+            before_cpu = swarm_cpu()
 
             def fire(st: GroundStation, now: float, event: str = event) -> None:
                 st.event(event, now, platforms=everyone)
@@ -291,7 +310,9 @@ async def run_switches(
             causes = dict(Counter(cause for _, cause in got.values()))
             await asyncio.sleep(SWITCH_TAIL)  # the acknowledgements and backups after it
             run = SwitchRun(
-                cpu_s=switch_cpu(idle, before, (swarm_cpu(), clock())) if done else math.nan,
+                cpu_s=_switch_cpu(idle_cpu, idle_at, before_cpu, sent_at, swarm_cpu(), clock())
+                if done
+                else math.nan,
                 event=event,
                 src=src,
                 dst=dst,
@@ -310,3 +331,16 @@ async def run_switches(
                 result.switch.append(run)
                 return  # the swarm is split between A and B: later events would mislead
             result.switch.append(run)
+
+
+def _switch_cpu(
+    idle: dict[int, int],
+    idle_at: float,
+    before: dict[int, int],
+    before_at: float,
+    after: dict[int, int],
+    after_at: float,
+) -> float:
+    """:func:`switch_cpu` over the daemons that ran through all three reads."""
+    c0, c1, c2 = same_processes(idle, before, after)
+    return switch_cpu((c0, idle_at), (c1, before_at), (c2, after_at))

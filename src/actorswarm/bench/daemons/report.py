@@ -108,7 +108,9 @@ def markdown(result: BenchResult) -> str:
         "master apart; RSS is `VmRSS` (private part `RssAnon`) at its end, median (min–max) "
         "over all the daemons. *wire/s*: packets `lo` received per second (the network namespace's "
         "loopback: run the bench in a namespace of its own to count the swarm alone); *sent/s*: "
-        "packets the daemons sent per second (a broadcast counts once); their ratio is the "
+        "packets the daemons sent per second (a broadcast counts once; each daemon's rate "
+        "over its own counters, which it writes every 10 s: a shorter window waits for them); "
+        "their ratio is the "
         "packets on the wire per packet sent. *wakes/s*: how often a second the daemon's main "
         "thread went to sleep (its voluntary context switches: the loop's waits), members' "
         "median / the master's.",
@@ -193,7 +195,8 @@ def markdown(result: BenchResult) -> str:
         "send → the earliest; *spread*: first → last platform. median / p95 (min–max), ms. "
         "*Swarm CPU*: what every daemon together spent on the switch, from the send to "
         f"{SWITCH_TAIL * 1000:.0f} ms after the last platform switched, less its idle rate "
-        "measured in the half second before (per platform in brackets); divided by the "
+        "measured in the half second before (per platform in brackets; only the daemons "
+        "that ran through all of it, so a restarted one does not count); divided by the "
         "machine's cores, about the least time the switch can take when every daemon shares "
         "them (less the part spent after the last platform switched).",
         "",

@@ -22,6 +22,15 @@ def p95(values: Sequence[float]) -> float:
     return percentile(values, 0.95)
 
 
+def same_processes(*samples: dict[int, int]) -> list[int]:
+    """Each sample's CPU (ns, by process ID) summed over the processes found in every
+    sample: a daemon that died or was restarted between two reads (a new process, its
+    counter back near zero) would otherwise make the difference meaningless, even
+    negative."""
+    common = set(samples[0]).intersection(*samples[1:]) if samples else set()
+    return [sum(sample[pid] for pid in common) for sample in samples]
+
+
 def switch_cpu(
     idle: tuple[int, float], before: tuple[int, float], after: tuple[int, float]
 ) -> float:
