@@ -50,6 +50,7 @@ __all__ = [
     "TOPIC_ACTORS",
     "TOPIC_EVENT",
     "TOPIC_MASTER_ACTORS",
+    "TOPIC_MISSED",
     "TOPIC_SWARM_EVENT",
     "TOPIC_WHEREABOUTS",
     "ActorMachine",
@@ -65,6 +66,7 @@ TOPIC_SWARM_EVENT = "engine.swarm-event"  # member -> master: relay this event t
 TOPIC_EVENT = "engine.event"  # master -> member: an event for you
 TOPIC_MASTER_ACTORS = "engine.master-actors"  # master -> members: the actors I run
 TOPIC_WHEREABOUTS = "engine.whereabouts"  # where I am and my roles (promotion.Whereabouts)
+TOPIC_MISSED = "engine.missed"  # master -> member back in the swarm: an event it missed
 
 
 class _EventMsg(msgspec.Struct, frozen=True):
@@ -87,6 +89,9 @@ class _Candidacy:
     occasion: str
     bid: float | None = None  # asked again with the same bid and data after a stale notice
     data: Any = None
+    #: Asked for an event the master says this platform missed (_catch_up): a release of
+    #: the group that went without it is one it was not there for, so it asks again.
+    missed: bool = False
 
 
 class ActorMachine:
@@ -145,6 +150,9 @@ class ActorMachine:
         self.store: BackupStore = store if store is not None else MemoryBackupStore()
         # Shared events heard, for the master to forward (engine/groups.py).
         self._shared = SharedEvents()
+        # When each platform that left the swarm was last counted in it: the shared events
+        # since then are the ones it may have missed (_catch_up).
+        self._left_at: dict[int, float] = {}
         node.resolve_need = self._need
         node.scatter = self._scatter
         # A transition's request data (the event's data, where the platform is) is for the
@@ -238,7 +246,7 @@ class ActorMachine:
         the whole swarm, so a master may forward it to a platform that enters an actor
         while a group waits on it (engine/groups.py); a local event is not."""
         if shared:
-            self._shared.remember(occasion, event, GROUND_STATION, data)
+            self._shared.remember(occasion, event, GROUND_STATION, data, now)
         self._on_event(event, now, bid=bid, data=data, occasion=occasion)
 
     def _new_occasion(self) -> str:
@@ -283,6 +291,7 @@ class ActorMachine:
             ):
                 # My predecessor is gone with its actors: nobody else can say so.
                 self._master_actors = None
+                self._left_at.setdefault(previous[0], now - self.node.config.t_leave)
                 self._relay_lost(previous[0], previous[1], now)
             self._whereabouts.reset()
             self.announce(now)
@@ -290,8 +299,12 @@ class ActorMachine:
             # A newcomer must know what the master runs, in case it succeeds it.
             body = _ENCODE.encode(list(self.runtime.running()))
             self.node.send_app(event.platform, TOPIC_MASTER_ACTORS, body, now)
-        elif isinstance(event, MemberLeft) and self.node.is_master:
-            self._relay_lost(event.platform, self._forget_table(event.platform), now)
+        elif isinstance(event, MemberLeft):
+            # Whoever is master when it comes back forwards what it missed; it was last
+            # heard about t_leave before it was declared gone.
+            self._left_at[event.platform] = now - self.node.config.t_leave
+            if self.node.is_master:
+                self._relay_lost(event.platform, self._forget_table(event.platform), now)
 
     # --- events and candidacy -----------------------------------------------------------
 
@@ -303,7 +316,14 @@ class ActorMachine:
         self._on_event(emitted.event, now, bid=emitted.bid, data=emitted.data, occasion=occasion)
 
     def _on_event(
-        self, event: str, now: float, *, bid: float | None, data: Any, occasion: str
+        self,
+        event: str,
+        now: float,
+        *,
+        bid: float | None,
+        data: Any,
+        occasion: str,
+        missed: bool = False,
     ) -> None:
         handled = False
         if bid is None:  # X_lost: the nearest to where the lost platform was goes first
@@ -316,7 +336,9 @@ class ActorMachine:
             key, part = found
             if key in self._pending:
                 continue  # already a candidate of this group
-            self._request(actor, key, part, now, bid=bid, data=data, occasion=occasion)
+            self._request(
+                actor, key, part, now, bid=bid, data=data, occasion=occasion, missed=missed
+            )
         if not handled:
             running = ", ".join(self.runtime.running()) or "no actor"
             self.ignored.append((now, event, f"no transition for it from {running}"))
@@ -331,6 +353,7 @@ class ActorMachine:
         bid: float | None,
         data: Any,
         occasion: str,
+        missed: bool = False,
     ) -> None:
         group = self.plan.groups[key]
         transition = group.parts[part]
@@ -342,6 +365,7 @@ class ActorMachine:
             occasion,
             bid,
             data,
+            missed,
         )
         at = self.runtime.position()
         self.node.request_barrier(
@@ -380,6 +404,18 @@ class ActorMachine:
                 )
             return
         if not event.chosen:
+            if cand.missed:
+                # The swarm took this transition while this platform was away: the release
+                # named those who were there. Follow it on the group's next release.
+                self._request(
+                    cand.actor,
+                    event.key,
+                    event.part,
+                    now,
+                    bid=cand.bid,
+                    data=cand.data,
+                    occasion=cand.occasion,
+                )
             return
         target = scattered_successor(event.data, transition) or self.plan.successor(
             transition, event.index
@@ -520,8 +556,17 @@ class ActorMachine:
     def _on_event_msg(self, msg: AppReceived, now: float) -> None:
         """The master relayed (or forwarded) an event to this platform."""
         ev = _DECODE_EVENT.decode(msg.body)
-        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data)
+        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data, now)
         self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
+
+    def _on_missed(self, msg: AppReceived, now: float) -> None:
+        """The master forwarded an event sent while this platform was out of the swarm;
+        one it heard after all (its occasion remembered) is not handled twice."""
+        ev = _DECODE_EVENT.decode(msg.body)
+        if self._shared.get(ev.occasion) is not None:
+            return
+        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data, now)
+        self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion, missed=True)
 
     def undecodable(self, msg: AppReceived, now: float) -> None:
         """Log an application message whose body did not decode (and carry on)."""
@@ -569,7 +614,7 @@ class ActorMachine:
         """Master: send ``event`` to every member but its origin (one broadcast, resent only
         to those that do not acknowledge), and handle it here."""
         occasion = occasion or self._new_occasion()
-        self._shared.remember(occasion, event, origin, data)
+        self._shared.remember(occasion, event, origin, data, now)
         body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
         self.node.post_bulletin(TOPIC_EVENT, body, now, skip=(origin,) if origin else ())
         if origin != self.node.platform:
@@ -656,8 +701,31 @@ class ActorMachine:
                     else:
                         body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
                         self.node.send_app(platform, TOPIC_EVENT, body, now)
+        if before is None and platform != self.node.platform:
+            self._catch_up(platform, running, now)
         if touched or before is None:
             self.node.needs_changed(now, None if before is None else touched)
+
+    def _catch_up(self, platform: int, running: tuple[str, ...], now: float) -> None:
+        """Master: ``platform`` is back in the swarm (it left, crashed and rebooted, or was
+        cut off) running ``running``. Forward it each shared event heard since it was
+        last counted in the swarm that one of those actors takes with every platform in it
+        (``sysNum="all"``): it missed them, and the swarm may have moved on without it (a
+        rebooted platform resumes the actors of its backup). It ignores those it heard
+        after all, and follows a release that went without it (TOPIC_MISSED)."""
+        since = self._left_at.pop(platform, None)
+        if since is None:
+            return
+        plan = self.plan
+        for occasion, event, origin, data in self._shared.since(since):
+            for actor in running:
+                found = plan.by_event.get((actor, event))
+                # Only a transition every platform in the actor takes (sysNum="all"): one
+                # that picks some of them was taken by those picked, and needs no more.
+                if found is not None and plan.groups[found[0]].parts[found[1]].sys_num == "all":
+                    body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
+                    self.node.send_app(platform, TOPIC_MISSED, body, now)
+                    break
 
     def _scatter(
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
@@ -674,4 +742,5 @@ _APP_HANDLERS: Final[dict[str, Callable[[ActorMachine, AppReceived, float], None
     TOPIC_MASTER_ACTORS: ActorMachine._on_master_actors,
     TOPIC_SWARM_EVENT: ActorMachine._on_swarm_event,
     TOPIC_EVENT: ActorMachine._on_event_msg,
+    TOPIC_MISSED: ActorMachine._on_missed,
 }

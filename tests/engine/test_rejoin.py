@@ -1,0 +1,65 @@
+"""A platform back in the swarm after missing the swarm's events (it crashed and rebooted,
+or was cut off): the master forwards it the shared events it missed that every platform of
+its actor takes (``sysNum="all"``), so it follows the swarm; one that picks some platforms
+(an exact ``sysNum``) was taken by those picked and is not forwarded."""
+
+from __future__ import annotations
+
+from actorswarm.dsl import check
+from actorswarm.sim.tasksim import Fault, GroundEvent, TaskSim
+
+IDLE = (
+    "<OODAConfig><Bus><_P_Name>act_bus</_P_Name>"
+    "<Plugin><_P_Name>core.idle</_P_Name></Plugin></Bus></OODAConfig>"
+)
+
+
+def _script(sys_num: str) -> str:
+    actors = "".join(f"<Actor><_P_Name>{a}</_P_Name>{IDLE}</Actor>" for a in ("A", "B"))
+    return f"""<TaskScript name="rejoin" version="1">
+  <_ActorsConfig>{actors}</_ActorsConfig>
+  <_TaskConfig>
+    <actor name="A">
+      <transition name="go_event" barrierKey="1" sysNum="{sys_num}">
+        <successor actor="B"/>
+      </transition>
+    </actor>
+  </_TaskConfig>
+  <_PlatformActorConfig><platform id="1-5" actor="A"/></_PlatformActorConfig>
+</TaskScript>"""
+
+
+def _run(sys_num: str, killed: int) -> dict[str, list[str]]:
+    result = check(_script(sys_num), path="rejoin.xml")
+    assert result.ok and result.script is not None, [str(d) for d in result.diagnostics]
+    sim = TaskSim(result.script, seed=5)
+    report = sim.run(
+        10.0,
+        events=[GroundEvent("go_event", 3.0)],
+        faults=[
+            Fault("kill", 2.0, frozenset({killed})),
+            Fault("restart", 5.0, frozenset({killed})),
+        ],
+    )
+    assert report["violations"] == []
+    final: dict[str, list[str]] = report["final_actors"]
+    return final
+
+
+def test_a_rebooted_member_follows_the_swarm_through_the_event_it_missed() -> None:
+    final = _run("all", killed=4)
+    assert final["4"] == ["B"], "it came back in A and was forwarded go_event"
+    assert all(actors == ["B"] for actors in final.values())
+
+
+def test_a_rebooted_master_follows_the_swarm_too() -> None:
+    """The master itself missed it: its successor forwards it once it is back."""
+    final = _run("all", killed=1)
+    assert all(actors == ["B"] for actors in final.values()), final
+
+
+def test_an_event_that_picked_some_platforms_is_not_forwarded() -> None:
+    """sysNum="2": two of the four there went to B; the one back later stays in A."""
+    final = _run("2", killed=4)
+    assert final["4"] == ["A"]
+    assert sum(actors == ["B"] for actors in final.values()) == 2
