@@ -5,6 +5,8 @@ its actor takes (``sysNum="all"``), so it follows the swarm; one that picks some
 
 from __future__ import annotations
 
+from typing import Any
+
 from actorswarm.dsl import check
 from actorswarm.sim.tasksim import Fault, GroundEvent, TaskSim
 
@@ -15,6 +17,7 @@ IDLE = (
 
 
 def _script(sys_num: str) -> str:
+    """A -go_event-> B -back_event-> A, five platforms."""
     actors = "".join(f"<Actor><_P_Name>{a}</_P_Name>{IDLE}</Actor>" for a in ("A", "B"))
     return f"""<TaskScript name="rejoin" version="1">
   <_ActorsConfig>{actors}</_ActorsConfig>
@@ -24,25 +27,41 @@ def _script(sys_num: str) -> str:
         <successor actor="B"/>
       </transition>
     </actor>
+    <actor name="B">
+      <transition name="back_event" barrierKey="2" sysNum="all">
+        <successor actor="A"/>
+      </transition>
+    </actor>
   </_TaskConfig>
   <_PlatformActorConfig><platform id="1-5" actor="A"/></_PlatformActorConfig>
 </TaskScript>"""
 
 
-def _run(sys_num: str, killed: int) -> dict[str, list[str]]:
+def _report(
+    sys_num: str, killed: int, *, back: float | None = None, restart: float = 5.0
+) -> dict[str, Any]:
+    """Platform ``killed`` dies at 2 s, before go_event (3 s), and reboots at ``restart``;
+    ``back``: when back_event brings the swarm back to A."""
     result = check(_script(sys_num), path="rejoin.xml")
     assert result.ok and result.script is not None, [str(d) for d in result.diagnostics]
     sim = TaskSim(result.script, seed=5)
+    events = [GroundEvent("go_event", 3.0)]
+    if back is not None:
+        events.append(GroundEvent("back_event", back))
     report = sim.run(
-        10.0,
-        events=[GroundEvent("go_event", 3.0)],
+        12.0,
+        events=events,
         faults=[
             Fault("kill", 2.0, frozenset({killed})),
-            Fault("restart", 5.0, frozenset({killed})),
+            Fault("restart", restart, frozenset({killed})),
         ],
     )
     assert report["violations"] == []
-    final: dict[str, list[str]] = report["final_actors"]
+    return report
+
+
+def _run(sys_num: str, killed: int) -> dict[str, list[str]]:
+    final: dict[str, list[str]] = _report(sys_num, killed)["final_actors"]
     return final
 
 
@@ -63,3 +82,19 @@ def test_an_event_that_picked_some_platforms_is_not_forwarded() -> None:
     final = _run("2", killed=4)
     assert final["4"] == ["A"]
     assert sum(actors == ["B"] for actors in final.values()) == 2
+
+
+def test_a_platform_back_where_the_swarm_is_again_is_forwarded_nothing() -> None:
+    """The swarm went to B and came back to A while platform 4 was down in A: it is where
+    everyone is, and go_event (the latest that took every A platform away) is history."""
+    report = _report("all", killed=4, back=5.0, restart=7.0)
+    assert all(actors == ["A"] for actors in report["final_actors"].values())
+    after = [r for r in report["transitions"] if r["platform"] == 4 and r["t"] >= 7.0]
+    assert [r["to"] for r in after] == ["A"], after  # its resumed A, nothing else
+
+
+def test_a_platform_back_while_the_swarm_is_away_follows_it_out_and_back() -> None:
+    report = _report("all", killed=4, back=8.0, restart=5.0)
+    assert all(actors == ["A"] for actors in report["final_actors"].values())
+    after = [r["to"] for r in report["transitions"] if r["platform"] == 4 and r["t"] >= 5.0]
+    assert after == ["A", "B", "A"], after

@@ -87,33 +87,30 @@ def part_need(
 
 class SharedEvents:
     """The latest shared events this platform heard (relayed to the swarm or sent by the
-    operator), by occasion, with when it heard each: what a master forwards to a platform
-    that enters an actor while a group of that actor waits on one of them, or that comes
-    back to the swarm after missing some (:meth:`since`)."""
+    operator), by occasion: what a master forwards to a platform that enters an actor while
+    a group of that actor waits on one of them, or that comes back running an actor the
+    swarm has left on one of them."""
 
     def __init__(self, size: int = SHARED_MEMORY) -> None:
         self._size = size
-        self._by_occasion: dict[str, tuple[str, int, Any, float]] = {}
+        self._by_occasion: dict[str, tuple[str, int, Any]] = {}
 
-    def remember(self, occasion: str, event: str, origin: int, data: Any, t: float) -> None:
-        """Keep ``occasion``, heard at ``t`` (the first hearing's time is kept)."""
-        if not occasion or occasion in self._by_occasion:
+    def remember(self, occasion: str, event: str, origin: int, data: Any) -> None:
+        if not occasion:
             return
-        self._by_occasion[occasion] = (event, origin, data, t)
+        self._by_occasion.pop(occasion, None)
+        self._by_occasion[occasion] = (event, origin, data)
         while len(self._by_occasion) > self._size:
             del self._by_occasion[next(iter(self._by_occasion))]
 
     def get(self, occasion: str) -> tuple[str, int, Any] | None:
         """``(event, origin, data)`` of ``occasion``, or None when it was not shared (or is
         forgotten)."""
-        found = self._by_occasion.get(occasion)
-        return None if found is None else found[:3]
+        return self._by_occasion.get(occasion)
 
-    def since(self, t: float) -> list[tuple[str, str, int, Any]]:
-        """``(occasion, event, origin, data)`` of every event heard at ``t`` or later, in the
-        order heard."""
-        return [(o, e, origin, data) for o, (e, origin, data, at) in self._by_occasion.items()
-                if at >= t]  # fmt: skip
+    def newest_first(self) -> list[tuple[str, str, int, Any]]:
+        """``(occasion, event, origin, data)`` of every event kept, the latest heard first."""
+        return [(occasion, *kept) for occasion, kept in reversed(self._by_occasion.items())]
 
 
 __all__ = ["SHARED_MEMORY", "SharedEvents", "part_need", "reaching"]

@@ -150,9 +150,6 @@ class ActorMachine:
         self.store: BackupStore = store if store is not None else MemoryBackupStore()
         # Shared events heard, for the master to forward (engine/groups.py).
         self._shared = SharedEvents()
-        # When each platform that left the swarm was last counted in it: the shared events
-        # since then are the ones it may have missed (_catch_up).
-        self._left_at: dict[int, float] = {}
         node.resolve_need = self._need
         node.scatter = self._scatter
         # A transition's request data (the event's data, where the platform is) is for the
@@ -246,7 +243,7 @@ class ActorMachine:
         the whole swarm, so a master may forward it to a platform that enters an actor
         while a group waits on it (engine/groups.py); a local event is not."""
         if shared:
-            self._shared.remember(occasion, event, GROUND_STATION, data, now)
+            self._shared.remember(occasion, event, GROUND_STATION, data)
         self._on_event(event, now, bid=bid, data=data, occasion=occasion)
 
     def _new_occasion(self) -> str:
@@ -291,7 +288,6 @@ class ActorMachine:
             ):
                 # My predecessor is gone with its actors: nobody else can say so.
                 self._master_actors = None
-                self._left_at.setdefault(previous[0], now - self.node.config.t_leave)
                 self._relay_lost(previous[0], previous[1], now)
             self._whereabouts.reset()
             self.announce(now)
@@ -299,12 +295,8 @@ class ActorMachine:
             # A newcomer must know what the master runs, in case it succeeds it.
             body = _ENCODE.encode(list(self.runtime.running()))
             self.node.send_app(event.platform, TOPIC_MASTER_ACTORS, body, now)
-        elif isinstance(event, MemberLeft):
-            # Whoever is master when it comes back forwards what it missed; it was last
-            # heard about t_leave before it was declared gone.
-            self._left_at[event.platform] = now - self.node.config.t_leave
-            if self.node.is_master:
-                self._relay_lost(event.platform, self._forget_table(event.platform), now)
+        elif isinstance(event, MemberLeft) and self.node.is_master:
+            self._relay_lost(event.platform, self._forget_table(event.platform), now)
 
     # --- events and candidacy -----------------------------------------------------------
 
@@ -556,7 +548,7 @@ class ActorMachine:
     def _on_event_msg(self, msg: AppReceived, now: float) -> None:
         """The master relayed (or forwarded) an event to this platform."""
         ev = _DECODE_EVENT.decode(msg.body)
-        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data, now)
+        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data)
         self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion)
 
     def _on_missed(self, msg: AppReceived, now: float) -> None:
@@ -565,7 +557,7 @@ class ActorMachine:
         ev = _DECODE_EVENT.decode(msg.body)
         if self._shared.get(ev.occasion) is not None:
             return
-        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data, now)
+        self._shared.remember(ev.occasion, ev.event, ev.origin, ev.data)
         self._on_event(ev.event, now, bid=None, data=ev.data, occasion=ev.occasion, missed=True)
 
     def undecodable(self, msg: AppReceived, now: float) -> None:
@@ -614,7 +606,7 @@ class ActorMachine:
         """Master: send ``event`` to every member but its origin (one broadcast, resent only
         to those that do not acknowledge), and handle it here."""
         occasion = occasion or self._new_occasion()
-        self._shared.remember(occasion, event, origin, data, now)
+        self._shared.remember(occasion, event, origin, data)
         body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
         self.node.post_bulletin(TOPIC_EVENT, body, now, skip=(origin,) if origin else ())
         if origin != self.node.platform:
@@ -707,21 +699,25 @@ class ActorMachine:
             self.node.needs_changed(now, None if before is None else touched)
 
     def _catch_up(self, platform: int, running: tuple[str, ...], now: float) -> None:
-        """Master: ``platform`` is back in the swarm (it left, crashed and rebooted, or was
-        cut off) running ``running``. Forward it each shared event heard since it was
-        last counted in the swarm that one of those actors takes with every platform in it
-        (``sysNum="all"``): it missed them, and the swarm may have moved on without it (a
-        rebooted platform resumes the actors of its backup). It ignores those it heard
-        after all, and follows a release that went without it (TOPIC_MISSED)."""
-        since = self._left_at.pop(platform, None)
-        if since is None:
+        """Master: ``platform`` has joined the swarm (booted late, rebooted and resumed
+        its backup, or was cut off) running ``running``. Where no other platform runs one
+        of those actors any more, the swarm has left it, and did so on the latest shared
+        event that takes every platform of that actor (``sysNum="all"``) that this master
+        remembers: forward it, so that the platform follows. It ignores one it heard after
+        all, and follows a release that went without it (TOPIC_MISSED). An exact
+        ``sysNum`` picks some platforms: those picked took it, nobody else is to."""
+        table = self._table
+        if any(p not in table for p in self.node.members.peers if p != platform):
+            # Not every member has said what it runs yet (a new master): nobody can tell
+            # whether the swarm has left an actor.
             return
         plan = self.plan
-        for occasion, event, origin, data in self._shared.since(since):
-            for actor in running:
+        others = {a for p, actors in table.items() if p != platform for a in actors}
+        for actor in running:
+            if actor in others:
+                continue
+            for occasion, event, origin, data in self._shared.newest_first():
                 found = plan.by_event.get((actor, event))
-                # Only a transition every platform in the actor takes (sysNum="all"): one
-                # that picks some of them was taken by those picked, and needs no more.
                 if found is not None and plan.groups[found[0]].parts[found[1]].sys_num == "all":
                     body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
                     self.node.send_app(platform, TOPIC_MISSED, body, now)
