@@ -60,20 +60,12 @@ def test_deploy_is_confirmed_by_every_platform_then_start(loss: float) -> None:
 def test_a_restarted_platform_resumes_its_last_switch_with_no_backup_asked() -> None:
     """As a daemon does, a simulated platform backs its actors up after every switch: a
     crash after the branch resumes C, not the task's start (where it would wait alone)."""
-    sim, _ = deployed()
-    sim.operate(lambda g, now: g.start(now))
-    sim.swarm.run_until(3.0)
-    sim.operate(lambda g, now: g.event("AtoBC_branch_event", now))
-    sim.swarm.run_until(4.0)
-    assert running(sim)[3] == ("C",)
+    sim = branched()
     sim.fault(Fault("restart", 4.0, frozenset({3})))
     sim.swarm.run_until(6.0)
     assert sim.swarm.node(3).incarnation == 1
     assert running(sim)[3] == ("C",)
-    sim.operate(lambda g, now: g.event("finish_event", now))
-    sim.swarm.run_until(8.0)
-    assert all(actors == ("A",) for actors in running(sim).values())
-    assert sim.report()["violations"] == []
+    merged_cleanly(sim)
 
 
 def test_start_is_refused_until_everyone_confirmed_unless_forced() -> None:
@@ -205,21 +197,31 @@ def cmds_message(body: bytes) -> AppMessage:
     return AppMessage(topic=cmds.TOPIC_COMMAND, body=body)
 
 
-def test_a_restarted_platform_resumes_from_its_latest_backup() -> None:
+def branched() -> TaskSim:
+    """The deployed script started and branched: platform 3 runs C at 4 s."""
     sim, _ = deployed()
     sim.operate(lambda g, now: g.start(now))
     sim.swarm.run_until(3.0)
     sim.operate(lambda g, now: g.event("AtoBC_branch_event", now))
     sim.swarm.run_until(4.0)
     assert running(sim)[3] == ("C",)
+    return sim
+
+
+def merged_cleanly(sim: TaskSim) -> None:
+    """The merge takes everyone back to A, with no invariant violated."""
+    sim.operate(lambda g, now: g.event("finish_event", now))
+    sim.swarm.run_until(8.0)
+    assert all(actors == ("A",) for actors in running(sim).values())
+    assert sim.report()["violations"] == []
+
+
+def test_a_restarted_platform_resumes_from_its_latest_backup() -> None:
+    sim = branched()
     sim.operate(lambda g, now: g.send(cmds.Backup(), [3], now))
     sim.swarm.run_until(4.5)
     sim.fault(Fault("restart", 4.5, frozenset({3})))
     sim.swarm.run_until(6.0)
     assert sim.swarm.node(3).incarnation == 1
     assert running(sim)[3] == ("C",), "resumed from the backup, not from the initial actor A"
-    # And it takes part in the merge as a C again.
-    sim.operate(lambda g, now: g.event("finish_event", now))
-    sim.swarm.run_until(8.0)
-    assert all(actors == ("A",) for actors in running(sim).values())
-    assert sim.report()["violations"] == []
+    merged_cleanly(sim)  # it takes part in the merge as a C again

@@ -399,15 +399,7 @@ class ActorMachine:
             if cand.missed:
                 # The swarm took this transition while this platform was away: the release
                 # named those who were there. Follow it on the group's next release.
-                self._request(
-                    cand.actor,
-                    event.key,
-                    event.part,
-                    now,
-                    bid=cand.bid,
-                    data=cand.data,
-                    occasion=cand.occasion,
-                )
+                self._ask_again(cand, now)
             return
         target = scattered_successor(event.data, transition) or self.plan.successor(
             transition, event.index
@@ -437,6 +429,11 @@ class ActorMachine:
         cand = self._pending.pop(event.key, None)
         if cand is None or cand.actor not in self.runtime.running():
             return
+        self._ask_again(cand, now)
+
+    def _ask_again(self, cand: _Candidacy, now: float) -> None:
+        """Request the group of ``cand`` (no longer pending) again, for its open generation,
+        with the same bid, data and occasion."""
         found = self.plan.by_event.get((cand.actor, cand.transition.event))
         if found is not None:
             self._request(
