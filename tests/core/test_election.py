@@ -47,6 +47,7 @@ class Hb(NamedTuple):
     sender_epoch: int
     expected: OnHeartbeat
     master_suspected: bool = False
+    sender_master: int = 0
 
 
 HEARTBEAT_TABLE = [
@@ -59,7 +60,17 @@ HEARTBEAT_TABLE = [
     Hb("master hears higher-ID master, lower epoch", 2, True, 4, 2, True, 5, True, 3, IGNORE),
     Hb("master hears member with higher epoch", 2, True, 4, 2, True, 5, False, 7, RECLAIM),
     Hb("master hears member with lower epoch", 2, True, 4, 2, True, 1, False, 3, IGNORE),
-    Hb("master hears its follower", 2, True, 4, 2, True, 3, False, 4, IGNORE),
+    Hb("master hears its follower", 2, True, 4, 2, True, 3, False, 4, IGNORE, sender_master=2),
+    Hb(
+        "master hears a member of its epoch following another master",
+        *(2, True, 4, 2, True, 3, False, 4, RECLAIM),
+        sender_master=5,
+    ),
+    Hb(
+        "master hears a member of an older epoch following another master",
+        *(2, True, 4, 2, True, 3, False, 3, IGNORE),
+        sender_master=5,
+    ),
     # --- I follow a master ---
     Hb("follower: my master is master no more", 3, False, 4, 1, True, 1, False, 4, DEMOTED),
     Hb("follower: my master demoted, higher epoch", 3, False, 4, 1, True, 1, False, 5, DEMOTED),
@@ -108,6 +119,7 @@ def test_on_heartbeat_decision_table(row: Hb) -> None:
         sender_is_master=row.sender_is_master,
         sender_epoch=row.sender_epoch,
         master_suspected=row.master_suspected,
+        sender_master=row.sender_master,
     )
     assert got is row.expected, f"{row.name}: got {got.name}, want {row.expected.name}"
 
@@ -197,12 +209,16 @@ def on_heartbeat_plain(
     sender_is_master: bool,
     sender_epoch: int,
     master_suspected: bool = False,
+    sender_master: int = 0,
 ) -> OnHeartbeat:
     """``on_heartbeat`` as nested conditionals: an independent statement of the rules."""
     if is_master:
         if sender_is_master and sender < self_id:
             return OnHeartbeat.STEP_DOWN
         if sender_epoch > epoch or (sender_is_master and sender_epoch == epoch):
+            return OnHeartbeat.RECLAIM
+        if sender_epoch == epoch and sender_master not in (0, self_id):
+            # Someone follows another master of my epoch number: two partitions claimed it.
             return OnHeartbeat.RECLAIM
         return OnHeartbeat.IGNORE
     if not sender_is_master:
@@ -261,6 +277,7 @@ hearings = st.builds(
     sender_is_master=st.booleans(),
     sender_epoch=ids,
     master_suspected=st.booleans(),
+    sender_master=ids,
 )
 claimants = st.builds(
     Claimant,
@@ -288,9 +305,9 @@ def test_claim_table_matches_plain_conditionals(c: Claimant) -> None:
 
 
 def all_hearings() -> list[Hearing]:
-    """Every combination of small inputs (20 480 of them)."""
+    """Every combination of small inputs (81 920 of them)."""
     maybe = (None, *SMALL)
-    grid = itertools.product(SMALL, BOOLS, SMALL, maybe, BOOLS, SMALL, BOOLS, SMALL, BOOLS)
+    grid = itertools.product(SMALL, BOOLS, SMALL, maybe, BOOLS, SMALL, BOOLS, SMALL, BOOLS, SMALL)
     return [Hearing(*values) for values in grid]
 
 

@@ -51,7 +51,10 @@ def test_fault_schedule(membership: MembershipKind, seed: int) -> None:
 #: whole as first decided but not what the completion added (7734060: completions are now
 #: reported as partial assignments), a firing decided by a master that stepped down and claimed
 #: again before it had reported the firing to anyone, forgotten with its old barrier table
-#: (7765517: a new term inherits what the last one decided).
+#: (7765517: a new term inherits what the last one decided), two partitions that each
+#: claimed epoch 6, whose higher master stepped down before the lower one heard it, so the
+#: lower one never claimed above and fired a generation the other had fired (9800255: a
+#: master hearing a member of its epoch that follows another master claims again, H3b).
 REGRESSIONS = [
     (500583, "star"),
     (501090, "broadcast"),
@@ -71,6 +74,7 @@ REGRESSIONS = [
     (7671936, "star"),
     (7734060, "star"),
     (7765517, "star"),
+    (9800255, "broadcast"),
 ]
 
 

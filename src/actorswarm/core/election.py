@@ -121,6 +121,8 @@ class Hearing(NamedTuple):
     #: Whether this platform suspects ``master``: silent past its suspicion time, not yet
     #: past its leave time (which under loss waits for many more missed heartbeats).
     master_suspected: bool = False
+    #: The master the sender follows (0: none), as its heartbeat says.
+    sender_master: int = 0
 
 
 #: How a platform reacts to a heartbeat (or a ``Sync``, which shows a master): first match.
@@ -139,6 +141,17 @@ HEARTBEAT_RULES: Final[tuple[Rule[Hearing, OnHeartbeat], ...]] = (
         "H3", _MASTER, "a master (higher ID) of my epoch",
         lambda h: h.sender_is_master and h.sender_epoch == h.epoch,
         OnHeartbeat.RECLAIM, "claiming above it makes its members follow me",
+    ),
+    Rule(
+        "H3b", _MASTER, "a member of my epoch that follows another master",
+        lambda h: (
+            not h.sender_is_master and h.sender_epoch == h.epoch
+            and h.sender_master not in (0, h.self_id)
+        ),
+        OnHeartbeat.RECLAIM,
+        "two partitions claimed the same epoch and its master stepped down before I heard it"
+        " (H1): its members' firings of that epoch are not mine; claiming above both makes"
+        " every member report to me",
     ),
     Rule(
         "H4", _MEMBER, "a non-master heartbeat of my epoch's master, epoch ≥ mine",
@@ -190,6 +203,7 @@ def on_heartbeat(
     sender_is_master: bool,
     sender_epoch: int,
     master_suspected: bool = False,
+    sender_master: int = 0,
 ) -> OnHeartbeat:
     """Decide how to react to ``sender``'s heartbeat (``sender_is_master``, ``sender_epoch``).
 
@@ -210,6 +224,7 @@ def on_heartbeat(
         sender_is_master,
         sender_epoch,
         master_suspected,
+        sender_master,
     )
     return first_match(rules, h).then
 

@@ -100,8 +100,11 @@ class Leadership:
         ``Node.master`` it stays known after the master is lost."""
         return self._epoch_master
 
-    def decide(self, sender: int, sender_is_master: bool, sender_epoch: int) -> OnHeartbeat:
-        """The election rules' answer to ``sender``'s word (a heartbeat, a Sync)."""
+    def decide(
+        self, sender: int, sender_is_master: bool, sender_epoch: int, sender_master: int = 0
+    ) -> OnHeartbeat:
+        """The election rules' answer to ``sender``'s word (a heartbeat, a Sync);
+        ``sender_master``: whom it follows (0: none, or not said)."""
         node = self._node
         return on_heartbeat(
             self_id=node.platform,
@@ -113,6 +116,7 @@ class Leadership:
             sender_is_master=sender_is_master,
             sender_epoch=sender_epoch,
             master_suspected=node.master is not None and node.master in node.members.suspects,
+            sender_master=sender_master,
         )
 
     def demoted(self, sender: int, its_master: int, now: float) -> None:

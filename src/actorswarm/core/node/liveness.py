@@ -487,7 +487,7 @@ class Liveness:
                 self._on_master_heartbeat(sender, hb, now)
         if not (hb.is_master or node.is_master or sender == node._lead.epoch_master):
             return  # the common case at scale: an ordinary member's heartbeat
-        action = node._lead.decide(sender, hb.is_master, hb.epoch)
+        action = node._lead.decide(sender, hb.is_master, hb.epoch, hb.master)
         if action is OnHeartbeat.IGNORE:
             node._lead.heard_claim(sender, hb.is_master, hb.epoch, now)
             return
