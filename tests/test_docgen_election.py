@@ -38,7 +38,7 @@ def test_diagram_shows_the_transitions_the_rules_imply() -> None:
     block = render()
     for edge in (
         "master --> masterless : STEP_DOWN (H1)",
-        "master --> master : RECLAIM (H2, H3)",
+        "master --> master : RECLAIM (H2, H3, H3b)",
         "follower --> masterless : DEMOTED (H4)",
         "masterless --> follower : FOLLOW (H6, H7)",
         "follower --> follower : FOLLOW (H6)",
