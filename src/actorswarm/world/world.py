@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 import numpy as np
 from numpy.typing import NDArray
@@ -236,14 +237,13 @@ class World:
         step, since the radio asks once per packet (thousands of times a second) while the
         positions change only when the world steps. KeyError for an unknown platform."""
         links = self._links
-        if links is None or links[0] != self._steps:
+        if links is None or links[0] != self._steps:  # _current_links, inlined: per packet
             links = self._links = self._link_rows(links)
         try:
             loss_row, latency_row = links[1][a]
             j = self._rows[b]
         except KeyError:
             self._unknown(a, b)
-            raise
         return loss_row[j], latency_row[j]
 
     def relays(self, a: int, b: int | None) -> int:
@@ -252,27 +252,29 @@ class World:
         broadcast's forwarders (:class:`~actorswarm.world.radio_model.Routes`); 0 without
         relaying, or where no path exists. What the packet costs the shared air beyond its
         own transmission. KeyError for an unknown platform."""
+        links = self._current_links()
+        rows = self._rows
+        if a not in rows or (b is not None and b not in rows):
+            self._unknown(a, a if b is None else b)
+        relayed = links[2].get(a)
+        if relayed is None:
+            return 0
+        forwarders, hops_row = relayed
+        return forwarders if b is None else max(hops_row[rows[b]] - 1, 0)
+
+    def _current_links(self) -> _Links:
+        """The link rows of the current step, made on the first question of the step."""
         links = self._links
         if links is None or links[0] != self._steps:
             links = self._links = self._link_rows(links)
-        try:
-            relayed = links[2].get(a)
-            j = -1 if b is None else self._rows[b]
-            if relayed is None:
-                if a not in self._rows:
-                    raise KeyError(a)
-                return 0
-        except KeyError:
-            self._unknown(a, a if b is None else b)
-            raise
-        forwarders, hops_row = relayed
-        return forwarders if b is None else max(hops_row[j] - 1, 0)
+        return links
 
-    def _unknown(self, a: int, b: int) -> None:
+    def _unknown(self, a: int, b: int) -> NoReturn:
         """Raise the fleet's KeyError, which names the platforms it has, for whichever of
         ``a`` and ``b`` it does not have."""
         self.fleet.index(a)
         self.fleet.index(b)
+        raise KeyError((a, b))
 
     def _link_rows(self, last: _Links | None) -> _Links:
         """The link rows of this step: the radio model's, or with ``relay`` the routes',
