@@ -13,6 +13,7 @@ import zlib
 from collections import Counter
 from pathlib import Path
 
+import msgspec
 import pytest
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 from hypothesis import given
@@ -32,6 +33,7 @@ from actorswarm.core.wire import (
     Packet,
     Release,
     ReleaseEntry,
+    RosterChunk,
     Sync,
     decode,
     encode,
@@ -39,7 +41,7 @@ from actorswarm.core.wire import (
 from actorswarm.engine import commands as cmds
 from actorswarm.ground.station import GroundStation
 from actorswarm.security import DEFAULT_WINDOW, REASONS, PacketGuard, init_keys, load_keys
-from actorswarm.security.guard import VerdictMemo
+from actorswarm.security.guard import VerdictMemo, shareable
 
 SWARM = "alpha"
 KEY = bytes(range(32))
@@ -350,6 +352,47 @@ def test_guards_sharing_a_verdict_memo_accept_once_each_and_keep_their_windows()
     assert one is not None and one == other and one is not other  # each receiver's own
     with pytest.raises(ValueError, match="at least one"):
         VerdictMemo(size=0)
+
+
+RELEASE = Release(
+    epoch=2,
+    key=4,
+    generation=1,
+    outcome=wire.COMPLETE,
+    sizes={0: 2},
+    entries=[ReleaseEntry(platform=p, part=0, index=p, data=[p, 0.5]) for p in (1, 2)],
+)
+
+
+@pytest.mark.parametrize(
+    ("body", "shared"),
+    [
+        (RosterChunk(epoch=3, version=9, index=0, count=1, members=[(2, 1), (5, 4)]), True),
+        (RELEASE, True),
+        (msgspec.structs.replace(RELEASE, gathered=[(1, {"seen": [1]})]), False),
+        (HEARTBEAT, False),
+        (COMMAND, False),
+    ],
+)
+def test_guards_sharing_a_memo_share_only_bodies_their_receivers_only_read(
+    body: Body, shared: bool
+) -> None:
+    """A roster chunk, or a release without gathered data, is decoded once and handed to
+    every receiver as it is; anything else each receiver decodes for itself. Either way each
+    accepts it, counts it, and keeps its own replay window."""
+    assert shareable(body) is shared
+    memo = VerdictMemo()
+    guards = [PacketGuard(KEY, GS_PUBLIC, memo=memo) for _ in range(3)]
+    data = platform_guard().seal(raw(body=body))
+    packets = [guard.check(data, 1.0) for guard in guards]
+    assert all(p is not None and p == decode(data) for p in packets)
+    assert (packets[0] is packets[1] is packets[2]) is shared
+    assert all(guard.accepted == 1 and guard.check(data, 2.0) is None for guard in guards)
+    small = VerdictMemo(size=1)  # full at one verdict: it forgets the kept packets with them
+    first, second = (PacketGuard(KEY, GS_PUBLIC, memo=small) for _ in range(2))
+    one = first.check(data, 1.0)
+    small.put(b"other", wire.open_frame(data), None)
+    assert second.check(data, 1.0) is not one and second.check(data, 2.0) is None
 
 
 @pytest.mark.parametrize(

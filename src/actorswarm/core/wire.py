@@ -24,6 +24,7 @@ Platform ID 0 is reserved for the ground station.
 from __future__ import annotations
 
 import zlib
+from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, Final
 
 import msgspec
@@ -66,7 +67,12 @@ class WireError(ValueError):
 
 
 class _Msg(Struct, frozen=True, array_like=True, forbid_unknown_fields=True):
-    """Base of every message: immutable, positional on the wire."""
+    """Base of every message: immutable, positional on the wire.
+
+    The containers of a roster chunk and a release are typed ``Sequence``/``Mapping``
+    (they decode as lists and dicts): their receivers only read them, and strict type
+    checking keeps it so, because a simulated swarm hands the receivers of one broadcast
+    the same decoded body (:class:`~actorswarm.security.guard.VerdictMemo`)."""
 
 
 # --- application payloads carried by reliable Data packets ---------------------------------
@@ -287,7 +293,7 @@ class RosterChunk(_Msg, frozen=True, tag=7):
     version: Counter
     index: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]
     count: Annotated[int, Meta(ge=1, le=MAX_PLATFORM + 1)]
-    members: Annotated[list[tuple[PlatformId, Counter]], Meta(max_length=MAX_PLATFORM)]
+    members: Annotated[Sequence[tuple[PlatformId, Counter]], Meta(max_length=MAX_PLATFORM)]
 
 
 class Bulletin(_Msg, frozen=True, tag=8):
@@ -367,9 +373,9 @@ class Release(_Msg, frozen=True, tag=4):
     key: Key
     generation: Counter
     outcome: Annotated[int, Meta(ge=0, le=2)]
-    sizes: dict[int, Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]]
-    entries: list[ReleaseEntry]
-    gathered: list[tuple[PlatformId, Any]] = []
+    sizes: Mapping[int, Annotated[int, Meta(ge=0, le=MAX_PLATFORM)]]
+    entries: Sequence[ReleaseEntry]
+    gathered: Sequence[tuple[PlatformId, Any]] = []
     origin: Counter = 0
     total: Annotated[int, Meta(ge=0, le=MAX_PLATFORM)] = 0
     origin_master: PlatformId = 0

@@ -11,6 +11,7 @@ too: a host that needs no operator drives it exactly as it drives the engine."""
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Final
@@ -134,6 +135,9 @@ class ActorMachine:
         # group part waits for is kept while neither the table nor the view changes.
         self._table: dict[int, tuple[str, ...]] = {}
         self._table_version = 0
+        # How many rows of the table hold each actor: whether anybody else still runs one
+        # is then a lookup, not a walk over the swarm (_catch_up, on every platform's join).
+        self._runners: Counter[str] = Counter()
         self._needs: dict[tuple[int, int, int], int] = {}
         self._needs_for: tuple[int, int] = (-1, -1)
         # Member side: what the master runs, so that whoever succeeds a dead master can
@@ -623,7 +627,9 @@ class ActorMachine:
 
     def _reset_table(self) -> None:
         """A new master: the table holds what this platform runs, nobody else yet."""
-        self._table = {self.node.platform: self.runtime.running()}
+        running = self.runtime.running()
+        self._table = {self.node.platform: running}
+        self._runners = Counter(running)
         self._table_version += 1
 
     def _run_table(self, platform: int, running: tuple[str, ...]) -> tuple[str, ...] | None:
@@ -632,12 +638,16 @@ class ActorMachine:
         self._table[platform] = running
         if running != before:
             self._table_version += 1
+            self._runners.subtract(before or ())
+            self._runners.update(running)
         return before
 
     def _forget_table(self, platform: int) -> tuple[str, ...]:
         """``platform`` left: its row, removed (empty when it had none)."""
         self._table_version += 1
-        return self._table.pop(platform, ())
+        row = self._table.pop(platform, ())
+        self._runners.subtract(row)
+        return row
 
     def _need(self, key: int, part: int, count: int) -> int:
         """What part ``part`` of group ``key`` waits for (engine/groups.py); a plugin's
@@ -703,16 +713,18 @@ class ActorMachine:
         remembers: forward it, so that the platform follows. It ignores one it heard after
         all, and follows a release that went without it (TOPIC_MISSED). An exact
         ``sysNum`` picks some platforms: those picked took it, nobody else is to."""
+        # The table holds ``running`` as this platform's row: an actor it alone runs has
+        # as many rows as it appears in ``running``.
+        alone = [a for a in running if self._runners[a] <= running.count(a)]
+        if not alone:
+            return
         table = self._table
         if any(p not in table for p in self.node.members.peers if p != platform):
             # Not every member has said what it runs yet (a new master): nobody can tell
             # whether the swarm has left an actor.
             return
         plan = self.plan
-        others = {a for p, actors in table.items() if p != platform for a in actors}
-        for actor in running:
-            if actor in others:
-                continue
+        for actor in alone:
             for occasion, event, origin, data in self._shared.newest_first():
                 found = plan.by_event.get((actor, event))
                 if found is not None and plan.groups[found[0]].parts[found[1]].sys_num == "all":

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import heapq
 from collections import deque
+from collections.abc import Sequence
 from typing import Any
 
 import msgspec
@@ -177,7 +178,7 @@ class BarrierMember:
             return False
         return self._keeps(rel.entries)
 
-    def _keeps(self, entries: list[ReleaseEntry]) -> bool:
+    def _keeps(self, entries: Sequence[ReleaseEntry]) -> bool:
         """Whether this platform keeps ``entries`` for its reports: all of few, or the
         lowest :data:`ASSIGNMENT_CARRIERS` IDs of many (a report stays small).
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import heapq
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 from actorswarm.core.wire import MAX_CHANGES, Heartbeat, RosterChunk
 
@@ -104,14 +104,16 @@ class RosterPool:
         # 10 000 members each holding their own parts of a roster of 10 000 was most of
         # a boot's peak memory.
         self._gathering: tuple[int, int, int] | None = None
-        self._parts: dict[int, list[tuple[int, int]]] = {}
+        self._parts: dict[int, Sequence[tuple[int, int]]] = {}
+        # The roster those parts make, built for the first member that had them all.
+        self._whole: dict[int, int] | None = None
         self.shared = 0  # copies replaced by the pool's (rosters and chunks)
 
     def share(self, epoch: int, version: int, members: dict[int, int]) -> dict[int, int]:
         """The roster to keep for ``epoch``/``version``: the pool's when it equals
         ``members``, else ``members`` (which the pool then holds, if newer)."""
         held = self._held.get(epoch)
-        if held is not None and held[0] == version and held[1] == members:
+        if held is not None and held[0] == version and (held[1] is members or held[1] == members):
             self.shared += 1
             return held[1]
         if held is None or version > held[0]:
@@ -120,23 +122,37 @@ class RosterPool:
                 del self._held[min(self._held)]
         return members
 
-    def part(self, chunk: RosterChunk) -> list[tuple[int, int]]:
+    def part(self, chunk: RosterChunk) -> Sequence[tuple[int, int]]:
         """The entries of ``chunk`` to keep until its roster is complete: the pool's copy
-        when it holds an equal one for the same roster and index."""
+        when it holds an equal one for the same roster and index (the very same when the
+        receivers were handed one decoded chunk)."""
         key = (chunk.epoch, chunk.version, chunk.count)
-        entries = list(chunk.members)
+        entries = chunk.members
         if key != self._gathering:
             if self._gathering is not None and self._gathering > key:
                 return entries  # an older roster than the one the pool gathers
-            self._gathering, self._parts = key, {}
+            self._gathering, self._parts, self._whole = key, {}, None
         held = self._parts.get(chunk.index)
         if held is None:
             self._parts[chunk.index] = entries
             return entries
-        if held == entries:
+        if held is entries or held == entries:
             self.shared += 1
             return held
         return entries
+
+    def whole(
+        self, key: tuple[int, int, int], parts: dict[int, Sequence[tuple[int, int]]]
+    ) -> dict[int, int] | None:
+        """The roster (platform -> incarnation) that ``parts``, every chunk of roster
+        ``key`` (epoch, version, count), make, when each is the pool's own (:meth:`part`):
+        built once for all the members that gathered the same chunks. None otherwise."""
+        own = self._parts
+        if key != self._gathering or any(parts[i] is not own.get(i) for i in range(key[2])):
+            return None
+        if self._whole is None:
+            self._whole = {p: incarnation for i in range(key[2]) for p, incarnation in own[i]}
+        return self._whole
 
 
 class RosterView:
@@ -159,7 +175,7 @@ class RosterView:
         #: queues to them, as it would for a peer that left its own view).
         self.removed: list[int] = []
         self._pending: tuple[int, int, int] | None = None  # (epoch, version, count)
-        self._parts: dict[int, list[tuple[int, int]]] = {}
+        self._parts: dict[int, Sequence[tuple[int, int]]] = {}
 
     @property
     def current(self) -> bool:
@@ -230,10 +246,12 @@ class RosterView:
             self._pending = None
             self._parts = {}
             return False
-        members: dict[int, int] = {}
-        for i in range(chunk.count):
-            for platform, incarnation in self._parts[i]:
-                members[platform] = incarnation
+        members = None if self._pool is None else self._pool.whole(key, self._parts)
+        if members is None:
+            members = {}
+            for i in range(chunk.count):
+                for platform, incarnation in self._parts[i]:
+                    members[platform] = incarnation
         self.epoch, self.version = chunk.epoch, chunk.version
         self.removed.extend(p for p in self.members if p not in members)
         self.members = self._share(chunk.epoch, chunk.version, members)
