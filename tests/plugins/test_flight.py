@@ -45,6 +45,7 @@ def test_declarations(cls: type[Plugin]) -> None:
         (TakeOff, {}),
         (TakeOff, {"altitude": "3", "scope": "swarm"}),
         (TakeOff, {"altitude": "3", "layers": "2", "layer_step": "5", "stagger": "1"}),
+        (TakeOff, {"altitude": "30", "late_after": "5", "late_below": "12"}),
         (GoTo, {"target": "4 3 2"}),
         (GoTo, {"TargetPoint": "1 1 1", "speed": "2"}),
         (ReturnHome, {}),
@@ -87,7 +88,7 @@ def test_takeoff_snapshot_restore_mid_climb() -> None:
     first = TakeOff()
     assert run_plugin(first, ctx, steps=20) == []
     state = first._drive_snapshot()
-    assert state == {"fired": False}
+    assert state == {"fired": False, "low": False}
     first._drive_stop(ctx)
     vehicle.hold()  # another actor stopped the climb meanwhile
 
@@ -97,6 +98,81 @@ def test_takeoff_snapshot_restore_mid_climb() -> None:
     assert vehicle.commands[-1] == ("takeoff", 10.0)
     events = run_plugin(second, ctx, steps=100)
     assert names(events) == ["ready_event"]
+
+
+class LateVehicle(FakeVehicle):
+    """An autopilot ready only from ``ready_at`` seconds of its own clock: a take-off asked
+    earlier waits on the ground (as a real ARM does) and goes then."""
+
+    def __init__(self, ready_at: float, **kwargs: float) -> None:
+        super().__init__(**kwargs)
+        self.ready_at = ready_at
+        self.clock = 0.0
+
+    def advance(self, dt: float) -> None:
+        self.clock += dt
+        if self.clock >= self.ready_at:
+            super().advance(dt)
+
+
+LATE = {"altitude": "60", "late_after": "10", "late_below": "20"}
+
+
+def test_takeoff_late_holds_below_the_others() -> None:
+    """Off the ground 30 s after its turn: it climbs only to 40 m, 20 m under the others'
+    circles, and its event fires there."""
+    vehicle = LateVehicle(30.0, climb_rate=4.0)
+    ctx = make_context(TakeOff, params=LATE, vehicle=vehicle)
+    plugin = TakeOff()
+    assert run_plugin(plugin, ctx, steps=290, dt=0.1) == []  # 29 s on the ground
+    assert vehicle.commands == [("takeoff", 60.0)]
+    events = run_plugin(plugin, ctx, steps=200, dt=0.1)
+    assert vehicle.commands[:2] == [("takeoff", 60.0), ("takeoff", 40.0)]
+    assert names(events) == ["ready_event"]
+    assert abs(vehicle.position()[2] - 40.0) <= 1.0
+    assert plugin._drive_snapshot() == {"fired": True, "low": True}
+
+
+@pytest.mark.parametrize("ready_at", [0.0, 9.5])
+def test_takeoff_in_time_climbs_to_its_altitude(ready_at: float) -> None:
+    """Off the ground within ``late_after`` of its turn: the take-off as without it."""
+    vehicle = LateVehicle(ready_at, climb_rate=4.0)
+    events = run_plugin(TakeOff(), make_context(TakeOff, params=LATE, vehicle=vehicle), steps=300)
+    assert vehicle.commands[0] == ("takeoff", 60.0)
+    assert ("takeoff", 40.0) not in vehicle.commands
+    assert names(events) == ["ready_event"]
+    assert abs(vehicle.position()[2] - 60.0) <= 1.0
+
+
+def test_takeoff_late_is_counted_from_its_layers_turn() -> None:
+    """Layer 1 of a 20 s stagger is asked at 20 s: off the ground at 25 s is in time."""
+    params = {**LATE, "layers": "2", "layer_step": "10", "stagger": "20"}
+    vehicle = LateVehicle(25.0, climb_rate=4.0)
+    ctx = make_context(TakeOff, params=params, vehicle=vehicle, platform=2)
+    events = run_plugin(TakeOff(), ctx, steps=500, dt=0.1)
+    assert vehicle.commands[0] == ("takeoff", 70.0)
+    assert ("takeoff", 40.0) not in vehicle.commands
+    assert names(events) == ["ready_event"]
+
+
+def test_takeoff_restored_late_climbs_to_the_low_altitude() -> None:
+    vehicle = FakeVehicle(position=(0.0, 0.0, 12.0), climb_rate=4.0)
+    ctx = make_context(TakeOff, params=LATE, vehicle=vehicle)
+    plugin = TakeOff()
+    plugin._drive_restore({"fired": False, "low": True})
+    plugin._drive_activate(ctx)
+    assert vehicle.commands == [("takeoff", 40.0)]
+    assert names(run_plugin(plugin, ctx, steps=100)) == ["ready_event"]
+    older = TakeOff()  # a backup from before the flag: not late
+    older._drive_restore({"fired": False})
+    older._drive_activate(ctx)
+    assert vehicle.commands[-1] == ("takeoff", 60.0)
+
+
+def test_takeoff_late_below_must_be_under_the_altitude() -> None:
+    ctx = make_context(TakeOff, params={**LATE, "late_below": "60"}, vehicle=FakeVehicle())
+    with pytest.raises(ValueError, match=r"late_below \(60 m\) must be under altitude"):
+        TakeOff()._drive_start(ctx)
 
 
 # --- GoTo ----------------------------------------------------------------------------------------

@@ -8,6 +8,7 @@ run prints how to replay it with ``actorswarm demo``.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -421,3 +422,24 @@ def test_a_tracker_whose_battery_dies_is_replaced_by_track_lost(battery: Run) ->
     over = track.positions[i, list(track.platforms).index(3), :2]
     jeep = track.target_positions[i, 0, :2]
     assert math.dist(over.tolist(), jeep.tolist()) < 10.0
+
+
+def test_formation_late_take_off_holds_under_the_others(tmp_path: Path) -> None:
+    """An autopilot ready 51 s late (verify's replay, seed 1000): without ``late_after`` the
+    aircraft climbs out through the circles of those ahead of it on its row (5.8 m and
+    2.2 m at 72-74 s). It holds 20 m under them instead, and the join keeps the 10 m."""
+    from typer.testing import CliRunner
+
+    from actorswarm.cli.app import app
+
+    out = tmp_path / "late.json"
+    args = ["sim", str(EXAMPLES / "formation_30.xml"), "--world",
+            str(EXAMPLES / "worlds" / "formation_30.toml"), "--duration", "80", "--seed", "1000",
+            "--late-ready", "16@51.4", "--json", str(out)]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    report = json.loads(out.read_text())
+    moves = [(t["from"], t["to"], t["cause"]) for t in report["transitions"] if t["to"] == "A"]
+    assert moves == [("Standby", "A", "barrier")] * 30
+    assert report["separation"]["breaches"] == []
+    assert report["separation"]["min_distance_m"] >= SAFETY_DISTANCE

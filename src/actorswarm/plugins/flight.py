@@ -116,13 +116,23 @@ class TakeOff(Plugin):
         fires there) and takes off ``k · stagger`` seconds after the actor started — so
         neighbours on a field neither roll at once nor circle at one altitude. The defaults
         take everyone off at once to ``altitude``.
+    ``late_after`` (float ≥ 0, default 0: off), ``late_below`` (float ≥ 0, default 15)
+        A late take-off kept clear of the others' holding circles. An aircraft that cannot
+        hover circles where it reached its altitude, on its own row's climb-out line; one
+        whose autopilot is ready late (it leaves the ground more than ``late_after`` seconds
+        after its turn) would climb through the circles of the aircraft ahead of it at
+        their altitude. Such an aircraft climbs only to ``altitude − late_below`` and its
+        event fires there: it holds under the lowest layer, ``late_below`` (more than the
+        separation) below it, and joins from there when the actor hands over.
 
     A vehicle already in the air within ``tolerance`` of ``altitude`` when the actor starts
     gets no take-off command: the event goes out on the first step. (One in the air at
     another altitude is sent ``takeoff``, which moves it to ``altitude`` where it is.)
 
-    The snapshot is ``{"fired": bool}``. A restored or re-activated instance that has not
-    fired yet sends ``takeoff`` again; one that has fired holds.
+    The snapshot is ``{"fired": bool, "low": bool}`` (``low``: a late take-off, holding
+    under the others; a snapshot without it is not late). A restored or re-activated
+    instance that has not fired yet sends ``takeoff`` again (to the lower altitude when
+    late); one that has fired holds.
     """
 
     bus = "act_bus"
@@ -161,14 +171,33 @@ class TakeOff(Plugin):
             minimum=0.0,
             doc="seconds between two layers' take-offs (layer k waits k · stagger)",
         ),
+        "late_after": Param(
+            kind="float",
+            default=0.0,
+            minimum=0.0,
+            doc="an aircraft off the ground this many seconds after its turn holds below "
+            "the others (0: never)",
+        ),
+        "late_below": Param(
+            kind="float",
+            default=15.0,
+            minimum=0.0,
+            doc="metres under altitude a late aircraft holds at",
+        ),
     }
 
     def __init__(self) -> None:
         self._fired = False
         # When this platform's take-off goes out (its layer's turn), None once sent.
         self._due: float | None = None
+        # When its turn came (the take-off asked), until it leaves the ground; then None.
+        self._asked: float | None = None
+        # Off the ground late: it holds under the others (late_after).
+        self._low = False
 
     def _altitude(self, ctx: PluginContext) -> float:
+        if self._low:
+            return float(ctx.params["altitude"]) - float(ctx.params["late_below"])
         return float(ctx.params["altitude"]) + self._layer(ctx) * float(ctx.params["layer_step"])
 
     @staticmethod
@@ -179,12 +208,22 @@ class TakeOff(Plugin):
         altitude = float(ctx.params["altitude"])
         if altitude <= 0:
             raise ValueError(f"flight.takeoff: altitude must be > 0 metres, not {altitude:g}")
+        below = float(ctx.params["late_below"])
+        if ctx.params["late_after"] > 0 and below >= altitude:
+            raise ValueError(
+                f"flight.takeoff: late_below ({below:g} m) must be under altitude "
+                f"({altitude:g} m): a late aircraft holds that far below it"
+            )
         vehicle = ctx.require_vehicle()
         self._fired = False
         self._due = None
+        self._low = False
         z = vehicle.position()[2]
+        self._asked = None
         if not (z > LANDED_ALTITUDE and abs(z - self._altitude(ctx)) <= ctx.params["tolerance"]):
             wait = self._layer(ctx) * float(ctx.params["stagger"])
+            if z <= LANDED_ALTITUDE:
+                self._asked = ctx.now + wait
             if wait > 0:
                 self._due = ctx.now + wait
             else:
@@ -199,7 +238,16 @@ class TakeOff(Plugin):
                 return
             self._due = None
             vehicle.takeoff(self._altitude(ctx))
-        if abs(vehicle.position()[2] - self._altitude(ctx)) <= ctx.params["tolerance"]:
+        z = vehicle.position()[2]
+        if self._asked is not None and z > LANDED_ALTITUDE:
+            late_after = float(ctx.params["late_after"])
+            if late_after > 0 and ctx.now - self._asked > late_after:
+                # Its autopilot was ready late: the others hold on their circles above the
+                # field, and its climb-out would cross them. It holds under them instead.
+                self._low = True
+                vehicle.takeoff(self._altitude(ctx))
+            self._asked = None
+        if abs(z - self._altitude(ctx)) <= ctx.params["tolerance"]:
             self._fired = True
             ctx.emit(ctx.params["event"], scope=ctx.params["scope"])
             vehicle.hold()
@@ -212,10 +260,11 @@ class TakeOff(Plugin):
             vehicle.takeoff(self._altitude(ctx))
 
     def snapshot(self) -> dict[str, Any]:
-        return {"fired": self._fired}
+        return {"fired": self._fired, "low": self._low}
 
     def restore(self, state: Mapping[str, Any]) -> None:
         self._fired = read_flag("flight.takeoff", state, "fired")
+        self._low = "low" in state and read_flag("flight.takeoff", state, "low")
 
 
 class GoTo(Plugin):
