@@ -98,3 +98,24 @@ def test_a_platform_back_while_the_swarm_is_away_follows_it_out_and_back() -> No
     assert all(actors == ["A"] for actors in report["final_actors"].values())
     after = [r["to"] for r in report["transitions"] if r["platform"] == 4 and r["t"] >= 5.0]
     assert after == ["A", "B", "A"], after
+
+
+def test_a_platform_back_before_a_new_master_knows_everyone_follows_once_it_does() -> None:
+    """Platform 4 misses go_event, then the master dies and 4 reboots while the new master
+    gathers what its members run: 4's catch-up waits for the last of them, then goes (it
+    used to be dropped, and 4 stayed in A for good)."""
+    result = check(_script("all"), path="rejoin.xml")
+    assert result.script is not None
+    for restart in (3.6, 3.8, 4.0, 4.2):
+        report = TaskSim(result.script, seed=1).run(
+            12.0,
+            events=[GroundEvent("go_event", 3.0)],
+            faults=[
+                Fault("kill", 2.0, frozenset({4})),
+                Fault("kill", 3.5, frozenset({1})),
+                Fault("restart", restart, frozenset({4})),
+            ],
+        )
+        assert report["violations"] == []
+        final = report["final_actors"]
+        assert final["4"] == ["B"], (restart, final)

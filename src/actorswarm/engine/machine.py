@@ -138,6 +138,8 @@ class ActorMachine:
         # How many rows of the table hold each actor: whether anybody else still runs one
         # is then a lookup, not a walk over the swarm (_catch_up, on every platform's join).
         self._runners: Counter[str] = Counter()
+        # Platforms whose catch-up waits for every member's row (a new master's table).
+        self._deferred: set[int] = set()
         self._needs: dict[tuple[int, int, int], int] = {}
         self._needs_for: tuple[int, int] = (-1, -1)
         # Member side: what the master runs, so that whoever succeeds a dead master can
@@ -301,6 +303,8 @@ class ActorMachine:
             self.node.send_app(event.platform, TOPIC_MASTER_ACTORS, body, now)
         elif isinstance(event, MemberLeft) and self.node.is_master:
             self._relay_lost(event.platform, self._forget_table(event.platform), now)
+            self._deferred.discard(event.platform)
+            self._catch_up_deferred(now)  # it may have been the last row missing
 
     # --- events and candidacy -----------------------------------------------------------
 
@@ -630,6 +634,7 @@ class ActorMachine:
         running = self.runtime.running()
         self._table = {self.node.platform: running}
         self._runners = Counter(running)
+        self._deferred = set()
         self._table_version += 1
 
     def _run_table(self, platform: int, running: tuple[str, ...]) -> tuple[str, ...] | None:
@@ -702,6 +707,7 @@ class ActorMachine:
                         self.node.send_app(platform, TOPIC_EVENT, body, now)
         if before is None and platform != self.node.platform:
             self._catch_up(platform, running, now)
+            self._catch_up_deferred(now)
         if touched or before is None:
             self.node.needs_changed(now, None if before is None else touched)
 
@@ -718,10 +724,10 @@ class ActorMachine:
         alone = [a for a in running if self._runners[a] <= running.count(a)]
         if not alone:
             return
-        table = self._table
-        if any(p not in table for p in self.node.members.peers if p != platform):
+        if not self._table_complete():
             # Not every member has said what it runs yet (a new master): nobody can tell
-            # whether the swarm has left an actor.
+            # whether the swarm has left an actor. Asked again once all have.
+            self._deferred.add(platform)
             return
         plan = self.plan
         for actor in alone:
@@ -731,6 +737,22 @@ class ActorMachine:
                     body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
                     self.node.send_app(platform, TOPIC_MISSED, body, now)
                     break
+
+    def _table_complete(self) -> bool:
+        """Master: whether every member of the view has a row in the table."""
+        table = self._table
+        return all(p in table for p in self.node.members.peers)
+
+    def _catch_up_deferred(self, now: float) -> None:
+        """Master: the catch-ups put off while the table was incomplete (a platform that
+        rejoined a new master before the others had all reported), once it is complete."""
+        if not self._deferred or not self._table_complete():
+            return
+        deferred, self._deferred = self._deferred, set()
+        for platform in sorted(deferred):
+            running = self._table.get(platform)
+            if running is not None:
+                self._catch_up(platform, running, now)
 
     def _scatter(
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]
