@@ -730,8 +730,9 @@ class ActorMachine:
             self._deferred.add(platform)
             return
         plan = self.plan
+        shared = self._shared.newest_first()
         for actor in alone:
-            for occasion, event, origin, data in self._shared.newest_first():
+            for occasion, event, origin, data in shared:
                 found = plan.by_event.get((actor, event))
                 if found is not None and plan.groups[found[0]].parts[found[1]].sys_num == "all":
                     body = _ENCODE.encode(_EventMsg(event, origin, data, occasion))
@@ -748,11 +749,11 @@ class ActorMachine:
         rejoined a new master before the others had all reported), once it is complete."""
         if not self._deferred or not self._table_complete():
             return
+        # Each is in the table: a row leaves it only with its platform (MemberLeft, which
+        # drops it from here too) or with the whole table (a new master, which clears this).
         deferred, self._deferred = self._deferred, set()
         for platform in sorted(deferred):
-            running = self._table.get(platform)
-            if running is not None:
-                self._catch_up(platform, running, now)
+            self._catch_up(platform, self._table[platform], now)
 
     def _scatter(
         self, key: int, generation: int, chosen: list[tuple[int, int, int, BarrierRequest]]

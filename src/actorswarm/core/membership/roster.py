@@ -235,9 +235,7 @@ class RosterView:
                 return False
             self._pending = key
             self._parts = {}
-        self._parts[chunk.index] = (
-            list(chunk.members) if self._pool is None else self._pool.part(chunk)
-        )
+        self._parts[chunk.index] = chunk.members if self._pool is None else self._pool.part(chunk)
         if len(self._parts) < chunk.count:
             return False
         if (chunk.epoch, chunk.version) < (self.epoch, self.version):
