@@ -133,6 +133,27 @@ def test_takeoff_late_holds_below_the_others() -> None:
     assert plugin._drive_snapshot() == {"fired": True, "low": True}
 
 
+class WanderingLateVehicle(LateVehicle):
+    """A late autopilot whose height on its runway wanders, as ArduPlane's does before
+    arming (-0.22 to +0.40 m measured in SITL): it reads 0.4 m while still on the ground."""
+
+    def position(self) -> tuple[float, float, float]:
+        x, y, z = super().position()
+        return (x, y, 0.4) if z == 0.0 else (x, y, z)
+
+
+def test_takeoff_late_is_not_fooled_by_the_ground_height_wandering() -> None:
+    """0.4 m read on the runway is not "off the ground": the aircraft that really leaves
+    it 30 s after its turn is late and holds low (with 0.2 m as the threshold it was taken
+    as airborne from the start, and climbed through the others to 60 m)."""
+    vehicle = WanderingLateVehicle(30.0, climb_rate=4.0)
+    ctx = make_context(TakeOff, params=LATE, vehicle=vehicle)
+    events = run_plugin(TakeOff(), ctx, steps=500, dt=0.1)
+    assert vehicle.commands[:2] == [("takeoff", 60.0), ("takeoff", 40.0)]
+    assert names(events) == ["ready_event"]
+    assert abs(vehicle.position()[2] - 40.0) <= 1.0
+
+
 @pytest.mark.parametrize("ready_at", [0.0, 9.5])
 def test_takeoff_in_time_climbs_to_its_altitude(ready_at: float) -> None:
     """Off the ground within ``late_after`` of its turn: the take-off as without it."""

@@ -158,6 +158,45 @@ def test_take_off_fly_a_goal_follow_a_moving_one_hold_land_and_take_off_again() 
         assert f.sim._plane is not None and f.sim._plane.mission == []
 
 
+def test_the_height_on_the_ground_wanders_as_arduplane_s_does() -> None:
+    """Standing on its runway, the simulated ArduPlane reports the wandering height the
+    firmware does (-0.22..+0.40 m measured), though it does not move."""
+    with plane() as f:
+        v = f.vehicle
+        f.run(5.0, lambda: v.status()["ready"] is True)
+        heights = []
+        for _ in range(300):  # 30 s
+            f.run(0.1)
+            heights.append(v.position()[2])
+        assert -0.23 <= min(heights) < 0.0 and 0.3 < max(heights) <= 0.41, heights
+        assert f.sim_position()[2] == 0.0
+
+
+def test_a_take_off_asked_before_the_autopilot_boots_flies_once_it_is_heard() -> None:
+    """An autopilot that boots after its daemon (its link silent when the aircraft's turn
+    comes) is ready late, as one that has not aligned yet: the take-off waits for it,
+    saying why, instead of failing for good (as it did: the aircraft stayed on the ground
+    in the flight where ArduPlane started 60 s late)."""
+    with plane() as f:
+        v = f.vehicle
+        v.takeoff(40.0)
+        for _ in range(500):  # 10 s with the autopilot not started: nothing answers
+            f.clock[0] += _STEP
+            v.service(f.clock[0])
+        assert v.drain_faults() == []
+        assert v.status()["plan"] == "takeoff"
+        assert v.status()["waiting"] == 10.0
+        waits = [fields for name, fields in v.drain_log() if name == "vehicle-waiting"]
+        assert waits[0]["reason"] == (
+            "takeoff: no HEARTBEAT from the autopilot on "
+            f"{v.settings.url}: carried out once it is heard"
+        ), waits
+        took = f.run(90.0, lambda: v.height() >= 37.0)
+        assert v.height() >= 37.0, f"{v.height():.1f} m after {took:.0f} s"
+        assert f.sim.mode_name == "TAKEOFF" and f.sim._params["TKOFF_ALT"] == 40.0
+        assert v.drain_faults() == []
+
+
 def test_a_failsafe_watching_another_ground_station_refuses_the_take_off() -> None:
     with plane(settings={"own_system": 200}) as f:
         f.run(5.0, lambda: f.vehicle.failsafes() is not None)

@@ -157,17 +157,16 @@ def test_wrong_system_id_is_never_heard(port: int, pilot: Autopilot) -> None:
             lambda: vehicle.service(0.5),
         )
         vehicle.takeoff(5.0)
-        assert vehicle.drain_errors() == [
-            "vehicle platform 3: takeoff: the autopilot has not been heard yet "
-            f"(no HEARTBEAT on udpout:127.0.0.1:{port})"
-        ]
+        # It waits for system 9, as for an autopilot that boots late; the script hears of
+        # the silence as vehicle_link_lost, and the log says which system was heard.
+        assert vehicle.drain_errors() == []
+        assert vehicle.status()["plan"] == "takeoff"
         vehicle.service(1.5)
         assert vehicle.drain_events() == [LINK_LOST]
         error = vehicle.drain_errors()[0]
         assert "no HEARTBEAT from system 9" in error
         assert error.endswith("(heard system 1 instead: a wrong --mavlink-sysid?)"), error
-        # The command refused for want of an autopilot is a fault, for the script.
-        assert len(vehicle.drain_faults()) == 1
+        assert vehicle.drain_faults() == []
     finally:
         vehicle.close()
 

@@ -56,6 +56,11 @@ __all__ = ["GoTo", "ReturnHome", "TakeOff"]
 #: A vehicle this low (metres) and this slow (m/s) is on the ground.
 LANDED_ALTITUDE: Final = 0.2
 LANDED_SPEED: Final = 0.1
+#: A vehicle above this (metres) has left the ground. Not LANDED_ALTITUDE: a real
+#: autopilot's height on the ground wanders before arming (ArduPlane SITL 4.5.7 between
+#: -0.22 and +0.40 m in 73 take-offs), so "above 0.2 m" would call an aircraft still
+#: standing on its runway airborne.
+OFF_GROUND_ALTITUDE: Final = 1.0
 
 
 #: How many transit layers a formation changing shape is spread over (the formations'
@@ -119,11 +124,12 @@ class TakeOff(Plugin):
     ``late_after`` (float ≥ 0, default 0: off), ``late_below`` (float ≥ 0, default 15)
         A late take-off kept clear of the others' holding circles. An aircraft that cannot
         hover circles where it reached its altitude, on its own row's climb-out line; one
-        whose autopilot is ready late (it leaves the ground more than ``late_after`` seconds
-        after its turn) would climb through the circles of the aircraft ahead of it at
-        their altitude. Such an aircraft climbs only to ``altitude − late_below`` and its
-        event fires there: it holds under the lowest layer, ``late_below`` (more than the
-        separation) below it, and joins from there when the actor hands over.
+        whose autopilot is ready late (it leaves the ground, climbing past 1 m, more than
+        ``late_after`` seconds after its turn) would climb through the circles of the
+        aircraft ahead of it at their altitude. Such an aircraft climbs only to
+        ``altitude − late_below`` and its event fires there: it holds under the lowest
+        layer, ``late_below`` (more than the separation) below it, and joins from there
+        when the actor hands over.
 
     A vehicle already in the air within ``tolerance`` of ``altitude`` when the actor starts
     gets no take-off command: the event goes out on the first step. (One in the air at
@@ -220,9 +226,11 @@ class TakeOff(Plugin):
         self._low = False
         z = vehicle.position()[2]
         self._asked = None
-        if not (z > LANDED_ALTITUDE and abs(z - self._altitude(ctx)) <= ctx.params["tolerance"]):
+        if not (
+            z > OFF_GROUND_ALTITUDE and abs(z - self._altitude(ctx)) <= ctx.params["tolerance"]
+        ):
             wait = self._layer(ctx) * float(ctx.params["stagger"])
-            if z <= LANDED_ALTITUDE:
+            if z <= OFF_GROUND_ALTITUDE:
                 self._asked = ctx.now + wait
             if wait > 0:
                 self._due = ctx.now + wait
@@ -239,7 +247,7 @@ class TakeOff(Plugin):
             self._due = None
             vehicle.takeoff(self._altitude(ctx))
         z = vehicle.position()[2]
-        if self._asked is not None and z > LANDED_ALTITUDE:
+        if self._asked is not None and z > OFF_GROUND_ALTITUDE:
             late_after = float(ctx.params["late_after"])
             if late_after > 0 and ctx.now - self._asked > late_after:
                 # Its autopilot was ready late: the others hold on their circles above the

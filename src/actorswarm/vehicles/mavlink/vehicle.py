@@ -23,7 +23,9 @@ Safety:
 * The autopilot's ``HEARTBEAT`` silent for ``link_timeout`` seconds (default 3) raises the
   local event ``vehicle_link_lost`` (also when it is never heard from the start); the next
   heartbeat raises ``vehicle_link_restored``: :meth:`drain_events`, which the daemon turns
-  into events its task script can handle.
+  into events its task script can handle. A command asked before the autopilot is first
+  heard (it boots after its daemon) waits for it, as a take-off waits for an autopilot that
+  is not ready yet: the latest one asked is carried out once it is heard.
 * Before arming, the autopilot's link-loss and low-battery failsafe parameters are read
   (``PARAM_REQUEST_READ``); a take-off is refused while one is off, unless ``force``.
 * The operator's ``land`` or ``hold`` (:meth:`MavlinkVehicle.override`, the daemon's
@@ -285,6 +287,8 @@ class MavlinkVehicle:
         )
         # A fixed-wing's part (:mod:`~.fixedwing`), once its HEARTBEAT says it is one.
         self._fixed_wing: FixedWing | None = None
+        # The command asked before the autopilot was heard: label, plan, when asked.
+        self._pending: tuple[str, Callable[[Flavour], list[Step]], float] | None = None
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -393,8 +397,9 @@ class MavlinkVehicle:
 
     def status(self) -> dict[str, Any]:
         """The link, the autopilot's kind, mode and arming, the battery (None: not
-        reported), the plan in progress, whether the autopilot is ready to fly (None: not
-        heard yet), the seconds a take-off has been waiting for it (None: none waits), the
+        reported), the plan in progress (or waiting for the autopilot to be heard), whether
+        the autopilot is ready to fly (None: not heard yet), the seconds a take-off (or a
+        command asked before it was heard) has been waiting for it (None: none waits), the
         reason it is not ready or a take-off still waits (its own words when it said any), the
         last command it refused, the messages it does not send although asked (``unsent``),
         the failsafe parameters read, and the messages dropped by reason."""
@@ -410,7 +415,7 @@ class MavlinkVehicle:
                 "armed": s.armed,
                 "battery": s.battery,
                 "override": self._override,
-                "plan": None if self._plan is None else self._plan.busy,
+                "plan": self._plan_label(),
                 "ready": ready,
                 "waiting": waiting,
                 "reason": self._why() if not ready or waiting is not None else self._sends_no(),
@@ -419,6 +424,12 @@ class MavlinkVehicle:
                 "failsafes": dict(s.params),
                 "dropped": dict(self._filter.dropped),
             }
+
+    def _plan_label(self) -> str | None:
+        """The command in progress, or waiting for the autopilot's first HEARTBEAT."""
+        if self._pending is not None:
+            return self._pending[0]
+        return None if self._plan is None else self._plan.busy
 
     def override(self, action: Literal["land", "hold"] | None) -> None:
         """The operator's command: ``land`` or ``hold`` now, and ignore the plugins' commands
@@ -624,13 +635,28 @@ class MavlinkVehicle:
 
     def _command(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
         if self._flavour is None or self._plan is None:
-            why = (
-                f"vehicle {self.name}: {label}: the autopilot has not been heard yet "
-                f"(no HEARTBEAT on {self.settings.url})"
-            )
-            self._errors.append(why)
-            self._faults.append(why)
+            # An autopilot that boots after its daemon is ready late, as one that has not
+            # aligned yet is: the command waits for it (the latest one asked replaces an
+            # earlier one, as a new plan replaces the one in progress) and is planned when
+            # its first HEARTBEAT says which flavour speaks for it. An autopilot never heard
+            # raises ``vehicle_link_lost`` for the script instead.
+            if self._pending is None or self._pending[0] != label:
+                self._log.append(
+                    (
+                        "vehicle-waiting",
+                        {
+                            "vehicle": self.name,
+                            "reason": f"{label}: {self._why()}: carried out once it is heard",
+                            "waiting": None,
+                        },
+                    )
+                )
+            self._pending = (label, plan, self._clock())
             return
+        self._start(label, plan)
+
+    def _start(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
+        assert self._flavour is not None and self._plan is not None
         steps = plan(self._flavour)
         self._plan.start(label, steps, self._clock())
         failed = self._plan.drain_errors()
@@ -742,6 +768,10 @@ class MavlinkVehicle:
                 on_refused=self._on_refused,
             )
             self._streams = StreamWatch(chosen, target, grace=self.settings.stream_grace)
+            if self._pending is not None:
+                label, plan, _ = self._pending
+                self._pending = None
+                self._start(label, plan)
         s.mode = mode_name(s.kind, message.base_mode, message.custom_mode, s.airframe)
         if self._mode_asked is not None and self._mode_asked[0] == s.mode:
             self._mode_asked = None  # carried out
@@ -786,7 +816,9 @@ class MavlinkVehicle:
 
     def _waiting(self, now: float) -> float | None:
         """Seconds the plan in progress has been waiting for the autopilot to be ready or
-        to accept arming (None: it is not waiting for that)."""
+        to accept arming, or for its first HEARTBEAT (None: it is not waiting for that)."""
+        if self._pending is not None:
+            return round(now - self._pending[2], 1)
         plan = self._plan
         step = None if plan is None else plan.step
         began = None if plan is None else plan.began
