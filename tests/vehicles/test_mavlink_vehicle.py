@@ -147,7 +147,7 @@ def test_heartbeat_silence_raises_link_lost_then_restored(port: int, pilot: Auto
 
 
 def test_wrong_system_id_is_never_heard(port: int, pilot: Autopilot) -> None:
-    vehicle = make(port, system=9, link_timeout=1.0)
+    vehicle = make(port, system=9, link_timeout=1.0, arm_timeout=4.0)
     try:
         vehicle.service(0.0)
         until(lambda: bool(pilot.read()), lambda: None)
@@ -167,6 +167,15 @@ def test_wrong_system_id_is_never_heard(port: int, pilot: Autopilot) -> None:
         assert "no HEARTBEAT from system 9" in error
         assert error.endswith("(heard system 1 instead: a wrong --mavlink-sysid?)"), error
         assert vehicle.drain_faults() == []
+        # Not heard within arm_timeout (here 4 s): the take-off fails for good.
+        vehicle.service(4.5)
+        why = (
+            "vehicle platform 3: takeoff: the autopilot was not heard within 4 s "
+            f"(no HEARTBEAT on udpout:127.0.0.1:{port})"
+        )
+        assert vehicle.drain_faults() == [why]
+        assert why in vehicle.drain_errors()
+        assert vehicle.status()["plan"] is None
     finally:
         vehicle.close()
 

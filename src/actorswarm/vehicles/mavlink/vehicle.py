@@ -25,7 +25,8 @@ Safety:
   heartbeat raises ``vehicle_link_restored``: :meth:`drain_events`, which the daemon turns
   into events its task script can handle. A command asked before the autopilot is first
   heard (it boots after its daemon) waits for it, as a take-off waits for an autopilot that
-  is not ready yet: the latest one asked is carried out once it is heard.
+  is not ready yet: the latest one asked is carried out once it is heard, or fails for good
+  (a fault) when none was heard within ``arm_timeout``.
 * Before arming, the autopilot's link-loss and low-battery failsafe parameters are read
   (``PARAM_REQUEST_READ``); a take-off is refused while one is off, unless ``force``.
 * The operator's ``land`` or ``hold`` (:meth:`MavlinkVehicle.override`, the daemon's
@@ -358,6 +359,7 @@ class MavlinkVehicle:
                 failed = self._plan.drain_errors()
                 self._errors += failed
                 self._faults += failed
+            self._give_up_waiting(now)
             self._stream(now)
             self._watch_readiness(now)
 
@@ -654,6 +656,21 @@ class MavlinkVehicle:
             self._pending = (label, plan, self._clock())
             return
         self._start(label, plan)
+
+    def _give_up_waiting(self, now: float) -> None:
+        """A command still waiting for the autopilot's first HEARTBEAT ``arm_timeout``
+        after it was asked fails for good, as a take-off that waited as long for an
+        autopilot that was heard but never ready does."""
+        if self._pending is None or now - self._pending[2] < self.settings.arm_timeout:
+            return
+        label = self._pending[0]
+        self._pending = None
+        why = (
+            f"vehicle {self.name}: {label}: the autopilot was not heard within "
+            f"{self.settings.arm_timeout:g} s (no HEARTBEAT on {self.settings.url})"
+        )
+        self._errors.append(why)
+        self._faults.append(why)
 
     def _start(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
         assert self._flavour is not None and self._plan is not None
