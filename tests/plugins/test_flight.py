@@ -119,13 +119,16 @@ LATE = {"altitude": "60", "late_after": "10", "late_below": "20"}
 
 
 def test_takeoff_late_holds_below_the_others() -> None:
-    """Off the ground 30 s after its turn: it climbs only to 40 m, 20 m under the others'
-    circles, and its event fires there."""
+    """Ready 30 s after its turn: still on the ground 10 s after it, it is sent to 40 m
+    instead, 20 m under the others' circles, climbs only there and its event fires
+    there."""
     vehicle = LateVehicle(30.0, climb_rate=4.0)
     ctx = make_context(TakeOff, params=LATE, vehicle=vehicle)
     plugin = TakeOff()
-    assert run_plugin(plugin, ctx, steps=290, dt=0.1) == []  # 29 s on the ground
+    assert run_plugin(plugin, ctx, steps=95, dt=0.1) == []  # 9.5 s on the ground
     assert vehicle.commands == [("takeoff", 60.0)]
+    assert run_plugin(plugin, ctx, steps=195, dt=0.1) == []  # 29 s on the ground
+    assert vehicle.commands == [("takeoff", 60.0), ("takeoff", 40.0)]
     events = run_plugin(plugin, ctx, steps=200, dt=0.1)
     assert vehicle.commands[:2] == [("takeoff", 60.0), ("takeoff", 40.0)]
     assert names(events) == ["ready_event"]

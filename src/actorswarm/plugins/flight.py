@@ -124,10 +124,11 @@ class TakeOff(Plugin):
     ``late_after`` (float ≥ 0, default 0: off), ``late_below`` (float ≥ 0, default 15)
         A late take-off kept clear of the others' holding circles. An aircraft that cannot
         hover circles where it reached its altitude, on its own row's climb-out line; one
-        whose autopilot is ready late (it leaves the ground, climbing past 1 m, more than
-        ``late_after`` seconds after its turn) would climb through the circles of the
-        aircraft ahead of it at their altitude. Such an aircraft climbs only to
-        ``altitude − late_below`` and its event fires there: it holds under the lowest
+        whose autopilot is late (still on the ground, under 1 m, ``late_after`` seconds
+        after its turn) would climb through the circles of the aircraft ahead of it at
+        their altitude. Such an aircraft is sent up to ``altitude − late_below`` instead
+        (a second ``takeoff``, which replaces the one still waiting) and its event fires
+        there: it holds under the lowest
         layer, ``late_below`` (more than the separation) below it, and joins from there
         when the actor hands over.
 
@@ -181,8 +182,8 @@ class TakeOff(Plugin):
             kind="float",
             default=0.0,
             minimum=0.0,
-            doc="an aircraft off the ground this many seconds after its turn holds below "
-            "the others (0: never)",
+            doc="an aircraft still on the ground this many seconds after its turn holds "
+            "below the others (0: never)",
         ),
         "late_below": Param(
             kind="float",
@@ -247,14 +248,18 @@ class TakeOff(Plugin):
             self._due = None
             vehicle.takeoff(self._altitude(ctx))
         z = vehicle.position()[2]
-        if self._asked is not None and z > OFF_GROUND_ALTITUDE:
+        if self._asked is not None:
             late_after = float(ctx.params["late_after"])
-            if late_after > 0 and ctx.now - self._asked > late_after:
-                # Its autopilot was ready late: the others hold on their circles above the
-                # field, and its climb-out would cross them. It holds under them instead.
+            if z > OFF_GROUND_ALTITUDE:
+                self._asked = None  # off the ground in time
+            elif late_after > 0 and ctx.now - self._asked > late_after:
+                # Its autopilot is late: the others hold on their circles above the field,
+                # and its climb-out would cross them. It is sent under them instead, while
+                # still on the ground (a real autopilot then takes off straight to the
+                # lower altitude, rather than being turned back in its climb).
                 self._low = True
+                self._asked = None
                 vehicle.takeoff(self._altitude(ctx))
-            self._asked = None
         if abs(z - self._altitude(ctx)) <= ctx.params["tolerance"]:
             self._fired = True
             ctx.emit(ctx.params["event"], scope=ctx.params["scope"])
