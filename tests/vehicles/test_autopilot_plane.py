@@ -31,6 +31,9 @@ HOME = MissionFrame(-35.363262, 149.165237, 584.0)
 #: one GPS_GLOBAL_ORIGIN at 21.7 s; "ArduPilot Ready" (and the first HEARTBEAT) at 1.6 s.
 STREAMED_1HZ = ("ATTITUDE", "GLOBAL_POSITION_INT", "VFR_HUD", "SYS_STATUS", "GPS_RAW_INT")
 STREAMS_FROM, EKF_FROM, HOME_AT, ORIGIN_AT, READY_AT = 1.9, 3.0, 10.0, 21.7, 1.6
+#: The first HEARTBEAT, in mode INITIALISING (ArduPlane 4.5.7 SITL: 0.94 s after the link
+#: connected, "ArduPilot Ready" and MANUAL 0.71 s later).
+FIRST_HEARTBEAT = 0.9
 #: Arming first accepted at 21.3 s (another boot 23.4 s).
 ARMED_FROM = (21.3, 23.4)
 #: TAKEOFF mode, TKOFF_ALT 40: wheels off +3.8 s after 40 m at 19.5 m/s, 39 m at +29.8 s,
@@ -51,7 +54,15 @@ RTL_ALT, RTL_RADIUS = 100.0, 101.0
 GLIDE_DEG, GLIDE_SPEED, TOUCH_SHORT, STOP_SHORT = 3.5, 16.0, 46.0, 16.0
 DISARM_AFTER, GLIDE_TIME = 96.0 - 67.8, 67.8 - 26.5
 
-MODES = {"MANUAL": 0, "AUTO": 10, "RTL": 11, "LOITER": 12, "TAKEOFF": 13, "GUIDED": 15}
+MODES = {
+    "MANUAL": 0,
+    "AUTO": 10,
+    "RTL": 11,
+    "LOITER": 12,
+    "TAKEOFF": 13,
+    "GUIDED": 15,
+    "INITIALISING": 16,
+}
 
 
 class Station:
@@ -228,7 +239,9 @@ def test_streams_unasked_at_1_hz_from_its_boot(plane: Station) -> None:
     beat = plane.last("HEARTBEAT")
     assert (beat.type, beat.autopilot) == (mav.MAV_TYPE_FIXED_WING, mav.MAV_AUTOPILOT_ARDUPILOTMEGA)
     assert beat.custom_mode == MODES["MANUAL"]
-    assert first["HEARTBEAT"] == pytest.approx(READY_AT, abs=0.15)
+    assert first["HEARTBEAT"] == pytest.approx(FIRST_HEARTBEAT, abs=0.15)
+    modes = [m.custom_mode for t, m in plane.heard if m.get_type() == "HEARTBEAT" and t < READY_AT]
+    assert set(modes) == {MODES["INITIALISING"]}, modes
     for name in STREAMED_1HZ:
         assert first[name] == pytest.approx(STREAMS_FROM, abs=0.15), name
         assert abs(counts[name] - (25.0 - STREAMS_FROM)) <= 1.5, f"{name}: {counts[name]}"
@@ -257,6 +270,23 @@ def test_a_mission_before_ardupilot_ready_is_refused(plane: Station) -> None:
     assert any("Only 0 items" in text for text in plane.texts())
     plane.run(READY_AT, step=0.1)
     assert plane.upload([item(0, mav.MAV_CMD_NAV_WAYPOINT)]).type == mav.MAV_MISSION_ACCEPTED
+
+
+def test_a_mode_asked_while_initialising_is_accepted_then_lost_at_ready(plane: Station) -> None:
+    """As ArduPlane 4.5.7 SITL did: DO_SET_MODE TAKEOFF at its first HEARTBEAT ACCEPTED and
+    shown, then MANUAL at "ArduPilot Ready" (an aircraft armed after that stays put)."""
+    plane.run(FIRST_HEARTBEAT + 0.1)
+    assert plane.last("HEARTBEAT").custom_mode == MODES["INITIALISING"]
+    assert plane.command(mav.MAV_CMD_DO_SET_MODE, 1, MODES["TAKEOFF"]) == mav.MAV_RESULT_ACCEPTED
+    plane.run(0.3)
+    assert plane.sim.mode_name == "TAKEOFF"
+    plane.run(READY_AT + 0.5 - plane.t)
+    assert plane.sim.mode_name == "MANUAL"
+    assert plane.last("HEARTBEAT").custom_mode == MODES["MANUAL"]
+    # Asked again after Ready, it stays.
+    assert plane.command(mav.MAV_CMD_DO_SET_MODE, 1, MODES["TAKEOFF"]) == mav.MAV_RESULT_ACCEPTED
+    plane.run(2.0)
+    assert plane.last("HEARTBEAT").custom_mode == MODES["TAKEOFF"]
 
 
 def test_arming_is_refused_with_its_reasons_until_about_22_s(plane: Station) -> None:

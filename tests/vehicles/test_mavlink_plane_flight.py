@@ -13,6 +13,7 @@ from typing import Any
 from tests.vehicles.helpers import free_port
 
 from actorswarm.vehicles.mavlink.autopilot import AutopilotOptions, SimAutopilot
+from actorswarm.vehicles.mavlink.boot import ARDUPLANE_READY_AFTER
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.vehicle import MavlinkSettings, MavlinkVehicle
 
@@ -177,7 +178,7 @@ def test_a_take_off_asked_before_the_autopilot_boots_flies_once_it_is_heard() ->
     comes) is ready late, as one that has not aligned yet: the take-off waits for it,
     saying why, instead of failing for good (as it did: the aircraft stayed on the ground
     in the flight where ArduPlane started 60 s late)."""
-    with plane() as f:
+    with plane(ready_after=ARDUPLANE_READY_AFTER) as f:  # its boot at the measured pace
         v = f.vehicle
         v.takeoff(40.0)
         for _ in range(500):  # 10 s with the autopilot not started: nothing answers
@@ -191,6 +192,10 @@ def test_a_take_off_asked_before_the_autopilot_boots_flies_once_it_is_heard() ->
             "takeoff: no HEARTBEAT from the autopilot on "
             f"{v.settings.url}: carried out once it is heard"
         ), waits
+        f.sim.reboot(f.clock[0])  # the autopilot starts now
+        # Planned at its first HEARTBEAT, while it is INITIALISING: the TAKEOFF mode asked
+        # then is lost at "ArduPilot Ready" (as on the firmware), and asked again once
+        # armed, which starts the take-off.
         took = f.run(90.0, lambda: v.height() >= 37.0)
         assert v.height() >= 37.0, f"{v.height():.1f} m after {took:.0f} s"
         assert f.sim.mode_name == "TAKEOFF" and f.sim._params["TKOFF_ALT"] == 40.0

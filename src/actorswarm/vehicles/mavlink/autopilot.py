@@ -38,8 +38,9 @@ What it models
 * ArduPlane 4.5.7 (``frame="plane"``, :mod:`~.simplane`): the project's fixed-wing physics
   fitted to the measured SITL (cruise 22 m/s in 10–30, clockwise circles 20–25 m wider than
   asked, at least 50 m; the take-off roll, lift-off and climb; a 3.5° glide at 16 m/s);
-  HEARTBEAT type FIXED_WING, INITIALISING then MANUAL; its 1 Hz streams unasked from
-  1.9 s, a ``SET_MESSAGE_INTERVAL`` before its first HEARTBEAT ACKed and ignored; arming
+  HEARTBEAT type FIXED_WING from 0.9 s, INITIALISING (a mode asked then is accepted and
+  lost) until ``ArduPilot Ready`` at 1.6 s, then MANUAL; its 1 Hz streams unasked from
+  1.9 s, a ``SET_MESSAGE_INTERVAL`` before Ready ACKed and ignored; arming
   refused with its ``Arm:`` reasons until 22 s; TAKEOFF, GUIDED (``DO_REPOSITION``, the
   altitude of ``SET_POSITION_TARGET_GLOBAL_INT``), LOITER, RTL (``RTL_ALTITUDE``,
   ``RTL_AUTOLAND``), AUTO; ``DO_CHANGE_SPEED``; the mission protocol and a landing
@@ -354,6 +355,8 @@ class SimAutopilot:
         self._said = -1.0
         self._nagged = None
         self.streams.forget()
+        if self._plane is not None:
+            self._plane.restart()
 
     def say(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
         """A STATUSTEXT, to a link that may receive one (ArduPilot: one that sent anything;

@@ -14,14 +14,16 @@ ArduPilot
     answered ``MAV_RESULT_FAILED`` with ``Arm:`` texts; ``PreArm:`` texts repeat while not
     ready.
 ArduPlane (``frame="plane"``, measured on ArduPlane 4.5.7 SITL with ``plane.parm``)
-    About 22 s to arming; as measured, in seconds of that: the mode INITIALISING until 0.2 s
-    (then MANUAL); ``ArduPilot Ready`` and the first ``HEARTBEAT`` at 1.6 s (before it, a
-    ``SET_MESSAGE_INTERVAL`` is ACKed and never applied, a mission refused); its 1 Hz
+    About 22 s to arming; as measured, in seconds of that (from the link's connection, which
+    SITL waits for): the first ``HEARTBEAT`` at 0.9 s, in mode INITIALISING, which takes a
+    ``DO_SET_MODE`` (ACCEPTED, and shown) that is lost at ``ArduPilot Ready``, 1.6 s, when
+    the mode becomes MANUAL whatever was asked (before Ready, a ``SET_MESSAGE_INTERVAL`` is
+    ACKed and never applied, a mission refused); its 1 Hz
     streams from 1.9 s, ``EKF_STATUS_REPORT`` from 3 s; home, a 3D fix and a real
     ``GLOBAL_POSITION_INT`` at 10 s; ``EKF3 IMU0 is using GPS`` at 20.3 s; the EKF origin
     (``GPS_GLOBAL_ORIGIN``) at 21.7 s. A refused arm is answered ``MAV_RESULT_FAILED`` with
     ``Arm: Accels inconsistent``, ``Arm: Compass not healthy``, ``Arm: AHRS: waiting for
-    home`` (until home), ``Arm: Airspeed 1 not healthy`` and, for the first 0.2 s, ``Arm:
+    home`` (until home), ``Arm: Airspeed 1 not healthy`` and, until Ready, ``Arm:
     INITIALISING mode not armable``; from 12 s ``Arm: Gyros inconsistent`` alone (measured
     12–18 s; held until ready, the last reason seen). No ``PreArm:`` nagging is modelled.
 PX4
@@ -60,7 +62,7 @@ _ARDUPILOT_TEXTS: Final = (
 )
 _PX4_TEXTS: Final = ((0.0, "PX4 SITL boot"),)
 #: ArduPlane's boot, in seconds of its measured 22 s (scaled with ready_after).
-_PLANE_INITIALISED: Final = 0.2
+_PLANE_FIRST_HEARTBEAT: Final = 0.9
 _PLANE_READY: Final = 1.6
 _PLANE_STREAMS: Final = 1.9
 _PLANE_EKF: Final = 3.0
@@ -107,10 +109,11 @@ class BootState:
     nag: str | None
     #: ``GPS_GLOBAL_ORIGIN`` may go (ArduPilot: once, when its EKF has an origin).
     origin: bool = False
-    #: ArduPlane's start-up steps (the other autopilots have them all from the start): its
-    #: mode left INITIALISING; HEARTBEAT sent, SET_MESSAGE_INTERVAL applied, a mission
-    #: taken ("ArduPilot Ready"); its streams going; its EKF_STATUS_REPORT going.
-    initialised: bool = True
+    #: ArduPlane's start-up steps (the other autopilots have them all from the start):
+    #: HEARTBEAT sent (in mode INITIALISING); its mode set to MANUAL whatever was asked,
+    #: SET_MESSAGE_INTERVAL applied, a mission taken ("ArduPilot Ready"); its streams
+    #: going; its EKF_STATUS_REPORT going.
+    beating: bool = True
     link_ready: bool = True
     streaming: bool = True
     ekf_streaming: bool = True
@@ -229,7 +232,7 @@ class Boot:
             if not home:
                 refusal += ("Arm: AHRS: waiting for home",)
             refusal += ("Arm: Airspeed 1 not healthy",)
-            if not since(_PLANE_INITIALISED):
+            if not since(_PLANE_READY):
                 refusal += ("Arm: INITIALISING mode not armable",)
         return BootState(
             armable=armable,
@@ -242,7 +245,7 @@ class Boot:
             ekf_flags=flags,
             nag=None,
             origin=since(_PLANE_ORIGIN),
-            initialised=since(_PLANE_INITIALISED),
+            beating=since(_PLANE_FIRST_HEARTBEAT),
             link_ready=since(_PLANE_READY),
             streaming=since(_PLANE_STREAMS),
             ekf_streaming=since(_PLANE_EKF),

@@ -20,14 +20,15 @@ Flight (the project's fixed-wing physics, :class:`~actorswarm.world.vehicles.Fle
 
 Modes (``MAV_CMD_DO_SET_MODE``, ArduPlane's numbers; any other mode FAILED as ArduPilot
 answers a mode it cannot enter)
-    INITIALISING for the first 0.2 s of the boot, then MANUAL. MANUAL, STABILIZE, FBWA and
-    CIRCLE circle where they are (no RC input is modelled: a stand-in for "wings level, keep
-    going"). LOITER and GUIDED circle where they are at ``WP_LOITER_RAD``. TAKEOFF, armed
-    on the ground, rolls along the runway and climbs to ``TKOFF_ALT`` while it circles the
-    point ``TKOFF_DIST`` ahead, staying in TAKEOFF (arming in TAKEOFF starts it). RTL climbs
-    (or descends) to ``RTL_ALTITUDE`` and circles home for ever with ``RTL_AUTOLAND`` 0;
-    with 1, once at home it flies the mission's landing sequence. AUTO flies the mission
-    from its current item. Every mode change resets the airspeed to cruise.
+    INITIALISING from its first HEARTBEAT until ``ArduPilot Ready``, then MANUAL: a mode asked
+    while INITIALISING is accepted and then forgotten, as the firmware does. MANUAL, STABILIZE,
+    FBWA and CIRCLE circle where they are (no RC input is modelled: a stand-in for "wings level,
+    keep going"). LOITER and GUIDED circle where they are at ``WP_LOITER_RAD``. TAKEOFF, armed
+    on the ground, rolls along the runway and climbs to ``TKOFF_ALT`` while it circles the point
+    ``TKOFF_DIST`` ahead, staying in TAKEOFF (arming in TAKEOFF starts it). RTL climbs (or
+    descends) to ``RTL_ALTITUDE`` and circles home for ever with ``RTL_AUTOLAND`` 0; with 1,
+    once at home it flies the mission's landing sequence. AUTO flies the mission from its
+    current item. Every mode change resets the airspeed to cruise.
 
 Commands (``COMMAND_LONG`` and ``COMMAND_INT``, each answered with ``COMMAND_ACK``)
     ``DO_REPOSITION`` (in GUIDED, or with the change-mode flag: to GUIDED; else FAILED):
@@ -216,6 +217,7 @@ class SimPlane:
         self._home = home
         self._params = params
         self.mode = _M["INITIALISING"]
+        self._ready = False  # its start-up over ("ArduPilot Ready")
         self.mission: list[Any] = []
         self._incoming: list[Any] | None = None
         self._expected = 0
@@ -226,6 +228,11 @@ class SimPlane:
         self._speed: float | None = None  # the airspeed asked for (None: cruise)
         self._heading = vehicle.heading()
         self._turn_rate = 0.0
+
+    def restart(self) -> None:
+        """A reboot: INITIALISING again until "ArduPilot Ready"."""
+        self.mode = _M["INITIALISING"]
+        self._ready = False
 
     # --- reading ---------------------------------------------------------------------------------
 
@@ -266,10 +273,10 @@ class SimPlane:
             math.remainder(heading - self._heading, math.tau) / 0.02 if self.airborne() else 0.0
         )
         self._heading = heading
-        if (
-            self.mode == _M["INITIALISING"]
-            and self._host.boot.at(self._host.boot_time(now)).initialised
-        ):
+        if not self._ready and self._host.boot.at(self._host.boot_time(now)).link_ready:
+            # "ArduPilot Ready": the start-up ends in MANUAL, a mode asked while it was
+            # INITIALISING (accepted then) forgotten, as measured.
+            self._ready = True
             self.mode = _M["MANUAL"]
         if v.mode == "dead":
             self._host.armed = False
@@ -298,7 +305,7 @@ class SimPlane:
         :mod:`~.boot`): nothing before its first HEARTBEAT, its streams a little after."""
         state = self._host.boot.at(self._host.boot_time(now))
         if message_id == mav.MAVLINK_MSG_ID_HEARTBEAT:
-            return state.link_ready
+            return state.beating
         if message_id == mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
             return state.ekf_streaming
         return state.streaming
