@@ -115,7 +115,7 @@ def test_px4_splits_long_texts_into_chunks() -> None:
 
 @pytest.mark.parametrize("bench", [("ardupilot", 2.0)], indirect=True)
 def test_ardupilot_refuses_until_ready_with_its_reasons(bench: Bench) -> None:
-    heard = bench.at(0.1)
+    heard = bench.at(0.12)  # "ArduPilot Ready" at 5.5 % of the boot
     assert "ArduPilot Ready" in texts(heard)
     bench.ask(
         {

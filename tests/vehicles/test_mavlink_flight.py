@@ -204,6 +204,40 @@ def test_a_takeoff_waits_until_the_autopilot_is_ready_and_says_why(
         assert "vehicle-waiting" in log and "vehicle-ready" in log
 
 
+def test_a_copter_take_off_asked_before_its_autopilot_is_heard_flies_once_it_is() -> None:
+    """ArduCopter at its measured pace, on the test's clock: the take-off, asked before its
+    first HEARTBEAT, is planned when it comes (0.96 s); GUIDED, asked then, is lost at
+    "ArduPilot Ready" (2.2 s), as on the firmware, and asked again once armed — without
+    that NAV_TAKEOFF was refused in STABILIZE and the copter never left the ground."""
+    clock = [500.0]
+    port = free_port()
+    sim = SimAutopilot(
+        AutopilotOptions(
+            f"udpin:127.0.0.1:{port}", MissionFrame(*ORIGIN.to_geodetic(*HOME)), system=7
+        ),
+        clock=lambda: clock[0],
+    )
+    vehicle = MavlinkVehicle(
+        MavlinkSettings(f"udpout:127.0.0.1:{port}", ORIGIN, system=7, name="platform 1"),
+        clock=lambda: clock[0],
+    )
+    try:
+        vehicle.takeoff(5.0)
+        modes = []
+        while clock[0] < 560.0 and vehicle.position()[2] < 4.5:
+            clock[0] += 0.02
+            sim.service(clock[0])
+            vehicle.service(clock[0])
+            if not modes or modes[-1] != sim.mode_name:
+                modes.append(sim.mode_name)
+        assert vehicle.position()[2] >= 4.5, (modes, vehicle.drain_errors())
+        assert modes[:3] == ["STABILIZE", "GUIDED", "STABILIZE"], modes
+        assert vehicle.drain_faults() == []
+    finally:
+        vehicle.close()
+        sim.close()
+
+
 def test_an_autopilot_that_never_becomes_ready_fails_the_takeoff_with_its_reason() -> None:
     with fly("ardupilot", ready_after=60.0, arm_timeout=2.0) as (vehicle, sim):
         wait_for("the autopilot heard", lambda: vehicle.status()["autopilot"] is not None, 3.0)

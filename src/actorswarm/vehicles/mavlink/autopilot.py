@@ -234,6 +234,7 @@ class SimAutopilot:
         self._mode: int | tuple[int, int] = (
             (PX4_MAIN["AUTO"], PX4_SUB["LOITER"]) if self._px4 else ARDUPILOT_MODES["STABILIZE"]
         )
+        self._ready = False  # ArduCopter's start-up over ("ArduPilot Ready")
         self._speed: float | None = None
         self._setpoint_at: float | None = None
         self._params = (
@@ -355,6 +356,7 @@ class SimAutopilot:
         self._said = -1.0
         self._nagged = None
         self.streams.forget()
+        self._ready = False
         if self._plane is not None:
             self._plane.restart()
 
@@ -565,6 +567,11 @@ class SimAutopilot:
         if self._plane is not None:
             self._plane.after_step(now)
             return
+        if not self._px4 and not self._ready and self.boot.at(self.boot_time(now)).link_ready:
+            # "ArduPilot Ready": ArduCopter's start-up ends in STABILIZE, a mode asked
+            # before then (accepted) forgotten, as measured.
+            self._ready = True
+            self._mode = ARDUPILOT_MODES["STABILIZE"]
         mode = self._vehicle.mode
         # Both autopilots disarm on touchdown, and on the ground after a few seconds armed
         # without a take-off (ArduCopter's DISARM_DELAY, PX4's COM_DISARM_PRFLT, 10 s by
@@ -588,9 +595,12 @@ class SimAutopilot:
 
     def _streams(self, now: float) -> None:
         plane = self._plane
+        beating = self.boot.at(self.boot_time(now)).beating
         for message_id in self.streams.due(now):
             if plane is not None and not plane.may_send(message_id, now):
                 self.streams.unsent(message_id)  # ArduPlane's boot: not yet
+            elif message_id == mav.MAVLINK_MSG_ID_HEARTBEAT and not beating:
+                self.streams.unsent(message_id)  # ArduCopter's boot: not yet
             elif not self._send_stream(message_id, now):
                 self.streams.unsent(message_id)
         # ArduPilot: one of each, unasked: home once it has one, the origin once its EKF

@@ -6,7 +6,9 @@ Measured on ArduCopter 4.5.7 SITL and PX4 v1.15.4 SITL (SIH quadrotor), both fro
 arming is accepted (ArduPilot about 40 s, PX4 about 35 s by default):
 
 ArduPilot
-    ``ArduPilot Ready`` at once; the EKF's attitude at 9 % of ``ready_after``; a GPS, then
+    The first ``HEARTBEAT`` at 2.4 % of ``ready_after``, in STABILIZE, where a mode asked is
+    accepted and then lost at ``ArduPilot Ready`` (5.5 %), which starts it in STABILIZE
+    again; the EKF's attitude at 9 % of ``ready_after``; a GPS, then
     its 3D fix at 19 % and 30 %; the EKF origin (and home) at 44 %: ``GLOBAL_POSITION_INT``
     is all zeros before it; the pre-arm bit of ``SYS_STATUS`` healthy from 58 % although
     arming is still refused; ``EKF3 IMU0 is using GPS`` (absolute horizontal position,
@@ -52,8 +54,13 @@ ARDUPLANE_READY_AFTER: Final = 22.0
 _TEXT: Final = 50
 
 #: ArduPilot's boot: (fraction of ready_after, what it says then).
+#: ArduCopter 4.5.7 SITL's start (measured from the link's connection, as ArduPlane's): its
+#: first HEARTBEAT at 0.96 s, in STABILIZE, taking a mode (ACCEPTED, shown) that it forgets
+#: at "ArduPilot Ready", 2.19 s, when it is in STABILIZE again; fractions of 40 s.
+_COPTER_FIRST_HEARTBEAT: Final = 0.024
+_COPTER_READY: Final = 0.055
 _ARDUPILOT_TEXTS: Final = (
-    (0.0, "ArduPilot Ready"),
+    (_COPTER_READY, "ArduPilot Ready"),
     (0.05, "EKF3 IMU0 initialised"),
     (0.09, "EKF3 IMU0 tilt alignment complete"),
     (0.19, "GPS 1: detected as u-blox at 230400 baud"),
@@ -109,10 +116,10 @@ class BootState:
     nag: str | None
     #: ``GPS_GLOBAL_ORIGIN`` may go (ArduPilot: once, when its EKF has an origin).
     origin: bool = False
-    #: ArduPlane's start-up steps (the other autopilots have them all from the start):
-    #: HEARTBEAT sent (in mode INITIALISING); its mode set to MANUAL whatever was asked,
-    #: SET_MESSAGE_INTERVAL applied, a mission taken ("ArduPilot Ready"); its streams
-    #: going; its EKF_STATUS_REPORT going.
+    #: The start-up steps (PX4 has them all from the start): HEARTBEAT sent (ArduPlane in
+    #: mode INITIALISING); "ArduPilot Ready": its mode set to MANUAL (ArduCopter:
+    #: STABILIZE) whatever was asked, and, on ArduPlane, SET_MESSAGE_INTERVAL applied and a
+    #: mission taken; ArduPlane's streams going; its EKF_STATUS_REPORT going.
     beating: bool = True
     link_ready: bool = True
     streaming: bool = True
@@ -202,6 +209,8 @@ class Boot:
             if armable
             else ("PreArm: Need Position Estimate" if origin else "PreArm: AHRS: waiting for home"),
             origin=origin,
+            beating=t >= _COPTER_FIRST_HEARTBEAT * r,
+            link_ready=t >= _COPTER_READY * r,
         )
 
     def _plane(self, t: float) -> BootState:
