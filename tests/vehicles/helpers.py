@@ -5,6 +5,7 @@ from __future__ import annotations
 import socket
 import time
 from collections.abc import Callable
+from typing import Any
 
 
 def free_port(kind: int = socket.SOCK_DGRAM) -> int:
@@ -23,3 +24,13 @@ def wait_for(
     while not condition():
         assert time.monotonic() < end, f"not within {seconds} s: {what}"
         time.sleep(poll)
+
+
+def wait_started(vehicle: Any, seconds: float = 6.0) -> None:
+    """Return once the vehicle has heard its autopilot and that one's start-up is over
+    (commands asked earlier wait for it: MavlinkVehicle's ``_STARTUP``)."""
+    wait_for(
+        "the autopilot heard and started",
+        lambda: vehicle.status()["autopilot"] is not None and not vehicle.status()["starting"],
+        seconds,
+    )

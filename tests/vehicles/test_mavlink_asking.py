@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time
 
-from tests.vehicles.helpers import wait_for
+from tests.vehicles.helpers import wait_for, wait_started
 from tests.vehicles.test_mavlink_flight import fly
 
 from actorswarm.vehicles.mavlink.dialect import mav
@@ -100,7 +100,7 @@ def test_an_autopilot_that_never_answers_the_asks_still_gets_asked_to_arm_until_
         vehicle,
         sim,
     ):
-        wait_for("the autopilot heard", lambda: vehicle.status()["autopilot"] is not None, 3.0)
+        wait_started(vehicle)
         vehicle.takeoff(2.0)
         began = time.monotonic()
         errors: list[str] = []

@@ -16,7 +16,7 @@ from mavsdk import ComponentType, Configuration, Mavsdk
 from mavsdk.plugins.action_server import ActionServer, AllowableFlightModes, FlightMode
 from mavsdk.plugins.param_server import ParamServer
 from mavsdk.plugins.telemetry_server import Heading, Position, TelemetryServer, VelocityNed
-from tests.vehicles.helpers import free_port, wait_for
+from tests.vehicles.helpers import free_port, wait_for, wait_started
 
 from actorswarm.vehicles.mavlink.frame import MissionFrame
 from actorswarm.vehicles.mavlink.vehicle import MavlinkSettings, MavlinkVehicle
@@ -147,6 +147,7 @@ def test_an_autopilot_that_will_not_arm(
     server.action.set_armable(False, False)
     vehicle = make(deadline=2.0, arm_timeout=3.0)
     wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True)
+    wait_started(vehicle)
     vehicle.takeoff(5.0)
     seen: list[str] = []
 
@@ -177,6 +178,7 @@ def test_failsafes_off_never_reach_the_autopilot(
     server.params.provide_param_int("NAV_DLL_ACT", 0)
     vehicle = make()
     wait_for("the failsafe parameters", lambda: vehicle.failsafes() is not None)
+    wait_started(vehicle)
     vehicle.takeoff(5.0)
     time.sleep(0.3)
     assert any("NAV_DLL_ACT is 0 (link-loss failsafe off)" in e for e in errors(vehicle))

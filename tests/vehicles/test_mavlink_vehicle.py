@@ -228,8 +228,12 @@ def test_failsafes_off_refuse_the_takeoff_unless_forced(
         until(lambda: vehicle.failsafes() is not None, answer_params)
         vehicle.takeoff(5.0)
         vehicle.service(0.3)
+        assert vehicle.status()["starting"]  # heard at 0: the take-off waits 3 s
         pilot.received.clear()
-        until(lambda: bool(pilot.read()), lambda: vehicle.service(1.4))  # our next heartbeat
+        pilot.heartbeat()  # still there
+        until(lambda: vehicle.status()["link"] == "up", lambda: vehicle.service(3.4))
+        vehicle.service(3.4)  # past the start-up: planned
+        until(lambda: bool(pilot.read()), lambda: vehicle.service(3.5))
         commands = [m.command for m in pilot.received if m.get_type() == "COMMAND_LONG"]
         # (this autopilot never acknowledges the stream rates: that fails on its own)
         errors = [e for e in vehicle.drain_errors() if "stream rates" not in e]

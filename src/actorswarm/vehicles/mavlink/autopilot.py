@@ -129,6 +129,7 @@ _IDLE_DISARM: Final = 10.0
 _PX4_TAKEOFF_ALT: Final = 2.5
 _ACCEPTED: Final[int] = mav.MAV_RESULT_ACCEPTED
 _DENIED: Final[int] = mav.MAV_RESULT_DENIED
+_FAILED: Final[int] = mav.MAV_RESULT_FAILED
 _UNSUPPORTED: Final[int] = mav.MAV_RESULT_UNSUPPORTED
 
 
@@ -488,8 +489,13 @@ class SimAutopilot:
         if mode == ARDUPILOT_MODES["LAND"]:
             self._land()
             return _ACCEPTED
+        positional = mode in (ARDUPILOT_MODES["LOITER"], ARDUPILOT_MODES["GUIDED"])
+        if positional and self.armed and self.boot.at(self.boot_time(now)).position != "real":
+            # ArduCopter checks a mode's needs only when armed (any mode while disarmed):
+            # armed (in STABILIZE) before its EKF has a position, GUIDED is refused.
+            return _FAILED
         self._mode = mode
-        if mode in (ARDUPILOT_MODES["LOITER"], ARDUPILOT_MODES["GUIDED"]):
+        if positional:
             self._hold()
         return _ACCEPTED
 

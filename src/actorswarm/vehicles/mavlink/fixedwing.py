@@ -10,9 +10,9 @@ Take-off
     ``TAKEOFF`` mode (13), arm: the aircraft rolls along its heading, leaves the ground at
     about 20 m/s, climbs to ``TKOFF_ALT`` and then circles a point ``TKOFF_DIST`` ahead,
     still in ``TAKEOFF``. A landing mission this vehicle left loaded is cleared first (with
-    ``RTL_AUTOLAND`` 0, ArduPlane refuses to arm while one is). ``TAKEOFF`` is asked again
-    once armed: a mode asked while ArduPlane is still INITIALISING is accepted and then
-    lost when its start-up ends in MANUAL.
+    ``RTL_AUTOLAND`` 0, ArduPlane refuses to arm while one is). Nothing is planned in the
+    autopilot's first 3 s heard: a mode asked while ArduPlane is still INITIALISING is
+    accepted and then lost when its start-up ends in MANUAL (the vehicle's ``_STARTUP``).
 A point, and a moving slot
     ``GUIDED`` (15), then ``MAV_CMD_DO_REPOSITION`` (``COMMAND_INT``, absolute altitude) to
     the goal: ArduPlane flies there and circles it clockwise. The goal is streamed by
@@ -287,12 +287,6 @@ class ArduPlane:
             Check(f"TKOFF_ALT = {altitude:g}", lambda: part.param_is("TKOFF_ALT", altitude)),
             _mode("TAKEOFF"),
             *ready_and_arm(p),
-            # Asked again once armed: ArduPlane takes a mode while it is INITIALISING (the
-            # first ~0.7 s after its first HEARTBEAT) and then starts in MANUAL regardless,
-            # so an aircraft planned the moment it was heard was armed in MANUAL and stayed
-            # on its runway. TAKEOFF entered armed on the ground starts the take-off; asked
-            # in TAKEOFF already, it changes nothing.
-            _mode("TAKEOFF"),
         ]
         return steps
 

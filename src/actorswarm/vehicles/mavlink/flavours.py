@@ -234,10 +234,6 @@ class ArduPilot:
             *before_arming(v),
             self._guided(),
             *ready_and_arm(v),
-            # GUIDED again once armed: ArduCopter takes a mode in the second after its first
-            # HEARTBEAT and then starts in STABILIZE regardless ("ArduPilot Ready"), where
-            # NAV_TAKEOFF is refused; asked in GUIDED already, it changes nothing.
-            self._guided(),
             # ArduPilot: param 7 is the altitude above home.
             Command(mav.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 0, 0, altitude)),
         ]

@@ -24,9 +24,10 @@ Safety:
   local event ``vehicle_link_lost`` (also when it is never heard from the start); the next
   heartbeat raises ``vehicle_link_restored``: :meth:`drain_events`, which the daemon turns
   into events its task script can handle. A command asked before the autopilot is first
-  heard (it boots after its daemon) waits for it, as a take-off waits for an autopilot that
-  is not ready yet: the latest one asked is carried out once it is heard, or fails for good
-  (a fault) when none was heard within ``arm_timeout``.
+  heard (it boots after its daemon), or in its first three seconds (its start-up, when the
+  ArduPilots forget a mode asked), waits for it, as a take-off waits for an autopilot that
+  is not ready yet: the latest one asked is carried out then, or fails for good (a fault)
+  when none was heard within ``arm_timeout``.
 * Before arming, the autopilot's link-loss and low-battery failsafe parameters are read
   (``PARAM_REQUEST_READ``); a take-off is refused while one is off, unless ``force``.
 * The operator's ``land`` or ``hold`` (:meth:`MavlinkVehicle.override`, the daemon's
@@ -138,6 +139,11 @@ _CLOSE_WAIT: Final = 0.5
 _PERIOD: Final = 0.02
 #: Metres above home from which the vehicle counts as airborne.
 _AIRBORNE: Final = 0.5
+#: Seconds from an autopilot's first HEARTBEAT before a command is planned. Both ArduPilots
+#: send it before their start-up is over (ArduPlane 4.5.7 SITL 0.71 s, ArduCopter 1.23 s
+#: before "ArduPilot Ready"), take a mode then, and start in MANUAL or STABILIZE regardless:
+#: a take-off planned at once lost its mode and the aircraft stayed on the ground.
+_STARTUP: Final = 3.0
 # SET_POSITION_TARGET_GLOBAL_INT: use the position only (ignore velocity, acceleration, yaw).
 _POSITION_ONLY: Final = 0b0000_1101_1111_1000
 
@@ -288,8 +294,10 @@ class MavlinkVehicle:
         )
         # A fixed-wing's part (:mod:`~.fixedwing`), once its HEARTBEAT says it is one.
         self._fixed_wing: FixedWing | None = None
-        # The command asked before the autopilot was heard: label, plan, when asked.
+        # The command asked before the autopilot was heard, or in its start-up: label,
+        # plan, when asked.
         self._pending: tuple[str, Callable[[Flavour], list[Step]], float] | None = None
+        self._first_heard: float | None = None  # its first HEARTBEAT
 
     # --- life ------------------------------------------------------------------------------------
 
@@ -354,6 +362,7 @@ class MavlinkVehicle:
                 for request in self._streams.tick(now):
                     self._send(request)
                 self._stream_changes()
+            self._start_pending(now)
             if self._plan is not None:
                 self._plan.tick(now)
                 failed = self._plan.drain_errors()
@@ -400,6 +409,7 @@ class MavlinkVehicle:
     def status(self) -> dict[str, Any]:
         """The link, the autopilot's kind, mode and arming, the battery (None: not
         reported), the plan in progress (or waiting for the autopilot to be heard), whether
+        it was heard less than 3 s ago (``starting``: a command waits for that), whether
         the autopilot is ready to fly (None: not heard yet), the seconds a take-off (or a
         command asked before it was heard) has been waiting for it (None: none waits), the
         reason it is not ready or a take-off still waits (its own words when it said any), the
@@ -418,6 +428,7 @@ class MavlinkVehicle:
                 "battery": s.battery,
                 "override": self._override,
                 "plan": self._plan_label(),
+                "starting": self._first_heard is not None and self._starting(self._clock()),
                 "ready": ready,
                 "waiting": waiting,
                 "reason": self._why() if not ready or waiting is not None else self._sends_no(),
@@ -636,32 +647,52 @@ class MavlinkVehicle:
         return FAILSAFE_PARAMS[s.kind]
 
     def _command(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
-        if self._flavour is None or self._plan is None:
+        now = self._clock()
+        if self._starting(now):
             # An autopilot that boots after its daemon is ready late, as one that has not
             # aligned yet is: the command waits for it (the latest one asked replaces an
-            # earlier one, as a new plan replaces the one in progress) and is planned when
-            # its first HEARTBEAT says which flavour speaks for it. An autopilot never heard
-            # raises ``vehicle_link_lost`` for the script instead.
+            # earlier one, as a new plan replaces the one in progress) and is planned once
+            # its first HEARTBEAT has said which flavour speaks for it and its start-up is
+            # over (_STARTUP). One never heard raises ``vehicle_link_lost`` for the script.
             if self._pending is None or self._pending[0] != label:
+                why = (
+                    f"{self._why()}: carried out once it is heard"
+                    if self._first_heard is None
+                    else f"the autopilot is starting: carried out {_STARTUP:g} s after its "
+                    "first HEARTBEAT"
+                )
                 self._log.append(
                     (
                         "vehicle-waiting",
-                        {
-                            "vehicle": self.name,
-                            "reason": f"{label}: {self._why()}: carried out once it is heard",
-                            "waiting": None,
-                        },
+                        {"vehicle": self.name, "reason": f"{label}: {why}", "waiting": None},
                     )
                 )
-            self._pending = (label, plan, self._clock())
+            self._pending = (label, plan, now)
             return
-        self._start(label, plan)
+        self._start(label, plan, now)
+
+    def _starting(self, now: float) -> bool:
+        """Whether a command must wait: the autopilot not heard yet, or heard for less than
+        :data:`_STARTUP` seconds."""
+        heard = self._first_heard
+        return self._plan is None or heard is None or now - heard < _STARTUP
+
+    def _start_pending(self, now: float) -> None:
+        """Plan the command that waited for the autopilot, once its start-up is over."""
+        if self._pending is not None and not self._starting(now):
+            label, plan, _ = self._pending
+            self._pending = None
+            self._start(label, plan, now)
 
     def _give_up_waiting(self, now: float) -> None:
         """A command still waiting for the autopilot's first HEARTBEAT ``arm_timeout``
         after it was asked fails for good, as a take-off that waited as long for an
         autopilot that was heard but never ready does."""
-        if self._pending is None or now - self._pending[2] < self.settings.arm_timeout:
+        if (
+            self._pending is None
+            or self._first_heard is not None  # heard: it waits for the start-up's end
+            or now - self._pending[2] < self.settings.arm_timeout
+        ):
             return
         label = self._pending[0]
         self._pending = None
@@ -672,10 +703,10 @@ class MavlinkVehicle:
         self._errors.append(why)
         self._faults.append(why)
 
-    def _start(self, label: str, plan: Callable[[Flavour], list[Step]]) -> None:
+    def _start(self, label: str, plan: Callable[[Flavour], list[Step]], now: float) -> None:
         assert self._flavour is not None and self._plan is not None
         steps = plan(self._flavour)
-        self._plan.start(label, steps, self._clock())
+        self._plan.start(label, steps, now)
         failed = self._plan.drain_errors()
         self._errors += failed
         self._faults += failed
@@ -785,10 +816,7 @@ class MavlinkVehicle:
                 on_refused=self._on_refused,
             )
             self._streams = StreamWatch(chosen, target, grace=self.settings.stream_grace)
-            if self._pending is not None:
-                label, plan, _ = self._pending
-                self._pending = None
-                self._start(label, plan)
+            self._first_heard = now
         s.mode = mode_name(s.kind, message.base_mode, message.custom_mode, s.airframe)
         if self._mode_asked is not None and self._mode_asked[0] == s.mode:
             self._mode_asked = None  # carried out
