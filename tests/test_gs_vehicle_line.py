@@ -16,6 +16,9 @@ def test_a_mavlink_vehicle_is_one_readable_clause() -> None:
         "; vehicle: link lost, disarmed"
     )
     assert _vehicle_line({}) == ""
+    assert _vehicle_line({"link": "up", "armed": False, "starting": True}) == (
+        "; vehicle: link up, disarmed, starting"
+    )
 
 
 def test_a_vehicle_that_is_not_ready_says_why_and_for_how_long() -> None:

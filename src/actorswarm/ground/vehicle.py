@@ -29,6 +29,8 @@ def describe(vehicle: Mapping[str, object]) -> str:
         parts.append(kind)
     if "armed" in vehicle:
         parts.append("armed" if vehicle["armed"] else "disarmed")
+    if vehicle.get("starting"):
+        parts.append("starting")  # heard for under 3 s: commands wait for its start-up
     battery = vehicle.get("battery")
     if isinstance(battery, int | float) and not isinstance(battery, bool):
         parts.append(f"battery {100 * battery:.0f} %")
