@@ -40,6 +40,7 @@ def test_a_message_never_sent_is_named_and_does_not_hold_arming_back() -> None:
         assert "the autopilot sends no EKF_STATUS_REPORT though asked" in str(
             vehicle.status()["reason"]
         )
+        wait_started(vehicle)
         vehicle.takeoff(2.0)
         wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 10.0)  # the autopilot said yes
         assert sim.armed
@@ -61,6 +62,7 @@ def test_an_autopilot_that_ignores_the_interval_command_is_asked_the_legacy_way(
         # REQUEST_DATA_STREAM: POSITION at 10 Hz, EXTENDED_STATUS and EXTRA3 at 1 Hz.
         assert sim.streams.intervals[mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT] == 0.1
         assert sim.streams.intervals[mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT] == 1.0
+        wait_started(vehicle)
         vehicle.takeoff(2.0)
         wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 8.0)
 
@@ -81,6 +83,7 @@ def test_a_reboot_that_forgets_the_rates_is_asked_again() -> None:
 def test_a_mavlink1_link_is_answered_in_mavlink1_and_flies() -> None:
     with fly("ardupilot", settings=QUICK, mavlink1=True) as (vehicle, _sim):
         wait_for("the autopilot ready", lambda: vehicle.status()["ready"] is True, 8.0)
+        wait_started(vehicle)
         vehicle.takeoff(2.0)
         wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 8.0)
         log = vehicle.drain_log()

@@ -85,6 +85,7 @@ def test_takeoff_goto_land(flight: Flight) -> None:
     assert vehicle.status()["autopilot"] == sim.options.kind
     wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
 
+    wait_started(vehicle)
     vehicle.takeoff(4.0)
     wait_for("the climb", lambda: vehicle.position()[2] > 3.8, 8.0)
     assert sim.armed
@@ -108,6 +109,7 @@ def test_takeoff_goto_land(flight: Flight) -> None:
 def test_px4_holds_when_offboard_setpoints_stop() -> None:
     with fly("px4", offboard_timeout=0.5) as (vehicle, sim):
         wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        wait_started(vehicle)
         vehicle.takeoff(2.0)
         wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 6.0)
         vehicle.goto(HOME[0] + 30.0, HOME[1], 2.0)
@@ -137,6 +139,7 @@ def test_refused_takeoff_is_reported() -> None:
 def test_a_goto_right_after_the_takeoff_does_not_take_off_again() -> None:
     with fly("ardupilot") as (vehicle, _):
         wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        wait_started(vehicle)
         vehicle.takeoff(3.0)
         wait_for("the take-off accepted", lambda: vehicle.status()["plan"] is None, 3.0)
         goal = (HOME[0] + 3.0, HOME[1], 3.0)
@@ -148,6 +151,7 @@ def test_a_goto_right_after_the_takeoff_does_not_take_off_again() -> None:
 def test_the_operator_s_hold_overrides_the_plugins_until_resumed() -> None:
     with fly("ardupilot") as (vehicle, sim):
         wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        wait_started(vehicle)
         vehicle.takeoff(3.0)
         wait_for("the climb", lambda: vehicle.position()[2] > 2.8, 6.0)
         vehicle.goto(HOME[0] + 40.0, HOME[1], 3.0, speed=4.0)
@@ -274,6 +278,7 @@ def test_a_hold_then_a_new_goal_at_once_flies_to_the_new_goal(
     cancel the new goal (PX4: its AUTO.LOITER must not land after the new OFFBOARD)."""
     with fly(kind) as (vehicle, sim):
         wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True, 3.0)
+        wait_started(vehicle)
         vehicle.takeoff(2.0)
         wait_for("the climb", lambda: vehicle.position()[2] > 1.8, 8.0)
         first = (HOME[0] + 4.0, HOME[1], 2.0)
@@ -301,6 +306,7 @@ def test_an_arducopter_whose_failsafe_watches_another_ground_station_is_not_arme
         assert isinstance(why, str) and why.startswith("SYSID_MYGCS is 245, not this vehicle's"), (
             why
         )
+        wait_started(vehicle)
         vehicle.takeoff(4.0)
         wait_for("the refusal", lambda: bool(vehicle.drain_faults()), 3.0)
         assert not sim.armed

@@ -110,6 +110,7 @@ def test_takeoff_offboard_hold_land(link: tuple[Server, Callable[..., MavlinkVeh
     server, make = link
     vehicle = make()
     wait_for("the failsafe parameters", lambda: vehicle.failsafes() is True)
+    wait_started(vehicle)
     vehicle.takeoff(5.0)
     wait_for("arm and take-off", lambda: server.takeoffs == [True])
     assert server.arms == [True]
