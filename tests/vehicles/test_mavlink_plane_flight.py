@@ -208,7 +208,7 @@ def test_a_failsafe_watching_another_ground_station_refuses_the_take_off() -> No
         why = f.vehicle.failsafes()
         assert isinstance(why, str) and why.startswith("SYSID_MYGCS is 245, not this vehicle's")
         f.vehicle.takeoff(40.0)
-        f.run(3.0)
+        f.run(6.0)  # the start-up's 3 s, then the parameters read again
         errors = f.vehicle.drain_errors()
         assert any("SYSID_MYGCS" in e for e in errors), errors
         assert not f.sim.armed

@@ -218,12 +218,14 @@ def test_failsafes_off_refuse_the_takeoff_unless_forced(
     try:
         connect(vehicle, pilot)
 
-        def answer_params() -> None:
+        gcs = [0.0]  # FS_GCS_ENABLE on the autopilot
+
+        def answer_params(now: float = 0.2) -> None:
             for m in pilot.read():
                 if m.get_type() == "PARAM_REQUEST_READ":
-                    value = 0.0 if m.param_id == "FS_GCS_ENABLE" else 1.0
+                    value = {"FS_GCS_ENABLE": gcs[0], "SYSID_MYGCS": 245.0}.get(m.param_id, 1.0)
                     pilot.conn.mav.param_value_send(m.param_id.encode(), value, 9, 500, 0)
-            vehicle.service(0.2)
+            vehicle.service(now)
 
         until(lambda: vehicle.failsafes() is not None, answer_params)
         vehicle.takeoff(5.0)
@@ -232,8 +234,9 @@ def test_failsafes_off_refuse_the_takeoff_unless_forced(
         pilot.received.clear()
         pilot.heartbeat()  # still there
         until(lambda: vehicle.status()["link"] == "up", lambda: vehicle.service(3.4))
-        vehicle.service(3.4)  # past the start-up: planned
-        until(lambda: bool(pilot.read()), lambda: vehicle.service(3.5))
+        vehicle.service(3.4)  # past the start-up: planned, the parameters asked again
+        until(lambda: vehicle.failsafes() is not None, lambda: answer_params(3.5))
+        until(lambda: bool(pilot.read()), lambda: vehicle.service(4.6))  # our next heartbeat
         commands = [m.command for m in pilot.received if m.get_type() == "COMMAND_LONG"]
         # (this autopilot never acknowledges the stream rates: that fails on its own)
         errors = [e for e in vehicle.drain_errors() if "stream rates" not in e]
@@ -248,6 +251,18 @@ def test_failsafes_off_refuse_the_takeoff_unless_forced(
                 "(link-loss failsafe off): refusing to arm; set it on the autopilot, or "
                 "force the take-off"
             ]
+            # Set on the autopilot now: the next take-off reads it again and goes on.
+            gcs[0] = 1.0
+            pilot.received.clear()
+            vehicle.takeoff(5.0)
+            until(lambda: vehicle.failsafes() is True, lambda: answer_params(4.7))
+            until(
+                lambda: any(
+                    m.get_type() == "COMMAND_LONG" and m.command == mav.MAV_CMD_DO_SET_MODE
+                    for m in pilot.received
+                ),
+                lambda: answer_params(4.8),
+            )
     finally:
         vehicle.close()
 

@@ -146,6 +146,11 @@ class Controls(Protocol):
         """The pre-flight check: True, the reason it refuses, or None (not known yet)."""
         ...
 
+    def read_failsafes_again(self) -> None:
+        """Forget the failsafe parameters read, so that they are asked for again: each
+        take-off checks the autopilot's values as they are then."""
+        ...
+
     def height(self) -> float:
         """Metres above home."""
         ...
@@ -198,8 +203,13 @@ def _above_here(v: Controls, altitude: float) -> tuple[float, float, float]:
 
 
 def before_arming(v: Controls) -> list[Step]:
-    """Both autopilots: stop any setpoint stream, then the failsafe pre-flight check."""
-    return [Do("stop streaming", lambda: v.set_target(None)), _check_failsafes(v)]
+    """Both autopilots: stop any setpoint stream, then the failsafe pre-flight check on the
+    parameters read afresh (an operator may have set one since the last take-off)."""
+    return [
+        Do("stop streaming", lambda: v.set_target(None)),
+        Do("read the failsafe parameters again", v.read_failsafes_again),
+        _check_failsafes(v),
+    ]
 
 
 def ready_and_arm(v: Controls) -> list[Step]:

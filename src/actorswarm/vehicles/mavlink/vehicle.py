@@ -594,6 +594,12 @@ class MavlinkVehicle:
     def arm_probe(self) -> float:
         return self.settings.arm_probe
 
+    def read_failsafes_again(self) -> None:
+        params = self._state.params
+        for name in self._failsafe_params():
+            params.pop(name, None)
+        self._params_asked = None  # asked at the next look
+
     def failsafes(self) -> bool | str | None:
         kind = self._state.kind
         if kind is None:
