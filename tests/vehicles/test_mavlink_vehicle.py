@@ -180,6 +180,30 @@ def test_wrong_system_id_is_never_heard(port: int, pilot: Autopilot) -> None:
         vehicle.close()
 
 
+def test_commands_asked_again_while_none_is_heard_fail_at_arm_timeout_from_the_first(
+    port: int,
+) -> None:
+    """A plugin asking every step (a moving goal) does not put off the fault for ever."""
+    clock = [0.0]
+    vehicle = MavlinkVehicle(
+        MavlinkSettings(f"udpout:127.0.0.1:{port}", ORIGIN, name="platform 3", arm_timeout=4.0),
+        clock=lambda: clock[0],
+    )
+    try:
+        faults = []
+        for step in range(1, 13):
+            clock[0] = step * 0.5
+            if not faults:
+                vehicle.goto(10.0, 0.0, 5.0)
+            vehicle.service(clock[0])
+            faults += [(clock[0], f) for f in vehicle.drain_faults()]
+        # 4 s after the first goto (at 0.5 s), not after the last; once.
+        assert [at for at, _ in faults] == [4.5], faults
+        assert vehicle.status()["plan"] is None
+    finally:
+        vehicle.close()
+
+
 def test_malformed_and_foreign_messages_are_counted_not_fatal(port: int, pilot: Autopilot) -> None:
     vehicle = make(port)
     try:

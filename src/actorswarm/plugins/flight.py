@@ -128,9 +128,8 @@ class TakeOff(Plugin):
         after its turn) would climb through the circles of the aircraft ahead of it at
         their altitude. Such an aircraft is sent up to ``altitude − late_below`` instead
         (a second ``takeoff``, which replaces the one still waiting) and its event fires
-        there: it holds under the lowest
-        layer, ``late_below`` (more than the separation) below it, and joins from there
-        when the actor hands over.
+        there: it holds under the lowest layer, ``late_below`` (more than the separation)
+        below it, and joins from there when the actor hands over.
 
     A vehicle already in the air within ``tolerance`` of ``altitude`` when the actor starts
     gets no take-off command: the event goes out on the first step. (One in the air at

@@ -603,12 +603,12 @@ class SimAutopilot:
         plane = self._plane
         beating = self.boot.at(self.boot_time(now)).beating
         for message_id in self.streams.due(now):
-            if plane is not None and not plane.may_send(message_id, now):
-                self.streams.unsent(message_id)  # ArduPlane's boot: not yet
-            elif message_id == mav.MAVLINK_MSG_ID_HEARTBEAT and not beating:
-                self.streams.unsent(message_id)  # ArduCopter's boot: not yet
-            elif not self._send_stream(message_id, now):
-                self.streams.unsent(message_id)
+            if message_id == mav.MAVLINK_MSG_ID_HEARTBEAT:
+                held = not beating  # the ArduPilots' boot: not yet
+            else:
+                held = plane is not None and not plane.may_send(message_id, now)
+            if held or not self._send_stream(message_id, now):
+                self.streams.unsent(message_id)  # not yet, or nothing to say yet
         # ArduPilot: one of each, unasked: home once it has one, the origin once its EKF
         # has one (ArduCopter: both at once).
         state = self.boot.at(self.boot_time(now))

@@ -301,11 +301,10 @@ class SimPlane:
             self.say("Disarmed")
 
     def may_send(self, message_id: int, now: float) -> bool:
-        """Whether ``message_id`` may go yet in ArduPlane's boot (module docstring of
-        :mod:`~.boot`): nothing before its first HEARTBEAT, its streams a little after."""
+        """Whether ``message_id`` (not HEARTBEAT: the host holds that back until the boot's
+        first one) may go yet in ArduPlane's boot (module docstring of :mod:`~.boot`): its
+        streams a little after its first HEARTBEAT."""
         state = self._host.boot.at(self._host.boot_time(now))
-        if message_id == mav.MAVLINK_MSG_ID_HEARTBEAT:
-            return state.beating
         if message_id == mav.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
             return state.ekf_streaming
         return state.streaming

@@ -295,7 +295,7 @@ class MavlinkVehicle:
         # A fixed-wing's part (:mod:`~.fixedwing`), once its HEARTBEAT says it is one.
         self._fixed_wing: FixedWing | None = None
         # The command asked before the autopilot was heard, or in its start-up: label,
-        # plan, when asked.
+        # plan, and since when a command has waited.
         self._pending: tuple[str, Callable[[Flavour], list[Step]], float] | None = None
         self._first_heard: float | None = None  # its first HEARTBEAT
 
@@ -673,15 +673,18 @@ class MavlinkVehicle:
                         {"vehicle": self.name, "reason": f"{label}: {why}", "waiting": None},
                     )
                 )
-            self._pending = (label, plan, now)
+            # Waiting since the first command that waited: a plugin that asks again every
+            # step (a moving goal) must not put off the fault at arm_timeout for ever.
+            since = now if self._pending is None else self._pending[2]
+            self._pending = (label, plan, since)
             return
         self._start(label, plan, now)
 
     def _starting(self, now: float) -> bool:
         """Whether a command must wait: the autopilot not heard yet, or heard for less than
         :data:`_STARTUP` seconds."""
-        heard = self._first_heard
-        return self._plan is None or heard is None or now - heard < _STARTUP
+        heard = self._first_heard  # set with the plan and the flavour
+        return heard is None or now - heard < _STARTUP
 
     def _start_pending(self, now: float) -> None:
         """Plan the command that waited for the autopilot, once its start-up is over."""
