@@ -99,6 +99,9 @@ def main() -> int:
                         broken += 1
             lines = [(round(e["t"] - began, 2), e.get("master")) for e in swarm.events(3, "master")]
             for p in (1, 2, 3):
+                for e in swarm.events(p, "flapping"):
+                    print(f"platform {p} at {e['t'] - began:.1f} s: {e['why']}")
+            for p in (1, 2, 3):
                 st = swarm.status(p)
                 print(
                     f"platform {p}: master {st.get('master')}, members {st.get('members')}, "

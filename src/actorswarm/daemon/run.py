@@ -86,6 +86,7 @@ from typing import TYPE_CHECKING, Any
 from actorswarm.core.config import CoreConfig
 from actorswarm.core.node import Outgoing
 from actorswarm.daemon.endpoint import PlatformEndpoint
+from actorswarm.daemon.flap import FLAP_CHECK_S, FlapWatch
 from actorswarm.daemon.heap import HeapTrim
 from actorswarm.daemon.loop import Inbox, Traffic, clock, serve
 from actorswarm.daemon.prefetch import prefetch
@@ -140,11 +141,14 @@ class DaemonOptions:
 
 @dataclass(slots=True)
 class _Seen:
-    """What the daemon's loop already reported: the master it logged, and whether it said
-    it heard nobody on its multicast group (:data:`ALONE_S`)."""
+    """What the daemon's loop already reported: the master it logged, whether it said it
+    heard nobody on its multicast group (:data:`ALONE_S`), and when it last looked for
+    flapping links."""
 
     master: int | None = None
     alone_said: bool = False
+    #: When the loop next looks for platforms whose links come and go (:mod:`.flap`).
+    flaps_next: float = 0.0
 
 
 #: Seconds a daemon on a multicast group may hear no packet at all before it says so: a
@@ -391,6 +395,7 @@ async def _main(options: DaemonOptions) -> int:
         relay=options.zenoh.relay,
     )
     seen = _Seen()
+    flaps = FlapWatch(options.platform)
     began = clock()
     traffic = Traffic()
     records = EngineRecords(engine, endpoint.runtime, _log)
@@ -476,6 +481,12 @@ async def _main(options: DaemonOptions) -> int:
         if endpoint.node.master != seen.master:
             seen.master = endpoint.node.master
             _log("master", master=endpoint.node.master, epoch=endpoint.node.epoch)
+        if t >= seen.flaps_next:
+            seen.flaps_next = t + FLAP_CHECK_S
+            node = endpoint.node
+            members = [p for p in node.view if p != node.platform]
+            for fields in flaps.observe(t, members, node.master):
+                _log("flapping", **fields)
         if engine.commands:
             if autopilot is not None:
                 _operator_override(autopilot, engine.commands)
