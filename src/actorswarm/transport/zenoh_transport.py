@@ -269,7 +269,7 @@ LEASE_MS = 30_000
 #: only once that link's session expired, so its lease is how long the platforms behind it
 #: stay cut off. Three relays in a triangle, the third one's links to the other two swapped
 #: every 5 or 10 s (a robot between two relays' ranges, ``scripts/relay_flap.py``): out of
-#: the swarm 34-38 % of the time at 3 s, 6-14 % at 1 s with :data:`RECONNECT`. A relay holds
+#: the swarm 34-38 % of the time at 3 s, 6-8 % at 1 s with :data:`RECONNECT`. A relay holds
 #: a session with its neighbours only: four keep-alives a second on a few links.
 RELAY_LEASE_MS = 1_000
 
