@@ -78,8 +78,8 @@ def daemon(
         typer.Option(
             min=0.1,
             max=3600,
-            help="Zenoh's session lease, seconds (default 30; 1 with --relay): how long Zenoh "
-            "keeps a silent peer's session; four keep-alives per lease on each idle link.",
+            help="Zenoh's session lease, seconds (default 30): how long Zenoh keeps a silent "
+            "peer's session; four keep-alives per lease on each idle link.",
         ),
     ] = None,
     relay: Annotated[

@@ -69,8 +69,7 @@ peers they scout). A ground station connects as a plain peer to any one relay. A
 without ``listen`` endpoints listens where Zenoh's routers do, ``tcp/[::]:7447``. Zenoh
 (1.10) routes between routers only: a peer's session never forwards, which is why relaying
 is a mode of its own. A relay reroutes around a lost link once that link's session
-expires, so its lease defaults to :data:`RELAY_LEASE_MS` (1 s), Zenoh tries a lost
-neighbour again every half second at most (:data:`RECONNECT`), and its receive threads are
+expires, so its lease defaults to :data:`RELAY_LEASE_MS` (3 s) and its receive threads are
 kept apart from the one worker (:data:`RELAY_RUNTIME`). The multicast group cannot be
 relayed (a link-local group does not cross a hop, and a unicast session beside the group
 loops): ``relay`` refuses it. Routers stamp samples with a hybrid clock by default; the
@@ -174,7 +173,6 @@ __all__ = [
     "JOIN_MS",
     "KEEP_ALIVES",
     "LEASE_MS",
-    "RECONNECT",
     "RELAY_LEASE_MS",
     "RELAY_RUNTIME",
     "RX_CAPACITY",
@@ -267,23 +265,10 @@ LEASE_MS = 30_000
 
 #: A relay's lease unless one is given, milliseconds: a relay reroutes around a lost link
 #: only once that link's session expired, so its lease is how long the platforms behind it
-#: stay cut off. Three relays in a triangle, the third one's links to the other two swapped
-#: every 5 or 10 s (a robot between two relays' ranges, ``scripts/relay_flap.py``): out of
-#: the swarm 34-38 % of the time at 3 s, 6-8 % at 1 s with :data:`RECONNECT`. A relay holds
-#: a session with its neighbours only: four keep-alives a second on a few links.
-RELAY_LEASE_MS = 1_000
-
-#: How often Zenoh tries a ``connect`` endpoint it is not connected to (Zenoh's
-#: ``connect/retry``): from 250 ms, doubling to at most 500 ms, where Zenoh's default waits
-#: from 1 s up to 4 s. A neighbour back in range (or a daemon restarted) is connected
-#: within half a second; with Zenoh's default a relay whose links were swapped waited for
-#: its new neighbour up to 4 s, and a shorter lease alone made that worse (50 % out of the
-#: swarm at 1 s). An attempt is one TCP connection opened to an absent peer.
-RECONNECT: dict[str, float] = {
-    "period_init_ms": 250,
-    "period_max_ms": 500,
-    "period_increase_factor": 2,
-}
+#: stay cut off (three relays in a triangle, one link cut: the swarm whole again 3 s after
+#: the cut at 3 s, ``scripts/relay_flap.py``). A relay holds a session with its neighbours
+#: only: four keep-alives per lease on a few links.
+RELAY_LEASE_MS = 3_000
 
 #: Chunks of the tail that keys carry on a multicast group (see the module's docstring).
 SPREAD_CHUNKS = 5
@@ -477,7 +462,6 @@ class ZenohSettings:
             # list would leave the platform unreachable by the peers that scout it.
             cfg.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         cfg.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
-        cfg.insert_json5("connect/retry", json.dumps(RECONNECT))
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
         cfg.insert_json5("transport/link/tx/lease", json.dumps(self.lease_ms))
         cfg.insert_json5("transport/link/tx/keep_alive", json.dumps(KEEP_ALIVES))
