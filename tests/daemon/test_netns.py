@@ -24,14 +24,14 @@ What the loss exercises: Zenoh carries the swarm over TCP, which retransmits a l
 itself, so the collective core sees no lost packet but links that stall until the
 retransmission (200 ms and more; a retransmission lost again doubles the wait) and then
 deliver in a burst. Heartbeats come late or Zenoh drops them (best effort, congestion
-control *drop*), peers are declared gone and come back, masters change, Zenoh's session
-lease (4 s) may expire and sessions are opened again, and barrier requests, releases and
+control *drop*), peers are declared gone and come back, masters change, a new ground
+station session's links take seconds to open, and barrier requests, releases and
 acknowledgements are late or lost. The branch-and-merge script must still complete: 2
 platforms in B and 8 in C on one release, then all 10 back in A, no platform switching
-twice for one event. Two failures of the operator's tools under this loss (a ``gs start``
-refused because a confirmation came late, a ``gs`` command whose Zenoh session times out
-closing) are met as an operator would meet them and shown in the test's output: see
-:func:`_gs`. The swarm's own behaviour is checked as it is.
+twice for one event. A ``gs deploy`` that leaves a platform unconfirmed (its new Zenoh
+links not up in time over the loss) is run again once, as an operator would, and said in
+the test's output; every other ``gs`` command must succeed the first time. The swarm's own
+behaviour is checked as it is.
 
 The test needs root (``CAP_NET_ADMIN``), ``ip`` and either ``sch_netem`` or ``nft``
 (``scripts/system-deps.sh`` installs ``iproute2`` and ``nftables``); without them it is
@@ -241,7 +241,13 @@ def _gs(swarm: LocalSwarm, *args: str) -> str:
     """Run ``gs ARGS`` in the ground station's namespace; its output (the test fails with
     what it said when it fails)."""
     done = swarm.gs(*args, timeout=90)
-    assert done.returncode == 0, f"gs {' '.join(args)}: {done.stdout}{done.stderr}"
+    if done.returncode != 0:
+        # What each platform refused, by reason: a refusal and a dead link read alike
+        # from the ground station.
+        refused = {p: swarm.status(p).get("rejected") for p in swarm.platforms}
+        raise AssertionError(
+            f"gs {' '.join(args)}: {done.stdout}{done.stderr}\npackets refused: {refused}"
+        )
     return done.stdout
 
 
@@ -281,7 +287,14 @@ def test_branch_and_merge_complete_over_lossy_links(
             detail=lambda: f"masters {[swarm.status(p).get('master') for p in everyone]}",
         )
         mark("master agreed")
-        deployed = _gs(swarm, "deploy", str(SCRIPT), "--expect", ids, "--timeout", "30", *state)
+        deploy = ("deploy", str(SCRIPT), "--expect", ids, "--timeout", "30", *state)
+        first = swarm.gs(*deploy, timeout=90)
+        if first.returncode != 0:
+            # A new ground-station session has to open its Zenoh links over the lossy ones;
+            # in one CI run of many a platform was not reached in 30 s. An operator deploys
+            # again (the platforms that have the script confirm at once); the output says so.
+            mark(f"deploy again ({' '.join(first.stderr.split())[:300]})")
+        deployed = first.stdout if first.returncode == 0 else _gs(swarm, *deploy)
         assert f"confirmed by {PLATFORMS} of {PLATFORMS}" in deployed
         mark("deployed")
         launched = _gs(swarm, "start", "--timeout", "30", *state)

@@ -4,8 +4,13 @@ what it observed: verified heartbeats, acknowledgements, packets it could not ve
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
+from pathlib import Path
 
+from actorswarm.dsl.checker import check
 from actorswarm.ground.silence import explain, platforms
+from actorswarm.sim.tasksim import TaskSim
+
+BRANCH_MERGE = Path(__file__).resolve().parents[2] / "examples" / "branch_merge.xml"
 
 
 def _explain(
@@ -16,6 +21,7 @@ def _explain(
     acked: Collection[int] = (),
     rejected: Mapping[str, int] | None = None,
     refused_from: Mapping[str, Collection[int]] | None = None,
+    listed: Collection[int] = (),
 ) -> list[str]:
     return explain(
         "field",
@@ -25,6 +31,7 @@ def _explain(
         acked=acked,
         rejected=rejected or {},
         refused_from=refused_from or {},
+        listed=listed,
     )
 
 
@@ -70,3 +77,28 @@ def test_members_behind_a_refusing_master_are_not_called_off() -> None:
     refused, unheard = _explain(targets=[1, 2, 3], heard=[1])
     assert refused.startswith("no platform accepted the command: platform 1 heard but")
     assert unheard.startswith("platforms 2-3 not heard: a star swarm's members are heard")
+
+
+def test_a_member_known_from_the_roster_only_is_not_said_to_refuse() -> None:
+    refused, behind = _explain(targets=[1, 2, 3], answered=[3], heard=[1, 2, 3], listed=[2])
+    assert refused.startswith("platform 1 heard but acknowledged nothing")
+    assert behind.startswith("platform 2 in the master's roster but acknowledged nothing")
+    assert "no working link between here and them" in behind and "bad_signature" in behind
+
+
+def test_a_star_swarm_members_are_listed_until_a_packet_of_their_own_comes() -> None:
+    script = check(BRANCH_MERGE.read_text(), path=str(BRANCH_MERGE)).script
+    assert script is not None
+    sim = TaskSim(script, seed=3)
+    sim.advance(6.0)
+    station = sim.ground
+    assert station is not None
+    master = next(p for p, (_, is_master, _) in station.state.items() if is_master)
+    assert set(station.heard) == set(range(1, 11))
+    # Members heartbeat to their master only (some were heard on their own while the
+    # first master was elected).
+    assert master not in station.listed and len(station.listed) >= 5, station.listed
+    sim.operate(lambda st, now: st.deploy(BRANCH_MERGE.read_bytes(), range(1, 11), now))
+    sim.advance(12.0)
+    assert not station.missing(station.deployed_sha)
+    assert station.listed == set(), "each member's acknowledgements came straight here"

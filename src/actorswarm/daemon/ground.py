@@ -141,6 +141,7 @@ class GroundSession:
             targets=targets,
             answered=answered,
             heard=station.heard,
+            listed=station.listed,
             acked=station.acked,
             rejected=guard.rejected,
             refused_from=guard.refused_from,

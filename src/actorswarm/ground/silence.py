@@ -6,7 +6,9 @@ would hand whoever sent it a free oracle. So the ground station reasons from wha
 observe:
 
 * **heartbeats it verified** (:attr:`GroundStation.heard`): the platform has this swarm key
-  and is in reach;
+  and is in reach; or, in a star swarm, the platform is in the master's roster
+  (:attr:`GroundStation.listed`): the master hears it, which says nothing of the link
+  between the platform and the ground station;
 * **acknowledgements** (:attr:`GroundStation.acked`): the platform accepted this session's
   packets. Heard but never acknowledging means its packets are refused — a
   ``ground_station.pub`` that is not this ground station's key (``bad_signature``), or this
@@ -50,13 +52,16 @@ def explain(
     acked: Collection[int],
     rejected: Mapping[str, int],
     refused_from: Mapping[str, Collection[int]],
+    listed: Collection[int] = (),
 ) -> list[str]:
     """Sentences for the operator about the ``targets`` that did not answer, from what the
     ground station observed (see the module docstring); empty when every target answered.
 
-    ``heard``: platforms whose heartbeats verified; ``acked``: platforms that accepted this
-    session's packets; ``rejected`` and ``refused_from``: the packet guard's counts of
-    refused packets by reason and who they claimed to come from."""
+    ``heard``: platforms whose heartbeats verified, or listed in a master's roster;
+    ``listed``: those of ``heard`` known only from a roster (nothing of their own reached the
+    ground station); ``acked``: platforms that accepted this session's packets; ``rejected``
+    and ``refused_from``: the packet guard's counts of refused packets by reason and who
+    they claimed to come from."""
     silent = set(targets) - set(answered)
     if targets and not silent:
         return []
@@ -79,11 +84,21 @@ def explain(
                 "key counts it as bad_tag in its status.json `rejected`"
             )
         return out
-    refused = sorted(p for p in silent if p in heard and p not in acked)
+    refused = sorted(p for p in silent if p in heard and p not in acked and p not in listed)
     everyone = bool(refused) and not answered and not set(acked) & set(targets)
     if refused:
         lead = "no platform accepted the command: " if everyone else ""
         out.append(f"{lead}{platforms(refused)} heard but acknowledged nothing — {_REFUSED_HINT}")
+    behind = sorted(p for p in silent if p in listed and p not in acked)
+    if behind:
+        # A star member heartbeats to its master only: its place in the roster proves the
+        # master's link to it, not this ground station's.
+        out.append(
+            f"{platforms(behind)} in the master's roster but acknowledged nothing, and nothing "
+            "of their own reached this ground station: no working link between here and them "
+            "(does this ground station connect to them? are they in its range?) — or "
+            f"{_REFUSED_HINT}"
+        )
     lost = sorted(p for p in silent if p in acked)
     if lost:
         out.append(

@@ -82,6 +82,9 @@ class GroundStation:
         self._occasions = 0
         #: When each platform was last heard, and its (incarnation, master?, epoch).
         self.heard: dict[int, float] = {}
+        #: Platforms any packet of which reached this ground station (the others of
+        #: :attr:`heard` are known from a star master's roster only: :attr:`listed`).
+        self.direct: set[int] = set()
         self.state: dict[int, tuple[int, bool, int]] = {}
         self.confirmed: dict[str, set[int]] = {}
         self.expected: dict[str, set[int]] = {}
@@ -133,6 +136,12 @@ class GroundStation:
             if said is not None:
                 out[record.platform] = said
         return out
+
+    @property
+    def listed(self) -> set[int]:
+        """Platforms heard of only from a star master's roster: nothing of their own
+        reached this ground station (the master's link to them is no proof of its own)."""
+        return set(self.heard) - self.direct
 
     def missing(self, sha: str) -> list[int]:
         return sorted(self.expected.get(sha, set()) - self.confirmed.get(sha, set()))
@@ -187,6 +196,7 @@ class GroundStation:
         sender = packet.sender
         if sender == wire.GROUND_STATION or packet.swarm != self.swarm:
             return
+        self.direct.add(sender)
         if isinstance(body, Heartbeat):
             self.heard[sender] = now
             self.state[sender] = (packet.incarnation, body.is_master, body.epoch)
