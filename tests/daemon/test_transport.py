@@ -226,3 +226,27 @@ def test_zenohs_thread_keeps_a_python_thread_state_between_callbacks(keep: bool)
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert len(seen) == 5, out
     assert seen == ([1, 2, 3, 4, 5] if keep else [1, 1, 1, 1, 1])
+
+
+class _ClosingBadly:
+    """A Zenoh session whose close gives up, as one over a lossy link does."""
+
+    def close(self) -> None:
+        raise zenoh.ZError("close operation timed out! at /root/.cargo/zenoh/close.rs:135.")
+
+
+def test_a_close_that_times_out_is_said_in_words_and_fails_nothing(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    transport = ZenohTransport("closing", 1, ZenohSettings(multicast=False))
+    real = transport._session
+    assert real is not None
+    transport._session = _ClosingBadly()  # type: ignore[assignment]
+    try:
+        transport.close()  # no exception
+    finally:
+        real.close()  # type: ignore[no-untyped-call]
+    (record,) = [r for r in caplog.records if "session close" in r.getMessage()]
+    said = record.getMessage()
+    assert "close operation timed out" in said and "lease" in said
+    assert ".rs" not in said and "/root" not in said, said

@@ -744,5 +744,10 @@ class ZenohTransport:
         except zenoh.ZError as exc:
             # Zenoh gives up closing a session whose link is losing packets ("close
             # operation timed out"). Everything this side had to say was sent before; the
-            # peers notice the session gone by its lease. Not worth failing a command for.
-            log.warning("zenoh session close: %s", exc)
+            # peers notice the session gone by its lease. Not worth failing a command for;
+            # the operator is told in words, without Zenoh's source path.
+            said = str(exc).split(" at /", 1)[0].rstrip("!. ")
+            log.warning(
+                "zenoh session close: %s (a lossy link; the peers drop the session by its lease)",
+                said,
+            )
