@@ -28,10 +28,9 @@ control *drop*), peers are declared gone and come back, masters change, a new gr
 station session's links take seconds to open, and barrier requests, releases and
 acknowledgements are late or lost. The branch-and-merge script must still complete: 2
 platforms in B and 8 in C on one release, then all 10 back in A, no platform switching
-twice for one event. A ``gs deploy`` that leaves a platform unconfirmed (its new Zenoh
-links not up in time over the loss) is run again once, as an operator would, and said in
-the test's output; every other ``gs`` command must succeed the first time. The swarm's own
-behaviour is checked as it is.
+twice for one event. A ``gs deploy`` that leaves a platform unconfirmed is run again
+once, as an operator would, and said in the test's output; every other ``gs`` command must
+succeed the first time. The swarm's own behaviour is checked as it is.
 
 The test needs root (``CAP_NET_ADMIN``), ``ip`` and either ``sch_netem`` or ``nft``
 (``scripts/system-deps.sh`` installs ``iproute2`` and ``nftables``); without them it is
@@ -290,10 +289,13 @@ def test_branch_and_merge_complete_over_lossy_links(
         deploy = ("deploy", str(SCRIPT), "--expect", ids, "--timeout", "30", *state)
         first = swarm.gs(*deploy, timeout=90)
         if first.returncode != 0:
-            # A new ground-station session has to open its Zenoh links over the lossy ones;
-            # in one CI run of many a platform was not reached in 30 s. An operator deploys
-            # again (the platforms that have the script confirm at once); the output says so.
-            mark(f"deploy again ({' '.join(first.stderr.split())[:300]})")
+            # In one CI run of many a platform acknowledged nothing of a deploy in 30 s; the
+            # cause is not known (the ground station's Zenoh links to all ten opened within
+            # 0.5-2.6 s in 15 trials, confirmations came in 0.6-3.2 s in 15 more). An
+            # operator deploys again (the platforms that have the script confirm at once);
+            # the output says so, with what each platform refused.
+            refused = {p: swarm.status(p).get("rejected") for p in everyone}
+            mark(f"deploy again ({' '.join(first.stderr.split())[:300]}; refused {refused})")
         deployed = first.stdout if first.returncode == 0 else _gs(swarm, *deploy)
         assert f"confirmed by {PLATFORMS} of {PLATFORMS}" in deployed
         mark("deployed")
