@@ -20,6 +20,7 @@ from actorswarm.transport.zenoh_transport import (
     SMALL_ROBOT_RUNTIME,
     SPREAD_CHUNKS,
     SPREAD_PATTERNS,
+    closing,
     spread_pattern,
 )
 
@@ -250,3 +251,47 @@ def test_a_close_that_times_out_is_said_in_words_and_fails_nothing(
     said = record.getMessage()
     assert "close operation timed out" in said and "lease" in said
     assert ".rs" not in said and "/root" not in said, said
+
+
+class _ClosingSlowly:
+    """A Zenoh session whose close takes a while, as one over a lossy link does."""
+
+    def close(self) -> None:
+        time.sleep(0.4)
+
+
+def test_a_close_with_a_wait_returns_then_and_says_a_close_is_still_going_on() -> None:
+    transport = ZenohTransport("slow", 1, ZenohSettings(multicast=False))
+    real = transport._session
+    assert real is not None
+    transport._session = _ClosingSlowly()  # type: ignore[assignment]
+    try:
+        transport.close(wait=0.01)
+        assert closing(), "the close goes on, on a thread of its own"
+        deadline = time.monotonic() + 10
+        while closing() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not closing()
+    finally:
+        real.close()  # type: ignore[no-untyped-call]
+
+
+_LEAVES = """
+import sys, threading, time
+from actorswarm.cli import _leave_now_if_closing
+from actorswarm.transport import zenoh_transport
+stuck = threading.Thread(target=time.sleep, args=(120,))  # a close that never ends
+zenoh_transport._closes.append(stuck)
+stuck.start()
+print("answered", flush=False)
+_leave_now_if_closing(3)
+"""
+
+
+def test_a_command_whose_session_is_still_closing_exits_at_once_with_its_status() -> None:
+    # Through the interpreter's shutdown the process would wait for the close's thread
+    # (two minutes here): the subprocess's timeout would fail the test.
+    done = subprocess.run(
+        [sys.executable, "-c", _LEAVES], capture_output=True, text=True, timeout=60, check=False
+    )
+    assert (done.returncode, done.stdout) == (3, "answered\n"), done.stderr

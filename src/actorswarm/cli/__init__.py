@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 __all__ = ["main"]
@@ -32,4 +33,25 @@ def main() -> None:
             raise SystemExit(code)
     from actorswarm.cli.app import main as full
 
-    full()
+    try:
+        full()
+    except SystemExit as done:
+        _leave_now_if_closing(done.code)
+        raise
+    _leave_now_if_closing(0)
+
+
+def _leave_now_if_closing(code: object) -> None:
+    """Exit with ``code`` at once, without the interpreter's shutdown, when a Zenoh
+    session is still closing (a ground-station command over lossy links: its answers are
+    printed, its links' goodbyes take seconds; the kernel closes them at the exit). A
+    command that opened no session never imported Zenoh: nothing to look at."""
+    transport = sys.modules.get("actorswarm.transport.zenoh_transport")
+    if transport is None or not transport.closing():
+        return
+    if isinstance(code, str):  # SystemExit("message"): said on stderr, status 1
+        print(code, file=sys.stderr)
+    status = code if isinstance(code, int) else 0 if code is None else 1
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)

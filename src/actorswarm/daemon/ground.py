@@ -32,6 +32,10 @@ _T = TypeVar("_T")
 #: How often :meth:`GroundSession.wait_for` looks at its condition, seconds.
 _POLL = 0.05
 
+#: How long a session's end waits for Zenoh's close, seconds: done in milliseconds on
+#: a clean link; over a lossy one the rest goes on (:func:`.closing`).
+CLOSE_WAIT_S = 0.5
+
 
 def session_incarnation() -> int:
     """A new ground-station session's incarnation: the wall clock in microseconds.
@@ -103,8 +107,10 @@ class GroundSession:
         if self._task is not None:
             await self._task
         if self._transport is not None:
-            # Let the last acknowledgements go out before the session closes.
-            self._transport.close()
+            # The last acknowledgements went out with the serve task's end. Zenoh's own
+            # close waits for every peer's goodbye, seconds over a lossy link: a command
+            # has its answers and need not wait for it (``closing``, the CLI's exit).
+            self._transport.close(wait=CLOSE_WAIT_S)
 
     def do(self, action: Callable[[GroundStation, float], _T]) -> _T:
         """Run ``action(station, now)`` now and send what it produced."""

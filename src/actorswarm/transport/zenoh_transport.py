@@ -184,6 +184,7 @@ __all__ = [
     "ZenohTransport",
     "check_group",
     "check_interface",
+    "closing",
     "key_prefix",
     "spread_pattern",
     "use_small_robot_runtime",
@@ -195,6 +196,20 @@ log = logging.getLogger("actorswarm.transport")
 def _in_words(exc: BaseException) -> str:
     """Zenoh's error message without the Rust source location it ends each part with."""
     return re.sub(r" at \S+\.rs:\d+\.?\]?", "", " ".join(str(exc).split()))
+
+
+#: Closes left running by :meth:`ZenohTransport.close` (``wait``): threads that the
+#: interpreter waits for at its exit, unless the process leaves at once (:func:`closing`).
+_closes: list[threading.Thread] = []
+
+
+def closing() -> bool:
+    """Whether a Zenoh session is still closing on a thread of its own. A command that
+    has said everything may then leave with ``os._exit``: the kernel closes the links and
+    still sends what they hold, and the peers see the session end. (Exiting through the
+    interpreter's shutdown instead, with the close's thread cut off, aborts the process.)"""
+    _closes[:] = [t for t in _closes if t.is_alive()]
+    return bool(_closes)
 
 
 def _close(session: zenoh.Session) -> None:
@@ -746,8 +761,10 @@ class ZenohTransport:
             )
         publisher.put(data)
 
-    def close(self) -> None:
-        """Leave the swarm's network (idempotent)."""
+    def close(self, *, wait: float | None = None) -> None:
+        """Leave the swarm's network (idempotent). ``wait``: close on a thread of its own
+        and return after at most ``wait`` seconds (see :func:`closing`); None: return when
+        Zenoh's close is done."""
         session, self._session = self._session, None
         if session is None:
             return
@@ -759,7 +776,13 @@ class ZenohTransport:
             pub.undeclare()  # type: ignore[no-untyped-call]
         self._publishers.clear()
         # Zenoh's close flushes every link and waits for each peer's goodbye: over a lossy
-        # link seconds, and 10 s when it gives up. Not shortened by closing on a thread of
-        # its own and exiting meanwhile: a process that exits while Zenoh closes aborts
-        # ("FATAL: exception not rethrown", 1 ground-station command in 15 over 20 % loss).
-        _close(session)
+        # link seconds (a median of 5 s at 20 % loss, scripts/gs_latency.py), and 10 s when
+        # it gives up. The thread is not a daemon one: an interpreter that shut down under
+        # a close still running aborted ("FATAL: exception not rethrown", 1 command in 15).
+        if wait is None:
+            _close(session)
+            return
+        thread = threading.Thread(target=_close, args=(session,), name="zenoh-close")
+        _closes.append(thread)
+        thread.start()
+        thread.join(wait)
