@@ -27,6 +27,7 @@ from actorswarm.plugins.formation import Formation
 from actorswarm.plugins.tracking import TrackTarget
 from actorswarm.sim.mission import prepare, run_slices
 from actorswarm.sim.tasksim import Fault, TaskSim
+from actorswarm.sim.vehicle_faults import VehicleFault
 from actorswarm.world.separation import BREACH_PREFIX
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -61,6 +62,7 @@ class Run:
         platforms: int | None = None,
         kills: tuple[tuple[int, float], ...] = (),
         probe_shapes: bool = False,
+        refuse: frozenset[int] = frozenset(),
     ) -> None:
         self.mission: Mission = mission(name)
         self.replay = (
@@ -69,8 +71,21 @@ class Run:
             + (f" --platforms {platforms}" if platforms else "")
             + "".join(f" --kill {p}@{t:g}" for p, t in kills)
         )
+        if refuse:  # the same run from the sim command (demo has no vehicle faults)
+            m = self.mission
+            self.replay = (
+                f"actorswarm sim {m.script_path} --world {m.world_path} --duration {m.duration:g}"
+                + "".join(f" --event {name}@{t:g}" for name, t in m.events)
+                + f" --seed {seed} --refuse-takeoff {','.join(map(str, sorted(refuse)))}"
+            )
+        faults = (VehicleFault("refuse", refuse),) if refuse else ()
         self.sim: TaskSim = prepare(
-            self.mission, platforms=platforms, seed=seed, loss=loss, kills=kills
+            self.mission,
+            platforms=platforms,
+            seed=seed,
+            loss=loss,
+            kills=kills,
+            vehicle_faults=faults,
         )
         #: Per phase end (just before each ground-station event): actor → the members'
         #: offsets from their slots, (n, 2).
@@ -302,6 +317,23 @@ def test_search_track_completes_with_a_searcher_killed() -> None:
     run.clean()
     assert "9" not in run.report["final_actors"]
     assert len(run.report["final_actors"]) == 9
+
+
+def test_search_track_flies_on_without_a_quadrotor_that_never_arms_and_completes() -> None:
+    """Platform 10's autopilot never lets it take off: the take-off gives up 120 s after it
+    was asked and raises vehicle_fault_event, which the script answers with Grounded (on
+    the ground, out of the mission); the nine others fly the mission, and the run completes
+    (before the Grounded actor, platform 10 stayed in Standby and it never did)."""
+    run = Run("search-track", seed=4, refuse=frozenset({10}))
+    run.clean()
+    assert run.report["final_actors"]["10"] == ["Grounded"]
+    grounded = [t for t in run.report["transitions"] if t["to"] == "Grounded"]
+    assert [(t["platform"], t["from"], t["event"]) for t in grounded] == [
+        (10, "Standby", "vehicle_fault_event")
+    ]
+    assert 119.0 <= grounded[0]["t"] <= 125.0, grounded
+    finals = Counter(a for actors in run.report["final_actors"].values() for a in actors)
+    assert finals == {"Return": 9, "Grounded": 1}
 
 
 # --- reorganization ------------------------------------------------------------------------

@@ -26,6 +26,7 @@ from actorswarm.missions import Mission
 from actorswarm.sim.radio import LinkModel
 from actorswarm.sim.record import sample_world
 from actorswarm.sim.tasksim import Fault, GroundEvent, TaskSim
+from actorswarm.sim.vehicle_faults import VehicleFault
 from actorswarm.world.config import load_world
 
 __all__ = ["RECORD_PERIOD", "prepare", "resize", "run_slices"]
@@ -64,12 +65,13 @@ def prepare(
     kills: tuple[tuple[int, float], ...] = (),
     packets: list[tuple[float, int]] | None = None,
     min_separation: float | None = None,
+    vehicle_faults: tuple[VehicleFault, ...] = (),
 ) -> TaskSim:
     """The mission's simulation, events and crashes scheduled, recording every
     :data:`RECORD_PERIOD` seconds. ``loss`` is an extra independent loss on every packet,
     on top of the world's distance-driven radio model. ``packets``: as
-    :func:`~actorswarm.sim.record.sample_world` takes it; ``min_separation``: as
-    :attr:`TaskSim.min_separation <actorswarm.sim.tasksim.TaskSim.min_separation>`."""
+    :func:`~actorswarm.sim.record.sample_world` takes it; ``min_separation`` and
+    ``vehicle_faults``: as :class:`~actorswarm.sim.tasksim.TaskSim` takes them."""
     script = load(mission.script_path)
     script = resize(script, platforms or mission.platforms, mission.platforms)
     sim = TaskSim(
@@ -79,6 +81,7 @@ def prepare(
         config=CoreConfig(),
         world_config=load_world(mission.world_path),
         min_separation=min_separation,
+        vehicle_faults=vehicle_faults,
     )
     sample_world(sim, RECORD_PERIOD, packets)
     sim.schedule(
