@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 import zenoh
@@ -295,3 +296,44 @@ def test_a_command_whose_session_is_still_closing_exits_at_once_with_its_status(
         [sys.executable, "-c", _LEAVES], capture_output=True, text=True, timeout=60, check=False
     )
     assert (done.returncode, done.stdout) == (3, "answered\n"), done.stderr
+
+
+#: Put first on a daemon's PYTHONPATH: its Zenoh close takes a minute, as one over a radio
+#: that lost every peer's goodbye would (10 s there, when Zenoh gives up).
+_SLOW_CLOSE = """
+import time
+from pathlib import Path
+
+from actorswarm.transport import zenoh_transport
+
+_close = zenoh_transport._close
+
+
+def _slow(session):
+    time.sleep(60)
+    _close(session)
+
+
+zenoh_transport._close = _slow
+"""
+
+
+def test_a_daemon_stops_without_waiting_for_zenohs_close(tmp_path: Path) -> None:
+    """SIGTERM: the daemon stops (its backup written, "stopped" logged) and exits 0 within
+    seconds, the close's goodbyes left to go on; waiting for them, it would take a minute."""
+    from actorswarm.daemon.launch import LocalSwarm
+
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(_SLOW_CLOSE)
+    path = os.pathsep.join(p for p in (str(site), os.environ.get("PYTHONPATH", "")) if p)
+    with LocalSwarm(tmp_path, 1, env={**os.environ, "PYTHONPATH": path}) as swarm:
+        swarm.start(1)
+        swarm.wait("the daemon started", lambda: bool(swarm.events(1, "started")), timeout=30)
+        began = time.monotonic()
+        code = swarm.stop(1)
+        took = time.monotonic() - began
+        assert code == 0, swarm.log(1).read_text()
+        assert took < 20, f"the stop took {took:.1f} s: it waited for the close"
+        assert swarm.events(1, "stopped"), swarm.log(1).read_text()
+        assert "Traceback" not in swarm.log(1).read_text()

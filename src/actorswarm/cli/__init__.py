@@ -30,6 +30,7 @@ def main() -> None:
             except KeyboardInterrupt:  # before the daemon's own signal handlers: as typer
                 print("\nAborted!", file=sys.stderr)
                 code = 1
+            _leave_now_if_closing(code)
             raise SystemExit(code)
     from actorswarm.cli.app import main as full
 
@@ -43,9 +44,10 @@ def main() -> None:
 
 def _leave_now_if_closing(code: object) -> None:
     """Exit with ``code`` at once, without the interpreter's shutdown, when a Zenoh
-    session is still closing (a ground-station command over lossy links: its answers are
-    printed, its links' goodbyes take seconds; the kernel closes them at the exit). A
-    command that opened no session never imported Zenoh: nothing to look at."""
+    session is still closing (a ground-station command or a stopped daemon over lossy
+    links: its answers are printed or its backup written, its links' goodbyes take
+    seconds; the kernel closes them at the exit). A command that opened no session never
+    imported Zenoh: nothing to look at."""
     transport = sys.modules.get("actorswarm.transport.zenoh_transport")
     if transport is None or not transport.closing():
         return

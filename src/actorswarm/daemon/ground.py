@@ -23,7 +23,7 @@ from actorswarm.daemon.loop import Inbox, clock, flush, serve
 from actorswarm.ground.silence import explain
 from actorswarm.ground.station import GroundStation
 from actorswarm.security.guard import PacketGuard
-from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
+from actorswarm.transport.zenoh_transport import CLOSE_WAIT_S, ZenohSettings, ZenohTransport
 
 __all__ = ["GroundSession"]
 
@@ -31,10 +31,6 @@ _T = TypeVar("_T")
 
 #: How often :meth:`GroundSession.wait_for` looks at its condition, seconds.
 _POLL = 0.05
-
-#: How long a session's end waits for Zenoh's close, seconds: done in milliseconds on
-#: a clean link; over a lossy one the rest goes on (:func:`.closing`).
-CLOSE_WAIT_S = 0.5
 
 
 def session_incarnation() -> int:

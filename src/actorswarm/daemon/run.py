@@ -66,7 +66,9 @@ then runs on without ROS 2, unless its vehicle is the ROS 2 one (exit status 1).
 that floods) and could not decode, and how many errors it reported.
 
 A signal stops it cleanly: the loop ends, the transport closes (the swarm notices the
-platform leave within its failure-detection time) and the process exits 0.
+platform leave within its failure-detection time) and the process exits 0. The stop waits
+for Zenoh's close for ``CLOSE_WAIT_S`` (0.5 s) at most: over a lossy radio its goodbyes
+to the peers take seconds, and the process leaves meanwhile.
 """
 
 from __future__ import annotations
@@ -95,7 +97,7 @@ from actorswarm.daemon.state import StateDir, WritePacer
 from actorswarm.dsl.isolated import ScriptRefused, check_isolated, check_isolated_async
 from actorswarm.security.guard import PacketGuard
 from actorswarm.security.pipeline import Pipeline
-from actorswarm.transport.zenoh_transport import ZenohSettings, ZenohTransport
+from actorswarm.transport.zenoh_transport import CLOSE_WAIT_S, ZenohSettings, ZenohTransport
 
 if TYPE_CHECKING:
     from actorswarm.dsl.model import TaskScript
@@ -524,7 +526,7 @@ async def _main(options: DaemonOptions) -> int:
         out.send(made)
 
     try:
-        with transport:
+        try:
             # A platform's output is sent after every packet: its engine reacts to each
             # packet before the next (PlatformEndpoint).
             await serve(
@@ -537,6 +539,12 @@ async def _main(options: DaemonOptions) -> int:
                 traffic=traffic,
                 flush_each=True,
             )
+        finally:
+            # Zenoh's close waits for every peer's goodbye: seconds over a lossy radio, 10 s
+            # when it gives up. The swarm tells a platform gone by its heartbeats, not by
+            # that goodbye, so the stop goes on meanwhile, and the process leaves without
+            # waiting for the rest (``closing``, the CLI's exit).
+            transport.close(wait=CLOSE_WAIT_S)
     finally:
         # A clean stop resumes where it stopped (nothing written if the last backup says it).
         generation = endpoint.backup(changed_only=True)

@@ -169,6 +169,7 @@ import zenoh
 __all__ = [
     "BEAT_DELAY_MS",
     "BROADCASTS",
+    "CLOSE_WAIT_S",
     "DEFAULT_GROUP",
     "JOIN_MS",
     "KEEP_ALIVES",
@@ -197,6 +198,10 @@ def _in_words(exc: BaseException) -> str:
     """Zenoh's error message without the Rust source location it ends each part with."""
     return re.sub(r" at \S+\.rs:\d+\.?\]?", "", " ".join(str(exc).split()))
 
+
+#: How long a command's or a daemon's end waits for Zenoh's close, seconds: done in
+#: milliseconds on a clean link; over a lossy one the rest goes on (:func:`closing`).
+CLOSE_WAIT_S = 0.5
 
 #: Closes left running by :meth:`ZenohTransport.close` (``wait``): threads that the
 #: interpreter waits for at its exit, unless the process leaves at once (:func:`closing`).
