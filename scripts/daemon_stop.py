@@ -30,8 +30,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "daemon"))
 
-import pytest  # noqa: E402
-from netns_lab import PREFIX, Radios, impairment, reap_leftovers  # noqa: E402
+from netns_lab import full_mesh, lab_radios  # noqa: E402
 
 from actorswarm.daemon.launch import LocalSwarm  # noqa: E402
 
@@ -51,34 +50,22 @@ def main() -> int:
         parser.error("--platforms 3-20, --loss 0-99, --runs at least 1")
     if args.before is not None and not (args.before / "src" / "actorswarm").is_dir():
         parser.error(f"{args.before}: no src/actorswarm there")
-    prefix = f"{PREFIX}{os.getpid()}"
-    try:
-        kind = impairment(prefix)
-    except pytest.skip.Exception as exc:
-        print(f"cannot run: {exc}", file=sys.stderr)
-        return 2
-    reap_leftovers()
-    radios = Radios(prefix, kind, args.loss, 0)
-    everyone = list(range(1, args.platforms + 1))
     here = dict(os.environ)
     sources = {"this": here}
     if args.before is not None:
         before = here | {"PYTHONPATH": str((args.before / "src").resolve())}
         sources = {"before": before, "this": here}
     stops: dict[str, list[float]] = {label: [] for label in sources}
+    everyone = list(range(1, args.platforms + 1))
     try:
-        for p in everyone:
-            for q in range(1, p):
-                radios.link(q, p)
+        radios = lab_radios(args.loss)
+    except RuntimeError as exc:
+        print(f"cannot run: {exc}", file=sys.stderr)
+        return 2
+    try:
         with (
             tempfile.TemporaryDirectory() as tmp,
-            LocalSwarm(
-                Path(tmp),
-                args.platforms,
-                endpoints=[f"tcp/0.0.0.0:{PORT}"] * args.platforms,
-                links=radios.connects(everyone, PORT),
-                wrap=radios.wrap,
-            ) as swarm,
+            full_mesh(radios, Path(tmp), args.platforms, PORT) as swarm,
         ):
             swarm.start_all()
             swarm.wait("a master", lambda: swarm.agreed_master(everyone) is not None, timeout=60)

@@ -33,8 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "daemon"))
 
-import pytest  # noqa: E402
-from netns_lab import PREFIX, Radios, impairment, reap_leftovers  # noqa: E402
+from netns_lab import full_mesh, lab_radios  # noqa: E402
 
 from actorswarm.daemon.launch import LocalSwarm  # noqa: E402
 
@@ -83,32 +82,18 @@ def main() -> int:
         parser.error(f"{args.script}: no such file")
     if args.before is not None and not (args.before / "src" / "actorswarm").is_dir():
         parser.error(f"{args.before}: no src/actorswarm there")
-    prefix = f"{PREFIX}{os.getpid()}"
     try:
-        kind = impairment(prefix)
-    except pytest.skip.Exception as exc:
+        radios = lab_radios(args.loss)
+    except RuntimeError as exc:
         print(f"cannot run: {exc}", file=sys.stderr)
         return 2
-    reap_leftovers()
-    radios = Radios(prefix, kind, args.loss, 0)
     everyone = list(range(1, args.platforms + 1))
     rows: list[dict[str, float]] = []
     commands: dict[str, list[float]] = {}
     try:
-        for p in everyone:
-            radios.link(0, p)
-            for q in range(1, p):
-                radios.link(q, p)
         with (
             tempfile.TemporaryDirectory() as tmp,
-            LocalSwarm(
-                Path(tmp),
-                args.platforms,
-                endpoints=[f"tcp/0.0.0.0:{PORT}"] * args.platforms,
-                links=radios.connects(everyone, PORT),
-                gs_connect=[radios.via(0, p, PORT) for p in everyone],
-                wrap=radios.wrap,
-            ) as swarm,
+            full_mesh(radios, Path(tmp), args.platforms, PORT, ground=True) as swarm,
         ):
             swarm.start_all()
             swarm.wait("a master", lambda: swarm.agreed_master(everyone) is not None, timeout=60)

@@ -32,7 +32,19 @@ from pathlib import Path
 
 import pytest
 
-__all__ = ["PREFIX", "Radios", "impairment", "must", "netem", "reap_leftovers", "run"]
+from actorswarm.daemon.launch import LocalSwarm
+
+__all__ = [
+    "PREFIX",
+    "Radios",
+    "full_mesh",
+    "impairment",
+    "lab_radios",
+    "must",
+    "netem",
+    "reap_leftovers",
+    "run",
+]
 
 #: Namespace names: this prefix, the ID of the process that made them, ``-`` and a role.
 PREFIX = "asw"
@@ -283,3 +295,39 @@ class Radios:
         for name in reversed(self.made):
             run("ip", "netns", "del", name)
         self.made.clear()
+
+
+def lab_radios(loss_percent: float, delay_ms: float = 0) -> Radios:
+    """Radios for a measurement script (``scripts/``), under a prefix of this process's
+    own, after the namespaces earlier runs left are reaped. RuntimeError with the reason
+    where this machine cannot make them (not root, no ``ip netns``, no way to lose
+    packets)."""
+    prefix = f"{PREFIX}{os.getpid()}"
+    try:
+        kind = impairment(prefix)
+    except pytest.skip.Exception as exc:
+        raise RuntimeError(str(exc)) from None
+    reap_leftovers()
+    return Radios(prefix, kind, loss_percent, delay_ms)
+
+
+def full_mesh(
+    radios: Radios, directory: Path, size: int, port: int, *, ground: bool = False
+) -> LocalSwarm:
+    """Platforms ``1..size`` over ``radios``, every pair linked (and with ``ground`` the
+    ground station, node 0, linked to each): daemons listening on ``port`` of every
+    address and connecting to each lower ID over their link; not started yet."""
+    everyone = list(range(1, size + 1))
+    for p in everyone:
+        if ground:
+            radios.link(0, p)
+        for q in range(1, p):
+            radios.link(q, p)
+    return LocalSwarm(
+        directory,
+        size,
+        endpoints=[f"tcp/0.0.0.0:{port}"] * size,
+        links=radios.connects(everyone, port),
+        gs_connect=[radios.via(0, p, port) for p in everyone] if ground else None,
+        wrap=radios.wrap,
+    )
