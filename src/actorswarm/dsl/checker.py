@@ -12,8 +12,10 @@ The pipeline, each stage its own module:
    only once 2 and 3 found no error;
 5. with a world, :func:`~actorswarm.dsl.safety.check_safety` — warnings about separation,
    the ceiling and areas the script's platforms cannot share — and
-   :func:`~actorswarm.dsl.fixedwing.check_fixed_wing`: what fixed-wings cannot fly, and
-   :func:`~actorswarm.dsl.radio.check_radio`: platforms out of each other's radio reach.
+   :func:`~actorswarm.dsl.fixedwing.check_fixed_wing`: what fixed-wings cannot fly,
+   :func:`~actorswarm.dsl.radio.check_radio`: platforms out of each other's radio reach, and
+   :func:`~actorswarm.dsl.takeoff.check_takeoff_fault`: an actor that takes off and does
+   not answer an autopilot that never lets it.
 
 A script with any error is refused whole (docs/design.md §4): :func:`check` then returns no model
 and :func:`load` raises :class:`~actorswarm.dsl.diagnostics.ScriptError`. Warnings never
@@ -37,6 +39,7 @@ from actorswarm.dsl.parser import DEFAULT_MAX_BYTES, XmlError, check_size, parse
 from actorswarm.dsl.plugins import installed_plugins
 from actorswarm.dsl.radio import check_radio
 from actorswarm.dsl.safety import check_safety
+from actorswarm.dsl.takeoff import check_takeoff_fault
 
 if TYPE_CHECKING:
     from actorswarm.world.config import WorldConfig
@@ -103,6 +106,7 @@ def check(
                 check_safety(script, world, report)
                 check_fixed_wing(script, world, report)
                 check_radio(script, world, report)
+                check_takeoff_fault(script, world, report)
     found = report.sorted()
     errors = tuple(d for d in found if d.severity == "error")
     return CheckResult(
