@@ -193,8 +193,9 @@ def test_a_late_autopilot_takes_off_when_ready_and_a_refusing_one_raises_its_fau
     refused = takeoff_run(VehicleFault("refuse", frozenset({1})), duration=REFUSE_AFTER_S + 5)
     report = refused.report()
     assert refused.world is not None and refused.world.vehicle(1).position()[2] == 0.0
-    raised = [e for e in report["ignored_events"] if e["event"] == "vehicle_fault_event"]
-    assert [e["platform"] for e in raised] == [1]
+    # The script answers the fault: that platform alone goes to Grounded, on the ground.
+    raised = [t for t in report["transitions"] if t["event"] == "vehicle_fault_event"]
+    assert [(t["platform"], t["from"], t["to"]) for t in raised] == [(1, "Standby", "Grounded")]
     assert raised[0]["t"] == pytest.approx(REFUSE_AFTER_S, abs=1.0)
 
 
