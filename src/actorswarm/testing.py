@@ -241,6 +241,7 @@ def make_context(
     camera: Camera | None = None,
     areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
     ros2: Any = None,
+    task_start: float | None = None,
 ) -> PluginContext:
     """A :class:`PluginContext` for a plugin unit test.
 
@@ -253,7 +254,8 @@ def make_context(
     ``size`` place the actor in the group that switched it in, ``slot`` and ``slots`` in its
     branch (give ``slot``/``slots`` 0 to copy ``index``/``size``, as a transition without
     branches does); ``camera`` (a :class:`FakeCamera`) and ``areas`` are what a
-    detection or search plugin sees; ``ros2`` what a ROS 2 plugin's ``ctx.ros2`` is.
+    detection or search plugin sees; ``ros2`` what a ROS 2 plugin's ``ctx.ros2`` is;
+    ``task_start`` when the task started (``ctx.task_start``).
     """
     if slot == 0 and slots == 0:
         slot, slots = index, size
@@ -278,6 +280,7 @@ def make_context(
         camera=camera,
         areas=areas,
         ros2=ros2,
+        task_start=task_start,
     )
 
 

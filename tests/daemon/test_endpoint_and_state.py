@@ -108,6 +108,26 @@ def test_a_restarted_platform_rejoins_its_script_from_the_state_dir(tmp_path: Pa
     assert endpoint.node.incarnation == 2
 
 
+def test_the_state_dir_keeps_when_the_task_began(tmp_path: Path) -> None:
+    """A restarted daemon goes on in the task it ran: the start's instant on the shared
+    clock is kept beside the script's hash, and reaches the plugins on its new clock."""
+    state = StateDir(tmp_path / "p1")
+    sha = state.save_script(SCRIPT)
+    state.set_running(sha, 1_796_000_000.5)
+    assert state.running() == sha and state.began() == 1_796_000_000.5
+    endpoint = PlatformEndpoint(1, swarm="t", incarnation=state.next_incarnation(), now=0.0)
+    endpoint.engine.clock_offset = lambda: 1_796_000_000.0
+    endpoint.engine.adopt(SCRIPT)
+    endpoint.engine.rejoin(sha, 40.0, began=state.began())
+    assert endpoint.runtime.task_start == 0.5
+    # A file of an older daemon (the hash alone), or a second line that is no time.
+    for text in (f"{sha}\n", f"{sha}\nnan\n", f"{sha}\nsoon\n", f"{sha}\n-3\n"):
+        (state.path / "running").write_text(text)
+        assert state.running() == sha and state.began() is None, text
+    state.set_running(sha)
+    assert state.running() == sha and state.began() is None
+
+
 def test_the_state_dir_survives_damage(tmp_path: Path) -> None:
     state = StateDir(tmp_path / "p")
     (state.path / "incarnation").write_text("garbage")

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from actorswarm.daemon.launch import LocalSwarm
+from actorswarm.daemon.state import StateDir
 
 SCRIPT = Path(__file__).with_name("three.xml")
 
@@ -36,9 +38,15 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
     deployed = swarm.gs("deploy", str(script), "--expect", "3", *state)
     assert deployed.returncode == 0, deployed.stderr
     assert "confirmed by 3 of 3: [1, 2, 3]" in deployed.stdout
+    asked = time.time()
     started = swarm.gs("start", *state)
     assert started.returncode == 0, started.stderr
     assert "started on 3 of 3" in started.stdout
+    assert "the task's clock began at " in started.stdout
+    # Each kept the task's start on the shared clock (here the one host's UTC clock), to go
+    # on in that task after a restart: the same instant for all three.
+    began = {StateDir(swarm.state_dir(p)).began() for p in (1, 2, 3)}
+    assert len(began) == 1 and asked <= began.pop() <= time.time(), began
     fired = swarm.gs("event", "go_event")
     assert fired.returncode == 0, fired.stdout + fired.stderr
     assert fired.stdout.count("event go_event delivered") == 3

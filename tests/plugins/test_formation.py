@@ -322,6 +322,32 @@ def test_a_shared_departure_puts_every_formation_on_one_leader() -> None:
     assert line.slot_point(25.0) == pytest.approx(arrow.slot_point(25.0)) == (200.0, 0.0, 30.0)
 
 
+def test_depart_counts_from_the_task_s_start_on_each_platform_s_clock() -> None:
+    """Two platforms whose clocks differ by 1000 s (a daemon's is monotonic) follow one
+    leader: ``depart`` counts from the task's start, which each knows on its own clock — and
+    the master's slot assignment (group_points) puts the slots at the same places."""
+    params = {"route": "0 0; 1000 0", "speed": "10", "depart": "5", "lookahead": "0"}
+    slot_points = []
+    for offset in (0.0, 1000.0):
+        ctx = make_context(
+            Arrow,
+            params=params,
+            vehicle=FakeVehicle(),
+            now=offset + 20.0,
+            slot=1,
+            slots=3,
+            task_start=offset + 10.0,
+        )
+        arrow = Arrow()
+        arrow._drive_start(ctx)
+        # The leader left 15 s after the task began: at 25 s of the task it is 100 m out.
+        slot_points.append(arrow.slot_point(offset + 25.0))
+        bound = Arrow.bind_params(params)
+        points = Arrow.group_points(bound, 3, offset + 25.0, {}, task_start=offset + 10.0)
+        assert points is not None and points[0] == pytest.approx(slot_points[-1][:2])
+    assert slot_points[0] == pytest.approx(slot_points[1]) == (100.0, 0.0, 30.0)
+
+
 def test_offset_moves_the_formation_s_own_leader() -> None:
     params = {"route": "0 0; 1000 0", "speed": "10", "offset": "-250 40"}
     ctx = make_context(Line, params=params, vehicle=FakeVehicle(), now=0.0, slot=1, slots=5)

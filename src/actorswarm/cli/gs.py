@@ -12,6 +12,7 @@ are in :mod:`actorswarm.cli.gs_control`.
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -154,17 +155,19 @@ def gs_start(
         typer.echo(f"{path}: nothing deployed to start ({exc}); run gs deploy first", err=True)
         raise typer.Exit(2) from None
 
-    async def go() -> tuple[list[int], list[int], str, list[str]]:
+    async def go() -> tuple[list[int], list[int], str, list[str], float | None]:
         async with ln.session(timeout) as gs:
             # Deploying again is idempotent (a platform that has the script confirms at
             # once): it tells this session who has it.
             sha = gs.do(lambda st, now: st.deploy(data, platforms, now))
             await gs.wait_for(lambda: not gs.station.missing(sha), timeout)
             try:
-                gs.do(lambda st, now: st.start(now, force=force))
+                # The task's clock: now on this machine's (UTC), unless the platforms
+                # that run the script already began it (then theirs).
+                began = gs.do(lambda st, now: st.start(now, force=force, began=time.time()))
             except NotConfirmed as exc:
                 confirmed = set(platforms) - set(exc.missing)
-                return [], exc.missing, str(exc), gs.explain(platforms, confirmed)
+                return [], exc.missing, str(exc), gs.explain(platforms, confirmed), None
 
             def answered() -> dict[int, tuple[bool, str]]:
                 return gs.station.outcomes("Start")
@@ -175,21 +178,29 @@ def gs_start(
                     typer.echo(f"  {p}: FAILED: {message}", err=True)
             started = [p for p, (ok, _) in answered().items() if ok]
             why = gs.explain(platforms, answered())
-            return sorted(started), gs.station.missing(sha), "", why
+            return sorted(started), gs.station.missing(sha), "", why, began
 
-    started, missing, refused, why = run_async(go())
+    started, missing, refused, why, began = run_async(go())
     if refused:
         typer.echo(refused, err=True)
         for line in why:
             typer.echo(line, err=True)
         raise typer.Exit(1)
     typer.echo(f"started on {len(started)} of {len(platforms)}: {started}")
+    if began is not None:
+        typer.echo(f"the task's clock began at {utc_text(began)}")
     if missing:
         typer.echo(f"never confirmed the script: {missing}", err=True)
     for line in why:
         typer.echo(line, err=True)
     if set(platforms) - set(started):
         raise typer.Exit(1)
+
+
+def utc_text(t: float) -> str:
+    """UTC seconds as ``2026-12-07T23:59:01.250Z``."""
+    whole = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(t))
+    return f"{whole}.{int(t % 1 * 1000):03d}Z"
 
 
 def _status_line(platform: str, row: dict[str, Any]) -> str:

@@ -80,6 +80,7 @@ import logging
 import os
 import signal
 import sys
+import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -197,6 +198,8 @@ def _status(
         "actors": list(endpoint.runtime.running()),
         "loaded": endpoint.runtime.loaded(),
         "script": engine.script_sha,
+        # When the task began on the shared clock (UTC seconds; None: not started).
+        "began": engine.began,
         "transitions": [
             {"t": r.t, "from": r.src, "to": r.dst, "event": r.event, "cause": r.cause}
             for r in (
@@ -347,11 +350,14 @@ async def _main(options: DaemonOptions) -> int:
         _log("deployed", script=sha[:12])
 
     def started(sha: str) -> None:
-        state.set_running(sha)
+        state.set_running(sha, engine.began)
         heap.due()
 
     engine.on_deployed = deployed
     engine.on_started = started
+    # The task's start comes on the swarm's shared clock (UTC, kept by GPS or NTP on a
+    # robot); the engine's own clock is monotonic.
+    engine.clock_offset = lambda: time.time() - clock()
     # Scripts are checked in a child process: the daemon never carries the checker.
     engine.checker = check_isolated
     running = state.running()
@@ -361,7 +367,7 @@ async def _main(options: DaemonOptions) -> int:
             _log("rejoin-failed", why=f"script {running[:12]} missing from the state directory")
         else:
             engine.adopt(kept)
-            resumed = engine.rejoin(running, now)
+            resumed = engine.rejoin(running, now, began=state.began())
             _log("rejoined", script=running[:12], resumed=resumed)
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()

@@ -8,7 +8,8 @@ Layout (all written atomically: a temporary file, ``fsync``, then a rename):
 ``scripts/<sha256>.xml``
     Every task script deployed to this platform, by content hash.
 ``running``
-    The SHA-256 of the script the platform runs (absent: none started yet).
+    The SHA-256 of the script the platform runs (absent: none started yet), and on a second
+    line when its task started on the swarm's shared clock (UTC seconds; absent: unknown).
 ``replay.json``
     The packet guard's replay windows (per sender: incarnation, highest sequence number
     accepted), so packets recorded before a restart are still refused after it.
@@ -130,16 +131,34 @@ class StateDir:
             return None
         return data if sha256_hex(data) == sha else None
 
-    def set_running(self, sha: str) -> None:
-        _write_atomic(self.path / "running", f"{sha}\n".encode())
+    def set_running(self, sha: str, began: float | None = None) -> None:
+        """The script started here, and when its task started (UTC seconds; None: unknown)."""
+        text = sha if began is None else f"{sha}\n{began!r}"
+        _write_atomic(self.path / "running", f"{text}\n".encode())
 
     def running(self) -> str | None:
         """The hash of the script last started here (None: none)."""
+        return self._running()[0]
+
+    def began(self) -> float | None:
+        """When the task of the script last started here began, on the swarm's shared clock
+        (None: none started, or not known — a file of an older daemon, or damaged)."""
+        return self._running()[1]
+
+    def _running(self) -> tuple[str | None, float | None]:
         try:
-            sha = (self.path / "running").read_text().strip()
+            lines = (self.path / "running").read_text().split()
         except OSError:
-            return None
-        return sha or None
+            return None, None
+        if not lines:
+            return None, None
+        try:
+            began = float(lines[1]) if len(lines) > 1 else None
+        except ValueError:
+            began = None
+        if began is not None and not 0.0 <= began < 1e11:
+            began = None  # not a time (nan, inf, negative): as if unknown
+        return lines[0], began
 
     def save_replay_windows(self, windows: dict[int, tuple[int, int]]) -> None:
         data = {str(sender): list(window) for sender, window in windows.items()}

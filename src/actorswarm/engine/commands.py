@@ -40,10 +40,21 @@ class DeployChunk(_Cmd, frozen=True):
     data: bytes
 
 
-class Start(_Cmd, frozen=True):
-    """Start the deployed script ``sha256`` (its initial actors, or the new version)."""
+#: Seconds since 1970 (UTC): a task's start on the clock the platforms share (GPS or NTP
+#: time on robots). Bounded so that a float of any sender stays a usable time.
+Instant = Annotated[float, Meta(ge=0.0, le=1e11)]
+
+
+class Start(_Cmd, frozen=True, omit_defaults=True):
+    """Start the deployed script ``sha256`` (its initial actors, or the new version).
+
+    ``began`` is when the task started on the swarm's shared clock (UTC seconds), the same
+    for every platform however late the command reaches it: a platform's plugins count the
+    task's time from it (``ctx.task_start``). None (a ground station that gives none): each
+    platform counts from its own receipt of the command."""
 
     sha256: Sha
+    began: Instant | None = None
 
 
 class Inject(_Cmd, frozen=True):
@@ -101,10 +112,13 @@ Command = (
 )
 
 
-class DeployAck(_Cmd, frozen=True):
-    """The whole script arrived and hashes to ``sha256``."""
+class DeployAck(_Cmd, frozen=True, omit_defaults=True):
+    """The whole script arrived and hashes to ``sha256``; ``began``: the platform already
+    runs it, in the task that began then (UTC seconds, :class:`Start`), which a ground
+    station starting it again gives the platforms that have not started it."""
 
     sha256: Sha
+    began: Instant | None = None
 
 
 class Result(_Cmd, frozen=True):

@@ -34,6 +34,12 @@ and an :class:`~actorswarm.engine.runtime.ActorHost`.
   deploy in chunks (answered with the script's SHA-256), start (the first script, or a new
   version while running), inject an event, forced transition, forced start / stop, pause /
   activate, backup and status. Each is answered with its outcome.
+* **The task's clock.** A start carries its instant on the clock the platforms share (UTC
+  on robots, kept by GPS or NTP; the one clock in the simulator): :attr:`TaskEngine.began`.
+  The engine turns it into its host's clock (:attr:`TaskEngine.clock_offset`) for the
+  plugins, as ``ctx.task_start``, so a schedule counted from the task's start (a formation's
+  ``depart``) is one schedule across the swarm, however late the command reached a platform.
+  A later start of the same task keeps the first instant.
 * **Records.** What the host may want to report is kept in lists it drains:
   :attr:`TaskEngine.transitions` (every switch), :attr:`TaskEngine.commands` (every operator
   command carried out) and, on the master, :attr:`TaskEngine.fired` (every transition group
@@ -127,17 +133,38 @@ class TaskEngine:
         self.check_later: Callable[[str, str], None] | None = None
         # Scripts whose verdict check_later owes: the bytes, to keep once it is given.
         self._checking: dict[str, bytes] = {}
+        #: The swarm's shared clock minus the host's clock (seconds), read when a start
+        #: comes: 0 where they are one clock (the simulator); a daemon's is UTC minus its
+        #: monotonic clock.
+        self.clock_offset: Callable[[], float] = _one_clock
+        #: When the task started, on the swarm's shared clock; None: not started.
+        self.began: float | None = None
+
+    def _set_began(self, began: float) -> None:
+        self.began = began
+        self.runtime.task_start = began - self.clock_offset()
 
     # --- the host's calls, handed on to the machine ---------------------------------------
 
-    def start(self, now: float) -> None:
-        """Start this platform's initial actors (:meth:`ActorMachine.start`)."""
+    def start(self, now: float, *, began: float | None = None) -> None:
+        """Start this platform's initial actors (:meth:`ActorMachine.start`): the task
+        starts at ``began`` on the shared clock (None: now, unless a start is known)."""
+        self._keep_began(began, now)
         self.machine.start(now)
 
-    def resume(self, now: float) -> bool:
+    def resume(self, now: float, *, began: float | None = None) -> bool:
         """After a restart: bring back the actors of the latest backup (False: none; the
-        caller starts the initial actors instead; :meth:`ActorMachine.resume`)."""
+        caller starts the initial actors instead; :meth:`ActorMachine.resume`), in the
+        task that started at ``began`` (as :meth:`start`)."""
+        self._keep_began(began, now)
         return self.machine.resume(now)
+
+    def _keep_began(self, began: float | None, now: float) -> None:
+        """The task's start: ``began``, else the one known, else ``now``."""
+        if began is not None:
+            self._set_began(began)
+        elif self.began is None:
+            self._set_began(now + self.clock_offset())
 
     def tick(self, now: float) -> None:
         """Time passed (:meth:`ActorMachine.tick`)."""
@@ -202,6 +229,11 @@ class TaskEngine:
     def _reply(self, reply: cmds.Reply, now: float) -> None:
         self.node.send_app(GROUND_STATION, cmds.TOPIC_REPLY, cmds.encode(reply), now, urgent=True)
 
+    def _ack(self, sha: str, now: float) -> None:
+        """Confirm the script ``sha``, with when its task began if it runs here already."""
+        began = self.began if self.script_sha == sha else None
+        self._reply(cmds.DeployAck(sha256=sha, began=began), now)
+
     def _result(self, command: str, ok: bool, message: str, now: float) -> None:
         self._reply(cmds.Result(command=command, ok=ok, message=message), now)
 
@@ -228,7 +260,7 @@ class TaskEngine:
     # --- one handler per command (the table _COMMAND_HANDLERS below the class) ----------
 
     def _cmd_start(self, command: cmds.Start, now: float) -> str:
-        return self._start_script(command.sha256, now)
+        return self._start_script(command.sha256, now, command.began)
 
     def _cmd_inject(self, command: cmds.Inject, now: float) -> str:
         running = set(self.runtime.running())
@@ -288,7 +320,7 @@ class TaskEngine:
 
     def _deploy_chunk(self, chunk: cmds.DeployChunk, now: float) -> str | None:
         if chunk.sha256 in self._deployed:
-            self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
+            self._ack(chunk.sha256, now)
             return None
         if chunk.sha256 in self._checking:
             return None  # a retransmission while the check runs: the verdict answers it
@@ -313,7 +345,7 @@ class TaskEngine:
         self._deployed[chunk.sha256] = Plan.build(script)
         if self.on_deployed is not None:
             self.on_deployed(chunk.sha256, text)
-        self._reply(cmds.DeployAck(sha256=chunk.sha256), now)
+        self._ack(chunk.sha256, now)
         return None
 
     def checked(self, sha: str, verdict: TaskScript | ScriptRefused, now: float) -> None:
@@ -330,7 +362,7 @@ class TaskEngine:
         self._deployed[sha] = Plan.build(verdict)
         if self.on_deployed is not None:
             self.on_deployed(sha, text)
-        self._reply(cmds.DeployAck(sha256=sha), now)
+        self._ack(sha, now)
 
     def adopt(self, script: bytes) -> str:
         """Register ``script`` as deployed (a daemon restarting with the scripts of its state
@@ -343,13 +375,15 @@ class TaskEngine:
         self._deployed[sha] = Plan.build(model)
         return sha
 
-    def rejoin(self, sha: str, now: float) -> bool:
+    def rejoin(self, sha: str, now: float, *, began: float | None = None) -> bool:
         """After a restart: run the adopted script ``sha`` again, resuming the actors of the
         latest backup, or starting the initial actors when there is none (returns whether
-        a backup was resumed). ValueError when ``sha`` was not adopted."""
+        a backup was resumed), in the task that started at ``began`` on the shared clock
+        (None: unknown, counted from now). ValueError when ``sha`` was not adopted."""
         plan = self._deployed.get(sha)
         if plan is None:
             raise ValueError(f"script {sha[:12]} is not known here; adopt it first")
+        self._keep_began(began, now)
         self.script_sha = sha
         self.machine.plan = plan
         self.runtime.use_script(plan.script)
@@ -358,13 +392,16 @@ class TaskEngine:
         self.machine.start(now)
         return False
 
-    def _start_script(self, sha: str, now: float) -> str:
+    def _start_script(self, sha: str, now: float, began: float | None = None) -> str:
         plan = self._deployed.get(sha)
         if plan is None:
             raise ValueError(f"script {sha[:12]} was not deployed to platform {self.node.platform}")
         if self.script_sha == sha:
             return f"script {sha[:12]} already running"
         fresh = not self.script_sha
+        if fresh:
+            # The first start sets the task's clock; a new version goes on in the same task.
+            self._keep_began(began, now)
         self.script_sha = sha
         if self.on_started is not None:
             self.on_started(sha)
@@ -417,3 +454,8 @@ _COMMAND_HANDLERS: Final[dict[type[Any], Callable[[TaskEngine, Any, float], str 
     cmds.Backup: TaskEngine._cmd_backup,
     cmds.Status: TaskEngine._cmd_status,
 }
+
+
+def _one_clock() -> float:
+    """The offset between a host's clock and the shared clock when they are one clock."""
+    return 0.0

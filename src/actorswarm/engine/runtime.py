@@ -21,6 +21,11 @@ __all__ = ["ActorContext", "ActorHost", "Emitted", "Scope"]
 class ActorHost(Protocol):
     """What the task engine needs from an actor runtime."""
 
+    #: When the task started, on the clock of the engine's ``now``: the same instant on
+    #: every platform of the swarm (the ground station's start, on the clock they share).
+    #: The plugins see it as ``ctx.task_start``; None until the task starts.
+    task_start: float | None
+
     def use_script(self, script: Any) -> None:
         """The actors (and their plugins) of the task script from now on."""
         ...

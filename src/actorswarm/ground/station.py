@@ -87,6 +87,9 @@ class GroundStation:
         self.direct: set[int] = set()
         self.state: dict[int, tuple[int, bool, int]] = {}
         self.confirmed: dict[str, set[int]] = {}
+        #: By script: when its task began (UTC seconds), as the platforms already running
+        #: it said when they confirmed it; a start gives it to the others.
+        self.began: dict[str, float] = {}
         self.expected: dict[str, set[int]] = {}
         self.replies: list[ReplyRecord] = []
         #: Platforms a command was given up on (no acknowledgement by ``delivery_deadline``),
@@ -146,14 +149,24 @@ class GroundStation:
     def missing(self, sha: str) -> list[int]:
         return sorted(self.expected.get(sha, set()) - self.confirmed.get(sha, set()))
 
-    def start(self, now: float, *, force: bool = False) -> None:
+    def start(self, now: float, *, force: bool = False, began: float | None = None) -> float | None:
+        """Start the script deployed last on every platform expected to run it (refused,
+        :class:`NotConfirmed`, while one has not confirmed it, unless ``force``).
+
+        ``began`` is the task's start on the swarm's shared clock (UTC seconds: what every
+        platform counts the task's time from, :class:`~actorswarm.engine.commands.Start`);
+        the caller's clock, since this station is given time and never reads one. When a
+        platform that confirmed the script runs it already, its task's start is sent
+        instead, so platforms started later join the same task. Returns what was sent."""
         sha = self.deployed_sha
         if not sha:
             raise RuntimeError("nothing deployed: deploy a script first")
         missing = self.missing(sha)
         if missing and not force:
             raise NotConfirmed(sha, missing)
-        self.send(cmds.Start(sha256=sha), self.expected[sha], now)
+        began = self.began.get(sha, began)
+        self.send(cmds.Start(sha256=sha, began=began), self.expected[sha], now)
+        return began
 
     def event(
         self,
@@ -257,6 +270,12 @@ class GroundStation:
             return
         if isinstance(reply, cmds.DeployAck):
             self.confirmed.setdefault(reply.sha256, set()).add(sender)
+            if reply.began is not None:
+                # The swarm's first start; platforms should agree, and the earliest is the
+                # one a platform that started late cannot have invented.
+                self.began[reply.sha256] = min(
+                    reply.began, self.began.get(reply.sha256, reply.began)
+                )
         self.replies.append(ReplyRecord(now, sender, reply))
 
     def tick(self, now: float) -> None:

@@ -377,6 +377,8 @@ class GoTo(Plugin):
         count: int,
         now: float,
         areas: Mapping[str, Sequence[tuple[float, float]]],
+        *,
+        task_start: float | None = None,
     ) -> list[tuple[float, float]] | None:
         """The members' places around the point (``spacing``), or None without spacing
         (every member goes to the same point, so there is nothing to hand out)."""

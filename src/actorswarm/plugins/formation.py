@@ -30,7 +30,9 @@ Three layers, each usable on its own:
   from x, the mission frame's east) and moves them to the leader.
 * **A virtual leader.** :class:`VirtualLeader` is a point that flies a route of straight
   segments at constant speed from ``start_time``: a pure function of time, so every member
-  computes the same leader from its own clock without talking to the others. It stops at
+  computes the same leader from its own clock without talking to the others (``depart``
+  counts from the task's start, which every platform knows on the clock it shares with
+  the others: ``ctx.task_start``). It stops at
   the last point, or loops back to the first. Its heading is the direction of the segment
   it is on (the last segment's once stopped; 0, east, for a route of one point), so the
   formation turns as a whole at each waypoint.
@@ -115,6 +117,7 @@ __all__ = [
     "SixArrows",
     "TwoArrows",
     "VirtualLeader",
+    "departure",
     "parse_route",
     "slots",
     "to_world",
@@ -419,6 +422,15 @@ def parse_route(text: str, altitude: float) -> list[Point]:
     return [(x, y, float(altitude)) for x, y in read_route(text)]
 
 
+def departure(depart: Any, now: float, task_start: float | None) -> float:
+    """When the leader sets off, on the clock of ``now``: ``depart`` seconds after the
+    task's start (``task_start``; taken as 0 where no start is known), or ``now`` when no
+    ``depart`` is given (it sets off as the actor starts)."""
+    if depart is None:
+        return now
+    return (0.0 if task_start is None else task_start) + float(depart)
+
+
 def _positive(name: str, params: Mapping[str, Any], key: str) -> float:
     value = float(params[key])
     if not value > 0:
@@ -482,11 +494,12 @@ class Formation(Plugin):
         shape whatever the group's size. A member whose slot is above ``size`` refuses to
         start.
     ``depart`` (float, optional)
-        The time the leader set off from the route's first point, on the clock of
-        ``ctx.now`` (the simulator's mission time; on robots, the host's clock, so only
-        where the platforms share a time base such as GPS). Left out: when the actor
-        starts. Giving several formation actors the same ``route`` and ``depart`` makes
-        them follow **one** leader: the swarm changes shape without leaving its path.
+        When the leader sets off from the route's first point: seconds after the task's
+        start (``ctx.task_start``: the ground station's ``start``, one instant for every
+        platform, on the clock they share — the simulator's, or GPS/NTP time on robots).
+        Left out: when the actor starts. Giving several formation actors the same
+        ``route`` and ``depart`` makes them follow **one** leader: the swarm changes shape
+        without leaving its path.
     ``offset`` (default ``"0 0"``)
         ``"forward left"`` metres: this formation's own leader is that far from the route's
         leader, in the formation frame. Two sub-swarms on one route fly side by side.
@@ -569,8 +582,8 @@ class Formation(Plugin):
         ),
         "depart": Param(
             kind="float",
-            doc="when the leader set off from the route's first point, seconds on the "
-            "platforms' clock; left out: when the actor starts",
+            doc="when the leader sets off from the route's first point, seconds after the "
+            "task's start (one instant for the whole swarm); left out: when the actor starts",
         ),
         "offset": Param(
             kind="str",
@@ -628,6 +641,8 @@ class Formation(Plugin):
         count: int,
         now: float,
         areas: Mapping[str, Sequence[tuple[float, float]]],
+        *,
+        task_start: float | None = None,
     ) -> list[tuple[float, float]] | None:
         """The points of slots ``1..count`` at ``now`` (x, y metres): where the leader is
         then (from ``depart``, or setting off now) plus each slot's offset — what the
@@ -637,8 +652,7 @@ class Formation(Plugin):
             return None
         name = cls.entry_name()
         speed = _positive(name, params, "speed")
-        depart = params["depart"]
-        start = now if depart is None else float(depart)
+        start = departure(params["depart"], now, task_start)
         route = parse_route(str(params["route"]), 0.0)
         leader = VirtualLeader(route, speed, start, loop=bool(params["loop"]))
         forward, left = (float(v) for v in str(params["offset"]).split())
@@ -680,8 +694,7 @@ class Formation(Plugin):
         self._sent = None
 
     def _departure(self, ctx: PluginContext) -> float:
-        depart = ctx.params["depart"]
-        return ctx.now if depart is None else float(depart)
+        return departure(ctx.params["depart"], ctx.now, ctx.task_start)
 
     def slot_point(self, t: float) -> Point:
         """Where this member's slot is at ``t`` (after the start)."""

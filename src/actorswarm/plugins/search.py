@@ -290,6 +290,8 @@ class AreaSearch(Plugin):
         count: int,
         now: float,
         areas: Mapping[str, Sequence[tuple[float, float]]],
+        *,
+        task_start: float | None = None,
     ) -> list[tuple[float, float]] | None:
         """Where strips ``1..count`` begin (each strip's first waypoint): the master hands
         the strips out by least total distance, so searchers do not cross the area to reach

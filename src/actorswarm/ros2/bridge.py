@@ -53,6 +53,7 @@ import asyncio
 import functools
 import json
 import math
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -358,7 +359,8 @@ class GroundBridge:
         if len(scripts) != 1:
             return False, f"no start: the platforms heard report scripts {sorted(scripts)}"
         sha = scripts.pop()
-        self._send(cmds.Start(sha256=sha), targets)
+        # Platforms already running it keep the task's first start; the others begin now.
+        self._send(cmds.Start(sha256=sha, began=time.time()), targets)
         return True, f"start of script {sha[:12]} sent to platforms {targets}"
 
     def _pause(self) -> tuple[bool, str]:

@@ -213,6 +213,9 @@ class ActorRuntime:
         self._switching: dict[str, tuple[str, float, float]] = {}
         #: The time of the call in progress (what ``ctx.collective`` stamps requests with).
         self.now = 0.0
+        #: When the task started, on the clock of ``now`` (``ctx.task_start``); the task
+        #: engine sets it when the task starts. None: not started.
+        self.task_start: float | None = None
 
     # --- the script ----------------------------------------------------------------------
 
@@ -294,7 +297,9 @@ class ActorRuntime:
         for pdef in definition.plugins:
             try:
                 bound = pdef.cls.bind_params(pdef.params, params)
-                points = pdef.cls.group_points(bound, count, now, self.areas)
+                points = pdef.cls.group_points(
+                    bound, count, now, self.areas, task_start=self.task_start
+                )
                 if points is None or len(points) < count:
                     continue
                 return [(float(p[0]), float(p[1])) for p in points], pdef.cls.group_in_step
@@ -599,6 +604,7 @@ class ActorRuntime:
             camera=self.camera,
             areas=self.areas,
             ros2=self.ros2,
+            task_start=self.task_start,
         )
 
     def _call(

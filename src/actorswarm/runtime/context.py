@@ -226,6 +226,11 @@ class PluginContext:
 
     ``now``
         The time in seconds, set by the host before each call (virtual or wall time).
+    ``task_start``
+        When the task started, on the clock of ``now``: the same instant on every platform
+        (the ground station's ``start``, on the clock the platforms share — GPS or NTP time
+        on robots, the one clock in the simulator), so ``now - task_start`` is the task's
+        time, alike across the swarm. None where the host knows of no start (a unit test).
     ``platform``
         This platform's ID.
     ``actor``
@@ -279,6 +284,7 @@ class PluginContext:
         "size",
         "slot",
         "slots",
+        "task_start",
         "vehicle",
     )
 
@@ -301,8 +307,10 @@ class PluginContext:
         camera: Camera | None = None,
         areas: Mapping[str, Sequence[tuple[float, float]]] | None = None,
         ros2: Any = None,
+        task_start: float | None = None,
     ) -> None:
         self.now = now
+        self.task_start = task_start
         self.platform = platform
         self.actor = actor
         self.params: Mapping[str, Any] = dict(params or {})

@@ -656,11 +656,14 @@ class Plugin(ABC):
         count: int,
         now: float,
         areas: Mapping[str, Sequence[tuple[float, float]]],
+        *,
+        task_start: float | None = None,
     ) -> Sequence[tuple[float, float]] | None:
         """Where the ``count`` members of a group switching into this plugin's actor at
         ``now`` will go, ``(x, y)`` metres, slot 1 first — or None (the default) when the
         plugin gives its members no places. ``params`` are validated (:meth:`bind_params`);
-        ``areas`` are the mission's named areas (what ``ctx.areas`` holds).
+        ``areas`` are the mission's named areas (what ``ctx.areas`` holds); ``task_start``
+        is when the task started, on the clock of ``now`` (what ``ctx.task_start`` holds).
 
         The master calls it when it releases a group and hands out the slots so that the
         sum of the distances from where the members are to where they go is least (a

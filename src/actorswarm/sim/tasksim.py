@@ -138,6 +138,9 @@ class TaskSim:
     wrecks: list[dict[str, Any]] = field(default_factory=list, init=False)
     #: Each platform's backup storage (its "disk": it outlives a crash).
     stores: dict[int, MemoryBackupStore] = field(default_factory=dict, init=False)
+    #: When each platform's task began (its engine's ``began``), kept on its "disk" as a
+    #: daemon keeps it in its state directory: a restarted platform goes on in that task.
+    began: dict[int, float] = field(default_factory=dict, init=False)
     #: The platforms the latest ``--kill master`` crashed (``--restart master`` boots them).
     _master_kills: tuple[int, ...] = field(default=(), init=False)
     _faults_raised: int = field(default=0, init=False)
@@ -183,12 +186,15 @@ class TaskSim:
         engine = TaskEngine(self.swarm.node(platform), self.plan, runtime, store=store)
         self.hosts[platform] = _Host(engine)
         now = self.swarm.now
+        # The task started at time 0 when it starts itself (a platform added later joins
+        # that task); a platform restarted goes on in the task it ran.
+        began = self.began.get(platform, 0.0 if self.auto_start else None)
         if restarted and store.latest() is not None:
             # Resume from the latest backup; a backup that cannot be restored falls back to
             # the task's initial actors.
-            self.swarm.call(platform, lambda n: self._resume_or_start(engine, now))
+            self.swarm.call(platform, lambda n: self._resume_or_start(engine, now, began))
         elif self.auto_start:
-            self.swarm.call(platform, lambda n: engine.start(now))
+            self.swarm.call(platform, lambda n: engine.start(now, began=began))
         self._arm(platform)
 
     def _vehicle(self, platform: int) -> Any:
@@ -285,9 +291,9 @@ class TaskSim:
         self.separation.observe(self.world.time, fleet.positions, airborne)
 
     @staticmethod
-    def _resume_or_start(engine: TaskEngine, now: float) -> None:
-        if not engine.resume(now):
-            engine.start(now)
+    def _resume_or_start(engine: TaskEngine, now: float, began: float | None) -> None:
+        if not engine.resume(now, began=began):
+            engine.start(now, began=began)
 
     def _retire(self, platform: int) -> None:
         """The platform is gone (crashed, rebooting, wrecked): what it ran ends now, as a
@@ -297,6 +303,8 @@ class TaskSim:
             return
         if host.timer is not None:
             host.timer.cancel()
+        if host.engine.began is not None:
+            self.began[platform] = host.engine.began
         self._collect(host.engine)
         for actor in host.engine.runtime.running():
             self.records.append(

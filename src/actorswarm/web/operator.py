@@ -318,7 +318,7 @@ class Operator:
         if not sha:
             return outcome.finish(False, "nothing deployed from this page: deploy a script first")
         try:
-            self.driver.act(lambda st, now: st.start(now, force=force))
+            self.driver.act(lambda st, now: st.start(now, force=force, began=time.time()))
         except NotConfirmed as exc:
             return outcome.finish(False, str(exc))
         outcome.asked = f"start {sha[:12]}" + (" (forced)" if force else "")
