@@ -96,6 +96,7 @@ from actorswarm.daemon.prefetch import prefetch
 from actorswarm.daemon.records import STATUS_TRANSITIONS, EngineRecords
 from actorswarm.daemon.state import StateDir, WritePacer
 from actorswarm.dsl.isolated import ScriptRefused, check_isolated, check_isolated_async
+from actorswarm.runtime.context import VEHICLE_FAULT_EVENT
 from actorswarm.security.guard import PacketGuard
 from actorswarm.security.pipeline import Pipeline
 from actorswarm.transport.zenoh_transport import CLOSE_WAIT_S, ZenohSettings, ZenohTransport
@@ -457,7 +458,7 @@ async def _main(options: DaemonOptions) -> int:
                 _log("vehicle-fault", reason=fault)
                 # A command that failed for good: the script may branch on it.
                 engine.inject(
-                    "vehicle_fault_event",
+                    VEHICLE_FAULT_EVENT,
                     t,
                     data={"reason": fault},
                     occasion=f"vehicle.{options.platform}.{incarnation}:{raised}",

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Final
 
 from actorswarm.dsl.diagnostics import Report
 from actorswarm.dsl.model import TaskScript
+from actorswarm.runtime.context import VEHICLE_FAULT_EVENT
 
 if TYPE_CHECKING:
     from actorswarm.world.config import WorldConfig
@@ -34,7 +35,7 @@ __all__ = ["FAULT_EVENT", "check_takeoff_fault"]
 
 #: The event a vehicle raises when a command fails for good (the daemon's MAVLink and ROS 2
 #: vehicles, and the simulator's refusing autopilots, all use this name).
-FAULT_EVENT: Final = "vehicle_fault_event"
+FAULT_EVENT: Final = VEHICLE_FAULT_EVENT
 
 #: The plugins that take a platform off the ground, where an autopilot that never arms
 #: shows.

@@ -45,6 +45,7 @@ from typing import Any, Final, Protocol, get_args, runtime_checkable
 from actorswarm.runtime.events import Emitted, Scope
 
 __all__ = [
+    "VEHICLE_FAULT_EVENT",
     "Camera",
     "CameraUnavailable",
     "Collective",
@@ -57,6 +58,11 @@ __all__ = [
 ]
 
 _SCOPES: Final[tuple[Scope, ...]] = get_args(Scope)
+#: The local task event a platform raises when a command to its vehicle failed for good (its
+#: deadline passed, the autopilot refused it or was never heard), data ``{"reason": ...}``:
+#: the one name that real autopilots' adapters, the simulator's faulty autopilots and the
+#: checker's warning about a take-off that nobody answers share.
+VEHICLE_FAULT_EVENT: Final = "vehicle_fault_event"
 _EVENT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
 
 

@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, Literal
 
+from actorswarm.runtime.context import VEHICLE_FAULT_EVENT
 from actorswarm.world.vehicles import SimVehicle
 
 __all__ = [
@@ -30,7 +31,6 @@ __all__ = [
 ]
 
 #: The task event a vehicle raises when a command fails for good (the daemon's name).
-VEHICLE_FAULT_EVENT: Final = "vehicle_fault_event"
 #: How long a refused take-off is retried before it fails for good: the MAVLink vehicle's
 #: default ``arm_timeout``, so the script hears of it when it would in the field.
 REFUSE_AFTER_S: Final = 120.0

@@ -55,6 +55,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
+from actorswarm.runtime.context import VEHICLE_FAULT_EVENT
 from actorswarm.vehicles.mavlink.commands import Check, Command, CommandSender, Step
 from actorswarm.vehicles.mavlink.dialect import mav, result_name
 from actorswarm.vehicles.mavlink.fence import FencePusher
@@ -103,7 +104,7 @@ LINK_LOST: Final = "vehicle_link_lost"
 LINK_RESTORED: Final = "vehicle_link_restored"
 #: The local event of a command that failed for good (its deadline passed, the autopilot
 #: refused it, the autopilot was never heard); its data is ``{"reason": ...}``.
-FAULT: Final = "vehicle_fault_event"
+FAULT: Final = VEHICLE_FAULT_EVENT
 #: The operator's events (``gs event NAME``) that take the vehicle from the plugins
 #: (``land``, ``hold``) and give it back (None).
 OPERATOR_EVENTS: Final[dict[str, Literal["land", "hold"] | None]] = {
