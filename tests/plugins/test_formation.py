@@ -252,7 +252,7 @@ def test_restore_keeps_the_leader_start() -> None:
     plugin = Arrow()
     plugin._drive_start(ctx)
     saved = plugin._drive_snapshot()
-    assert saved == {"start": 100.0, "arrived": False}
+    assert saved == {"start": 100.0, "after_task": None, "arrived": False}
     vehicle = FakeVehicle()
     later = make_context(Arrow, params=params, vehicle=vehicle, now=130.0, index=1)
     fresh = Arrow()
@@ -262,6 +262,32 @@ def test_restore_keeps_the_leader_start() -> None:
     assert vehicle.commands[0][1:4] == pytest.approx((340.0, 0.0, 30.0))
     with pytest.raises(ValueError, match="start"):
         Arrow()._drive_restore({"start": "soon"})
+    with pytest.raises(ValueError, match="after_task"):
+        Arrow()._drive_restore({"start": 1.0, "after_task": "later"})
+
+
+def test_a_platform_restored_on_a_new_clock_keeps_the_leader_where_the_swarm_has_it() -> None:
+    """A daemon restarted after a reboot resumes its formation on a new monotonic clock:
+    the leader's start is put back by its time after the task's start, which the platform
+    knows on the new clock, not by the old clock's reading."""
+    params = {"route": "0 0; 1000 0", "speed": "10"}
+    ctx = make_context(
+        Arrow, params=params, vehicle=FakeVehicle(), now=100.0, index=1, task_start=40.0
+    )
+    plugin = Arrow()
+    plugin._drive_start(ctx)
+    saved = plugin._drive_snapshot()
+    assert saved == {"start": 100.0, "after_task": 60.0, "arrived": False}
+    vehicle = FakeVehicle()
+    # The new clock reads 5000 - 4000 = 1000 s less: the task began at -3960 on it, and at
+    # 1030 on the old clock's 130 the leader is 300 m along, as it would be unrebooted.
+    later = make_context(
+        Arrow, params=params, vehicle=vehicle, now=130.0 - 4000.0, index=1, task_start=-3960.0
+    )
+    fresh = Arrow()
+    fresh._drive_restore(saved)
+    fresh._drive_activate(later)
+    assert vehicle.commands[0][1:4] == pytest.approx((340.0, 0.0, 30.0))
 
 
 # --- ten quadrotors in the world's physics -------------------------------------------------------

@@ -507,8 +507,10 @@ class Formation(Plugin):
     The slot is ``ctx.slot`` — the place among the platforms the firing sent to this actor,
     counted by the master across every part of a merge — and 1 when the actor was not
     switched in by a group. A member switched back in (re-activated) by a new firing takes
-    its new slot on the same leader. The snapshot is the time the leader set off and
-    whether the arrival event went out: ``{"start": t, "arrived": bool}``.
+    its new slot on the same leader. The snapshot is the time the leader set off, the same
+    counted from the task's start, and whether the arrival event went out: ``{"start": t,
+    "after_task": s, "arrived": bool}``. A platform restored after a reboot (a new clock)
+    puts the leader ``after_task`` seconds after the task's start on its new clock.
     """
 
     bus = "act_bus"
@@ -618,6 +620,8 @@ class Formation(Plugin):
 
     def __init__(self) -> None:
         self._start: float | None = None
+        #: The leader's start counted from the task's start (None: no task start known).
+        self._after_task: float | None = None
         self._leader: VirtualLeader | None = None
         self._offset: FloatArray = np.zeros(2)
         #: The offset rotated by each heading the leader has had (slot_point), by heading.
@@ -691,6 +695,7 @@ class Formation(Plugin):
         self._rotated = {}
         self._slot = slot
         self._start = start
+        self._after_task = None if ctx.task_start is None else start - ctx.task_start
         self._sent = None
 
     def _departure(self, ctx: PluginContext) -> float:
@@ -786,12 +791,20 @@ class Formation(Plugin):
     def on_activate(self, ctx: PluginContext) -> None:
         if self._leader is None or (ctx.slot > 0 and ctx.slot != self._slot):
             # Restored from a snapshot, or switched back in by a firing that gave this
-            # member another slot: rebuild from the params, keeping the leader's start.
-            self._setup(ctx, self._departure(ctx) if self._start is None else self._start)
+            # member another slot: rebuild from the params, keeping the leader's start —
+            # counted from the task's start where both are known, since a platform that
+            # rebooted has a new clock.
+            if self._start is None:
+                start = self._departure(ctx)
+            elif self._after_task is not None and ctx.task_start is not None:
+                start = ctx.task_start + self._after_task
+            else:
+                start = self._start
+            self._setup(ctx, start)
         self._command(ctx, force=True)
 
     def snapshot(self) -> dict[str, Any]:
-        return {"start": self._start, "arrived": self._arrived}
+        return {"start": self._start, "after_task": self._after_task, "arrived": self._arrived}
 
     def restore(self, state: Mapping[str, Any]) -> None:
         start = state.get("start")
@@ -802,6 +815,13 @@ class Formation(Plugin):
             )
         assert isinstance(start, int | float)
         self._start = float(start)
+        after = state.get("after_task")
+        if after is not None and not finite(after):
+            raise ValueError(
+                f"{self.entry_name()}: a snapshot's 'after_task' must be a number of seconds "
+                f"or null, not {after!r}"
+            )
+        self._after_task = None if after is None else float(after)
         arrived = state.get("arrived", False)
         if not isinstance(arrived, bool):
             raise ValueError(
