@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from actorswarm.cli.gs import _status_line, _vehicle_line
+from actorswarm.cli.gs import _clock_lines, _clock_offset, _status_line, _vehicle_line
 from actorswarm.engine import commands as cmds
 
 
@@ -62,3 +62,40 @@ def test_a_platform_line_names_the_roles_it_holds() -> None:
     )
     quiet = {**row, "answered": False, "actors": [], "roles": [], "master": False}
     assert _status_line("4", quiet) == ("  4: no answer; epoch 2, incarnation 5, heard 0.4 s ago")
+
+
+def _row(began: float | None, offset: float | None) -> dict[str, object]:
+    return {"began": began, "clock_offset_s": offset}
+
+
+def test_gs_status_says_when_the_task_began_and_warns_of_a_clock_that_is_off() -> None:
+    """The task's clock needs the platforms' clocks to agree: a clock more than 0.25 s off
+    this machine's is named, and so are platforms that run tasks begun at other instants."""
+    began = 1_796_688_106.833
+    agreed = _clock_lines({"1": _row(began, 0.004), "2": _row(began, -0.1), "3": _row(None, None)})
+    assert agreed == ["the task's clock began at 2026-12-08T00:01:46.833Z on 2 platform(s)"]
+    off = _clock_lines({"1": _row(began, 0.01), "4": _row(began, -1.3)})
+    assert off[1] == (
+        "warning: platform 4's clock is 1.30 s behind this machine's: what the swarm does on "
+        "the task's clock (a formation's depart) needs their clocks to agree (GPS or NTP)"
+    )
+    split = _clock_lines({"1": _row(began, 0.0), "2": _row(began + 600, 0.0)})
+    assert split == [
+        "warning: the platforms run tasks begun at different instants "
+        "(2026-12-08T00:01:46.833Z: 1; 2026-12-08T00:11:46.833Z: 2)"
+    ]
+    assert _clock_lines({}) == []
+
+
+def test_a_clock_is_called_off_only_beyond_the_doubt_of_its_reading() -> None:
+    doubtful = {"began": None, "clock_offset_s": 0.6, "clock_uncertainty_s": 0.4}
+    assert _clock_lines({"5": doubtful}) == []
+    sure = {"began": None, "clock_offset_s": 0.6, "clock_uncertainty_s": 0.3}
+    assert _clock_lines({"5": sure})[0].startswith("warning: platform 5's clock is 0.60 s ahead")
+
+
+def test_a_platforms_clock_is_read_midway_through_its_answers_round_trip() -> None:
+    # Asked at 100.0, answered at 100.2 (this machine's UTC): a platform that read 100.1
+    # agrees; one that read 101.6 is 1.5 s ahead.
+    assert _clock_offset(100.1, 100.0, 100.2) == 0.0
+    assert _clock_offset(101.6, 100.0, 100.2) == 1.5

@@ -58,6 +58,15 @@ def test_three_daemons_are_deployed_started_and_switched_by_the_ground_station(
     assert status.returncode == 0, status.stderr
     platforms = json.loads(status.stdout)["platforms"]
     assert set(platforms) == {"1", "2", "3"}
+    # The task's clock as each answered: one instant, and clocks that agree (one machine).
+    assert {row["began"] for row in platforms.values()} == {StateDir(swarm.state_dir(1)).began()}
+    assert all(
+        abs(row["clock_offset_s"]) <= 0.25 + row["clock_uncertainty_s"]
+        for row in platforms.values()
+    ), platforms
+    said = swarm.gs("status")
+    assert "the task's clock began at " in said.stdout and "on 3 platform(s)" in said.stdout
+    assert "warning" not in said.stderr, said.stderr
     assert {p: row["actors"] for p, row in platforms.items()} == {p: ["B"] for p in "123"}
     assert [p for p, row in platforms.items() if row["master"]] == [str(master)]
     assert {row["incarnation"] for row in platforms.values()} == {0}

@@ -35,6 +35,7 @@ def _station(now: float) -> GroundStation:
                 position=[10.0, -5.0, 12.0],
                 vehicle={"link": "lost", "mode": "GUIDED"},
                 roles=["tracker", "leader"],
+                began=1_796_000_000.5,
             ),
         )
     )
@@ -131,6 +132,7 @@ def test_operator_actions_are_off_unless_enabled_and_then_reach_the_station(
         for n in (off_node, node, operator):
             n.start()
         sent: list[tuple[str, list[int]]] = []
+        commands: list[Any] = []
 
         class Recorder:
             """The station's side: what the bridge asked it to send."""
@@ -140,6 +142,7 @@ def test_operator_actions_are_off_unless_enabled_and_then_reach_the_station(
 
             def send(self, command: Any, platforms: list[int], now: float) -> None:
                 sent.append((type(command).__name__, platforms))
+                commands.append(command)
 
         try:
             bridge = GroundBridge(node, "sw", BridgeSettings(commands=True))
@@ -162,16 +165,20 @@ def test_operator_actions_are_off_unless_enabled_and_then_reach_the_station(
             )
             await until(off.done, 3.0)
             off_answered = off._future is not None
-            return bridge.actions, sent, off_answered, land.result(), start.result()
+            return bridge.actions, sent, off_answered, land.result(), start.result(), commands
         finally:
             for n in (operator, node, off_node):
                 n.close()
 
-    actions, sent, off_answered, land, start = asyncio.run(go())
+    actions, sent, off_answered, land, start, commands = asyncio.run(go())
     assert land.success and land.message == "vehicle_land sent to platform 2"
     assert "vehicle_land sent to platform 2" in actions
     assert ("vehicle_land", [2]) in sent
     assert start.success and ("Start", [1, 2]) in sent
+    # Platform 1 runs the script already: the start carries its task's clock, so that
+    # platform 2, started now, joins the same task.
+    starts = [c for c in commands if isinstance(c, cmds.Start)]
+    assert [c.began for c in starts] == [1_796_000_000.5]
     assert ("go", [1, 2]) in sent
     assert not off_answered
 

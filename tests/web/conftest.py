@@ -52,9 +52,12 @@ def _browser_missing() -> str | None:
     return None
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
-    """One headless Chromium for every end-to-end test of the session."""
+    """One headless Chromium for the end-to-end tests of a module. Not for the session:
+    Playwright's sync API keeps an event loop running in the worker's main thread while it
+    is open, and a later test of another module in the same worker that runs one of its own
+    (``asyncio.run``, a command in process) would be refused."""
     reason = _browser_missing()
     if reason is not None:
         pytest.skip(reason)

@@ -199,8 +199,49 @@ def gs_start(
 
 def utc_text(t: float) -> str:
     """UTC seconds as ``2026-12-07T23:59:01.250Z``."""
-    whole = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(t))
-    return f"{whole}.{int(t % 1 * 1000):03d}Z"
+    ms = round(t * 1000)
+    whole = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(ms // 1000))
+    return f"{whole}.{ms % 1000:03d}Z"
+
+
+#: How far a platform's clock may be from the ground station's before ``gs status`` warns:
+#: a formation's leader 0.25 s off is 4.5 m at 18 m/s.
+CLOCK_TOLERANCE_S = 0.25
+
+
+def _clock_offset(theirs: float, asked: float, answered: float) -> float:
+    """A platform's clock minus this machine's (UTC seconds), taking its reading to fall
+    midway between the request (``asked``) and its answer (``answered``): off by at most
+    half the round trip."""
+    return round(theirs - (asked + answered) / 2.0, 3)
+
+
+def _clock_lines(rows: dict[str, dict[str, Any]]) -> list[str]:
+    """What ``gs status`` says of the task's clock: when the task began, and a warning for
+    platforms that disagree on it or whose clock is off this machine's."""
+    began = {p: row["began"] for p, row in rows.items() if row.get("began") is not None}
+    lines = []
+    instants = sorted(set(began.values()))
+    if len(instants) == 1:
+        when = utc_text(instants[0])
+        lines.append(f"the task's clock began at {when} on {len(began)} platform(s)")
+    elif instants:
+        said = "; ".join(
+            f"{utc_text(t)}: {', '.join(p for p, b in began.items() if b == t)}" for t in instants
+        )
+        lines.append(f"warning: the platforms run tasks begun at different instants ({said})")
+    for p, row in rows.items():
+        offset = row.get("clock_offset_s")
+        spread = row.get("clock_uncertainty_s") or 0.0
+        # Only a clock surely off: beyond the tolerance by more than the reading's doubt.
+        if offset is not None and abs(offset) - spread > CLOCK_TOLERANCE_S:
+            side = "ahead of" if offset > 0 else "behind"
+            lines.append(
+                f"warning: platform {p}'s clock is {abs(offset):.2f} s {side} this machine's: "
+                "what the swarm does on the task's clock (a formation's depart) needs their "
+                "clocks to agree (GPS or NTP)"
+            )
+    return lines
 
 
 def _status_line(platform: str, row: dict[str, Any]) -> str:
@@ -244,12 +285,16 @@ def gs_status(
         async with ln.session(timeout) as gs:
             await gs.listen(1.5)
             heard = sorted(gs.station.heard)
+            asked = clock()
             if heard:
                 gs.do(lambda st, now: st.send(cmds.Status(), heard, now))
 
             def replies() -> dict[int, cmds.StatusReply]:
+                return {p: r.reply for p, r in records().items()}
+
+            def records() -> dict[int, Any]:
                 return {
-                    r.platform: r.reply
+                    r.platform: r
                     for r in gs.station.replies
                     if isinstance(r.reply, cmds.StatusReply)
                 }
@@ -257,11 +302,17 @@ def gs_status(
             if heard:
                 await gs.wait_for(lambda: set(heard) <= set(replies()), timeout)
             now = clock()
+            utc = time.time() - now  # this machine's UTC minus the session's clock
             out: dict[str, Any] = {}
             got = replies()
+            answered_at = {p: r.t for p, r in records().items()}
             for p in heard:
                 incarnation, master, epoch = gs.station.state[p]
                 reply = got.get(p)
+                offset = spread = None
+                if reply is not None and reply.clock is not None:
+                    offset = _clock_offset(reply.clock, asked + utc, answered_at[p] + utc)
+                    spread = round((answered_at[p] - asked) / 2.0, 3)
                 out[str(p)] = {
                     # False: heard, but its answer never came (see the reasons printed).
                     "answered": reply is not None,
@@ -275,6 +326,12 @@ def gs_status(
                     "script": "" if reply is None else reply.script,
                     "vehicle": {} if reply is None else dict(reply.vehicle),
                     "roles": [] if reply is None else list(reply.roles),
+                    # When its task began (UTC seconds), and how far its clock is from this
+                    # machine's (seconds, ± clock_uncertainty_s, half the answer's round
+                    # trip; None: not said).
+                    "began": None if reply is None else reply.began,
+                    "clock_offset_s": offset,
+                    "clock_uncertainty_s": spread,
                 }
             return {"platforms": out}, gs.explain(heard, got)
 
@@ -284,6 +341,9 @@ def gs_status(
         typer.echo(json.dumps(status, indent=2))
     for p, row in rows.items() if not as_json else ():
         typer.echo(_status_line(p, row))
+    if not as_json:
+        for line in _clock_lines(rows):
+            typer.echo(line, err=line.startswith("warning"))
     for line in why:
         typer.echo(line, err=True)
     if not any(row["answered"] for row in rows.values()):

@@ -34,8 +34,8 @@ from msgspec import Meta, Struct
 #: before its body is read (:class:`WireError` ``version``; a daemon's guard counts it as
 #: malformed), so a swarm half upgraded says so instead of half working.
 #: Raised whenever a message's fields change, the ground station's included (2:
-#: ``BarrierRequest.renew``; 3: ``StatusReply.roles``; 4: ``Start.began`` and
-#: ``DeployAck.began``, the task's clock; actorswarm.engine.commands).
+#: ``BarrierRequest.renew``; 3: ``StatusReply.roles``; 4: the task's clock, ``Start.began``,
+#: ``DeployAck.began``, ``StatusReply.began`` and ``.clock``; actorswarm.engine.commands).
 PROTOCOL_VERSION: Final = 4
 GROUND_STATION: Final = 0
 MAX_PLATFORM: Final = 65535

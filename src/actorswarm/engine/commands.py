@@ -148,6 +148,12 @@ class StatusReply(_Cmd, frozen=True):
     #: Added in wire protocol 3: a ground station of an older build would refuse the whole
     #: reply for this field, so the protocol version says it and refuses the packet instead.
     roles: list[Name] = []
+    #: When the task the platform runs began (UTC seconds, :class:`Start`); None: none.
+    began: Instant | None = None
+    #: The platform's own reading of the shared clock (UTC seconds) as it answered: what
+    #: tells a ground station a platform whose clock is off (the task's clock needs them
+    #: to agree). None: not known (a reply made without a time).
+    clock: Instant | None = None
 
 
 class BackupReply(_Cmd, frozen=True):

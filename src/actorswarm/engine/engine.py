@@ -316,6 +316,8 @@ class TaskEngine:
             position=None if position is None else [round(v, 3) for v in position],
             vehicle=self.runtime.vehicle_state(),
             roles=sorted(self.node.roles.held),
+            began=self.began,
+            clock=None if now is None else now + self.clock_offset(),
         )
 
     def _deploy_chunk(self, chunk: cmds.DeployChunk, now: float) -> str | None:

@@ -97,6 +97,8 @@ class Platform:
     actors: dict[str, str] = field(default_factory=dict)
     vehicle: dict[str, object] = field(default_factory=dict)
     script: str = ""
+    #: When the task it runs began (UTC seconds; None: none, or not said).
+    began: float | None = None
     #: The roles it holds (its latest status reply).
     roles: list[str] = field(default_factory=list)
     #: Whether a status reply of it came.
@@ -128,6 +130,7 @@ class GroundView:
                 p.actors = dict(reply.actors)
                 p.vehicle = dict(reply.vehicle)
                 p.script = reply.script
+                p.began = reply.began
                 p.roles = sorted(reply.roles)
                 p.answered = True
                 self.answered = record.t
@@ -359,8 +362,11 @@ class GroundBridge:
         if len(scripts) != 1:
             return False, f"no start: the platforms heard report scripts {sorted(scripts)}"
         sha = scripts.pop()
-        # Platforms already running it keep the task's first start; the others begin now.
-        self._send(cmds.Start(sha256=sha, began=time.time()), targets)
+        # The task's clock: the one the platforms already running it began (a platform
+        # started now joins that task), else now.
+        platforms = view.platforms.values() if view else ()
+        began = [p.began for p in platforms if p.script == sha and p.began is not None]
+        self._send(cmds.Start(sha256=sha, began=min(began, default=time.time())), targets)
         return True, f"start of script {sha[:12]} sent to platforms {targets}"
 
     def _pause(self) -> tuple[bool, str]:
