@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from actorswarm.cli.app import app
 from actorswarm.dsl import check
-from actorswarm.dsl.takeoff import FAULT_EVENT
+from actorswarm.runtime.context import VEHICLE_FAULT_EVENT as FAULT_EVENT
 from actorswarm.world.config import loads_world
 
 SCRIPT = """<TaskScript name="s" version="1">

@@ -31,11 +31,7 @@ from actorswarm.runtime.context import VEHICLE_FAULT_EVENT
 if TYPE_CHECKING:
     from actorswarm.world.config import WorldConfig
 
-__all__ = ["FAULT_EVENT", "check_takeoff_fault"]
-
-#: The event a vehicle raises when a command fails for good (the daemon's MAVLink and ROS 2
-#: vehicles, and the simulator's refusing autopilots, all use this name).
-FAULT_EVENT: Final = VEHICLE_FAULT_EVENT
+__all__ = ["check_takeoff_fault"]
 
 #: The plugins that take a platform off the ground, where an autopilot that never arms
 #: shows.
@@ -44,13 +40,15 @@ _TAKES_OFF: Final = frozenset({"flight.takeoff"})
 
 def check_takeoff_fault(script: TaskScript, world: WorldConfig, report: Report) -> None:
     """Warn on ``report`` about each actor that takes off and does not answer
-    :data:`FAULT_EVENT` (the module docstring). ``world`` is only asked whether the script's
-    platforms fly vehicles in it."""
+    :data:`~actorswarm.runtime.context.VEHICLE_FAULT_EVENT` (the module docstring).
+    ``world`` is only asked whether the script's platforms fly vehicles in it."""
     platforms = script.platform_ids()
     if not platforms or not world.vehicle_specs(platforms):
         return
     for actor in script.actors:
-        answered = any(t.event == FAULT_EVENT for t in script.transitions.get(actor.name, ()))
+        answered = any(
+            t.event == VEHICLE_FAULT_EVENT for t in script.transitions.get(actor.name, ())
+        )
         if answered:
             continue
         for specs in actor.buses.values():
@@ -60,7 +58,8 @@ def check_takeoff_fault(script: TaskScript, world: WorldConfig, report: Report) 
                         spec.pos,
                         f"{spec.name}: a platform whose autopilot never lets it take off "
                         f"stays in {actor.name} for good (its take-off gives up and raises "
-                        f"{FAULT_EVENT}, which {actor.name} does not answer), and the task "
-                        f'never ends; add <transition name="{FAULT_EVENT}" sysNum="1"> to '
-                        "an actor of its own, such as a Grounded one running core.idle",
+                        f"{VEHICLE_FAULT_EVENT}, which {actor.name} does not answer), and "
+                        "the task never ends; add "
+                        f'<transition name="{VEHICLE_FAULT_EVENT}" sysNum="1"> to an actor of '
+                        "its own, such as a Grounded one running core.idle",
                     )
