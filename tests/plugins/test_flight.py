@@ -312,6 +312,51 @@ def test_return_home_lands_in_turn_waiting_over_home() -> None:
     assert again._drive_snapshot()["land_at"] == snapshot["land_at"]
 
 
+def test_return_home_keeps_its_turn_across_a_reboot() -> None:
+    """A member waiting over home is restored on a new clock (its robot rebooted): it lands
+    when its turn comes in the task's time, not at the old clock's instant (which the new
+    clock would reach only after an hour)."""
+    params = {"home": "0 0 0", "altitude": "10", "layers": "0", "land_stagger": "30"}
+    vehicle = FakeVehicle(position=(0.0, 5.0, 10.0), cruise_speed=10.0, climb_rate=3.0)
+    ctx = make_context(
+        ReturnHome, params=params, vehicle=vehicle, slot=2, slots=3, now=4000.0, task_start=3900.0
+    )
+    plugin = ReturnHome()
+    run_plugin(plugin, ctx, steps=50, dt=0.1)  # over home within 1 s: its turn 30 s later
+    snapshot = plugin._drive_snapshot()
+    turn = snapshot["land_after_task"]
+    assert 130.0 < turn <= 131.0
+    assert snapshot["land_at"] - 3900.0 == pytest.approx(turn)
+
+    rebooted = FakeVehicle(position=(0.0, 0.0, 10.0), cruise_speed=10.0, climb_rate=3.0)
+    # The new clock reads 60 s at 110 s of the task.
+    later = make_context(
+        ReturnHome, params=params, vehicle=rebooted, slot=2, slots=3, now=60.0, task_start=-50.0
+    )
+    again = ReturnHome()
+    again._drive_restore(snapshot)
+    assert again._drive_snapshot()["land_after_task"] == turn  # kept until activated
+    again._drive_activate(later)
+    assert again._drive_snapshot()["land_at"] == pytest.approx(-50.0 + turn)
+    run_plugin(again, later, steps=int((turn - 110.0) * 10) - 5, dt=0.1)
+    assert ("land",) not in rebooted.commands  # half a second before its turn
+    run_plugin(again, later, steps=10, dt=0.1)
+    assert ("land",) in rebooted.commands
+
+
+def test_return_home_without_a_task_clock_keeps_the_saved_instant() -> None:
+    """A snapshot from a host with no task clock (or an older backup) restores its turn as
+    the time it was, on the same clock."""
+    plugin = ReturnHome()
+    state = {"home": [0.0, 0.0, 0.0], "phase": "transit", "land_at": 75.0}
+    plugin._drive_restore(state)
+    plugin._drive_activate(make_context(ReturnHome, vehicle=FakeVehicle(), now=70.0))
+    assert plugin._drive_snapshot()["land_at"] == 75.0
+    assert "land_after_task" not in plugin._drive_snapshot()
+    with pytest.raises(ValueError, match="land_after_task"):
+        ReturnHome()._drive_restore({**state, "land_after_task": "soon"})
+
+
 def test_return_home_counts_its_turn_from_when_it_is_first_over_home() -> None:
     """The way home took longer than one stagger: the member on layer 1 still lands a
     stagger after it came home, not at once (as it would counting from the start)."""

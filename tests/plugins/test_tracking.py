@@ -551,6 +551,36 @@ def test_tracker_restores_and_flies_to_the_last_position() -> None:
     assert elsewhere.commands[0][:4] == ("goto", 5.0, 5.0, 20.0)
 
 
+def test_tracker_counts_down_across_a_reboot_on_the_task_clock() -> None:
+    """A tracker restored on a new clock (its robot rebooted) goes on with the lost
+    countdown from its last sighting in the task's time."""
+    vehicle = hovering()
+    camera = FakeCamera(vehicle, {"jeep": ("jeep", (2.0, 0.0, 0.0))})
+    params = {"lost_after": "10", "lost_event": "jeep_lost"}
+    ctx = make_context(
+        TrackTarget, params=params, vehicle=vehicle, camera=camera, now=7000.0, task_start=6000.0
+    )
+    first = TrackTarget()
+    run_plugin(first, ctx, steps=5)
+    state = first._drive_snapshot()
+    assert state["seen_after_task"] == pytest.approx(1000.5)
+    assert state["seen_at"] - 6000.0 == pytest.approx(state["seen_after_task"])
+
+    # The new clock reads 30 s at 1004.5 s of the task: 4 s since the last sighting.
+    elsewhere = hovering()
+    later = make_context(
+        TrackTarget, params=params, vehicle=elsewhere, now=30.0, task_start=30.0 - 1004.5
+    )
+    second = TrackTarget()
+    second._drive_restore(state)
+    assert second._drive_snapshot()["seen_after_task"] == state["seen_after_task"]
+    second._drive_activate(later)
+    assert names(run_plugin(second, later, steps=55)) == []  # 9.5 s since the sighting
+    assert names(run_plugin(second, later, steps=10)) == ["jeep_lost"]
+    with pytest.raises(ValueError, match="seen_after_task"):
+        TrackTarget()._drive_restore({**state, "seen_after_task": [1]})
+
+
 @pytest.mark.parametrize(
     "state",
     [

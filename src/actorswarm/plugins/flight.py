@@ -44,7 +44,14 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
-from actorswarm.plugins.snapshot import finite, read_flag, read_point
+from actorswarm.plugins.snapshot import (
+    after_task,
+    finite,
+    on_this_clock,
+    read_flag,
+    read_point,
+    read_time,
+)
 from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
@@ -507,6 +514,9 @@ class ReturnHome(Plugin):
     The snapshot is ``{"home": [x, y, z], "phase": str}``, plus ``"layer": k`` above the
     first layer, and ``"rally": [x, y, z]`` (the member's own place) and ``"rally_way":
     [ux, uy, 0]`` (the direction of the group's flight there) in the ``rally`` phase.
+    A member waiting over home for its turn adds ``"land_at": t`` (the time on its clock
+    it may land) and ``"land_after_task": s`` (the same, counted from the task's start):
+    restored after a reboot (a new clock), it lands ``s`` seconds after the task's start.
     """
 
     bus = "act_bus"
@@ -577,6 +587,10 @@ class ReturnHome(Plugin):
         # group's flight there: the rally phase ends once that far along it.
         self._rally: Point | None = None
         self._rally_way: Point = (0.0, 0.0, 0.0)
+        # The task's start on this platform's clock (ctx.task_start), for the snapshot; and
+        # a restored land_at counted from it, until the activation puts it on this clock.
+        self._task_start: float | None = None
+        self._land_after: float | None = None
 
     @property
     def home(self) -> Point | None:
@@ -593,6 +607,7 @@ class ReturnHome(Plugin):
         if altitude <= 0:
             raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
+        self._task_start, self._land_after = ctx.task_start, None
         layers = int(ctx.params["layers"]) or max(ctx.slots, 1)
         self._layer = (ctx.slot - 1) % layers if ctx.slot > 0 else 0
         self._land_wait = self._layer * float(ctx.params["land_stagger"])
@@ -667,6 +682,11 @@ class ReturnHome(Plugin):
             self._finish(ctx)
 
     def on_activate(self, ctx: PluginContext) -> None:
+        self._task_start = ctx.task_start
+        if self._land_after is not None and self._land_at is not None:
+            # Restored: its turn, counted from the task's start, on this (maybe new) clock.
+            self._land_at = on_this_clock(self._land_at, self._land_after, ctx.task_start)
+            self._land_after = None
         self._command(ctx)
 
     def snapshot(self) -> dict[str, Any]:
@@ -683,6 +703,11 @@ class ReturnHome(Plugin):
             state["land_wait"] = self._land_wait
         elif math.isfinite(self._land_at):
             state["land_at"] = self._land_at
+            after = after_task(self._land_at, self._task_start)
+            if after is None:
+                after = self._land_after  # restored, not activated yet
+            if after is not None:
+                state["land_after_task"] = after
         return state
 
     def restore(self, state: Mapping[str, Any]) -> None:
@@ -706,6 +731,8 @@ class ReturnHome(Plugin):
                 f"flight.return_home: a snapshot's 'land_at' must be a number, not {land_at!r}"
             )
         self._land_at = float(land_at)
+        after = read_time("flight.return_home", state, "land_after_task")
+        self._land_after = after if math.isfinite(self._land_at) else None
         wait = state.get("land_wait", 0.0)
         if not (isinstance(wait, int | float) and not isinstance(wait, bool) and wait >= 0):
             raise ValueError(

@@ -63,7 +63,14 @@ from typing import TYPE_CHECKING, Any, ClassVar, Final
 
 from actorswarm.plugins.formation import RECOMMAND_DISTANCE
 from actorswarm.plugins.search import LANE_PER_ALTITUDE, lanes, parse_area
-from actorswarm.plugins.snapshot import finite, read_flag, read_point
+from actorswarm.plugins.snapshot import (
+    after_task,
+    finite,
+    on_this_clock,
+    read_flag,
+    read_point,
+    read_time,
+)
 from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.context import CollectiveUnavailable
 from actorswarm.runtime.plugin import Param, Plugin, Point
@@ -419,7 +426,9 @@ class TrackTarget(Plugin):
     start (activation, for a restored instance) when there was none; a lost tracker keeps
     hovering over the last known position and picks the target up again if it comes into
     view. The snapshot is ``{"last": [x, y, z] or None, "seen_at": t or None, "lost":
-    bool}``.
+    bool}``, plus ``"seen_after_task": s`` (``seen_at`` counted from the task's start) where
+    the task's clock is known: restored after a reboot (a new clock), the countdown goes
+    on from ``s`` seconds after the task's start.
     """
 
     bus = "act_bus"
@@ -486,6 +495,10 @@ class TrackTarget(Plugin):
         self._sweep: list[Point] = []  # the area's lanes, while looking for the target
         self._leg = 0
         self._hint: Point | None = None  # where a lost tracker last was: looked at first
+        # The task's start on this platform's clock (ctx.task_start), for the snapshot; and
+        # a restored seen_at counted from it, until the activation puts it on this clock.
+        self._task_start: float | None = None
+        self._seen_after: float | None = None
 
     @property
     def last(self) -> Point | None:
@@ -507,6 +520,7 @@ class TrackTarget(Plugin):
         ctx.require_vehicle()
         self._plan_sweep(ctx)
         self._last, self._seen_at, self._lost = None, None, False
+        self._task_start, self._seen_after = ctx.task_start, None
         self._since = ctx.now
         self._yielded = False
         event = ctx.data.get("event") if isinstance(ctx.data, Mapping) else None
@@ -540,6 +554,11 @@ class TrackTarget(Plugin):
     def on_activate(self, ctx: PluginContext) -> None:
         if not self._sweep:  # restored from a snapshot: the sweep is not part of it
             self._plan_sweep(ctx)
+        self._task_start = ctx.task_start
+        if self._seen_after is not None and self._seen_at is not None:
+            # Restored: the last sighting, counted from the task's start, on this clock.
+            self._seen_at = on_this_clock(self._seen_at, self._seen_after, ctx.task_start)
+            self._seen_after = None
         self._since = ctx.now
         self._sent, self._holding = None, False
         self._observe(ctx)
@@ -552,11 +571,17 @@ class TrackTarget(Plugin):
             self._claimed = None
 
     def snapshot(self) -> dict[str, Any]:
-        return {
+        state: dict[str, Any] = {
             "last": None if self._last is None else list(self._last),
             "seen_at": self._seen_at,
             "lost": self._lost,
         }
+        after = after_task(self._seen_at, self._task_start)
+        if after is None and self._seen_at is not None:
+            after = self._seen_after  # restored, not activated yet
+        if after is not None:
+            state["seen_after_task"] = after
+        return state
 
     def restore(self, state: Mapping[str, Any]) -> None:
         last, seen_at = state.get("last"), state.get("seen_at")
@@ -566,8 +591,10 @@ class TrackTarget(Plugin):
                 f"track.target: a snapshot's 'seen_at' must be a time or null, not {seen_at!r}"
             )
         self._lost = read_flag("track.target", state, "lost")
+        after = read_time("track.target", state, "seen_after_task")
         self._last = point
         self._seen_at = None if seen_at is None else float(seen_at)
+        self._seen_after = None if seen_at is None else after
 
     # --- where the target is ------------------------------------------------------------------
 
