@@ -56,6 +56,7 @@ def branch_mission(**kw: object) -> Mission:
         "events": EVENTS,
         "no_world": True,
         "done": ("A",),
+        "came_back": ("A",),
     }
     args.update(kw)
     return Mission(**args)  # type: ignore[arg-type]
@@ -257,6 +258,23 @@ def test_a_run_replays_bit_for_bit_and_the_clean_radio_completes() -> None:
     clean = run_one(mission, Schedule(0, EVENTS))
     assert clean.ok and clean.completed and clean.completion_s == pytest.approx(10.02, abs=0.1)
     assert clean.packets > 1000 and clean.master_changes == 1
+
+
+def test_a_looping_mission_is_done_only_once_its_platforms_came_back() -> None:
+    """``--done A`` of a script that starts in A: a run whose platforms never left A (here
+    the operator never branched) is not taken for one that went round and came back."""
+    idle = run_one(branch_mission(events=()), Schedule(0, ()))
+    assert not idle.completed and idle.completion_s is None
+    assert idle.why == "A on 10 waits for AtoBC_branch_event"
+    assert run_one(branch_mission(events=(), came_back=()), Schedule(0, ())).completed
+    code, stdout, _ = cli(
+        "task", "verify", str(BRANCH), "--runs", "1", "--workers", "1", "--done", "A",
+        "--event", "finish_event@10", "--json", "-",
+    )  # fmt: skip
+    data = json.loads(stdout)
+    (result,) = data["results"]
+    assert code == 0 and not result["completed"], result
+    assert result["signature"] == "stuck: A on # waits for AtoBC_branch_event"
 
 
 def test_a_crash_of_the_simulator_is_its_own_class_and_the_others_run_on(

@@ -38,12 +38,16 @@ CASES = [
 ]
 
 
-def _signature(report: dict[str, object], done: list[str]) -> str:
-    """The failure class ``verify`` would give the ``sim`` report of a replay."""
-    from actorswarm.sim.verify.runner import _judged_by, _result
+def _signature(report: dict[str, object], done: list[str], script: str) -> str:
+    """The failure class ``verify`` would give the ``sim`` report of a replay of
+    ``script``."""
+    from actorswarm.dsl import load
+    from actorswarm.sim.verify.runner import _judged_by, _result, looping
 
     if done[:1] == ["--done"]:
-        report = _judged_by(report, frozenset(done[1].split(",")))
+        names = frozenset(done[1].split(","))
+        came_back = frozenset(looping(load(EXAMPLES / script), names))
+        report = _judged_by(report, names, came_back)
     result: RunResult = _result(report, 0, [], 0.0)  # type: ignore[arg-type]
     return signature_of(result)
 
@@ -71,4 +75,4 @@ def test_each_example_is_verified_and_its_failures_replay(
         replay = CliRunner().invoke(app, [*words[1:], "--json", str(tmp_path / "r.json")])
         assert replay.exit_code in (0, 1, 3), replay.stderr
         report = json.loads((tmp_path / "r.json").read_text())
-        assert _signature(report, extra) == cls["signature"], cls["replay"]
+        assert _signature(report, extra, script) == cls["signature"], cls["replay"]

@@ -66,7 +66,8 @@ def task_verify(
         typer.Option(
             metavar="ACTORS",
             help="A run completed when every platform ends in one of these actors "
-            "(comma-separated; default: the actors without transitions).",
+            "(comma-separated; default: the actors without transitions); in one the "
+            "script starts in, only once it switched into it (a loop came round).",
         ),
     ] = None,
     require: Annotated[
@@ -179,7 +180,7 @@ def _prepare(
     from actorswarm.sim.tasksim import parse_event
     from actorswarm.sim.verdict import schedule_problems
     from actorswarm.sim.verify.profile import DEFAULT_PROFILE, ProfileError, load_profile
-    from actorswarm.sim.verify.runner import Mission
+    from actorswarm.sim.verify.runner import Mission, looping
     from actorswarm.sim.verify.scenario import scenario_of
     from actorswarm.world.config import WorldError, load_world
 
@@ -247,6 +248,7 @@ def _prepare(
         min_separation=min_separation,
         faults=tuple(base_faults),
         done=goal,
+        came_back=looping(script, goal),
     )
     return mission, profile
 

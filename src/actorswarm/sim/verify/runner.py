@@ -14,6 +14,7 @@ import re
 import shlex
 import time
 import traceback
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,7 +25,7 @@ from actorswarm.sim.verify.schedule import Schedule
 from actorswarm.world.config import WorldConfig
 from actorswarm.world.separation import BREACH_PREFIX
 
-__all__ = ["Mission", "RunResult", "run_one", "signature_of"]
+__all__ = ["Mission", "RunResult", "looping", "run_one", "signature_of"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,6 +47,11 @@ class Mission:
     #: A run completed when every platform ends in one of these actors (``--done``; empty:
     #: in an actor without transitions, as ``sim`` says "completed").
     done: tuple[str, ...] = ()
+    #: Those of ``done`` the script starts platforms in and that have transitions (a
+    #: mission that loops back): a platform counts as done there only once it has switched
+    #: into one of them, so a run that never left its start is not taken for one that came
+    #: back.
+    came_back: tuple[str, ...] = ()
 
     def all_faults(self, schedule: Schedule) -> list[Fault]:
         """The mission's faults and ``schedule``'s, in the order ``actorswarm sim`` takes
@@ -208,7 +214,7 @@ def run_one(mission: Mission, schedule: Schedule) -> RunResult:
         result.signature = signature_of(result)
         return result
     if mission.done:
-        report = _judged_by(report, frozenset(mission.done))
+        report = _judged_by(report, frozenset(mission.done), frozenset(mission.came_back))
     result = _result(report, schedule.seed, faults, time.perf_counter() - began)
     result.signature = signature_of(result)
     return result
@@ -259,16 +265,36 @@ def _breach_actors(report: dict[str, Any], separation: dict[str, Any]) -> str:
     return "/".join(sorted(running.get(p) or "-" for p in first["platforms"]))
 
 
-def _judged_by(report: dict[str, Any], done: frozenset[str]) -> dict[str, Any]:
+def looping(script: TaskScript, done: Iterable[str]) -> tuple[str, ...]:
+    """Those of the ``done`` actors that ``script`` starts platforms in and that have
+    transitions: a mission that loops back to them (:attr:`Mission.came_back`)."""
+    started = script.initial_actors()
+    return tuple(a for a in done if a in started and a in script.transitions)
+
+
+def _judged_by(
+    report: dict[str, Any], done: frozenset[str], came_back: frozenset[str] = frozenset()
+) -> dict[str, Any]:
     """``report`` with "completed" meaning: every platform ends running only ``done``
-    actors (and the run was not halted); the actors still waiting are the others."""
+    actors (and the run was not halted) — in one of ``came_back`` (a ``done`` actor it
+    started in) only once it switched into one of them during the run; the actors still
+    waiting are the others, and a ``came_back`` actor held by a platform that never left."""
     final = report["final_actors"]
+    returned = {
+        str(move["platform"])
+        for move in report["transitions"]
+        if move["to"] in came_back and move["cause"] not in ("start", "lost")
+    }
+    stayed = {
+        a for p, actors in final.items() for a in actors if a in came_back and p not in returned
+    }
     completed = (
         report.get("halted") is None
         and bool(final)
         and all(actors and set(actors) <= done for actors in final.values())
+        and not stayed
     )
-    waiting = {a: e for a, e in report.get("waiting", {}).items() if a not in done}
+    waiting = {a: e for a, e in report.get("waiting", {}).items() if a not in done or a in stayed}
     return {**report, "completed": completed, "waiting": waiting}
 
 
