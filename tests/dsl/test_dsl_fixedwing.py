@@ -73,7 +73,11 @@ def test_quadrotors_are_not_held_to_a_fixed_wings_limits() -> None:
 def test_the_shipped_fixed_wing_missions_ask_nothing_impossible() -> None:
     missions = ROOT / "src" / "actorswarm" / "missions"
     world = load_world(missions / "formation_30.toml")
-    for script in (missions / "formation_30.xml", ROOT / "examples" / "formation_arduplane.xml"):
+    for script in (
+        missions / "formation_30.xml",
+        ROOT / "examples" / "formation_arduplane.xml",
+        ROOT / "examples" / "formation_arduplane_30.xml",
+    ):
         result = check(script.read_text(), path=str(script), world=world)
         assert result.ok, [str(d) for d in result.errors]
         assert not [str(d) for d in result.warnings if "fixed-wing" in d.message]

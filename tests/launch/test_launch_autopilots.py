@@ -137,24 +137,36 @@ def test_launch_starts_an_autopilot_per_platform_restarts_a_dead_one_and_stops_t
     assert "autopilot 2 (ardupilot) on tcpin" in (tmp_path / "run" / "autopilot-2.log").read_text()
 
 
-def test_the_fixed_wing_launch_file_flies_simulated_arduplanes(tmp_path: Path) -> None:
-    """examples/launch/formation-arduplane.toml as shipped, with `actorswarm autopilot --frame
-    plane` for the SITL binary and two platforms: the daemons pass ArduPlane's failsafe check
-    (SYSID_MYGCS), set each aircraft's take-off altitude on its layer and arm it in TAKEOFF."""
+@pytest.mark.parametrize(
+    ("launch", "script", "platforms"),
+    [
+        ("formation-arduplane.toml", "formation_arduplane.xml", "1-10"),
+        ("formation-arduplane-30.toml", "formation_arduplane_30.xml", "1-30"),
+    ],
+)
+def test_the_fixed_wing_launch_file_flies_simulated_arduplanes(
+    tmp_path: Path, launch: str, script: str, platforms: str
+) -> None:
+    """The fixed-wing launch files as shipped (ten and thirty aircraft), with `actorswarm
+    autopilot --frame plane` for the SITL binary and two platforms: the daemons pass
+    ArduPlane's failsafe check (SYSID_MYGCS), set each aircraft's take-off altitude on its
+    layer and arm it in TAKEOFF."""
     import json
     import time
 
     root = Path(__file__).resolve().parents[2]
-    shipped = (root / "examples" / "launch" / "formation-arduplane.toml").read_text()
+    shipped = (root / "examples" / "launch" / launch).read_text()
     ports = free_ports(4)
     low, high = sorted(ports[2:])
     swarm = f"fw{os.getpid()}"
+    directory = next(line for line in shipped.splitlines() if line.startswith("directory = "))
+    assert f'platforms = "{platforms}"' in shipped
     body = (
         shipped.replace(
             'swarm = "formation-arduplane"', f'swarm = "fw{os.getpid()}"\ninsecure = true'
         )
-        .replace('platforms = "1-10"', 'platforms = "1-2"')
-        .replace('directory = "~/.local/state/actorswarm/formation-arduplane"', 'directory = "run"')
+        .replace(f'platforms = "{platforms}"', 'platforms = "1-2"')
+        .replace(directory, 'directory = "run"')
         .replace("ports = 7601", f"ports = {ports[:2]}")
         .replace(
             'config = "formation-arduplane-daemon.toml"',
@@ -190,7 +202,7 @@ def test_the_fixed_wing_launch_file_flies_simulated_arduplanes(tmp_path: Path) -
     try:
         for p in (1, 2):
             out.wait_for(rf"platform {p}: autopilot link up after [\d.]+ s")
-        script = str(root / "examples" / "formation_arduplane.xml")
+        script = str(root / "examples" / script)
         for command in (["deploy", script, "--expect", "2"], ["start"]):
             done = subprocess.run(
                 [sys.executable, "-m", "actorswarm", "gs", *command, *gs],

@@ -177,19 +177,24 @@ def test_the_simulated_autopilot_flies_the_same_model() -> None:
     assert math.isclose(FixedWingParams().turn_radius(CRUISE), 48.5, abs_tol=0.1)
 
 
-def test_the_arduplane_formation_reaches_its_first_shape_when_the_real_flight_did() -> None:
-    """examples/formation_arduplane.xml in the simulator, from its own sim line: ten
-    aircraft take off in turn and in layers and switch to the arrow together 82.3 s after
-    the start; ten ArduPlane SITL did 80.5 s after `gs start` (docs/benchmarks/
-    real-firmware.md, flight 4). They then
+@pytest.mark.parametrize(
+    ("name", "count", "flown_s"),
+    [("formation_arduplane", 10, 80.5), ("formation_arduplane_30", 30, 80.7)],
+)
+def test_the_arduplane_formation_reaches_its_first_shape_when_the_real_flight_did(
+    name: str, count: int, flown_s: float
+) -> None:
+    """examples/formation_arduplane.xml (and its thirty-aircraft variant) in the simulator,
+    from its own sim line: the aircraft take off in turn and in layers and switch to the
+    arrow together 82.3 s after the start; ten ArduPlane SITL did 80.5 s after `gs start`
+    (docs/benchmarks/real-firmware.md, flight 4), thirty 80.7 s (flight 7). They then
     leave their take-off layers for the arrow 10 m apart or more: before transit_hold (and
     with take-off layers 10 m apart), platform 7 descended from its layer through the
     arrow's altitude and passed 8.7 m from 5 at 112 s, as two aircraft of a flight did."""
-    flown_s = 80.5
-    script = Path(__file__).resolve().parents[2] / "examples" / "formation_arduplane.xml"
+    script = Path(__file__).resolve().parents[2] / "examples" / f"{name}.xml"
     scenario = scenario_of(script.read_text(), script)
     assert scenario is not None and scenario.world is not None
-    assert scenario.world.name == "formation_arduplane.toml"
+    assert scenario.world.name == f"{name}.toml"
     sim = TaskSim(
         load(script),
         seed=0,
@@ -200,7 +205,7 @@ def test_the_arduplane_formation_reaches_its_first_shape_when_the_real_flight_di
     sim.schedule(list(scenario.events), [])
     report = run_slices(sim, 130.0, slice_s=5.0)
     to_arrow = [t for t in report["transitions"] if (t["from"], t["to"]) == ("Standby", "A")]
-    assert len(to_arrow) == 10
-    assert [t["t"] for t in to_arrow] == pytest.approx([flown_s] * 10, abs=5.0)
+    assert len(to_arrow) == count
+    assert [t["t"] for t in to_arrow] == pytest.approx([flown_s] * count, abs=5.0)
     assert report["violations"] == []
     assert report["separation"]["min_distance_m"] >= 10.0, report["separation"]["closest"]
