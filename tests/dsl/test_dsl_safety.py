@@ -179,3 +179,32 @@ def test_the_layers_of_the_way_home_are_checked_against_the_ceiling() -> None:
     assert line == 6
     assert "top layer of the way home is at 379 m (altitude 60 + 29 × layer_step 11)" in message
     assert _warnings(HOME.replace("LAYERS", "6"), world) == []
+
+
+TRANSIT = """<TaskScript name="t" version="1">
+  <_ActorsConfig>
+    <Actor><_P_Name>A</_P_Name><OODAConfig><Bus><_P_Name>act_bus</_P_Name>
+      <Plugin><_P_Name>formation.arrow</_P_Name>
+        <param key="altitude" value="100"/><param key="spacing" value="40"/>
+        <param key="transit_step" value="14"/>
+        <param key="transit_layers" value="LAYERS"/>
+      </Plugin>
+    </Bus></OODAConfig></Actor>
+  </_ActorsConfig>
+  <_PlatformActorConfig><platform id="1-30" actor="A"/></_PlatformActorConfig>
+</TaskScript>
+"""
+
+
+def test_transit_layers_under_the_ground_or_over_the_ceiling_are_warned_about() -> None:
+    """Thirty members, a transit layer each, 14 m apart around 100 m: fifteen below (the
+    lowest at -110 m) and fifteen above (310 m); ten shared layers span 30..170 m."""
+    world = "[safety]\nceiling = 200.0\n"
+    found = _warnings(TRANSIT.replace("LAYERS", "0"), world)
+    assert [line for line, _ in found] == [7, 7], found
+    low, high = (message for _, message in found)
+    assert "lowest transit layer is at -110 m, on or under the ground (30 transit layers" in low
+    assert "highest transit layer is at 310 m" in high and "ceiling of 200 m" in high
+    assert _warnings(TRANSIT.replace("LAYERS", "10"), world) == []
+    # Without a ceiling only the ground counts.
+    assert len(_warnings(TRANSIT.replace("LAYERS", "0"), "")) == 1

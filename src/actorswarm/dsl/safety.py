@@ -11,6 +11,9 @@ read the script against the world it will fly in and warn, at the script's line,
 * an altitude above the world's ``[safety] ceiling``: a plugin's ``altitude`` (a formation's
   top layer, ``altitude + (size - 1) · altitude_step``; the way home's, ``altitude +
   (layers - 1) · layer_step``), a ``target`` or ``TargetPoint``;
+* a formation's transit layers (``transit_step`` apart, half below its ``altitude`` and
+  half above, ``transit_layers`` of them, 0 being one per member) reaching the ground or
+  above the ceiling;
 * a named area too small for the platforms that may be sent there: fewer than one square of
   the separation's side for each.
 
@@ -131,6 +134,7 @@ def _formation(
             "fly this formation; those beyond the slots will refuse to start (size 0 gives "
             "one slot per platform sent)",
         )
+    _transit_layers(spec, params, int(size) if size else count, ceiling, report)
     if ceiling > 0:
         altitude = _number(params.get("altitude"), _ALTITUDE_DEFAULT)
         step = _number(params.get("altitude_step"), 0.0)
@@ -144,6 +148,40 @@ def _formation(
                     f"{max(slots - 1, 0)} × altitude_step {step:g}), above the world's "
                     f"ceiling of {ceiling:g} m ([safety] ceiling)",
                 )
+
+
+def _transit_layers(
+    spec: PluginSpec, params: Mapping[str, Param], members: int, ceiling: float, report: Report
+) -> None:
+    """The lowest and highest of a formation's transit layers, as the plugin lays them out
+    for ``members`` (its ``_transit``): the lowest on or under the ground, the highest
+    above a ceiling, are warned about."""
+    from actorswarm.plugins.flight import TRANSIT_LAYERS
+
+    step = _number(params.get("transit_step"), 0.0)
+    altitude = _number(params.get("altitude"), _ALTITUDE_DEFAULT)
+    layers = _number(params.get("transit_layers"), float(TRANSIT_LAYERS))
+    if step is None or altitude is None or layers is None or step <= 0 or members < 1:
+        return
+    used = int(layers) or members
+    below = used // 2
+    lowest, highest = altitude - below * step, altitude + (used - below) * step
+    where = position_of(spec, params.get("transit_layers") or params.get("transit_step"))
+    said = f"{used} transit layers" + (f" (one per member, {members})" if not int(layers) else "")
+    if lowest <= 0:
+        report.warning(
+            where,
+            f"{spec.name}: its lowest transit layer is at {lowest:g} m, on or under the "
+            f"ground ({said}, {step:g} m apart, half of them below altitude {altitude:g}); "
+            "give fewer transit_layers, a smaller transit_step or a higher altitude",
+        )
+    if ceiling > 0 and highest > ceiling:
+        report.warning(
+            where,
+            f"{spec.name}: its highest transit layer is at {highest:g} m ({said}, "
+            f"{step:g} m apart, half of them above altitude {altitude:g}), above the world's "
+            f"ceiling of {ceiling:g} m ([safety] ceiling)",
+        )
 
 
 def _goto(
