@@ -5,6 +5,7 @@ daemon's link to its own, the links reported, an autopilot that died started aga
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import signal
@@ -17,6 +18,7 @@ from tests.launch.output import LauncherOutput
 
 from actorswarm.daemon.launch import free_ports
 from actorswarm.launch import LaunchError, load_launch
+from actorswarm.launch.autopilots import Autopilots
 
 ORIGIN = "47.397742,8.545594,488"
 COMMAND = (
@@ -61,6 +63,29 @@ def test_the_autopilot_table_makes_each_daemon_s_link_and_command(tmp_path: Path
     assert plan.daemon_args(plan.plans[1])[3] == "udpin:0.0.0.0:14541"
 
 
+def test_each_autopilot_may_run_in_a_directory_of_its_own(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``workdir = true``: each in DIRECTORY/autopilot-ID/ (a SITL's eeprom.bin, logs and
+    terrain its own); ``{here}`` names the launch's own directory for its files."""
+    monkeypatch.chdir(tmp_path)
+    path = _file(
+        tmp_path,
+        f'platforms = "1-2"\ninsecure = true\ndirectory = "run"\nvehicle = "mavlink"\n'
+        f'origin = "{ORIGIN}"\n[autopilot]\n'
+        'command = "arduplane -I{i} --defaults {here}/plane.parm,{here}/mine.parm"\n'
+        'mavlink = "tcp:127.0.0.1:{port}"\nworkdir = true\n',
+    )
+    plan = load_launch(path)
+    assert plan.autopilots is not None and plan.autopilots.workdir
+    argv = plan.autopilots.argv(1, 2)
+    assert argv == ["arduplane", "-I1", "--defaults", f"{tmp_path}/plane.parm,{tmp_path}/mine.parm"]
+    pilots = Autopilots(plan.autopilots, [1, 2], tmp_path / "run")
+    assert pilots.workdir(2) == tmp_path / "run" / "autopilot-2"
+    off = Autopilots(dataclasses.replace(plan.autopilots, workdir=False), [1, 2], tmp_path)
+    assert off.workdir(2) is None
+
+
 @pytest.mark.parametrize(
     ("body", "message"),
     [
@@ -73,6 +98,10 @@ def test_the_autopilot_table_makes_each_daemon_s_link_and_command(tmp_path: Path
         (
             f'vehicle = "mavlink"\norigin = "{ORIGIN}"\n[autopilot]\nmavlink = "x"\nspeed = 2\n',
             "autopilot.speed: unknown key",
+        ),
+        (
+            f'vehicle = "mavlink"\norigin = "{ORIGIN}"\n[autopilot]\nmavlink = "x"\nworkdir = 1\n',
+            "autopilot.workdir: expected true or false, not 1",
         ),
         ('origin = "47,8,1"\n', 'origin: for autopilots: say vehicle = "mavlink" too'),
         (f'vehicle = "boat"\norigin = "{ORIGIN}"\n', "the vehicles are: none, sim, mavlink"),
@@ -202,6 +231,8 @@ def test_the_fixed_wing_launch_file_flies_simulated_arduplanes(
     try:
         for p in (1, 2):
             out.wait_for(rf"platform {p}: autopilot link up after [\d.]+ s")
+            # Each in a directory of its own (workdir): a SITL's eeprom.bin is its own.
+            assert (tmp_path / "run" / f"autopilot-{p}").is_dir()
         script = str(root / "examples" / script)
         for command in (["deploy", script, "--expect", "2"], ["start"]):
             done = subprocess.run(

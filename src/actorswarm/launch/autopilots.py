@@ -9,8 +9,10 @@ In the launch file::
     [autopilot]
     # started by the launcher, one per platform (leave command out to attach to autopilots
     # already running); placeholders: {i} the instance (0, 1, ...), {platform}, {sysid},
-    # {port}, {home} (LAT,LON,ALT: the origin moved {i} × spacing metres along bearing)
-    command = "arducopter -S -I{i} --model + --sysid {sysid} --home {home},0 --defaults c.parm"
+    # {port}, {home} (LAT,LON,ALT: the origin moved {i} × spacing metres along bearing),
+    # {here} (the directory the launch was started from)
+    command = "arducopter -S -I{i} --model + --home {home},0 --defaults {here}/c.parm"
+    workdir = true                        # each in DIRECTORY/autopilot-ID/ (default: here)
     mavlink = "tcp:127.0.0.1:{port}"      # each daemon's link to its autopilot
     port = 5760                           # {port} of instance 0 ...
     port_step = 10                        # ... and of instance i: port + i × port_step
@@ -25,7 +27,11 @@ word is ``actorswarm`` runs this installation's (``python -m actorswarm``), so
 ``actorswarm autopilot --listen tcpin:127.0.0.1:{port} --sysid {sysid} --home {home}``
 launches simulated autopilots. Each autopilot runs in a session of its own (a Ctrl-C at the
 launcher's terminal reaches the launcher only), logging to ``DIRECTORY/autopilot-ID.log``;
-the launcher stops them (SIGTERM, then a kill) after the daemons.
+the launcher stops them (SIGTERM, then a kill) after the daemons. With ``workdir = true``
+each runs in a directory of its own, ``DIRECTORY/autopilot-ID/`` (made if missing), as
+ArduPilot's own multi-vehicle launcher does: a SITL keeps its parameters (``eeprom.bin``),
+logs and terrain in its working directory, and several started in one would share them
+(name files of the launch's directory as ``{here}/FILE`` then).
 
 :func:`read_autopilots` checks the table; :class:`Autopilots` runs the processes.
 """
@@ -44,9 +50,9 @@ from typing import Any, Final
 __all__ = ["AUTOPILOT_KEYS", "AutopilotSpec", "Autopilots", "read_autopilots"]
 
 AUTOPILOT_KEYS: Final = frozenset(
-    {"command", "mavlink", "port", "port_step", "spacing", "bearing", "link_timeout"}
+    {"command", "mavlink", "port", "port_step", "spacing", "bearing", "link_timeout", "workdir"}
 )
-_PLACES: Final = ("i", "platform", "sysid", "port", "home")
+_PLACES: Final = ("i", "platform", "sysid", "port", "home", "here")
 #: Seconds an autopilot gets to stop after SIGTERM before it is killed.
 _STOP_WAIT: Final = 10.0
 
@@ -63,6 +69,10 @@ class AutopilotSpec:
     spacing: float = 4.0
     link_timeout: float = 60.0
     bearing: float = 90.0
+    #: Each autopilot in a working directory of its own (:class:`Autopilots`).
+    workdir: bool = False
+    #: ``{here}``: the directory the launch was started from.
+    here: str = "."
 
     def values(self, index: int, platform: int) -> dict[str, str]:
         """The placeholders' values for instance ``index`` (platform ``platform``)."""
@@ -78,6 +88,7 @@ class AutopilotSpec:
             "sysid": str(platform),
             "port": str(self.port + index * self.port_step),
             "home": f"{lat_home:.7f},{lon_home:.7f},{alt:g}",
+            "here": self.here,
         }
 
     def link(self, index: int, platform: int) -> str:
@@ -119,6 +130,9 @@ def read_autopilots(
     command = table.get("command")
     if command is not None and not isinstance(command, str):
         return f"autopilot.command: expected a string, not {command!r}"
+    workdir = table.get("workdir", False)
+    if not isinstance(workdir, bool):
+        return f"autopilot.workdir: expected true or false, not {workdir!r}"
     numbers: dict[str, float] = {}
     for key, low in (
         ("port", 1),
@@ -142,6 +156,8 @@ def read_autopilots(
         spacing=float(numbers.get("spacing", 4.0)),
         bearing=float(numbers.get("bearing", 90.0)),
         link_timeout=float(numbers.get("link_timeout", 60.0)),
+        workdir=workdir,
+        here=str(Path.cwd()),
     )
     last = len(platforms) - 1
     if spec.port + last * spec.port_step > 65535:
@@ -178,6 +194,10 @@ class Autopilots:
     def log(self, platform: int) -> Path:
         return self.directory / f"autopilot-{platform}.log"
 
+    def workdir(self, platform: int) -> Path | None:
+        """Where the autopilot of ``platform`` runs (None: where the launcher runs)."""
+        return self.directory / f"autopilot-{platform}" if self.spec.workdir else None
+
     def start(self, platform: int) -> str | None:
         """Start the autopilot of ``platform`` unless it runs (or none is to be started);
         what to tell the operator (None: nothing)."""
@@ -185,10 +205,18 @@ class Autopilots:
         running = self.procs.get(platform)
         if argv is None or (running is not None and running.poll() is None):
             return None
+        cwd = self.workdir(platform)
         with self.log(platform).open("ab") as out:
             try:
+                if cwd is not None:
+                    cwd.mkdir(parents=True, exist_ok=True)
                 proc = subprocess.Popen(
-                    argv, stdout=out, stderr=out, stdin=subprocess.DEVNULL, start_new_session=True
+                    argv,
+                    stdout=out,
+                    stderr=out,
+                    stdin=subprocess.DEVNULL,
+                    start_new_session=True,
+                    cwd=cwd,
                 )
             except OSError as exc:
                 return f"platform {platform}: cannot start its autopilot {argv[0]!r}: {exc}"
