@@ -12,7 +12,7 @@ from tests.vehicles.helpers import wait_for, wait_started
 from tests.vehicles.test_mavlink_flight import fly
 
 from actorswarm.vehicles.mavlink.dialect import mav
-from actorswarm.vehicles.mavlink.streams import WANTED, StreamWatch
+from actorswarm.vehicles.mavlink.streams import SILENT_INTERVALS, WANTED, StreamWatch
 
 #: Quick asking: a message is asked again 0.4 s after it did not come; arming is asked
 #: every second while the readiness signals say "not yet".
@@ -72,10 +72,17 @@ def test_a_reboot_that_forgets_the_rates_is_asked_again() -> None:
         wait_for("the autopilot ready", lambda: vehicle.status()["ready"] is True, 6.0)
         sim.reboot(time.monotonic())  # the link stays up: only the streams stop
         assert mav.MAVLINK_MSG_ID_SYS_STATUS not in sim.streams.intervals
+        # A message counts as stopped once silent for five of its intervals (SYS_STATUS:
+        # 1 s, so 4-5 s after the reboot), and is asked again at the vehicle's next tick:
+        # 5 s left no room for a loaded machine (a CI run missed it once).
+        interval = next(
+            w.interval for w in WANTED["ardupilot"] if w.message == mav.MAVLINK_MSG_ID_SYS_STATUS
+        )
+        silent = SILENT_INTERVALS * interval
         wait_for(
             "the streams asked again",
             lambda: mav.MAVLINK_MSG_ID_SYS_STATUS in sim.streams.intervals,
-            5.0,
+            silent + 3.0,
         )
         assert vehicle.status()["unsent"] == []
 

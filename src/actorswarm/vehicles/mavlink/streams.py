@@ -44,7 +44,15 @@ from actorswarm.vehicles.mavlink.dialect import mav, message_name
 from actorswarm.vehicles.mavlink.firmware import ARDUPILOT_DATA_STREAMS
 from actorswarm.vehicles.mavlink.flavours import Kind
 
-__all__ = ["GIVE_UP_AFTER", "GRACE", "LONGEST", "WANTED", "StreamWatch", "Wanted"]
+__all__ = [
+    "GIVE_UP_AFTER",
+    "GRACE",
+    "LONGEST",
+    "SILENT_INTERVALS",
+    "WANTED",
+    "StreamWatch",
+    "Wanted",
+]
 
 #: Seconds a message asked for may take to arrive before it is asked again.
 GRACE: Final = 3.0
@@ -53,7 +61,7 @@ LONGEST: Final = 30.0
 #: Asks with nothing arriving after which a message counts as unsent.
 GIVE_UP_AFTER: Final = 3
 #: A message that stopped: silent for this many of its intervals (and at least GRACE).
-_SILENT_INTERVALS: Final = 5.0
+SILENT_INTERVALS: Final = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -183,7 +191,7 @@ class StreamWatch:
             return True
         if watch.heard is not None and watch.heard >= watch.asked:
             # It came after the last ask: due again only if it stopped.
-            silent = max(self.grace, _SILENT_INTERVALS * watch.wanted.interval)
+            silent = max(self.grace, SILENT_INTERVALS * watch.wanted.interval)
             return now - watch.heard > silent
         longest = LONGEST * self.grace / GRACE
         wait = min(self.grace * (1 << min(max(watch.asks - 1, 0), 8)), longest)
