@@ -157,6 +157,7 @@ def _transit_layers(
     for ``members`` (its ``_transit``): the lowest on or under the ground, the highest
     above a ceiling, are warned about."""
     from actorswarm.plugins.flight import TRANSIT_LAYERS
+    from actorswarm.plugins.formation import transit_altitude
 
     step = _number(params.get("transit_step"), 0.0)
     altitude = _number(params.get("altitude"), _ALTITUDE_DEFAULT)
@@ -164,8 +165,8 @@ def _transit_layers(
     if step is None or altitude is None or layers is None or step <= 0 or members < 1:
         return
     used = int(layers) or members
-    below = used // 2
-    lowest, highest = altitude - below * step, altitude + (used - below) * step
+    lowest = transit_altitude(altitude, 0, used, step)
+    highest = transit_altitude(altitude, used - 1, used, step)
     where = position_of(spec, params.get("transit_layers") or params.get("transit_step"))
     said = f"{used} transit layers" + (f" (one per member, {members})" if not int(layers) else "")
     if lowest <= 0:

@@ -44,14 +44,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Final
 
-from actorswarm.plugins.snapshot import (
-    after_task,
-    finite,
-    on_this_clock,
-    read_flag,
-    read_point,
-    read_time,
-)
+from actorswarm.plugins.snapshot import TaskTime, finite, read_flag, read_point, read_time
 from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.plugin import Param, Plugin, Point
 
@@ -587,10 +580,8 @@ class ReturnHome(Plugin):
         # group's flight there: the rally phase ends once that far along it.
         self._rally: Point | None = None
         self._rally_way: Point = (0.0, 0.0, 0.0)
-        # The task's start on this platform's clock (ctx.task_start), for the snapshot; and
-        # a restored land_at counted from it, until the activation puts it on this clock.
-        self._task_start: float | None = None
-        self._land_after: float | None = None
+        # land_at as the snapshot also keeps it: counted from the task's start.
+        self._land_clock = TaskTime()
 
     @property
     def home(self) -> Point | None:
@@ -607,7 +598,7 @@ class ReturnHome(Plugin):
         if altitude <= 0:
             raise ValueError(f"flight.return_home: altitude must be > 0 metres, not {altitude:g}")
         vehicle = ctx.require_vehicle()
-        self._task_start, self._land_after = ctx.task_start, None
+        self._land_clock.start(ctx.task_start)
         layers = int(ctx.params["layers"]) or max(ctx.slots, 1)
         self._layer = (ctx.slot - 1) % layers if ctx.slot > 0 else 0
         self._land_wait = self._layer * float(ctx.params["land_stagger"])
@@ -682,11 +673,8 @@ class ReturnHome(Plugin):
             self._finish(ctx)
 
     def on_activate(self, ctx: PluginContext) -> None:
-        self._task_start = ctx.task_start
-        if self._land_after is not None and self._land_at is not None:
-            # Restored: its turn, counted from the task's start, on this (maybe new) clock.
-            self._land_at = on_this_clock(self._land_at, self._land_after, ctx.task_start)
-            self._land_after = None
+        # Restored: its turn, counted from the task's start, on this (maybe new) clock.
+        self._land_at = self._land_clock.activate(self._land_at, ctx.task_start)
         self._command(ctx)
 
     def snapshot(self) -> dict[str, Any]:
@@ -703,9 +691,7 @@ class ReturnHome(Plugin):
             state["land_wait"] = self._land_wait
         elif math.isfinite(self._land_at):
             state["land_at"] = self._land_at
-            after = after_task(self._land_at, self._task_start)
-            if after is None:
-                after = self._land_after  # restored, not activated yet
+            after = self._land_clock.after(self._land_at)
             if after is not None:
                 state["land_after_task"] = after
         return state
@@ -731,8 +717,7 @@ class ReturnHome(Plugin):
                 f"flight.return_home: a snapshot's 'land_at' must be a number, not {land_at!r}"
             )
         self._land_at = float(land_at)
-        after = read_time("flight.return_home", state, "land_after_task")
-        self._land_after = after if math.isfinite(self._land_at) else None
+        self._land_clock.restored(read_time("flight.return_home", state, "land_after_task"))
         wait = state.get("land_wait", 0.0)
         if not (isinstance(wait, int | float) and not isinstance(wait, bool) and wait >= 0):
             raise ValueError(

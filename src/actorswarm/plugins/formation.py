@@ -121,6 +121,7 @@ __all__ = [
     "parse_route",
     "slots",
     "to_world",
+    "transit_altitude",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -298,6 +299,16 @@ def to_world(offsets: FloatArray, leader_xy: Sequence[float], heading_rad: float
     points = np.asarray(offsets, dtype=np.float64)
     out: FloatArray = points @ rotation.T + np.asarray(leader_xy[:2], dtype=np.float64)
     return out
+
+
+def transit_altitude(altitude: float, layer: int, layers: int, step: float) -> float:
+    """The altitude of transit layer ``layer`` (0-based) of ``layers``, ``step`` metres
+    apart around a formation flying at ``altitude``: half of them below, half above, none
+    at it, so a member in transit passes at least one step above or below the members on
+    their slots. Layer 0 is the lowest and ``layers - 1`` the highest."""
+    half = layers // 2
+    level = layer - half if layer < half else layer - half + 1
+    return altitude + level * step
 
 
 class VirtualLeader:
@@ -765,11 +776,7 @@ class Formation(Plugin):
             return slot[2]
         if self._held is not None:
             return self._held
-        # Half the layers below the formation's altitude, half above, none at it: a member
-        # in transit passes at least one step above or below the members on their slots.
-        half = self._layers // 2
-        level = self._layer - half if self._layer < half else self._layer - half + 1
-        return self._base + level * step
+        return transit_altitude(self._base, self._layer, self._layers, step)
 
     def on_start(self, ctx: PluginContext) -> None:
         self._arrived = False

@@ -10,7 +10,15 @@ from typing import Any
 
 from actorswarm.runtime.plugin import Point
 
-__all__ = ["after_task", "finite", "on_this_clock", "read_flag", "read_point", "read_time"]
+__all__ = [
+    "TaskTime",
+    "after_task",
+    "finite",
+    "on_this_clock",
+    "read_flag",
+    "read_point",
+    "read_time",
+]
 
 
 def finite(value: object) -> bool:
@@ -63,3 +71,45 @@ def on_this_clock(t: float, after: float | None, task_start: float | None) -> fl
     if after is None or task_start is None:
         return t
     return task_start + after
+
+
+class TaskTime:
+    """One time a plugin keeps in its snapshot (a time on ``ctx.now``'s clock), with what a
+    robot that rebooted (a new clock) needs to find the same moment of the task.
+
+    The plugin calls :meth:`start` and :meth:`activate` from its hooks of those names,
+    writes :meth:`after` beside the time into its snapshot, and hands the snapshot's value
+    to :meth:`restored`; :meth:`activate` returns the time on this platform's clock.
+    """
+
+    __slots__ = ("_restored", "task_start")
+
+    def __init__(self) -> None:
+        #: The task's start on this platform's clock (``ctx.task_start``; None: unknown).
+        self.task_start: float | None = None
+        self._restored: float | None = None  # a restored time's after-task, till activated
+
+    def start(self, task_start: float | None) -> None:
+        """A fresh start: the task's start from ``ctx.task_start``, nothing restored."""
+        self.task_start, self._restored = task_start, None
+
+    def after(self, t: float | None) -> float | None:
+        """``t`` counted from the task's start, for the snapshot (None: not to be written);
+        a restored time not yet activated keeps the value it was restored with."""
+        if t is None:
+            return None
+        counted = after_task(t, self.task_start)
+        return self._restored if counted is None else counted
+
+    def restored(self, after: float | None) -> None:
+        """What a snapshot held for :meth:`after` (None: nothing, an older snapshot)."""
+        self._restored = after
+
+    def activate(self, t: float | None, task_start: float | None) -> float | None:
+        """``t`` (the snapshot's time, or the running one) on this platform's clock; from
+        now on the task's start is ``task_start``."""
+        self.task_start = task_start
+        restored, self._restored = self._restored, None
+        if t is None or restored is None or not math.isfinite(t):
+            return t
+        return on_this_clock(t, restored, task_start)

@@ -63,14 +63,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Final
 
 from actorswarm.plugins.formation import RECOMMAND_DISTANCE
 from actorswarm.plugins.search import LANE_PER_ALTITUDE, lanes, parse_area
-from actorswarm.plugins.snapshot import (
-    after_task,
-    finite,
-    on_this_clock,
-    read_flag,
-    read_point,
-    read_time,
-)
+from actorswarm.plugins.snapshot import TaskTime, finite, read_flag, read_point, read_time
 from actorswarm.runtime.builtin import EVENT_NAME_FORM, EVENT_NAME_PATTERN
 from actorswarm.runtime.context import CollectiveUnavailable
 from actorswarm.runtime.plugin import Param, Plugin, Point
@@ -495,10 +488,8 @@ class TrackTarget(Plugin):
         self._sweep: list[Point] = []  # the area's lanes, while looking for the target
         self._leg = 0
         self._hint: Point | None = None  # where a lost tracker last was: looked at first
-        # The task's start on this platform's clock (ctx.task_start), for the snapshot; and
-        # a restored seen_at counted from it, until the activation puts it on this clock.
-        self._task_start: float | None = None
-        self._seen_after: float | None = None
+        # seen_at as the snapshot also keeps it: counted from the task's start.
+        self._seen_clock = TaskTime()
 
     @property
     def last(self) -> Point | None:
@@ -520,7 +511,7 @@ class TrackTarget(Plugin):
         ctx.require_vehicle()
         self._plan_sweep(ctx)
         self._last, self._seen_at, self._lost = None, None, False
-        self._task_start, self._seen_after = ctx.task_start, None
+        self._seen_clock.start(ctx.task_start)
         self._since = ctx.now
         self._yielded = False
         event = ctx.data.get("event") if isinstance(ctx.data, Mapping) else None
@@ -554,11 +545,8 @@ class TrackTarget(Plugin):
     def on_activate(self, ctx: PluginContext) -> None:
         if not self._sweep:  # restored from a snapshot: the sweep is not part of it
             self._plan_sweep(ctx)
-        self._task_start = ctx.task_start
-        if self._seen_after is not None and self._seen_at is not None:
-            # Restored: the last sighting, counted from the task's start, on this clock.
-            self._seen_at = on_this_clock(self._seen_at, self._seen_after, ctx.task_start)
-            self._seen_after = None
+        # Restored: the last sighting, counted from the task's start, on this clock.
+        self._seen_at = self._seen_clock.activate(self._seen_at, ctx.task_start)
         self._since = ctx.now
         self._sent, self._holding = None, False
         self._observe(ctx)
@@ -576,9 +564,7 @@ class TrackTarget(Plugin):
             "seen_at": self._seen_at,
             "lost": self._lost,
         }
-        after = after_task(self._seen_at, self._task_start)
-        if after is None and self._seen_at is not None:
-            after = self._seen_after  # restored, not activated yet
+        after = self._seen_clock.after(self._seen_at)
         if after is not None:
             state["seen_after_task"] = after
         return state
@@ -594,7 +580,7 @@ class TrackTarget(Plugin):
         after = read_time("track.target", state, "seen_after_task")
         self._last = point
         self._seen_at = None if seen_at is None else float(seen_at)
-        self._seen_after = None if seen_at is None else after
+        self._seen_clock.restored(None if seen_at is None else after)
 
     # --- where the target is ------------------------------------------------------------------
 
